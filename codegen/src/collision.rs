@@ -1,0 +1,270 @@
+//! Link collision capsules (from the fitting tool's JSON file), the self-collision pairs worth
+//! checking, and per-joint reach bounds.
+
+use serde::Deserialize;
+
+use crate::chain::{Chain, Motion};
+use crate::transform::{norm, Vec3};
+use crate::Error;
+
+/// The collision file: `{"model", "capsules": [{"link", "a", "b", "radius"}], "disabled_pairs"}`.
+#[derive(Deserialize)]
+struct File {
+    model: String,
+    capsules: Vec<CapsuleEntry>,
+    #[serde(default)]
+    disabled_pairs: Vec<[String; 2]>,
+}
+
+#[derive(Deserialize)]
+struct CapsuleEntry {
+    link: String,
+    a: Vec3,
+    b: Vec3,
+    radius: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Capsule {
+    /// Index into the chain's links.
+    pub link: usize,
+    pub a: Vec3,
+    pub b: Vec3,
+    pub radius: f64,
+}
+
+#[derive(Debug, Default, PartialEq)]
+pub struct Geometry {
+    /// Sorted by link (stably), so each link's capsules are contiguous.
+    pub capsules: Vec<Capsule>,
+    /// Index pairs `(i, j)`, `i < j`, into `capsules`.
+    pub self_pairs: Vec<(u8, u8)>,
+    /// Per actuated joint; see [`reach`].
+    pub reach: Vec<f64>,
+}
+
+/// `file` is `(name for messages, JSON text)`; without one the model has no capsules.
+pub fn geometry(chain: &Chain, model: &str, file: Option<(&str, &str)>) -> Result<Geometry, Error> {
+    let (capsules, disabled) = match file {
+        Some((source, text)) => parse(chain, model, source, text)?,
+        None => (Vec::new(), Vec::new()),
+    };
+    let self_pairs = self_pairs(chain, &capsules, &disabled);
+    let reach = reach(chain, &capsules);
+    Ok(Geometry {
+        capsules,
+        self_pairs,
+        reach,
+    })
+}
+
+type LinkPair = (usize, usize);
+
+fn parse(
+    chain: &Chain,
+    model: &str,
+    source: &str,
+    text: &str,
+) -> Result<(Vec<Capsule>, Vec<LinkPair>), Error> {
+    let file: File = serde_json::from_str(text).map_err(|e| Error::CollisionFormat {
+        source: source.to_string(),
+        message: e.to_string(),
+    })?;
+    if file.model != model {
+        return Err(Error::CollisionModel {
+            expected: model.to_string(),
+            found: file.model,
+        });
+    }
+    let link_index = |link: &str, context: String| {
+        chain
+            .links
+            .iter()
+            .position(|l| l == link)
+            .ok_or_else(|| Error::CollisionLink {
+                context,
+                link: link.to_string(),
+            })
+    };
+    let mut capsules = Vec::with_capacity(file.capsules.len());
+    for (index, c) in file.capsules.iter().enumerate() {
+        let bad = |reason| Error::BadCapsule {
+            index,
+            link: c.link.clone(),
+            reason,
+        };
+        if !c.a.iter().chain(&c.b).all(|v| v.is_finite()) {
+            return Err(bad("an end point is not finite"));
+        }
+        if !(c.radius >= 0.0 && c.radius.is_finite()) {
+            return Err(bad("the radius is negative or not finite"));
+        }
+        let link = link_index(&c.link, format!("capsule {index}"))?;
+        capsules.push(Capsule {
+            link,
+            a: c.a,
+            b: c.b,
+            radius: c.radius,
+        });
+    }
+    if capsules.len() > 255 {
+        return Err(Error::TooMany {
+            what: "capsules",
+            count: capsules.len(),
+        });
+    }
+    capsules.sort_by_key(|c| c.link);
+    let disabled = file
+        .disabled_pairs
+        .iter()
+        .map(|[x, y]| {
+            let context = format!("disabled pair ({x}, {y})");
+            Ok((link_index(x, context.clone())?, link_index(y, context)?))
+        })
+        .collect::<Result<_, Error>>()?;
+    Ok((capsules, disabled))
+}
+
+/// The rigid body each link belongs to: links attached by fixed joints share their parent's.
+fn bodies(chain: &Chain) -> Vec<usize> {
+    let mut body = vec![0];
+    for joint in &chain.joints {
+        let last = body[body.len() - 1];
+        body.push(if joint.motion == Motion::Fixed {
+            last
+        } else {
+            last + 1
+        });
+    }
+    body
+}
+
+/// Every pair of capsules on bodies that are neither the same nor adjacent in the chain, and
+/// whose links are not a disabled pair.
+fn self_pairs(chain: &Chain, capsules: &[Capsule], disabled: &[LinkPair]) -> Vec<(u8, u8)> {
+    let body = bodies(chain);
+    let is_disabled = |x, y| {
+        disabled
+            .iter()
+            .any(|&(a, b)| (a, b) == (x, y) || (a, b) == (y, x))
+    };
+    let mut pairs = Vec::new();
+    for (i, ci) in capsules.iter().enumerate() {
+        for (j, cj) in capsules.iter().enumerate().skip(i + 1) {
+            if body[ci.link].abs_diff(body[cj.link]) >= 2 && !is_disabled(ci.link, cj.link) {
+                // capsules.len() <= 255 was checked
+                pairs.push((i as u8, j as u8));
+            }
+        }
+    }
+    pairs
+}
+
+/// For each actuated joint, an upper bound valid in every configuration on the distance from
+/// the joint's origin (hence from its axis) to any downstream capsule point or link frame
+/// origin: by the triangle inequality, the sum of the downstream joint offsets (plus each
+/// downstream prismatic joint's largest extension) plus the point's distance from its own
+/// link's origin. A prismatic joint moves every downstream point by exactly `|dq|`: 1.
+fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
+    // farthest[l]: farthest point of link l's capsules from the link's origin (0: its origin)
+    let mut farthest = vec![0.0f64; chain.links.len()];
+    for c in capsules {
+        let far = norm(c.a).max(norm(c.b)) + c.radius;
+        farthest[c.link] = farthest[c.link].max(far);
+    }
+    let offset = |joint: &crate::chain::Joint| {
+        let extension = match joint.motion {
+            Motion::Prismatic { .. } => joint.lower.abs().max(joint.upper.abs()),
+            _ => 0.0,
+        };
+        norm(joint.origin.pos) + extension
+    };
+    let mut reach = Vec::new();
+    for (j, joint) in chain.joints.iter().enumerate() {
+        match joint.motion {
+            Motion::Fixed => {}
+            Motion::Prismatic { .. } => reach.push(1.0),
+            Motion::Revolute { .. } => {
+                // joint j's origin is the origin of link j + 1
+                let mut path = 0.0;
+                let mut bound = farthest[j + 1];
+                for (k, next) in chain.joints.iter().enumerate().skip(j + 1) {
+                    path += offset(next);
+                    bound = bound.max(path + farthest[k + 1]);
+                }
+                reach.push(bound);
+            }
+        }
+    }
+    reach
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::Joint;
+    use crate::transform::Transform;
+
+    fn joint(name: &str, motion: Motion, x: f64) -> Joint {
+        let origin = Transform {
+            pos: [x, 0.0, 0.0],
+            ..Transform::IDENTITY
+        };
+        Joint {
+            name: name.into(),
+            origin,
+            motion,
+            lower: -0.5,
+            upper: 0.25,
+            velocity: 1.0,
+        }
+    }
+
+    /// base -r1-> a -fixed-> b -r2-> c -p3-> d -r4-> e
+    fn chain() -> Chain {
+        let z = [0.0, 0.0, 1.0];
+        Chain {
+            links: ["base", "a", "b", "c", "d", "e"].map(String::from).to_vec(),
+            joints: vec![
+                joint("r1", Motion::Revolute { axis: z }, 1.0),
+                joint("f", Motion::Fixed, 2.0),
+                joint("r2", Motion::Revolute { axis: z }, 3.0),
+                joint("p3", Motion::Prismatic { axis: z }, 4.0),
+                joint("r4", Motion::Revolute { axis: z }, 5.0),
+            ],
+        }
+    }
+
+    fn capsule(link: usize, far: f64) -> Capsule {
+        Capsule {
+            link,
+            a: [0.0; 3],
+            b: [far, 0.0, 0.0],
+            radius: 0.1,
+        }
+    }
+
+    #[test]
+    fn pairs_skip_same_and_adjacent_bodies_and_disabled_links() {
+        let chain = chain();
+        // bodies: base 0, a 1, b 1, c 2, d 3, e 4
+        let caps: Vec<Capsule> = (0..6).map(|l| capsule(l, 0.0)).collect();
+        let pairs = self_pairs(&chain, &caps, &[(4, 0)]);
+        let expected = vec![(0, 3), (0, 5), (1, 4), (1, 5), (2, 4), (2, 5), (3, 5)];
+        assert_eq!(pairs, expected);
+    }
+
+    #[test]
+    fn reach_sums_downstream_offsets_and_extensions() {
+        let chain = chain();
+        let caps = [capsule(2, 1.0), capsule(5, 0.5)];
+        let reach = reach(&chain, &caps);
+        // r1: origin of `a`; to `b` capsule: 2 + 1.1; to `e` capsule: 2+3+(4+0.5)+5 + 0.6
+        // r2: origin of `c`; to `e` capsule: (4+0.5)+5+0.6; p3: 1; r4: 0.6
+        let expected = [15.1, 10.1, 1.0, 0.6];
+        for (r, e) in reach.iter().zip(expected) {
+            assert!((r - e).abs() < 1e-12, "{reach:?}");
+        }
+        assert_eq!(reach.len(), 4);
+    }
+}

@@ -1,0 +1,202 @@
+//! Everything that can be wrong with a model's inputs, each naming the joint, link or file.
+
+use std::fmt;
+use std::path::PathBuf;
+
+#[derive(Debug)]
+pub enum Error {
+    /// An input file could not be read.
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// The URDF is not well-formed (as reported by `urdf-rs`).
+    Urdf {
+        source: String,
+        message: String,
+    },
+    /// The collision file is not valid JSON of the expected shape.
+    CollisionFormat {
+        source: String,
+        message: String,
+    },
+    /// The Rust type name is not a plain identifier.
+    TypeName(String),
+    DuplicateLink(String),
+    DuplicateJoint(String),
+    /// A joint names a parent or child link the URDF does not define.
+    MissingLink {
+        joint: String,
+        link: String,
+    },
+    /// A link is the child of two joints (a closed loop or a malformed tree).
+    TwoParents {
+        link: String,
+        joints: [String; 2],
+    },
+    /// A link has two child joints: the robot is a tree, not a serial chain.
+    Branch {
+        link: String,
+        joints: [String; 2],
+    },
+    /// No link or more than one link is nobody's child.
+    Roots(Vec<String>),
+    /// Links that cannot be reached from the root (they form a loop).
+    Unreachable(Vec<String>),
+    UnsupportedJoint {
+        joint: String,
+        kind: &'static str,
+    },
+    Mimic(String),
+    ZeroAxis(String),
+    /// A number the generated code would need is NaN or infinite.
+    NotFinite {
+        joint: String,
+        field: &'static str,
+    },
+    BadLimits {
+        joint: String,
+        lower: f64,
+        upper: f64,
+    },
+    BadVelocity {
+        joint: String,
+        velocity: f64,
+    },
+    NoActuatedJoint,
+    /// More links or capsules than the generated `u8` indices can name.
+    TooMany {
+        what: &'static str,
+        count: usize,
+    },
+    /// The collision file was written for another model.
+    CollisionModel {
+        expected: String,
+        found: String,
+    },
+    /// The collision file names a link the chain does not have.
+    CollisionLink {
+        context: String,
+        link: String,
+    },
+    BadCapsule {
+        index: usize,
+        link: String,
+        reason: &'static str,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use Error::*;
+        match self {
+            Read { path, source } => write!(f, "cannot read {}: {source}", path.display()),
+            Urdf { source, message } => write!(f, "{source}: invalid URDF: {message}"),
+            CollisionFormat { source, message } => {
+                write!(f, "{source}: invalid collision file: {message}")
+            }
+            TypeName(name) => write!(f, "`{name}` is not a valid Rust type name"),
+            DuplicateLink(link) => write!(f, "link `{link}` is defined twice"),
+            DuplicateJoint(joint) => write!(f, "joint `{joint}` is defined twice"),
+            MissingLink { joint, link } => {
+                write!(
+                    f,
+                    "joint `{joint}` refers to link `{link}`, which is not defined"
+                )
+            }
+            TwoParents {
+                link,
+                joints: [a, b],
+            } => {
+                write!(
+                    f,
+                    "not a serial chain: link `{link}` is the child of both `{a}` and `{b}`"
+                )
+            }
+            Branch {
+                link,
+                joints: [a, b],
+            } => write!(
+                f,
+                "not a serial chain: link `{link}` branches into joints `{a}` and `{b}`"
+            ),
+            Roots(links) if links.is_empty() => {
+                write!(
+                    f,
+                    "not a serial chain: every link is a child (no base link)"
+                )
+            }
+            Roots(links) => write!(
+                f,
+                "not a serial chain: several links have no parent joint: {}",
+                links.join(", ")
+            ),
+            Unreachable(links) => write!(
+                f,
+                "not a serial chain: links not reachable from the base: {}",
+                links.join(", ")
+            ),
+            UnsupportedJoint { joint, kind } => write!(
+                f,
+                "joint `{joint}` has type `{kind}`; only revolute, continuous, prismatic and \
+                 fixed joints are supported"
+            ),
+            Mimic(joint) => write!(
+                f,
+                "joint `{joint}` is a mimic joint, which is not supported"
+            ),
+            ZeroAxis(joint) => write!(f, "joint `{joint}` has a zero axis"),
+            NotFinite { joint, field } => {
+                write!(f, "joint `{joint}`: {field} contains NaN or an infinity")
+            }
+            BadLimits {
+                joint,
+                lower,
+                upper,
+            } => {
+                write!(
+                    f,
+                    "joint `{joint}`: lower limit {lower} is above upper limit {upper}"
+                )
+            }
+            BadVelocity { joint, velocity } => write!(
+                f,
+                "joint `{joint}`: velocity limit {velocity} is missing or not positive"
+            ),
+            NoActuatedJoint => write!(
+                f,
+                "the chain has no revolute, continuous or prismatic joint"
+            ),
+            TooMany { what, count } => write!(f, "{count} {what}: at most 255 are supported"),
+            CollisionModel { expected, found } => write!(
+                f,
+                "collision file is for model `{found}`, expected `{expected}`"
+            ),
+            CollisionLink { context, link } => {
+                write!(
+                    f,
+                    "collision file: {context} names link `{link}`, which is not in the chain"
+                )
+            }
+            BadCapsule {
+                index,
+                link,
+                reason,
+            } => {
+                write!(
+                    f,
+                    "collision file: capsule {index} (link `{link}`): {reason}"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Read { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}

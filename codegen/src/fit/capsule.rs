@@ -1,0 +1,434 @@
+//! Fitting a few capsules that enclose a point cloud.
+//!
+//! For a given axis line and radius the smallest enclosing capsule is closed-form: the radius
+//! must reach the point farthest from the line, and each end of the segment is trimmed as far
+//! as the rounded caps still cover every point ([`enclose`]). What remains is choosing the line
+//! (and possibly a radius above the minimum, which shortens the segment): a Nelder-Mead search
+//! over the line's tilt and offset from each principal axis, minimising volume. Several
+//! capsules come from cutting the cloud into slabs along a principal axis and then moving
+//! points to the capsule that holds them best while that lowers the total volume.
+
+use std::f64::consts::PI;
+
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+use super::minimize::nelder_mead;
+
+type V3 = Vector3<f64>;
+
+/// Points within `radius` of the segment `a`-`b` (a sphere when `a == b`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Capsule {
+    pub a: V3,
+    pub b: V3,
+    pub radius: f64,
+}
+
+impl Capsule {
+    pub fn length(&self) -> f64 {
+        (self.b - self.a).norm()
+    }
+
+    pub fn volume(&self) -> f64 {
+        PI * self.radius * self.radius * (self.length() + 4.0 / 3.0 * self.radius)
+    }
+
+    /// Distance from `p` to the segment `a`-`b`.
+    pub fn axis_distance(&self, p: &V3) -> f64 {
+        let ab = self.b - self.a;
+        let len2 = ab.norm_squared();
+        let t = if len2 > 0.0 {
+            ((p - self.a).dot(&ab) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p - (self.a + ab * t)).norm()
+    }
+
+    pub fn contains(&self, p: &V3) -> bool {
+        self.axis_distance(p) <= self.radius
+    }
+}
+
+/// Most capsules fitted to one link.
+pub const MAX_CAPSULES: usize = 3;
+
+/// Fits 1 to [`MAX_CAPSULES`] capsules enclosing every point, and keeps the count with the
+/// smallest total volume, except that each extra capsule must save at least
+/// `EXTRA_CAPSULE_GAIN` of the volume (every capsule costs distance queries in the planner's
+/// inner loop).
+pub fn fit_capsules(points: &[V3]) -> Vec<Capsule> {
+    const EXTRA_CAPSULE_GAIN: f64 = 0.05;
+    let mut best = vec![fit_one(points)];
+    for count in 2..=MAX_CAPSULES {
+        if let Some(candidate) = fit_several(points, count) {
+            if total_volume(&candidate) < (1.0 - EXTRA_CAPSULE_GAIN) * total_volume(&best) {
+                best = candidate;
+            }
+        }
+    }
+    best
+}
+
+pub fn total_volume(capsules: &[Capsule]) -> f64 {
+    capsules.iter().map(Capsule::volume).sum()
+}
+
+/// The smallest capsule around `points` whose axis is the line through `origin` along the unit
+/// vector `dir`, with radius `extra` above the minimum.
+pub fn enclose(points: &[V3], origin: &V3, dir: &V3, extra: f64) -> Capsule {
+    // Axial coordinate and squared distance from the line of each point. Written out per
+    // component: this is the fitter's inner loop, and it stays fast in unoptimised builds.
+    let (o, d) = ([origin.x, origin.y, origin.z], [dir.x, dir.y, dir.z]);
+    let coords = points.iter().map(|p| {
+        let v = [p.x - o[0], p.y - o[1], p.z - o[2]];
+        let t = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
+        (
+            t,
+            (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - t * t).max(0.0),
+        )
+    });
+    let radius = coords
+        .clone()
+        .fold(0.0, |m: f64, (_, rho2)| m.max(rho2))
+        .sqrt()
+        + extra;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (t, rho2) in coords {
+        // The caps reach this far beyond the segment at this point's distance from the line.
+        let reach = (radius * radius - rho2).max(0.0).sqrt();
+        hi = hi.max(t - reach);
+        lo = lo.min(t + reach);
+    }
+    if lo > hi {
+        // A sphere centred anywhere in [hi, lo] holds every point.
+        let mid = 0.5 * (lo + hi);
+        (lo, hi) = (mid, mid);
+    }
+    Capsule {
+        a: origin + dir * lo,
+        b: origin + dir * hi,
+        radius,
+    }
+}
+
+/// Centroid and principal axes (largest spread first) of `points`, as a right-handed frame
+/// with each axis's largest component positive, so the result does not depend on the
+/// eigen-solver's sign choices.
+fn principal_axes(points: &[V3]) -> (V3, [V3; 3]) {
+    let n = points.len().max(1) as f64;
+    let centroid = points.iter().sum::<V3>() / n;
+    let cov = points.iter().fold(Matrix3::zeros(), |acc, p| {
+        let d = p - centroid;
+        acc + d * d.transpose()
+    }) / n;
+    let eigen = SymmetricEigen::new(cov);
+    let mut order = [0, 1, 2];
+    order.sort_by(|&i, &j| eigen.eigenvalues[j].total_cmp(&eigen.eigenvalues[i]));
+    let axis = |i: usize| {
+        let v: V3 = eigen.eigenvectors.column(order[i]).into();
+        let largest = v.iamax();
+        if v[largest] < 0.0 {
+            -v
+        } else {
+            v
+        }
+    };
+    let (e0, e1) = (axis(0), axis(1));
+    (centroid, [e0, e1, e0.cross(&e1)])
+}
+
+/// Points extreme in one of a fixed set of directions: vertices of the convex hull, a few
+/// hundred at most. A capsule is convex, so it holds a set when it holds the set's hull; the
+/// search works on these and the result is checked against all points.
+fn support_points(points: &[V3]) -> Vec<V3> {
+    const DIRECTIONS: usize = 200;
+    let golden = PI * (3.0 - 5f64.sqrt());
+    let mut chosen: Vec<usize> = (0..DIRECTIONS)
+        .filter_map(|k| {
+            // Fibonacci sphere: near-uniform directions.
+            let z = 1.0 - (2.0 * k as f64 + 1.0) / DIRECTIONS as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * k as f64;
+            let dir = V3::new(r * phi.cos(), r * phi.sin(), z);
+            let height = |p: &V3| p.x * dir.x + p.y * dir.y + p.z * dir.z;
+            (0..points.len()).max_by(|&i, &j| height(&points[i]).total_cmp(&height(&points[j])))
+        })
+        .collect();
+    chosen.sort_unstable();
+    chosen.dedup();
+    chosen.into_iter().map(|i| points[i]).collect()
+}
+
+/// The best single capsule around `points`.
+fn fit_one(points: &[V3]) -> Capsule {
+    let (centroid, axes) = principal_axes(points);
+    let scale = points
+        .iter()
+        .map(|p| (p - centroid).norm())
+        .fold(0.0, f64::max);
+    if scale == 0.0 {
+        return Capsule {
+            a: centroid,
+            b: centroid,
+            radius: 0.0,
+        };
+    }
+    let hull_sample = support_points(points);
+    let mut best: Option<Capsule> = None;
+    for i in 0..3 {
+        let (e0, e1, e2) = (axes[i], axes[(i + 1) % 3], axes[(i + 2) % 3]);
+        // Parameters: line offset (2, in units of `scale`), tilt (2), extra radius (1).
+        let line = |x: &[f64; 5]| {
+            let origin = centroid + (e1 * x[0] + e2 * x[1]) * scale;
+            let dir = (e0 + e1 * x[2] + e2 * x[3]).normalize();
+            (origin, dir, x[4].abs() * scale)
+        };
+        let mut support = hull_sample.clone();
+        let mut x = [0.0; 5];
+        // Search on the hull sample; if the capsule misses points outside the sample, add them
+        // and search again (a few rounds at most: few points ever stick out).
+        for _ in 0..4 {
+            let volume = |x: &[f64; 5]| {
+                let (origin, dir, extra) = line(x);
+                enclose(&support, &origin, &dir, extra).volume()
+            };
+            for _ in 0..2 {
+                // A restart from the optimum escapes a collapsed simplex.
+                x = nelder_mead(volume, x, [0.05, 0.05, 0.1, 0.1, 0.02], 800).0;
+            }
+            let (origin, dir, extra) = line(&x);
+            let on_support = enclose(&support, &origin, &dir, extra);
+            let missed: Vec<V3> = points
+                .iter()
+                .filter(|p| !on_support.contains(p))
+                .copied()
+                .collect();
+            if missed.is_empty() {
+                break;
+            }
+            support.extend(missed);
+        }
+        let (origin, dir, extra) = line(&x);
+        let capsule = enclose(points, &origin, &dir, extra);
+        if best.is_none_or(|b| capsule.volume() < b.volume()) {
+            best = Some(capsule);
+        }
+    }
+    best.expect("three axes were tried")
+}
+
+/// `count` capsules around `points`, or `None` when there are too few points to split.
+fn fit_several(points: &[V3], count: usize) -> Option<Vec<Capsule>> {
+    const REFINED_CUTS: usize = 2;
+    const REASSIGN_ROUNDS: usize = 4;
+    if points.len() < 4 * count {
+        return None;
+    }
+    // Rank slab cuts cheaply (principal-axis capsules, no search), refine the best few.
+    let mut cuts = slab_cuts(points, count);
+    let quick = |groups: &[Vec<V3>]| -> f64 {
+        groups
+            .iter()
+            .map(|g| {
+                let (c, axes) = principal_axes(g);
+                enclose(g, &c, &axes[0], 0.0).volume()
+            })
+            .sum()
+    };
+    let mut ranked: Vec<(f64, usize)> = cuts
+        .iter()
+        .enumerate()
+        .map(|(i, g)| (quick(g), i))
+        .collect();
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut best: Option<Vec<Capsule>> = None;
+    for &(_, i) in ranked.iter().take(REFINED_CUTS) {
+        let mut groups = std::mem::take(&mut cuts[i]);
+        let mut capsules: Vec<Capsule> = groups.iter().map(|g| fit_one(g)).collect();
+        for _ in 0..REASSIGN_ROUNDS {
+            let Some(regrouped) = reassign(points, &capsules) else {
+                break;
+            };
+            let refit: Vec<Capsule> = regrouped.iter().map(|g| fit_one(g)).collect();
+            if total_volume(&refit) >= total_volume(&capsules) * (1.0 - 1e-9) {
+                break;
+            }
+            (groups, capsules) = (regrouped, refit);
+        }
+        if best
+            .as_ref()
+            .is_none_or(|b| total_volume(&capsules) < total_volume(b))
+        {
+            best = Some(capsules);
+        }
+    }
+    best
+}
+
+/// Every way of cutting `points` into `count` slabs along one of its principal axes, with the
+/// cuts at fractions of the points on a fixed grid.
+fn slab_cuts(points: &[V3], count: usize) -> Vec<Vec<Vec<V3>>> {
+    let grid = (20 / (count - 1)).max(count);
+    let (centroid, axes) = principal_axes(points);
+    let mut cuts = Vec::new();
+    for axis in &axes {
+        let mut sorted: Vec<(f64, V3)> = points
+            .iter()
+            .map(|p| ((p - centroid).dot(axis), *p))
+            .collect();
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for steps in increasing(count - 1, 1, grid) {
+            let mut bounds = vec![0];
+            bounds.extend(steps.iter().map(|&s| s * sorted.len() / grid));
+            bounds.push(sorted.len());
+            cuts.push(
+                bounds
+                    .windows(2)
+                    .map(|w| sorted[w[0]..w[1]].iter().map(|(_, p)| *p).collect())
+                    .collect(),
+            );
+        }
+    }
+    cuts
+}
+
+/// All increasing sequences of `len` integers in `from..to`.
+fn increasing(len: usize, from: usize, to: usize) -> Vec<Vec<usize>> {
+    if len == 0 {
+        return vec![Vec::new()];
+    }
+    (from..to)
+        .flat_map(|first| {
+            increasing(len - 1, first + 1, to)
+                .into_iter()
+                .map(move |mut rest| {
+                    rest.insert(0, first);
+                    rest
+                })
+        })
+        .collect()
+}
+
+/// Groups each point with the capsule it lies deepest inside; `None` if a capsule would be
+/// left with no point.
+fn reassign(points: &[V3], capsules: &[Capsule]) -> Option<Vec<Vec<V3>>> {
+    let mut groups = vec![Vec::new(); capsules.len()];
+    for p in points {
+        let depth = |c: &Capsule| c.radius - c.axis_distance(p);
+        let best = (0..capsules.len()).max_by(|&i, &j| {
+            depth(&capsules[i])
+                .total_cmp(&depth(&capsules[j]))
+                .then(j.cmp(&i))
+        })?;
+        groups[best].push(*p);
+    }
+    groups.iter().all(|g| !g.is_empty()).then_some(groups)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points on the surface of a cylinder (rings plus end caps) around the line through
+    /// `origin` along `dir`.
+    fn cylinder(origin: V3, dir: V3, radius: f64, length: f64) -> Vec<V3> {
+        let dir = dir.normalize();
+        let u = dir.cross(&V3::new(0.3, 0.5, 0.8)).normalize();
+        let v = dir.cross(&u);
+        let mut points = Vec::new();
+        for i in 0..=20 {
+            let t = length * i as f64 / 20.0;
+            for k in 0..36 {
+                let a = 2.0 * PI * k as f64 / 36.0;
+                for s in [radius, if i % 20 == 0 { 0.5 * radius } else { radius }] {
+                    points.push(origin + dir * t + (u * a.cos() + v * a.sin()) * s);
+                }
+            }
+        }
+        points
+    }
+
+    fn assert_encloses(capsules: &[Capsule], points: &[V3]) {
+        for p in points {
+            let gap = capsules
+                .iter()
+                .map(|c| c.axis_distance(p) - c.radius)
+                .fold(f64::INFINITY, f64::min);
+            assert!(gap <= 1e-9, "point {p:?} is {gap} m outside {capsules:?}");
+        }
+    }
+
+    #[test]
+    fn enclose_trims_the_ends_to_the_caps() {
+        // Two points on the axis and one on the rim: radius 1, ends trimmed to the rim point.
+        let points = [
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(0.0, 0.0, 5.0),
+            V3::new(1.0, 0.0, 2.0),
+        ];
+        let c = enclose(&points, &V3::zeros(), &V3::z(), 0.0);
+        assert!((c.radius - 1.0).abs() < 1e-12);
+        assert!((c.a - V3::new(0.0, 0.0, 1.0)).norm() < 1e-12, "{c:?}");
+        assert!((c.b - V3::new(0.0, 0.0, 4.0)).norm() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn enclose_collapses_to_a_sphere_for_a_compact_cloud() {
+        let points = [
+            V3::new(0.0, 0.0, -0.1),
+            V3::new(0.0, 0.0, 0.1),
+            V3::new(0.0, 0.5, 0.0),
+        ];
+        let c = enclose(&points, &V3::zeros(), &V3::z(), 0.0);
+        assert_eq!(c.a, c.b);
+        assert_encloses(&[c], &points);
+    }
+
+    #[test]
+    fn one_capsule_fits_a_tilted_cylinder_tightly() {
+        let (radius, length) = (0.05, 0.3);
+        let points = cylinder(
+            V3::new(0.1, -0.2, 0.3),
+            V3::new(1.0, 2.0, -0.5),
+            radius,
+            length,
+        );
+        let capsules = fit_capsules(&points);
+        assert_eq!(capsules.len(), 1, "{capsules:?}");
+        assert_encloses(&capsules, &points);
+        // A radius a little above the cylinder's lets the caps cover the flat ends with a
+        // shorter segment, which saves volume; never much above it.
+        assert!(
+            capsules[0].radius >= radius - 1e-9 && capsules[0].radius < 1.02 * radius,
+            "{capsules:?}"
+        );
+        // At most the capsule on the cylinder's own axis and radius.
+        let on_axis = Capsule {
+            a: V3::zeros(),
+            b: V3::x() * length,
+            radius,
+        };
+        assert!(capsules[0].volume() <= on_axis.volume(), "{capsules:?}");
+    }
+
+    #[test]
+    fn an_l_shape_gets_two_capsules_smaller_than_one() {
+        let mut points = cylinder(V3::zeros(), V3::z(), 0.04, 0.4);
+        points.extend(cylinder(V3::new(0.0, 0.0, 0.4), V3::x(), 0.04, 0.4));
+        let capsules = fit_capsules(&points);
+        assert_encloses(&capsules, &points);
+        assert!(capsules.len() >= 2, "{capsules:?}");
+        assert!(total_volume(&capsules) < 0.5 * fit_one(&points).volume());
+        for c in &capsules {
+            assert!(c.radius < 0.045, "{capsules:?}");
+        }
+    }
+
+    #[test]
+    fn fitting_is_deterministic() {
+        let mut points = cylinder(V3::zeros(), V3::new(0.2, 0.1, 1.0), 0.03, 0.2);
+        points.extend(cylinder(V3::new(0.05, 0.0, 0.2), V3::y(), 0.05, 0.1));
+        assert_eq!(fit_capsules(&points), fit_capsules(&points));
+    }
+}

@@ -1,0 +1,232 @@
+//! PP-Descartes: Descartes-style pose-constrained roadmaps in a prioritised scheme. For every
+//! assignment and priority order, each robot in turn samples IK solutions of every pose
+//! (layer `t`), connects consecutive layers by edges that respect the velocity limits and are
+//! collision-free (also against the robots planned before it), and takes the shortest path
+//! through the layers. The next order, then the next assignment, on failure.
+
+use crate::ik::{ik, IkParams};
+use crate::model::{Frame, Model};
+use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::pp::Orders;
+use crate::problem::{Problem, Robot, Trajectory, MAX_ROBOTS};
+use crate::rng::Rng;
+use crate::search::{Deadline, OtherArm, OthersMode, Validity};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DescartesParams {
+    /// IK samples per pose (roadmap layer width).
+    pub samples: usize,
+    pub ik: IkParams,
+    /// See [`crate::search::OmegaParams::motion_step`].
+    pub motion_step: f64,
+    pub seed: u64,
+}
+
+impl Default for DescartesParams {
+    fn default() -> Self {
+        DescartesParams { samples: 12, ik: IkParams::default(), motion_step: 0.04, seed: 0x5eed }
+    }
+}
+
+/// Roadmap storage: `samples * H` entries each.
+pub struct DescartesStorage<'a, const D: usize> {
+    pub layers: &'a mut [[f64; D]],
+    pub cost: &'a mut [f64],
+    pub parent: &'a mut [u16],
+    /// Valid samples per layer (H entries).
+    pub width: &'a mut [u16],
+}
+
+pub struct Descartes<'a, const D: usize> {
+    pub params: DescartesParams,
+    st: DescartesStorage<'a, D>,
+}
+
+impl<'a, const D: usize> Descartes<'a, D> {
+    pub fn new(params: DescartesParams, st: DescartesStorage<'a, D>) -> Self {
+        Descartes { params, st }
+    }
+}
+
+impl<M: Model<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
+    fn name(&self) -> &'static str {
+        "descartes"
+    }
+
+    fn solve(
+        &mut self,
+        problem: &Problem<D>,
+        clock: &dyn Clock,
+        timeout: f64,
+        out: &mut Solution<'_, D>,
+        stats: &mut Stats,
+    ) -> Status {
+        let h = match check_problem(problem, out) {
+            Ok(h) => h,
+            Err(s) => return s,
+        };
+        let k = self.params.samples;
+        if k == 0 || k > u16::MAX as usize {
+            return Status::InvalidProblem("Descartes samples per pose must be 1..=65535");
+        }
+        let need = k * h;
+        if self.st.layers.len() < need || self.st.cost.len() < need || self.st.parent.len() < need || self.st.width.len() < h {
+            return Status::OutOfMemory("Descartes roadmap storage");
+        }
+        let deadline = Until { clock, at: timeout };
+        let n = problem.robots.len();
+        let mut orders = Orders::new(n, problem.trajectories.len(), true);
+        loop {
+            if deadline.expired() {
+                return Status::Timeout;
+            }
+            if self.attempt::<M>(problem, h, &orders, &deadline, out, stats) {
+                return Status::Solved;
+            }
+            if !orders.advance() {
+                return Status::NoSolution;
+            }
+        }
+    }
+}
+
+impl<const D: usize> Descartes<'_, D> {
+    fn attempt<M: Model<D>>(
+        &mut self,
+        problem: &Problem<D>,
+        h: usize,
+        orders: &Orders,
+        deadline: &Until<'_>,
+        out: &mut Solution<'_, D>,
+        stats: &mut Stats,
+    ) -> bool {
+        let n = problem.robots.len();
+        for (rank, &r) in orders.order[..n].iter().enumerate() {
+            let r = r as usize;
+            let robot = problem.robots[r];
+            let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
+            for &o in &orders.order[..rank] {
+                let o = o as usize;
+                let _ = others.push(OtherArm { base: problem.robots[o].base, path: &out.paths[o * h..(o + 1) * h] });
+            }
+            let valid = Validity::<M, D>::new(
+                robot.base,
+                &problem.obstacles,
+                &others,
+                OthersMode::Avoid,
+                &[],
+                problem.dt,
+                self.params.motion_step,
+            );
+            stats.low_level_calls += 1;
+            let traj = orders.trajectory_of(r);
+            let end = match traj {
+                Some(j) => self.roadmap::<M>(&robot, &problem.trajectories[j], &valid, (r, j), deadline, stats),
+                None => robot.initial.filter(|q| valid.hold(q, h).is_some()).map(|q| {
+                    self.st.layers[..h].iter_mut().for_each(|l| *l = q);
+                    usize::MAX
+                }),
+            };
+            drop(others);
+            let Some(end) = end else { return false };
+            self.write_path(h, end, &mut out.paths[r * h..(r + 1) * h]);
+            out.assignment[r] = traj.map(|j| j as u8);
+        }
+        true
+    }
+
+    /// Builds the roadmap of one robot on one trajectory and searches it; returns the index in
+    /// the last layer of the best path's end (or `None` if the layers do not connect).
+    fn roadmap<M: Model<D>>(
+        &mut self,
+        robot: &Robot<D>,
+        traj: &Trajectory,
+        valid: &Validity<'_, M, D>,
+        (r, j): (usize, usize),
+        deadline: &Until<'_>,
+        stats: &mut Stats,
+    ) -> Option<usize> {
+        let k = self.params.samples;
+        let h = traj.len();
+        let (base_inv, tcp_inv) = (robot.base.inverse(), robot.tcp.inverse());
+        let target = |x: &Frame| base_inv.compose(x).compose(&tcp_inv);
+        let mut rng = Rng::new(self.params.seed ^ ((r as u64) << 32 | j as u64));
+        for t in 0..h {
+            if deadline.expired() {
+                return None;
+            }
+            let goal = target(&traj[t]);
+            let mut width = 0usize;
+            // Seeds: projections of the previous layer's samples (so layers can connect), then
+            // random configurations; `initial` first on the first layer.
+            let prev = if t == 0 { 0 } else { self.st.width[t - 1] as usize };
+            let mut attempt = 0usize;
+            while width < k && attempt < 3 * k {
+                let seed = if t == 0 && attempt == 0 && robot.initial.is_some() {
+                    robot.initial.unwrap_or([0.0; D])
+                } else if attempt < prev {
+                    self.st.layers[(t - 1) * k + attempt]
+                } else {
+                    rng.configuration(&M::LOWER, &M::UPPER)
+                };
+                attempt += 1;
+                let Ok(q) = ik::<M, D>(&goal, &seed, &self.params.ik) else { continue };
+                if valid.state(&q, t).is_none() {
+                    continue;
+                }
+                let i = t * k + width;
+                self.st.layers[i] = q;
+                self.st.cost[i] = f64::INFINITY;
+                width += 1;
+                stats.expansions += 1;
+            }
+            self.st.width[t] = width as u16;
+            if width == 0 {
+                return None;
+            }
+            // Edges from the previous layer; shortest path by joint-space length.
+            for b in 0..width {
+                let ib = t * k + b;
+                if t == 0 {
+                    self.st.cost[ib] = 0.0;
+                    continue;
+                }
+                for a in 0..prev {
+                    let ia = (t - 1) * k + a;
+                    if !self.st.cost[ia].is_finite() {
+                        continue;
+                    }
+                    let (qa, qb) = (self.st.layers[ia], self.st.layers[ib]);
+                    if !valid.step_within_limits(&qa, &qb) {
+                        continue;
+                    }
+                    let d: f64 = (0..D).map(|x| (qb[x] - qa[x]) * (qb[x] - qa[x])).sum::<f64>();
+                    let c = self.st.cost[ia] + libm::sqrt(d);
+                    if c < self.st.cost[ib] && valid.motion(&qa, &qb, t - 1).is_some() {
+                        self.st.cost[ib] = c;
+                        self.st.parent[ib] = a as u16;
+                    }
+                }
+            }
+        }
+        let last = (h - 1) * k;
+        (0..self.st.width[h - 1] as usize)
+            .filter(|&b| self.st.cost[last + b].is_finite())
+            .min_by(|&a, &b| self.st.cost[last + a].total_cmp(&self.st.cost[last + b]))
+    }
+
+    /// Copies the path ending at `end` of the last layer into `out` (`usize::MAX`: the hold
+    /// path stored in the first `H` layer entries).
+    fn write_path(&self, h: usize, end: usize, out: &mut [[f64; D]]) {
+        if end == usize::MAX {
+            out.copy_from_slice(&self.st.layers[..h]);
+            return;
+        }
+        let k = self.params.samples;
+        let mut b = end;
+        for t in (0..h).rev() {
+            out[t] = self.st.layers[t * k + b];
+            b = self.st.parent[t * k + b] as usize;
+        }
+    }
+}

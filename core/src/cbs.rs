@@ -1,0 +1,516 @@
+//! Ω-CBSA: Conflict-Based Search over assignments and null spaces.
+//!
+//! A constraint tree (CT) whose nodes hold per-robot constraints, the paths multi-goal Ω-A*
+//! found under them, and how many conflicts those paths have. The node with the fewest
+//! conflicts is expanded first. Assignment conflicts (two robots on one trajectory) are
+//! resolved first, by forbidding the trajectory to one robot or the other; then the earliest
+//! geometric conflict, by forbidding one robot or the other to occupy a witness point inside
+//! both. Each child replans only the constrained robot.
+//!
+//! Memory: CT nodes, the OPEN list of the CT, the paths and the constraint scratch all live in
+//! caller storage ([`CbsStorage`]); one path costs `H * D * 8` bytes and one node
+//! `size_of::<CtNode>()` (about 200 bytes). A full pool ends planning with
+//! `Status::OutOfMemory` naming it.
+
+use crate::collision::ArmPose;
+use crate::model::Model;
+use crate::motion::{contact_point, motions_conflict, ArmMotion};
+use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::problem::{Problem, MAX_ROBOTS};
+use crate::rng::Rng;
+use crate::search::{
+    plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
+    SearchError, SearchStats, Validity, Workspace,
+};
+use crate::tracking::track;
+
+/// Assignment value of a robot that holds its initial configuration.
+const HOLD: u8 = u8::MAX;
+
+/// Tunables of Ω-CBSA.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CbsParams {
+    pub low: OmegaParams,
+    /// Time cap of the root's warm start by repeated IK tracking, seconds (0 turns it off).
+    pub warm_start_seconds: f64,
+    /// Random first-pose seeds per robot and trajectory in the warm start.
+    pub warm_start_seeds: u32,
+}
+
+impl Default for CbsParams {
+    fn default() -> Self {
+        CbsParams { low: OmegaParams::default(), warm_start_seconds: 0.5, warm_start_seeds: 4 }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+enum Constraint {
+    #[default]
+    Root,
+    /// The robot may not track this trajectory.
+    Forbid(u8),
+    Point(PointConstraint),
+}
+
+/// One constraint-tree node.
+#[derive(Clone, Copy, Debug)]
+pub struct CtNode {
+    parent: u32,
+    /// The robot `constraint` applies to.
+    robot: u8,
+    constraint: Constraint,
+    /// Path slot of every robot.
+    slots: [u32; MAX_ROBOTS],
+    assignment: [u8; MAX_ROBOTS],
+    /// Geometric conflicts (steps and motions) of each pair `i < k`.
+    pairs: [[u16; MAX_ROBOTS]; MAX_ROBOTS],
+    conflicts: u32,
+}
+
+impl Default for CtNode {
+    fn default() -> Self {
+        CtNode {
+            parent: u32::MAX,
+            robot: 0,
+            constraint: Constraint::Root,
+            slots: [0; MAX_ROBOTS],
+            assignment: [HOLD; MAX_ROBOTS],
+            pairs: [[0; MAX_ROBOTS]; MAX_ROBOTS],
+            conflicts: 0,
+        }
+    }
+}
+
+/// Caller storage of the high level.
+pub struct CbsStorage<'a, const D: usize> {
+    pub nodes: &'a mut [CtNode],
+    pub open: &'a mut [OpenEntry],
+    /// Path pool: slot `k` is `paths[k * H..(k + 1) * H]`.
+    pub paths: &'a mut [[f64; D]],
+    /// Where the low level writes a path before it is kept (at least H configurations).
+    pub scratch: &'a mut [[f64; D]],
+    /// The constraints of the robot being replanned.
+    pub points: &'a mut [PointConstraint],
+}
+
+/// The Ω-CBSA planner.
+pub struct OmegaCbsa<'a, const D: usize> {
+    pub params: CbsParams,
+    ws: Workspace<'a, D>,
+    st: CbsStorage<'a, D>,
+}
+
+impl<'a, const D: usize> OmegaCbsa<'a, D> {
+    pub fn new(params: CbsParams, ws: Workspace<'a, D>, st: CbsStorage<'a, D>) -> Self {
+        OmegaCbsa { params, ws, st }
+    }
+}
+
+impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
+    fn name(&self) -> &'static str {
+        "omcbsa"
+    }
+
+    fn solve(
+        &mut self,
+        problem: &Problem<D>,
+        clock: &dyn Clock,
+        timeout: f64,
+        out: &mut Solution<'_, D>,
+        stats: &mut Stats,
+    ) -> Status {
+        let h = match check_problem(problem, out) {
+            Ok(h) => h,
+            Err(s) => return s,
+        };
+        if self.st.scratch.len() < h {
+            return Status::OutOfMemory("CBS scratch path");
+        }
+        if self.st.paths.len() / h < problem.robots.len() {
+            return Status::OutOfMemory("CBS path pool");
+        }
+        let st = &mut self.st;
+        let mut run = Run::<M, D> {
+            pr: problem,
+            params: &self.params,
+            ws: &mut self.ws,
+            nodes: &mut *st.nodes,
+            used_nodes: 0,
+            open: OpenList::new(&mut *st.open),
+            paths: &mut *st.paths,
+            used_slots: 0,
+            scratch: &mut *st.scratch,
+            points: &mut *st.points,
+            h,
+            n: problem.robots.len(),
+            deadline: Until { clock, at: timeout },
+            stats,
+            _m: core::marker::PhantomData,
+        };
+        run.solve(clock, out)
+    }
+}
+
+struct Run<'r, 's, M, const D: usize> {
+    pr: &'r Problem<D>,
+    params: &'r CbsParams,
+    ws: &'r mut Workspace<'s, D>,
+    nodes: &'r mut [CtNode],
+    used_nodes: usize,
+    open: OpenList<'r>,
+    paths: &'r mut [[f64; D]],
+    used_slots: usize,
+    scratch: &'r mut [[f64; D]],
+    points: &'r mut [PointConstraint],
+    h: usize,
+    n: usize,
+    deadline: Until<'r>,
+    stats: &'r mut Stats,
+    _m: core::marker::PhantomData<M>,
+}
+
+/// The two branches of a conflict: (robot, constraint) each.
+type Branches = [(usize, Constraint); 2];
+
+impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
+    fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
+        let root = match self.root(clock) {
+            Ok(r) => r,
+            Err(s) => return s,
+        };
+        if let Err(s) = self.push(root) {
+            return s;
+        }
+        loop {
+            if self.deadline.expired() {
+                return Status::Timeout;
+            }
+            let Some(entry) = self.open.pop() else { return Status::NoSolution };
+            let node = self.nodes[entry.node as usize];
+            let branches = match self.first_conflict(&node) {
+                Some(b) => b,
+                None if node.conflicts == 0 => {
+                    self.write_solution(&node, out);
+                    return Status::Solved;
+                }
+                // Counted conflicts but no witness: never report it as solved.
+                None => continue,
+            };
+            self.stats.conflicts_resolved += 1;
+            for (robot, constraint) in branches {
+                match self.child(entry.node, &node, robot, constraint) {
+                    Ok(Some(child)) => {
+                        if let Err(s) = self.push(child) {
+                            return s;
+                        }
+                    }
+                    Ok(None) => {}
+                    Err(s) => return s,
+                }
+            }
+        }
+    }
+
+    /// Stores a node and puts it in OPEN.
+    fn push(&mut self, node: CtNode) -> Result<(), Status> {
+        if self.used_nodes == self.nodes.len() {
+            return Err(Status::OutOfMemory("CBS node pool"));
+        }
+        let id = self.used_nodes as u32;
+        self.nodes[self.used_nodes] = node;
+        self.used_nodes += 1;
+        self.stats.ct_nodes += 1;
+        if self.open.push(OpenEntry { f: node.conflicts as f64, t: 0, node: id }) {
+            Ok(())
+        } else {
+            Err(Status::OutOfMemory("CBS open list"))
+        }
+    }
+
+    fn slot(&self, k: u32) -> &[[f64; D]] {
+        slot_of(self.paths, k, self.h)
+    }
+
+    /// Copies the scratch path into a new pool slot.
+    fn keep_scratch(&mut self) -> Result<u32, Status> {
+        if (self.used_slots + 1) * self.h > self.paths.len() {
+            return Err(Status::OutOfMemory("CBS path pool"));
+        }
+        let k = self.used_slots;
+        self.paths[k * self.h..(k + 1) * self.h].copy_from_slice(&self.scratch[..self.h]);
+        self.used_slots += 1;
+        Ok(k as u32)
+    }
+
+    fn can_hold(&self) -> bool {
+        self.pr.trajectories.len() < self.n
+    }
+
+    fn all_trajectories(&self) -> u32 {
+        if self.pr.trajectories.len() >= 32 {
+            u32::MAX
+        } else {
+            (1u32 << self.pr.trajectories.len()) - 1
+        }
+    }
+
+    /// The root: every robot planned in turn, warm-started by repeated IK tracking that
+    /// avoids the robots before it; a robot the warm start cannot place is planned by Ω-A*
+    /// with collisions counted.
+    fn root(&mut self, clock: &dyn Clock) -> Result<CtNode, Status> {
+        let mut node = CtNode::default();
+        let warm = Until { clock, at: self.params.warm_start_seconds.min(self.deadline.at) };
+        let mut taken = 0u32;
+        for i in 0..self.n {
+            let assigned = match self.warm_start(i, &node, taken, &warm) {
+                Some(j) => j,
+                None => self.low_level(i, &node, self.all_trajectories(), 0, i)?,
+            };
+            if assigned != HOLD {
+                taken |= 1 << assigned;
+            }
+            node.slots[i] = self.keep_scratch()?;
+            node.assignment[i] = assigned;
+        }
+        for i in 0..self.n {
+            for k in i + 1..self.n {
+                node.pairs[i][k] = self.pair_conflicts(&node, i, k);
+            }
+        }
+        node.conflicts = self.count(&node);
+        self.stats.warm_start_solved = node.conflicts == 0
+            && (0..self.n).all(|i| node.assignment[i] == HOLD || taken & (1 << node.assignment[i]) != 0);
+        Ok(node)
+    }
+
+    /// Tries IK tracking of each free trajectory from a few seeds, avoiding robots `0..i`,
+    /// writing the path to scratch. Returns the trajectory taken.
+    fn warm_start(&mut self, i: usize, node: &CtNode, taken: u32, warm: &Until<'_>) -> Option<u8> {
+        if self.params.warm_start_seconds <= 0.0 {
+            return None;
+        }
+        let robot = self.pr.robots[i];
+        let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
+        for k in 0..i {
+            let _ = others.push(OtherArm { base: self.pr.robots[k].base, path: slot_of(self.paths, node.slots[k], self.h) });
+        }
+        let valid = Validity::<M, D>::new(
+            robot.base,
+            &self.pr.obstacles,
+            &others,
+            OthersMode::Avoid,
+            &[],
+            self.pr.dt,
+            self.params.low.motion_step,
+        );
+        for j in 0..self.pr.trajectories.len() {
+            if taken & (1 << j) != 0 {
+                continue;
+            }
+            let mut rng = Rng::new(self.params.low.seed ^ ((i as u64) << 32 | j as u64));
+            for attempt in 0..self.params.warm_start_seeds {
+                if warm.expired() {
+                    return None;
+                }
+                let seed = match (attempt, robot.initial) {
+                    (0, Some(init)) => init,
+                    _ => rng.configuration(&M::LOWER, &M::UPPER),
+                };
+                let traj = &self.pr.trajectories[j];
+                if track::<M, D>(&robot, traj, &seed, &valid, &self.params.low.ik, self.scratch).is_some() {
+                    return Some(j as u8);
+                }
+            }
+        }
+        None
+    }
+
+    /// Runs multi-goal Ω-A* for robot `i` against the paths of `node` (collisions counted),
+    /// with `npoints` point constraints in `self.points`. Robots `>= upto` are ignored (the
+    /// root plans robots in turn). Leaves the path in scratch; returns the trajectory.
+    fn low_level(&mut self, i: usize, node: &CtNode, allowed: u32, npoints: usize, upto: usize) -> Result<u8, Status> {
+        let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
+        for k in (0..upto.min(self.n)).filter(|k| *k != i) {
+            let _ = others.push(OtherArm { base: self.pr.robots[k].base, path: slot_of(self.paths, node.slots[k], self.h) });
+        }
+        let query = Query {
+            robot: self.pr.robots[i],
+            trajectories: &self.pr.trajectories,
+            allowed,
+            hold: self.can_hold(),
+            obstacles: &self.pr.obstacles,
+            others: &others,
+            others_mode: OthersMode::Count,
+            points: &self.points[..npoints],
+            dt: self.pr.dt,
+        };
+        let mut s = SearchStats::default();
+        self.stats.low_level_calls += 1;
+        let r = plan::<M, D>(&query, &self.params.low, self.ws, &self.deadline, self.scratch, &mut s);
+        self.stats.expansions += s.expansions as u64;
+        match r {
+            Ok(found) => Ok(found.trajectory.unwrap_or(HOLD)),
+            Err(e) => Err(stop_status(e)),
+        }
+    }
+
+    /// The child of `parent` (stored at `id`) that adds `constraint` for `robot` and replans
+    /// it; `None` when the robot has no path under its constraints.
+    fn child(&mut self, id: u32, parent: &CtNode, robot: usize, constraint: Constraint) -> Result<Option<CtNode>, Status> {
+        // Gather the robot's constraints along the branch.
+        let mut allowed = self.all_trajectories();
+        let mut npoints = 0;
+        let mut c = Some((robot as u8, constraint));
+        let mut at = id;
+        while let Some((r, con)) = c {
+            if r as usize == robot {
+                match con {
+                    Constraint::Root => {}
+                    Constraint::Forbid(j) => allowed &= !(1u32 << j),
+                    Constraint::Point(p) => {
+                        if npoints == self.points.len() {
+                            return Err(Status::OutOfMemory("CBS constraint scratch"));
+                        }
+                        self.points[npoints] = p;
+                        npoints += 1;
+                    }
+                }
+            }
+            if at == u32::MAX {
+                break;
+            }
+            let n = &self.nodes[at as usize];
+            c = Some((n.robot, n.constraint));
+            at = n.parent;
+        }
+        let assigned = match self.low_level(robot, parent, allowed, npoints, self.n) {
+            Ok(j) => j,
+            Err(Status::NoSolution) => return Ok(None),
+            Err(s) => return Err(s),
+        };
+        let mut child = *parent;
+        child.parent = id;
+        child.robot = robot as u8;
+        child.constraint = constraint;
+        child.slots[robot] = self.keep_scratch()?;
+        child.assignment[robot] = assigned;
+        // Robots hold only when no trajectory is left to them in this subtree; if more hold
+        // than can, some trajectory is never tracked below this node.
+        let holders = (0..self.n).filter(|&k| child.assignment[k] == HOLD).count();
+        if holders > self.n - self.pr.trajectories.len() {
+            return Ok(None);
+        }
+        for k in 0..self.n {
+            if k != robot {
+                let (a, b) = (robot.min(k), robot.max(k));
+                child.pairs[a][b] = self.pair_conflicts(&child, a, b);
+            }
+        }
+        child.conflicts = self.count(&child);
+        Ok(Some(child))
+    }
+
+    /// Assignment conflicts plus geometric ones.
+    fn count(&self, node: &CtNode) -> u32 {
+        let mut c = 0u32;
+        for i in 0..self.n {
+            for k in i + 1..self.n {
+                let (a, b) = (node.assignment[i], node.assignment[k]);
+                if a != HOLD && a == b {
+                    c += 1;
+                }
+                c += node.pairs[i][k] as u32;
+            }
+        }
+        c
+    }
+
+    /// Geometric conflicts of robots `i` and `k`: steps where they collide plus motions on
+    /// which they meet, exactly as Ω-A* counts them.
+    fn pair_conflicts(&self, node: &CtNode, i: usize, k: usize) -> u16 {
+        let mut c = 0u16;
+        let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
+        let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
+        for t in 0..self.h {
+            let (a, b) = (ArmPose::new::<M, D>(bi, &pi[t]), ArmPose::new::<M, D>(bk, &pk[t]));
+            if a.arm_hit(&b, 0.0).is_some() {
+                c = c.saturating_add(1);
+            }
+            if t + 1 < self.h {
+                let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
+                let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
+                if motions_conflict::<M, D>(&ma, &mb, self.params.low.motion_step).is_some() {
+                    c = c.saturating_add(1);
+                }
+            }
+        }
+        c
+    }
+
+    /// The conflict to branch on: an assignment conflict if any, else the earliest geometric
+    /// one. `None` when the node is a solution.
+    fn first_conflict(&self, node: &CtNode) -> Option<Branches> {
+        for i in 0..self.n {
+            for k in i + 1..self.n {
+                let a = node.assignment[i];
+                if a != HOLD && a == node.assignment[k] {
+                    return Some([(i, Constraint::Forbid(a)), (k, Constraint::Forbid(a))]);
+                }
+            }
+        }
+        if node.conflicts == 0 {
+            return None;
+        }
+        for t in 0..self.h {
+            for i in 0..self.n {
+                for k in i + 1..self.n {
+                    if node.pairs[i][k] == 0 {
+                        continue;
+                    }
+                    let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
+                    let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
+                    let (a, b) = (ArmPose::new::<M, D>(bi, &pi[t]), ArmPose::new::<M, D>(bk, &pk[t]));
+                    let hit = if a.arm_hit(&b, 0.0).is_some() {
+                        contact_point(&a, &b, 0.0).map(|p| PointConstraint { t: t as u16, segment: false, p, margin: 0.0 })
+                    } else if t + 1 < self.h {
+                        let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
+                        let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
+                        motions_conflict::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| PointConstraint {
+                            t: t as u16,
+                            segment: true,
+                            p: c.point,
+                            margin: c.margin,
+                        })
+                    } else {
+                        None
+                    };
+                    if let Some(pc) = hit {
+                        return Some([(i, Constraint::Point(pc)), (k, Constraint::Point(pc))]);
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    fn write_solution(&self, node: &CtNode, out: &mut Solution<'_, D>) {
+        for i in 0..self.n {
+            out.assignment[i] = (node.assignment[i] != HOLD).then_some(node.assignment[i]);
+            out.paths[i * self.h..(i + 1) * self.h].copy_from_slice(self.slot(node.slots[i]));
+        }
+    }
+}
+
+fn slot_of<const D: usize>(paths: &[[f64; D]], k: u32, h: usize) -> &[[f64; D]] {
+    let k = k as usize;
+    &paths[k * h..(k + 1) * h]
+}
+
+fn stop_status(e: SearchError) -> Status {
+    match e {
+        SearchError::OutOfMemory => Status::OutOfMemory("Ω-A* workspace"),
+        SearchError::Timeout => Status::Timeout,
+        SearchError::NoSolution => Status::NoSolution,
+        SearchError::InvalidQuery(m) => Status::InvalidProblem(m),
+    }
+}

@@ -1,0 +1,291 @@
+//! Arm-level collision checks on link capsules: against obstacles, other arms and the arm's
+//! own links, at one configuration ([`ArmPose`]) or along a straight joint-space motion
+//! ([`Sweep`]).
+//!
+//! Every check tests bounding boxes first (the whole arm's, then each capsule's) and runs the
+//! exact capsule query only on what is left. Checks return the first thing hit (an obstacle
+//! or capsule index), so a validator can say where; planners use `.is_some()`.
+
+use core::marker::PhantomData;
+
+use nalgebra::Vector3;
+
+use crate::geometry::{Aabb, Capsule, Obstacle};
+use crate::model::{Frame, Model};
+
+/// Most collision capsules one arm model may have. A model with more is refused when
+/// [`ArmPose::new`] is compiled for it, never truncated:
+///
+/// ```compile_fail
+/// use omcbsa_core::collision::{ArmPose, MAX_ARM_CAPSULES};
+/// use omcbsa_core::model::{Frame, LinkCapsule, Model};
+/// use omcbsa_core::nalgebra::SMatrix;
+///
+/// struct TooMany;
+/// impl Model<1> for TooMany {
+///     const NAME: &'static str = "too_many";
+///     const LINK_NAMES: &'static [&'static str] = &["base"];
+///     const JOINT_NAMES: [&'static str; 1] = ["j"];
+///     const LOWER: [f64; 1] = [-1.0];
+///     const UPPER: [f64; 1] = [1.0];
+///     const VELOCITY: [f64; 1] = [1.0];
+///     const CAPSULES: &'static [LinkCapsule] =
+///         &[LinkCapsule { link: 0, a: [0.0; 3], b: [0.0; 3], radius: 0.1 }; MAX_ARM_CAPSULES + 1];
+///     const SELF_PAIRS: &'static [(u8, u8)] = &[];
+///     const REACH: [f64; 1] = [1.0];
+///     fn fk(_: &[f64; 1]) -> Frame {
+///         Frame::IDENTITY
+///     }
+///     fn link_frames(_: &[f64; 1], out: &mut [Frame]) -> Frame {
+///         out[0] = Frame::IDENTITY;
+///         Frame::IDENTITY
+///     }
+///     fn jacobian(_: &[f64; 1]) -> (Frame, SMatrix<f64, 6, 1>) {
+///         (Frame::IDENTITY, SMatrix::zeros())
+///     }
+/// }
+///
+/// ArmPose::new::<TooMany, 1>(&Frame::IDENTITY, &[0.0]);
+/// ```
+pub const MAX_ARM_CAPSULES: usize = 24;
+/// Most link frames one arm model may have (a model with more does not compile).
+pub const MAX_LINK_FRAMES: usize = 16;
+/// Most configurations a [`Sweep`] checks; beyond that its margin grows instead.
+pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
+
+// Base-link capsules are kept as a bit set.
+const _: () = assert!(MAX_ARM_CAPSULES <= u32::BITS as usize);
+
+/// Fails compilation (through [`ArmPose::new`]) for a model an `ArmPose` cannot hold, or
+/// whose capsule and pair indices point nowhere, so that indexing with them cannot fail.
+const fn check_model<M: Model<D>, const D: usize>() {
+    assert!(M::CAPSULES.len() <= MAX_ARM_CAPSULES, "model has more than MAX_ARM_CAPSULES");
+    assert!(M::LINK_NAMES.len() <= MAX_LINK_FRAMES, "model has more than MAX_LINK_FRAMES");
+    let mut i = 0;
+    while i < M::CAPSULES.len() {
+        assert!((M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(), "capsule on no link");
+        i += 1;
+    }
+    let mut i = 0;
+    while i < M::SELF_PAIRS.len() {
+        let (a, b) = M::SELF_PAIRS[i];
+        let n = M::CAPSULES.len();
+        assert!((a as usize) < n && (b as usize) < n, "self pair names no capsule");
+        i += 1;
+    }
+}
+
+/// An arm's collision capsules in the world at one configuration.
+#[derive(Clone, Copy, Debug)]
+pub struct ArmPose {
+    /// In the order of `Model::CAPSULES`; the first `len` are used.
+    capsules: [Capsule; MAX_ARM_CAPSULES],
+    boxes: [Aabb; MAX_ARM_CAPSULES],
+    len: usize,
+    /// Bit `i` set: capsule `i` is on the base link, which is mounted and so never checked
+    /// against obstacles.
+    on_base: u32,
+    self_pairs: &'static [(u8, u8)],
+    /// Around all capsules, and around those off the base link.
+    aabb: Aabb,
+    moving_aabb: Aabb,
+}
+
+impl ArmPose {
+    /// The capsules of model `M` at configuration `q`, its base frame at `base` in the world.
+    pub fn new<M: Model<D>, const D: usize>(base: &Frame, q: &[f64; D]) -> ArmPose {
+        const { check_model::<M, D>() };
+        let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
+        M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]);
+        let mut pose = ArmPose {
+            capsules: [Capsule::new(Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.0), 0.0);
+                MAX_ARM_CAPSULES],
+            boxes: [Aabb::EMPTY; MAX_ARM_CAPSULES],
+            len: M::CAPSULES.len(),
+            on_base: 0,
+            self_pairs: M::SELF_PAIRS,
+            aabb: Aabb::EMPTY,
+            moving_aabb: Aabb::EMPTY,
+        };
+        for (i, c) in M::CAPSULES.iter().enumerate() {
+            let link = base.compose(&frames[usize::from(c.link)]);
+            let capsule =
+                Capsule::new(link.apply(&c.a.into()), link.apply(&c.b.into()), c.radius);
+            let aabb = capsule.aabb();
+            pose.capsules[i] = capsule;
+            pose.boxes[i] = aabb;
+            pose.aabb = pose.aabb.union(&aabb);
+            if c.link == 0 {
+                pose.on_base |= 1 << i;
+            } else {
+                pose.moving_aabb = pose.moving_aabb.union(&aabb);
+            }
+        }
+        pose
+    }
+
+    /// The world capsules, in the order of `Model::CAPSULES`.
+    pub fn capsules(&self) -> &[Capsule] {
+        &self.capsules[..self.len]
+    }
+
+    /// Bounding box of the whole arm.
+    pub fn aabb(&self) -> &Aabb {
+        &self.aabb
+    }
+
+    /// Index of the first obstacle that a capsule off the base link comes closer to than
+    /// `margin` (or meets).
+    pub fn obstacle_hit(&self, obstacles: &[Obstacle], margin: f64) -> Option<usize> {
+        obstacles.iter().position(|o| {
+            let ob = o.aabb();
+            ob.near(&self.moving_aabb, margin)
+                && (0..self.len).any(|i| {
+                    self.on_base & (1 << i) == 0
+                        && self.boxes[i].near(&ob, margin)
+                        && o.hits_capsule(&self.capsules[i], margin)
+                })
+        })
+    }
+
+    /// The first of the model's self-collision pairs (capsule indices) closer than `margin`.
+    pub fn self_hit(&self, margin: f64) -> Option<(usize, usize)> {
+        self.self_pairs.iter().map(|&(a, b)| (usize::from(a), usize::from(b))).find(|&(a, b)| {
+            self.boxes[a].near(&self.boxes[b], margin)
+                && self.capsules[a].hits(&self.capsules[b], margin)
+        })
+    }
+
+    /// The first pair of capsules (this arm's, the other's), base links included, closer
+    /// than `margin`.
+    pub fn arm_hit(&self, other: &ArmPose, margin: f64) -> Option<(usize, usize)> {
+        if !self.aabb.near(&other.aabb, margin) {
+            return None;
+        }
+        (0..self.len).filter(|&i| self.boxes[i].near(&other.aabb, margin)).find_map(|i| {
+            (0..other.len)
+                .find(|&j| {
+                    self.boxes[i].near(&other.boxes[j], margin)
+                        && self.capsules[i].hits(&other.capsules[j], margin)
+                })
+                .map(|j| (i, j))
+        })
+    }
+
+    /// Whether `p` lies in any link volume (base included).
+    pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
+        self.aabb.contains_point(p) && self.capsules().iter().any(|c| c.contains_point(p))
+    }
+
+    /// A point inside both arms when they overlap: the witness of the most deeply
+    /// overlapping capsule pair (see [`Capsule::witness`]), so that a constraint keeping one
+    /// arm off it pushes the arms apart where they collide most.
+    pub fn witness(&self, other: &ArmPose) -> Option<Vector3<f64>> {
+        let mut deepest: Option<(f64, Vector3<f64>)> = None;
+        for (a, box_a) in self.capsules().iter().zip(&self.boxes) {
+            for (b, box_b) in other.capsules().iter().zip(&other.boxes) {
+                if !box_a.near(box_b, 0.0) {
+                    continue;
+                }
+                let depth = -a.signed_distance(b);
+                if deepest.is_none_or(|(d, _)| depth > d) {
+                    if let Some(p) = a.witness(b) {
+                        deepest = Some((depth, p));
+                    }
+                }
+            }
+        }
+        deepest.map(|(_, p)| p)
+    }
+}
+
+/// A straight joint-space motion of model `M` from `q0` to `q1`, checked at `count`
+/// configurations: the midpoints of `count` equal pieces. Moving joint `j` by `dq` moves no
+/// link point by more than `REACH[j] * |dq|`, so along the whole motion no point moves more
+/// than `length = sum_j REACH[j] |q1_j - q0_j|`, and every configuration of a piece is within
+/// `margin = length / (2 count)` of the piece's midpoint at every link point. Each link is
+/// therefore inside its capsules at the nearest check inflated by `margin`: if every check is
+/// clear with that inflation, so is the whole motion, ends included.
+#[derive(Debug)]
+pub struct Sweep<M: Model<D>, const D: usize> {
+    q0: [f64; D],
+    dq: [f64; D],
+    length: f64,
+    count: usize,
+    model: PhantomData<M>,
+}
+
+// By hand: derived impls would require `M: Copy`, yet only a marker of `M` is held.
+impl<M: Model<D>, const D: usize> Clone for Sweep<M, D> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<M: Model<D>, const D: usize> Copy for Sweep<M, D> {}
+
+impl<M: Model<D>, const D: usize> Sweep<M, D> {
+    /// Checks spaced so that no link point moves more than `max_disp` between neighbouring
+    /// checks (so `margin <= max_disp / 2`), unless that takes more than
+    /// [`MAX_SWEEP_CHECKS`] checks. Any count is conservative, only the margin changes: beyond
+    /// the cap, or for a `max_disp` that is not positive, the margin grows.
+    pub fn new(q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
+        let dq = core::array::from_fn(|j| q1[j] - q0[j]);
+        let length = (0..D).map(|j| M::REACH[j] * libm::fabs(dq[j])).sum::<f64>();
+        let sweep = Sweep { q0: *q0, dq, length, count: 1, model: PhantomData };
+        let pieces = if max_disp > 0.0 { libm::ceil(length / max_disp) } else { 1.0 };
+        // `as` saturates; NaN (from a NaN input) gives 0 and so one check.
+        sweep.with_count(pieces as usize)
+    }
+
+    /// The same motion checked at `count` configurations (clamped to `1..=MAX_SWEEP_CHECKS`),
+    /// e.g. the larger of two arms' counts when they move together.
+    pub fn with_count(self, count: usize) -> Self {
+        Sweep { count: count.clamp(1, MAX_SWEEP_CHECKS), ..self }
+    }
+
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// How far any link point may be from where it is at the nearest check.
+    pub fn margin(&self) -> f64 {
+        self.length / (2.0 * self.count as f64)
+    }
+
+    /// Configuration of check `i` (`0..count`).
+    pub fn config(&self, i: usize) -> [f64; D] {
+        let s = (i as f64 + 0.5) / self.count as f64;
+        core::array::from_fn(|j| self.q0[j] + self.dq[j] * s)
+    }
+
+    /// The arm at check `i`.
+    pub fn arm(&self, base: &Frame, i: usize) -> ArmPose {
+        ArmPose::new::<M, D>(base, &self.config(i))
+    }
+
+    /// Whether the arm may hit an obstacle or itself anywhere along the motion. Two links
+    /// of one arm may each be `margin` off, so self pairs are checked at twice the margin.
+    pub fn arm_collides(&self, base: &Frame, obstacles: &[Obstacle]) -> bool {
+        let margin = self.margin();
+        (0..self.count).any(|i| {
+            let arm = self.arm(base, i);
+            arm.obstacle_hit(obstacles, margin).is_some() || arm.self_hit(2.0 * margin).is_some()
+        })
+    }
+}
+
+/// Whether two arms moving at the same time (each along its sweep, over the same time span)
+/// may collide: both are checked at the same instants, the larger of their counts, with the
+/// sum of their margins.
+pub fn sweeps_collide<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usize>(
+    a: &Sweep<A, DA>,
+    base_a: &Frame,
+    b: &Sweep<B, DB>,
+    base_b: &Frame,
+) -> bool {
+    let count = a.count.max(b.count);
+    let (a, b) = (a.with_count(count), b.with_count(count));
+    let margin = a.margin() + b.margin();
+    (0..count).any(|i| a.arm(base_a, i).arm_hit(&b.arm(base_b, i), margin).is_some())
+}

@@ -1,0 +1,43 @@
+//! Axis-aligned bounding boxes: the cheap first test before an exact query.
+
+use nalgebra::Vector3;
+
+/// The box `min..=max` in world axes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vector3<f64>,
+    pub max: Vector3<f64>,
+}
+
+impl Aabb {
+    /// Contains nothing; the identity of [`Aabb::union`].
+    pub const EMPTY: Aabb = Aabb {
+        min: Vector3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+        max: Vector3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+    };
+
+    /// The box of all points within `r` of `c` along each axis.
+    #[inline]
+    pub fn around(c: &Vector3<f64>, r: &Vector3<f64>) -> Aabb {
+        Aabb { min: c - r, max: c + r }
+    }
+
+    #[inline]
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb { min: self.min.inf(&other.min), max: self.max.sup(&other.max) }
+    }
+
+    /// Whether the boxes come closer than `margin` along every axis (a necessary condition
+    /// for any two shapes inside them to come closer than `margin`).
+    #[inline]
+    pub fn near(&self, other: &Aabb, margin: f64) -> bool {
+        (0..3).all(|i| {
+            self.min[i] < other.max[i] + margin && other.min[i] < self.max[i] + margin
+        })
+    }
+
+    #[inline]
+    pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
+        (0..3).all(|i| self.min[i] <= p[i] && p[i] <= self.max[i])
+    }
+}

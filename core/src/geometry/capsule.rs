@@ -1,0 +1,55 @@
+//! Capsules in world coordinates: the collision volumes of links.
+
+use nalgebra::Vector3;
+
+use super::aabb::Aabb;
+use super::segment::Segment;
+
+/// All points within `radius` of the segment `a`-`b` (a sphere when `a == b`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Capsule {
+    pub segment: Segment,
+    pub radius: f64,
+}
+
+impl Capsule {
+    pub const fn new(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> Capsule {
+        Capsule { segment: Segment::new(a, b), radius }
+    }
+
+    pub fn aabb(&self) -> Aabb {
+        let s = &self.segment;
+        let r = Vector3::repeat(self.radius);
+        Aabb { min: s.a.inf(&s.b) - r, max: s.a.sup(&s.b) + r }
+    }
+
+    /// Signed distance between the surfaces: negative when the capsules overlap (then minus
+    /// the depth of the overlap, which is exact for capsules).
+    pub fn signed_distance(&self, other: &Capsule) -> f64 {
+        libm::sqrt(self.segment.distance2_to_segment(&other.segment)) - self.radius - other.radius
+    }
+
+    /// Whether the capsules come closer than `margin` or meet.
+    #[inline]
+    pub fn hits(&self, other: &Capsule, margin: f64) -> bool {
+        let d2 = self.segment.distance2_to_segment(&other.segment);
+        super::within(d2, self.radius + other.radius + margin)
+    }
+
+    #[inline]
+    pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
+        self.segment.distance2_to_point(p) <= self.radius * self.radius
+    }
+
+    /// A point inside both capsules, if they overlap: on the shortest segment between the two
+    /// axes, split in the ratio of the radii so that it is within each radius.
+    pub fn witness(&self, other: &Capsule) -> Option<Vector3<f64>> {
+        let (s, t) = self.segment.closest_params(&other.segment);
+        let (p, q) = (self.segment.at(s), other.segment.at(t));
+        let reach = self.radius + other.radius;
+        if (q - p).norm_squared() >= reach * reach {
+            return None;
+        }
+        Some(p + (q - p) * (self.radius / reach))
+    }
+}

@@ -1,0 +1,135 @@
+//! Shapes and closed-form geometric queries (no heap, no iteration over meshes).
+//!
+//! Every query is a small function over shape types, in the spirit of parry: the caller
+//! composes them. Shapes are given in world coordinates by a [`Frame`] pose.
+//!
+//! Intersection tests take a `margin` (>= 0): they report a hit when the shapes come closer
+//! than `margin` or meet, so that a swept motion can be checked conservatively at a few
+//! configurations.
+
+mod aabb;
+mod capsule;
+mod segment;
+mod solid;
+
+pub use aabb::Aabb;
+pub use capsule::Capsule;
+pub use segment::Segment;
+
+use nalgebra::Vector3;
+
+use crate::model::Frame;
+use solid::Want;
+
+/// An obstacle shape, in its own frame (capsule and cylinder axes along local z).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    Box { half_extents: [f64; 3] },
+    Sphere { radius: f64 },
+    Capsule { radius: f64, half_length: f64 },
+    Cylinder { radius: f64, half_length: f64 },
+}
+
+/// A shape placed in the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Obstacle {
+    pub shape: Shape,
+    pub pose: Frame,
+}
+
+impl Obstacle {
+    /// The smallest axis-aligned box around the obstacle.
+    pub fn aabb(&self) -> Aabb {
+        let rot = &self.pose.rot;
+        let c = &self.pose.pos;
+        match self.shape {
+            Shape::Box { half_extents } => {
+                Aabb::around(c, &(rot.abs() * Vector3::from(half_extents)))
+            }
+            Shape::Sphere { radius } => Aabb::around(c, &Vector3::repeat(radius)),
+            Shape::Capsule { radius, half_length } => {
+                Capsule { segment: self.axis(half_length), radius }.aabb()
+            }
+            Shape::Cylinder { radius, half_length } => {
+                // A disc of radius r with unit normal n spans r * sqrt(1 - n_i^2) along axis i.
+                let n = rot.column(2);
+                let disc = n.map(|n_i| radius * libm::sqrt((1.0 - n_i * n_i).max(0.0)));
+                Aabb::around(c, &(n.abs() * half_length + disc))
+            }
+        }
+    }
+
+    pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
+        let local = self.to_local(p);
+        match self.shape {
+            Shape::Box { half_extents } => solid::box_contains(&half_extents.into(), &local),
+            Shape::Sphere { radius } => local.norm_squared() <= radius * radius,
+            Shape::Capsule { radius, half_length } => {
+                self.axis(half_length).distance2_to_point(p) <= radius * radius
+            }
+            Shape::Cylinder { radius, half_length } => {
+                solid::cylinder_contains(radius, half_length, &local)
+            }
+        }
+    }
+
+    /// Distance between the obstacle and `capsule` (0 when they touch or overlap).
+    pub fn distance_to_capsule(&self, capsule: &Capsule) -> f64 {
+        let (d2, inflate) = self.distance2_to_segment(&capsule.segment, Want::Exact);
+        (libm::sqrt(d2) - inflate - capsule.radius).max(0.0)
+    }
+
+    /// Whether the obstacle and `capsule` come closer than `margin` or meet.
+    pub fn hits_capsule(&self, capsule: &Capsule, margin: f64) -> bool {
+        let reach = capsule.radius + margin;
+        let want = match self.shape {
+            // Solids: decide against the threshold without finding the exact distance.
+            Shape::Box { .. } | Shape::Cylinder { .. } => Want::Below(reach * reach),
+            Shape::Sphere { .. } | Shape::Capsule { .. } => Want::Exact,
+        };
+        let (d2, inflate) = self.distance2_to_segment(&capsule.segment, want);
+        within(d2, reach + inflate)
+    }
+
+    /// Squared distance from `seg` to the obstacle's core (its axis for a capsule, its centre
+    /// for a sphere, the solid itself otherwise), and the radius the core is inflated by.
+    fn distance2_to_segment(&self, seg: &Segment, want: Want) -> (f64, f64) {
+        match self.shape {
+            Shape::Sphere { radius } => (seg.distance2_to_point(&self.pose.pos), radius),
+            Shape::Capsule { radius, half_length } => {
+                (seg.distance2_to_segment(&self.axis(half_length)), radius)
+            }
+            Shape::Box { half_extents } => {
+                let h = Vector3::from(half_extents);
+                let local = self.segment_to_local(seg);
+                (solid::segment_distance2(&local, want, |p| solid::box_project(&h, p)), 0.0)
+            }
+            Shape::Cylinder { radius, half_length } => {
+                let local = self.segment_to_local(seg);
+                let project = |p: &Vector3<f64>| solid::cylinder_project(radius, half_length, p);
+                (solid::segment_distance2(&local, want, project), 0.0)
+            }
+        }
+    }
+
+    /// The local z axis from `-half_length` to `half_length`, in the world.
+    fn axis(&self, half_length: f64) -> Segment {
+        let z = self.pose.rot.column(2) * half_length;
+        Segment::new(self.pose.pos - z, self.pose.pos + z)
+    }
+
+    fn to_local(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.pose.rot.tr_mul(&(p - self.pose.pos))
+    }
+
+    fn segment_to_local(&self, seg: &Segment) -> Segment {
+        Segment::new(self.to_local(&seg.a), self.to_local(&seg.b))
+    }
+}
+
+/// Whether cores at squared distance `d2`, inflated by `reach` in all, come closer than that
+/// or meet (a bare segment meeting a solid is a hit).
+#[inline]
+fn within(d2: f64, reach: f64) -> bool {
+    d2 < reach * reach || d2 == 0.0
+}

@@ -1,0 +1,96 @@
+//! Robot models.
+//!
+//! A model is a serial chain compiled in at build time: `build.rs` runs `omcbsa-codegen` on a
+//! URDF and emits one zero-sized type per model implementing [`Model`]. Nothing parses a URDF at
+//! run time. Everything a model knows is a `const` or an unrolled function, so evaluating it
+//! costs a fixed number of flops and no memory.
+
+use nalgebra::{Matrix3, SMatrix, Vector3};
+
+/// A rigid transform kept as a rotation matrix and a translation: composing and applying
+/// these is cheaper than going through quaternions in the hot loops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub rot: Matrix3<f64>,
+    pub pos: Vector3<f64>,
+}
+
+impl Frame {
+    pub const IDENTITY: Frame = Frame {
+        rot: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        pos: Vector3::new(0.0, 0.0, 0.0),
+    };
+
+    /// `self * other`.
+    #[inline]
+    pub fn compose(&self, other: &Frame) -> Frame {
+        Frame { rot: self.rot * other.rot, pos: self.rot * other.pos + self.pos }
+    }
+
+    /// Maps a point given in this frame to the parent frame.
+    #[inline]
+    pub fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.rot * p + self.pos
+    }
+
+    #[inline]
+    pub fn inverse(&self) -> Frame {
+        let rt = self.rot.transpose();
+        Frame { rot: rt, pos: -(rt * self.pos) }
+    }
+}
+
+/// One collision primitive of a link, in the link's frame: the set of points within `radius`
+/// of the segment `a`-`b` (a sphere when `a == b`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinkCapsule {
+    /// Index into [`Model::LINK_NAMES`].
+    pub link: u8,
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    pub radius: f64,
+}
+
+/// A serial-chain robot model with `D` actuated joints.
+///
+/// Link frames are numbered in chain order: `0` is the base link, and every joint (fixed ones
+/// included) adds the frame of its child link. The tool frame is the URDF's last link.
+pub trait Model<const D: usize>: 'static {
+    /// Degrees of freedom (the number of actuated joints), equal to `D`.
+    const DOF: usize = D;
+    /// The name problem files use for this model (`kinova_gen3`).
+    const NAME: &'static str;
+    /// Names of the link frames, base first.
+    const LINK_NAMES: &'static [&'static str];
+    /// Names of the actuated joints, in chain order.
+    const JOINT_NAMES: [&'static str; D];
+    /// Lower position limits; `-inf` for continuous joints.
+    const LOWER: [f64; D];
+    /// Upper position limits; `+inf` for continuous joints.
+    const UPPER: [f64; D];
+    /// Velocity limits (rad/s or m/s) from the URDF.
+    const VELOCITY: [f64; D];
+    /// Collision primitives of all links.
+    const CAPSULES: &'static [LinkCapsule];
+    /// Pairs of indices into [`Model::CAPSULES`] that are checked for self-collision: all
+    /// pairs on different links except adjacent links and pairs the model's SRDF disables.
+    const SELF_PAIRS: &'static [(u8, u8)];
+    /// For each joint, an upper bound on the distance from its axis (or, for a prismatic
+    /// joint, 1) to any point of a collision primitive downstream of it. Moving joint `j` by
+    /// `dq` moves no point of the arm by more than `REACH[j] * |dq|`.
+    const REACH: [f64; D];
+
+    /// Pose of the tool frame in the base frame.
+    fn fk(q: &[f64; D]) -> Frame;
+
+    /// Writes every link frame (base frame first, `LINK_NAMES.len()` of them) into `out` and
+    /// returns the tool frame. `out` must hold at least `LINK_NAMES.len()` frames.
+    fn link_frames(q: &[f64; D], out: &mut [Frame]) -> Frame;
+
+    /// Tool pose and the geometric Jacobian at the tool frame's origin, in the base frame:
+    /// rows 0-2 linear velocity, rows 3-5 angular velocity.
+    fn jacobian(q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
+}
+
+// The generated models (see `build.rs`).
+include!(concat!(env!("OUT_DIR"), "/models.rs"));

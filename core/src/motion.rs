@@ -1,0 +1,90 @@
+//! Motions between consecutive steps (the straight joint-space segment `a -> b`) and the
+//! predicates the planners share: Ω-A* (when it generates a state), Ω-CBSA (when it looks for
+//! conflicts) and the baselines all go through these functions, so the low level and the high
+//! level agree exactly on what collides. Motions are checked conservatively with
+//! [`Sweep`](crate::collision::Sweep).
+
+use nalgebra::Vector3;
+
+use crate::collision::{ArmPose, Sweep};
+use crate::geometry::{Capsule, Obstacle};
+use crate::model::{Frame, Model};
+
+/// One arm's motion over one step.
+#[derive(Clone, Copy, Debug)]
+pub struct ArmMotion<'a, const D: usize> {
+    pub base: &'a Frame,
+    pub from: &'a [f64; D],
+    pub to: &'a [f64; D],
+}
+
+impl<'a, const D: usize> ArmMotion<'a, D> {
+    pub fn sweep<M: Model<D>>(&self, max_step: f64) -> Sweep<M, D> {
+        Sweep::new(self.from, self.to, max_step)
+    }
+}
+
+/// Where two arms came too close: a point within `margin` of both arms' volumes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    pub point: [f64; 3],
+    pub margin: f64,
+}
+
+/// Whether the motion stays clear of the obstacles and of the arm itself.
+pub fn motion_is_free<M: Model<D>, const D: usize>(m: &ArmMotion<'_, D>, obstacles: &[Obstacle], max_step: f64) -> bool {
+    !m.sweep::<M>(max_step).arm_collides(m.base, obstacles)
+}
+
+/// Where two arms' simultaneous motions first come too close, or `None` when they stay clear.
+/// Both are checked at the same instants (the larger count of checks) with the sum of their
+/// margins, as [`crate::collision::sweeps_collide`] does.
+pub fn motions_conflict<M: Model<D>, const D: usize>(
+    a: &ArmMotion<'_, D>,
+    b: &ArmMotion<'_, D>,
+    max_step: f64,
+) -> Option<Contact> {
+    let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
+    // Cheap rejection: during the step every point of an arm stays within its sweep length
+    // of where it starts.
+    let (la, lb) = (2.0 * sa.margin() * sa.count() as f64, 2.0 * sb.margin() * sb.count() as f64);
+    let (a0, b0) = (ArmPose::new::<M, D>(a.base, a.from), ArmPose::new::<M, D>(b.base, b.from));
+    if !a0.aabb().near(b0.aabb(), la + lb) {
+        return None;
+    }
+    let count = sa.count().max(sb.count());
+    let (sa, sb) = (sa.with_count(count), sb.with_count(count));
+    let margin = sa.margin() + sb.margin();
+    (0..count).find_map(|i| {
+        let (pa, pb) = (sa.arm(a.base, i), sb.arm(b.base, i));
+        pa.arm_hit(&pb, margin)?;
+        contact_point(&pa, &pb, margin).map(|point| Contact { point, margin })
+    })
+}
+
+/// A point within `margin / 2` of both arms' volumes when they come closer than `margin`:
+/// the witness of the deepest capsule pair with both capsules inflated by `margin / 2`.
+pub fn contact_point(a: &ArmPose, b: &ArmPose, margin: f64) -> Option<[f64; 3]> {
+    let grow = |c: &Capsule| Capsule { radius: c.radius + 0.5 * margin, ..*c };
+    let mut deepest: Option<(f64, Vector3<f64>)> = None;
+    for ca in a.capsules() {
+        for cb in b.capsules() {
+            let depth = margin - ca.signed_distance(cb);
+            if depth > 0.0 && deepest.is_none_or(|(d, _)| depth > d) {
+                if let Some(p) = grow(ca).witness(&grow(cb)) {
+                    deepest = Some((depth, p));
+                }
+            }
+        }
+    }
+    deepest.map(|(_, p)| [p.x, p.y, p.z])
+}
+
+/// Whether `p` is within `margin` of the arm's volume.
+pub fn near_point(arm: &ArmPose, p: &[f64; 3], margin: f64) -> bool {
+    let p = Vector3::new(p[0], p[1], p[2]);
+    arm.capsules().iter().any(|c| {
+        let r = c.radius + margin;
+        c.segment.distance2_to_point(&p) <= r * r
+    })
+}

@@ -1,0 +1,62 @@
+//! The fixed-capacity problem the planners read.
+//!
+//! The host parses `omcbsa.problem.v1` files and fills one of these; input beyond a capacity
+//! is refused by the host with the capacity's name, never truncated.
+
+use heapless::Vec;
+
+use crate::geometry::Obstacle;
+use crate::model::Frame;
+
+/// Most robots in one problem.
+pub const MAX_ROBOTS: usize = 8;
+/// Most poses in one trajectory (the horizon H).
+pub const MAX_STEPS: usize = 256;
+/// Most obstacles in one problem.
+pub const MAX_OBSTACLES: usize = 64;
+
+/// Pose tolerance of the tracked trajectories.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerance {
+    /// Position error, metres.
+    pub position: f64,
+    /// Angle of the relative rotation, radians.
+    pub orientation: f64,
+}
+
+impl Default for Tolerance {
+    fn default() -> Self {
+        Tolerance { position: 0.001, orientation: 0.01 }
+    }
+}
+
+/// One robot of the problem.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Robot<const D: usize> {
+    /// Pose of the model's base frame in the world.
+    pub base: Frame,
+    /// Tool centre point relative to the model's tool frame.
+    pub tcp: Frame,
+    /// Current configuration, if given (required for robots without a trajectory).
+    pub initial: Option<[f64; D]>,
+}
+
+/// One hand trajectory: where a tool centre point must be at each step, in the world frame.
+pub type Trajectory = Vec<Frame, MAX_STEPS>;
+
+/// A whole problem. All trajectories have the same length H.
+#[derive(Clone, Debug)]
+pub struct Problem<const D: usize> {
+    pub dt: f64,
+    pub robots: Vec<Robot<D>, MAX_ROBOTS>,
+    pub trajectories: Vec<Trajectory, MAX_ROBOTS>,
+    pub obstacles: Vec<Obstacle, MAX_OBSTACLES>,
+    pub tolerance: Tolerance,
+}
+
+impl<const D: usize> Problem<D> {
+    /// The horizon H (number of poses per trajectory).
+    pub fn horizon(&self) -> usize {
+        self.trajectories.first().map_or(0, |t| t.len())
+    }
+}

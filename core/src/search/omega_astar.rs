@@ -1,0 +1,420 @@
+//! Ω-A*_single and multi-goal Ω-A* (Shaoul, Li, Likhachev), with the additions:
+//! joint velocity limits between consecutive states, swept-motion checks, point constraints
+//! and assignment constraints from the high level, and bounded memory.
+//!
+//! States are `(q, t, j)`: a configuration whose tool centre point is at pose `t` of trajectory
+//! `j`. OPEN starts with IK solutions from diverse seeds for the first pose of every allowed
+//! trajectory. A state's successors realise pose `t + 1`: the IK projection `q'` of the parent,
+//! then `q' ± ε n` for every null-space basis direction `n` at `q'`, each corrected by IK back
+//! onto the pose. `f = g + w_h (H - 1 - t) + w_c c` with `g` the joint-space path length and `c`
+//! the collisions with the other robots' given paths.
+
+use crate::geometry::Obstacle;
+use crate::ik::{ik, ik_multi_start, IkParams, MultiStart};
+use crate::kinematics::null_space_basis;
+use crate::model::{Frame, Model};
+use crate::problem::{Robot, Trajectory};
+use crate::rng::Rng;
+
+use super::validity::Validity;
+use super::workspace::{Node, StateKey, Workspace};
+use super::{Deadline, OpenEntry};
+
+/// Tunables of Ω-A*. The defaults are the paper's (`ε = 0.2`, `w_h = 10`, `w_c = 0.1`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OmegaParams {
+    /// Null-space step.
+    pub epsilon: f64,
+    /// Weight of the heuristic (steps left).
+    pub w_h: f64,
+    /// Weight of the collision count.
+    pub w_c: f64,
+    /// Most IK solutions of the first pose put in OPEN per trajectory.
+    pub start_solutions: usize,
+    /// Random IK seeds tried per trajectory to find them.
+    pub start_attempts: u32,
+    /// Grid size (rad) of the duplicate detection on `q`.
+    pub resolution: f64,
+    /// Largest displacement (m) of any point of the arm between two checked configurations
+    /// of a motion; the checks inflate the links by half of it, so they are conservative.
+    pub motion_step: f64,
+    pub ik: IkParams,
+    /// Seed of the random IK seeds.
+    pub seed: u64,
+}
+
+impl Default for OmegaParams {
+    fn default() -> Self {
+        OmegaParams {
+            epsilon: 0.2,
+            w_h: 10.0,
+            w_c: 0.1,
+            start_solutions: 8,
+            start_attempts: 32,
+            resolution: 0.02,
+            motion_step: 0.04,
+            ik: IkParams::default(),
+            seed: 0x5eed,
+        }
+    }
+}
+
+/// Another robot's path: a moving obstacle.
+#[derive(Clone, Copy, Debug)]
+pub struct OtherArm<'a, const D: usize> {
+    pub base: Frame,
+    /// One configuration per step.
+    pub path: &'a [[f64; D]],
+}
+
+/// How the other robots' paths count.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OthersMode {
+    /// Collisions are allowed and counted in `c` (Ω-CBSA's low level).
+    Count,
+    /// Collisions are forbidden (prioritised planning).
+    Avoid,
+}
+
+/// "This robot may not come within `margin` of `p` at step `t`" (`segment == false`), or
+/// anywhere on its motion from step `t` to `t + 1` (`segment == true`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointConstraint {
+    pub t: u16,
+    pub segment: bool,
+    pub p: [f64; 3],
+    pub margin: f64,
+}
+
+/// One low-level planning request.
+#[derive(Clone, Copy)]
+pub struct Query<'a, const D: usize> {
+    pub robot: Robot<D>,
+    /// All trajectories of the problem (same length H).
+    pub trajectories: &'a [Trajectory],
+    /// Bit `j` set: the robot may take trajectory `j` (assignment constraints clear bits).
+    pub allowed: u32,
+    /// Whether holding `robot.initial` for the whole horizon is an answer (tried only when no
+    /// allowed trajectory can be tracked).
+    pub hold: bool,
+    pub obstacles: &'a [Obstacle],
+    pub others: &'a [OtherArm<'a, D>],
+    pub others_mode: OthersMode,
+    pub points: &'a [PointConstraint],
+    pub dt: f64,
+}
+
+/// Counters of one search.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SearchStats {
+    pub expansions: u32,
+    pub generated: u32,
+}
+
+/// A path was found and written to the caller's buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Found {
+    /// The trajectory tracked, or `None` when the robot holds its initial configuration.
+    pub trajectory: Option<u8>,
+    /// Collisions with the other robots' paths (always 0 in `Avoid` mode).
+    pub collisions: u32,
+}
+
+/// Why no path was returned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SearchError {
+    /// Every reachable state was expanded: no path exists in the search space.
+    NoSolution,
+    /// The node pool or OPEN list is full.
+    OutOfMemory,
+    /// The deadline passed.
+    Timeout,
+    /// The query cannot be searched (empty trajectories, output buffer too short, ...).
+    InvalidQuery(&'static str),
+}
+
+/// Expansions between two looks at the deadline.
+const CHECK_EVERY: u32 = 32;
+
+/// Most successors one state can have: the projection and `±ε` along up to three null-space
+/// directions.
+pub const MAX_MOVES: usize = 7;
+
+/// The candidate successors of `q` on the manifold of `target` (before any validity check):
+/// the IK projection `q'` of `q`, then `IK(target, q' ± ε n)` for each null-space basis
+/// direction `n` at `q'`. Returns how many were written to `out`.
+pub fn manifold_moves<M: Model<D>, const D: usize>(
+    target: &Frame,
+    q: &[f64; D],
+    p: &OmegaParams,
+    out: &mut [[f64; D]; MAX_MOVES],
+) -> usize {
+    let Ok(proj) = ik::<M, D>(target, q, &p.ik) else {
+        return 0;
+    };
+    out[0] = proj;
+    let mut n = 1;
+    let (_, jac) = M::jacobian(&proj);
+    let basis = null_space_basis::<D>(&jac);
+    for dir in basis.iter() {
+        for sign in [1.0, -1.0] {
+            if n == MAX_MOVES {
+                return n;
+            }
+            let mut moved = proj;
+            for i in 0..D {
+                moved[i] += sign * p.epsilon * dir[i];
+            }
+            if let Ok(q2) = ik::<M, D>(target, &moved, &p.ik) {
+                out[n] = q2;
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+/// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
+pub fn plan<M: Model<D>, const D: usize>(
+    query: &Query<'_, D>,
+    params: &OmegaParams,
+    ws: &mut Workspace<'_, D>,
+    deadline: &dyn Deadline,
+    out: &mut [[f64; D]],
+    stats: &mut SearchStats,
+) -> Result<Found, SearchError> {
+    let h = query.trajectories.first().map_or(0, |t| t.len());
+    if h == 0 {
+        return Err(SearchError::InvalidQuery("no trajectory or empty trajectory"));
+    }
+    if query.trajectories.iter().any(|t| t.len() != h) {
+        return Err(SearchError::InvalidQuery("trajectories differ in length"));
+    }
+    if out.len() < h {
+        return Err(SearchError::InvalidQuery("output buffer shorter than the horizon"));
+    }
+    if query.trajectories.len() > 32 {
+        return Err(SearchError::InvalidQuery("more than 32 trajectories"));
+    }
+    if query.hold && query.robot.initial.is_none() {
+        return Err(SearchError::InvalidQuery("hold requested without an initial configuration"));
+    }
+    let ctx = Ctx::<M, D>::new(query, params, h);
+    ws.reset();
+    let mask = if query.trajectories.len() == 32 {
+        u32::MAX
+    } else {
+        (1u32 << query.trajectories.len()) - 1
+    };
+    if query.allowed & mask != 0 {
+        match ctx.search(ws, deadline, out, stats) {
+            Err(SearchError::NoSolution) if query.hold => {}
+            other => return other,
+        }
+    }
+    if query.hold {
+        if let Some(c) = ctx.hold_path(out) {
+            return Ok(Found { trajectory: None, collisions: c });
+        }
+    }
+    Err(SearchError::NoSolution)
+}
+
+struct Ctx<'q, 'a, M, const D: usize> {
+    q: &'q Query<'a, D>,
+    p: &'q OmegaParams,
+    h: usize,
+    base_inv: Frame,
+    tcp_inv: Frame,
+    valid: Validity<'q, M, D>,
+}
+
+impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
+    fn new(q: &'q Query<'a, D>, p: &'q OmegaParams, h: usize) -> Self {
+        let valid = Validity::new(
+            q.robot.base,
+            q.obstacles,
+            q.others,
+            q.others_mode,
+            q.points,
+            q.dt,
+            p.motion_step,
+        );
+        Ctx { q, p, h, base_inv: q.robot.base.inverse(), tcp_inv: q.robot.tcp.inverse(), valid }
+    }
+
+    /// Pose `t` of trajectory `j` as a target for the model's tool frame in its base frame.
+    fn target(&self, j: usize, t: usize) -> Frame {
+        self.base_inv.compose(&self.q.trajectories[j][t]).compose(&self.tcp_inv)
+    }
+
+    fn f(&self, g: f64, t: usize, c: u16) -> f64 {
+        g + self.p.w_h * (self.h - 1 - t) as f64 + self.p.w_c * c as f64
+    }
+
+    fn search(
+        &self,
+        ws: &mut Workspace<'_, D>,
+        deadline: &dyn Deadline,
+        out: &mut [[f64; D]],
+        stats: &mut SearchStats,
+    ) -> Result<Found, SearchError> {
+        self.seed_open(ws, stats)?;
+        let mut since_check = 0;
+        while let Some(entry) = ws.open.pop() {
+            since_check += 1;
+            if since_check == CHECK_EVERY {
+                since_check = 0;
+                if deadline.expired() {
+                    return Err(SearchError::Timeout);
+                }
+            }
+            let node = *ws.node(entry.node);
+            if node.closed {
+                continue;
+            }
+            if node.t as usize == self.h - 1 {
+                return Ok(self.extract(ws, entry.node, out));
+            }
+            ws.node_mut(entry.node).closed = true;
+            stats.expansions += 1;
+            self.expand(ws, entry.node, &node, stats)?;
+        }
+        Err(SearchError::NoSolution)
+    }
+
+    /// Puts IK solutions of the first pose of every allowed trajectory in OPEN.
+    fn seed_open(&self, ws: &mut Workspace<'_, D>, stats: &mut SearchStats) -> Result<(), SearchError> {
+        let multi = MultiStart { attempts: self.p.start_attempts, min_separation: 0.1 };
+        let mut sols = [[0.0; D]; 16];
+        let want = self.p.start_solutions.clamp(1, sols.len());
+        for j in 0..self.q.trajectories.len() {
+            if self.q.allowed & (1 << j) == 0 {
+                continue;
+            }
+            let target = self.target(j, 0);
+            // The same seeds for a trajectory whatever else is asked, so a replan under one
+            // more constraint explores the same start states.
+            let mut rng = Rng::new(self.p.seed ^ (j as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            let mut n = 0;
+            if let Some(init) = &self.q.robot.initial {
+                if let Ok(s) = ik::<M, D>(&target, init, &self.p.ik) {
+                    sols[0] = s;
+                    n = 1;
+                }
+            }
+            if let Ok(k) = ik_multi_start::<M, D>(&target, &self.p.ik, &multi, &mut rng, &mut sols[n..want]) {
+                n += k;
+            }
+            let g0 = self.start_cost(j);
+            for s in &sols[..n] {
+                let Some(c) = self.valid.state(s, 0) else { continue };
+                let node = Node { q: *s, g: g0, parent: u32::MAX, t: 0, c, j: j as u8, closed: false };
+                self.add(ws, node, stats)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// `g` of an initial state: how far the tool centre point at `initial` is from the first
+    /// pose (0 without `initial`).
+    fn start_cost(&self, j: usize) -> f64 {
+        match &self.q.robot.initial {
+            Some(init) => {
+                let tool = self.q.robot.base.compose(&M::fk(init)).compose(&self.q.robot.tcp);
+                (tool.pos - self.q.trajectories[j][0].pos).norm()
+            }
+            None => 0.0,
+        }
+    }
+
+    fn expand(
+        &self,
+        ws: &mut Workspace<'_, D>,
+        index: u32,
+        node: &Node<D>,
+        stats: &mut SearchStats,
+    ) -> Result<(), SearchError> {
+        let target = self.target(node.j as usize, node.t as usize + 1);
+        let mut moves = [[0.0; D]; MAX_MOVES];
+        let n = manifold_moves::<M, D>(&target, &node.q, self.p, &mut moves);
+        for q in &moves[..n] {
+            self.try_successor(ws, index, node, q, stats)?;
+        }
+        Ok(())
+    }
+
+    fn try_successor(
+        &self,
+        ws: &mut Workspace<'_, D>,
+        parent: u32,
+        node: &Node<D>,
+        q: &[f64; D],
+        stats: &mut SearchStats,
+    ) -> Result<(), SearchError> {
+        if !self.valid.step_within_limits(&node.q, q) {
+            return Ok(());
+        }
+        let dist2: f64 = (0..D).map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i])).sum();
+        let t1 = node.t as usize + 1;
+        let Some(c_state) = self.valid.state(q, t1) else { return Ok(()) };
+        let Some(c_motion) = self.valid.motion(&node.q, q, node.t as usize) else { return Ok(()) };
+        let child = Node {
+            q: *q,
+            g: node.g + libm::sqrt(dist2),
+            parent,
+            t: t1 as u16,
+            c: node.c.saturating_add(c_state).saturating_add(c_motion),
+            j: node.j,
+            closed: false,
+        };
+        self.add(ws, child, stats)
+    }
+
+    /// Inserts a generated state, or improves the stored one in its cell.
+    fn add(&self, ws: &mut Workspace<'_, D>, node: Node<D>, stats: &mut SearchStats) -> Result<(), SearchError> {
+        let key = StateKey::new(&node.q, node.t, node.j, self.p.resolution);
+        let index = match ws.find(&key) {
+            Ok(existing) => {
+                let old = ws.node_mut(existing);
+                let better = (node.g, node.c) < (old.g, old.c);
+                if old.closed || !better {
+                    return Ok(());
+                }
+                *old = node;
+                existing
+            }
+            Err(slot) => ws.insert(slot, node).ok_or(SearchError::OutOfMemory)?,
+        };
+        stats.generated += 1;
+        let f = self.f(node.g, node.t as usize, node.c);
+        if ws.open.push(OpenEntry { f, t: node.t as u32, node: index }) {
+            Ok(())
+        } else {
+            Err(SearchError::OutOfMemory)
+        }
+    }
+
+    fn extract(&self, ws: &Workspace<'_, D>, mut i: u32, out: &mut [[f64; D]]) -> Found {
+        let last = ws.node(i);
+        let found = Found { trajectory: Some(last.j), collisions: last.c as u32 };
+        loop {
+            let n = ws.node(i);
+            out[n.t as usize] = n.q;
+            if n.parent == u32::MAX {
+                break;
+            }
+            i = n.parent;
+        }
+        found
+    }
+
+    /// Holding `initial` for the whole horizon, if allowed by obstacles and constraints.
+    fn hold_path(&self, out: &mut [[f64; D]]) -> Option<u32> {
+        let init = self.q.robot.initial?;
+        let c = self.valid.hold(&init, self.h)?;
+        out[..self.h].iter_mut().for_each(|q| *q = init);
+        Some(c)
+    }
+}
+

@@ -1,0 +1,120 @@
+//! The state validity checker shared by Ω-A*, IK tracking and the baselines: what a robot may
+//! occupy at a step and how it may move to the next.
+
+use crate::collision::ArmPose;
+use crate::geometry::Obstacle;
+use crate::model::{Frame, Model};
+use crate::motion::{motion_is_free, motions_conflict, near_point, ArmMotion};
+
+use super::{OtherArm, OthersMode, PointConstraint};
+
+/// Everything that constrains one robot's states and motions.
+pub struct Validity<'q, M, const D: usize> {
+    pub base: Frame,
+    pub obstacles: &'q [Obstacle],
+    pub others: &'q [OtherArm<'q, D>],
+    pub others_mode: OthersMode,
+    pub points: &'q [PointConstraint],
+    /// Largest joint change between consecutive steps (velocity limit times dt).
+    pub step_limit: [f64; D],
+    /// See [`super::OmegaParams::motion_step`].
+    pub motion_step: f64,
+    _model: core::marker::PhantomData<M>,
+}
+
+impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
+    pub fn new(
+        base: Frame,
+        obstacles: &'q [Obstacle],
+        others: &'q [OtherArm<'q, D>],
+        others_mode: OthersMode,
+        points: &'q [PointConstraint],
+        dt: f64,
+        motion_step: f64,
+    ) -> Self {
+        let mut step_limit = [0.0; D];
+        for (s, v) in step_limit.iter_mut().zip(M::VELOCITY.iter()) {
+            *s = v * dt;
+        }
+        Validity { base, obstacles, others, others_mode, points, step_limit, motion_step, _model: core::marker::PhantomData }
+    }
+
+    /// Whether no joint moves faster than its velocity limit from `a` to `b`.
+    pub fn step_within_limits(&self, a: &[f64; D], b: &[f64; D]) -> bool {
+        (0..D).all(|i| libm::fabs(b[i] - a[i]) <= self.step_limit[i])
+    }
+
+    /// Checks a configuration at step `t`: joint limits, obstacles, self-collision, point
+    /// constraints, and the other robots (forbidden or counted). Returns the collision count.
+    pub fn state(&self, q: &[f64; D], t: usize) -> Option<u16> {
+        for i in 0..D {
+            if !(q[i] >= M::LOWER[i] && q[i] <= M::UPPER[i]) {
+                return None;
+            }
+        }
+        let pose = ArmPose::new::<M, D>(&self.base, q);
+        if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
+            return None;
+        }
+        for pc in self.points {
+            if !pc.segment && pc.t as usize == t && near_point(&pose, &pc.p, pc.margin) {
+                return None;
+            }
+        }
+        let mut c = 0u16;
+        for other in self.others {
+            let theirs = ArmPose::new::<M, D>(&other.base, &other.path[t]);
+            if pose.arm_hit(&theirs, 0.0).is_some() {
+                if self.others_mode == OthersMode::Avoid {
+                    return None;
+                }
+                c += 1;
+            }
+        }
+        Some(c)
+    }
+
+    /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see
+    /// [`crate::motion`]). Returns the number of other robots met on the way.
+    pub fn motion(&self, a: &[f64; D], b: &[f64; D], t: usize) -> Option<u16> {
+        let me = ArmMotion { base: &self.base, from: a, to: b };
+        if !motion_is_free::<M, D>(&me, self.obstacles, self.motion_step) {
+            return None;
+        }
+        if self.points.iter().any(|pc| pc.segment && pc.t as usize == t) {
+            let sweep = me.sweep::<M>(self.motion_step);
+            for i in 0..sweep.count() {
+                let pose = sweep.arm(&self.base, i);
+                for pc in self.points {
+                    if pc.segment && pc.t as usize == t && near_point(&pose, &pc.p, sweep.margin() + pc.margin) {
+                        return None;
+                    }
+                }
+            }
+        }
+        let mut c = 0u16;
+        for other in self.others {
+            let theirs = ArmMotion { base: &other.base, from: &other.path[t], to: &other.path[t + 1] };
+            if motions_conflict::<M, D>(&me, &theirs, self.motion_step).is_some() {
+                if self.others_mode == OthersMode::Avoid {
+                    return None;
+                }
+                c += 1;
+            }
+        }
+        Some(c)
+    }
+
+    /// Holding `q` for `h` steps: the collision count with the others, or `None` when not
+    /// allowed.
+    pub fn hold(&self, q: &[f64; D], h: usize) -> Option<u32> {
+        let mut c = 0u32;
+        for t in 0..h {
+            c += self.state(q, t)? as u32;
+            if t + 1 < h {
+                c += self.motion(q, q, t)? as u32;
+            }
+        }
+        Some(c)
+    }
+}

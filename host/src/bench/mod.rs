@@ -1,0 +1,360 @@
+//! The benchmark runner (`omcbsa bench`): every selected planner on every problem of a suite,
+//! one run per job across a pool of threads, each reported success re-checked with the host
+//! validator. Writes into the output directory:
+//! - `results.csv`: one row per run, appended and flushed as runs finish. Interrupting keeps
+//!   the rows written; rerunning skips the (problem, planner) pairs already there.
+//! - `summary.md`: success rate and median / mean planning time per planner and arm count.
+//! - `success_overall`, `success_by_robots`, `runtime_cdf` as `.svg` and `.png`.
+//!
+//! The planners are reached through [`Solver`], so the runner is tested with fake planners and
+//! anyone can bench their own planner on the suite.
+
+mod plots;
+mod results;
+mod summary;
+
+use std::cell::RefCell;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+
+use omcbsa_core::model::KinovaGen3;
+use omcbsa_core::problem::Problem;
+
+use crate::format::{ProblemFile, SolutionFile, Status};
+use crate::planners::{Capacities, Outcome, Storage};
+use crate::suite::{self, SuiteEntry};
+use crate::{load, validate};
+
+pub use results::Row;
+pub use summary::{Cell, Summary};
+
+pub use crate::planners::PLANNERS;
+/// `--quick` runs every this-many-th problem of the suite...
+pub const QUICK_STRIDE: usize = 15;
+/// ... with at most this timeout, so that all six planners finish in under two minutes.
+pub const QUICK_TIMEOUT_S: f64 = 1.0;
+/// The results file in the output directory.
+pub const RESULTS_FILE: &str = "results.csv";
+pub const SUMMARY_FILE: &str = "summary.md";
+/// Stack of the worker threads: planners keep their fixed-size workspaces on it.
+const WORKER_STACK: usize = 16 << 20;
+
+/// Runs one planner on one problem: the problem as read and as loaded, and the timeout.
+pub trait Solver: Sync {
+    fn solve(&self, planner: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64) -> Result<SolutionFile, String>;
+}
+
+impl<F> Solver for F
+where
+    F: Fn(&str, &ProblemFile, &Problem<7>, f64) -> Result<SolutionFile, String> + Sync,
+{
+    fn solve(&self, planner: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64) -> Result<SolutionFile, String> {
+        self(planner, file, problem, timeout_s)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchOptions {
+    pub planners: Vec<String>,
+    /// Per run, seconds.
+    pub timeout_s: f64,
+    /// Runs at a time.
+    pub jobs: usize,
+    /// Every [`QUICK_STRIDE`]-th problem, timeout at most [`QUICK_TIMEOUT_S`].
+    pub quick: bool,
+    /// Output directory; default `SUITE_DIR/bench` (`SUITE_DIR/bench-quick` with `quick`).
+    pub out: Option<PathBuf>,
+    /// Show a progress bar on stderr.
+    pub progress: bool,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions {
+            planners: PLANNERS.iter().map(|p| p.to_string()).collect(),
+            timeout_s: 5.0,
+            jobs: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            quick: false,
+            out: None,
+            progress: true,
+        }
+    }
+}
+
+impl BenchOptions {
+    /// The timeout actually used.
+    pub fn effective_timeout(&self) -> f64 {
+        if self.quick {
+            self.timeout_s.min(QUICK_TIMEOUT_S)
+        } else {
+            self.timeout_s
+        }
+    }
+}
+
+/// What a benchmark run did.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    pub out_dir: PathBuf,
+    /// Runs made now, and runs found in `results.csv` from before.
+    pub runs: usize,
+    pub resumed: usize,
+    /// Over every row of `results.csv`.
+    pub summary: Summary,
+    pub summary_path: PathBuf,
+    pub results_path: PathBuf,
+    pub plots: Vec<PathBuf>,
+    /// Why the plots were not drawn, if they were not (the rest was still written).
+    pub plot_error: Option<String>,
+}
+
+#[derive(Debug)]
+pub enum Error {
+    Suite(suite::Error),
+    Io { path: PathBuf, source: std::io::Error },
+    Csv { path: PathBuf, message: String },
+    Options(String),
+}
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Error::Suite(e) => e.fmt(f),
+            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Error::Csv { path, message } => write!(f, "{}: {message}", path.display()),
+            Error::Options(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+impl From<suite::Error> for Error {
+    fn from(e: suite::Error) -> Self {
+        Error::Suite(e)
+    }
+}
+
+/// Benchmarks the planners of `omcbsa plan` and the baselines ([`PLANNERS`]) on a suite.
+pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, Error> {
+    if let Some(p) = opts.planners.iter().find(|p| !PLANNERS.contains(&p.as_str())) {
+        return Err(Error::Options(format!("unknown planner {p:?} (known: {})", PLANNERS.join(", "))));
+    }
+    run_bench_with(suite_dir, opts, &solve_with_planners)
+}
+
+thread_local! {
+    /// Each worker's planner pools, made at its first run and reused: they are large.
+    static STORAGE: RefCell<Option<Storage>> = const { RefCell::new(None) };
+}
+
+/// Runs one of the built-in planners with this thread's pools.
+fn solve_with_planners(name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64) -> Result<SolutionFile, String> {
+    STORAGE.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        let storage = slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
+        storage.solve(name, problem, timeout_s).map(|outcome| solution_file(name, file, &outcome))
+    })
+}
+
+/// Longest horizon the worker pools are sized for (the suite's longest is 40 steps).
+const MAX_BENCH_HORIZON: usize = 64;
+
+fn solution_file(planner: &str, file: &ProblemFile, outcome: &Outcome) -> SolutionFile {
+    use omcbsa_core::planner::Status as Core;
+    let (status, message) = match outcome.status {
+        Core::Solved => (Status::Solved, String::new()),
+        Core::NoSolution => (Status::NoSolution, String::new()),
+        Core::Timeout => (Status::Timeout, String::new()),
+        Core::OutOfMemory(m) => (Status::OutOfMemory, m.to_string()),
+        Core::InvalidProblem(m) => (Status::InvalidProblem, m.to_string()),
+    };
+    let s = &outcome.stats;
+    let stats = serde_json::json!({
+        "expansions": s.expansions,
+        "low_level_calls": s.low_level_calls,
+        "ct_nodes": s.ct_nodes,
+        "conflicts_resolved": s.conflicts_resolved,
+        "warm_start_solved": s.warm_start_solved,
+    });
+    let solved = status == Status::Solved;
+    SolutionFile {
+        format: crate::format::SOLUTION_FORMAT.to_string(),
+        problem: file.name.clone(),
+        planner: planner.to_string(),
+        status,
+        message,
+        planning_time_s: outcome.planning_time_s,
+        assignment: outcome.assignment.clone(),
+        joint_paths: solved.then(|| outcome.joint_paths.iter().map(|p| p.iter().map(|q| q.to_vec()).collect()).collect()),
+        stats: stats.as_object().cloned().unwrap_or_default(),
+    }
+}
+
+/// [`run_bench`] with any planners behind `solver`.
+pub fn run_bench_with(suite_dir: &Path, opts: &BenchOptions, solver: &dyn Solver) -> Result<BenchReport, Error> {
+    if opts.planners.is_empty() {
+        return Err(Error::Options("no planner selected".to_string()));
+    }
+    if !(opts.timeout_s.is_finite() && opts.timeout_s > 0.0) {
+        return Err(Error::Options(format!("timeout must be > 0 seconds, got {}", opts.timeout_s)));
+    }
+    let timeout = opts.effective_timeout();
+    let index = suite::read_index(suite_dir)?;
+    let stride = if opts.quick { QUICK_STRIDE } else { 1 };
+    let problems: Vec<&SuiteEntry> = index.problems.iter().step_by(stride).collect();
+    let out_dir = opts.out.clone().unwrap_or_else(|| suite_dir.join(if opts.quick { "bench-quick" } else { "bench" }));
+    std::fs::create_dir_all(&out_dir).map_err(|source| Error::Io { path: out_dir.clone(), source })?;
+    let results_path = out_dir.join(RESULTS_FILE);
+    let (mut rows, mut appender) = results::open(&results_path)?;
+    if let Some(r) = rows.iter().find(|r| r.timeout_s != timeout) {
+        return Err(Error::Options(format!(
+            "{} holds runs with a timeout of {} s, this run uses {timeout} s: use another --out \
+             directory or delete the file",
+            results_path.display(),
+            r.timeout_s
+        )));
+    }
+    let resumed = rows.len();
+    let done: std::collections::HashSet<(String, String)> =
+        rows.iter().map(|r| (r.problem.clone(), r.planner.clone())).collect();
+    let jobs: Vec<(&SuiteEntry, &str)> = (problems.iter())
+        .flat_map(|e| opts.planners.iter().map(move |p| (*e, p.as_str())))
+        .filter(|(e, p)| !done.contains(&(e.name.clone(), p.to_string())))
+        .collect();
+
+    let bar = if opts.progress { ProgressBar::new(jobs.len() as u64) } else { ProgressBar::hidden() };
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.jobs.max(1))
+        .stack_size(WORKER_STACK)
+        .build()
+        .map_err(|e| Error::Options(format!("cannot start {} worker threads: {e}", opts.jobs)))?;
+    let stop = AtomicBool::new(false);
+    let (tx, rx) = mpsc::channel::<Row>();
+    let mut write_error = None;
+    let runs = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            pool.install(|| {
+                jobs.par_iter().for_each_with(tx, |tx, &(entry, planner)| {
+                    if !stop.load(Ordering::Relaxed) {
+                        // The receiver only goes away after every job has ended.
+                        let _ = tx.send(run_one(suite_dir, entry, planner, timeout, solver));
+                    }
+                })
+            })
+        });
+        let mut runs = 0;
+        for row in rx {
+            if row.valid == Some(false) {
+                bar.suspend(|| {
+                    eprintln!(
+                        "INVALID SOLUTION: planner {} reported success on {} but the validator refuses it: {}",
+                        row.planner, row.problem, row.message
+                    )
+                });
+            }
+            if let Err(e) = appender.append(&row) {
+                stop.store(true, Ordering::Relaxed);
+                write_error.get_or_insert(e);
+            }
+            bar.set_message(format!("{} {}", row.planner, row.problem));
+            bar.inc(1);
+            rows.push(row);
+            runs += 1;
+        }
+        runs
+    });
+    bar.finish_and_clear();
+    if let Some(e) = write_error {
+        return Err(e);
+    }
+
+    let summary = Summary::new(&rows, &opts.planners);
+    let context = format!(
+        "Suite `{}` ({} of its {} problems{}), timeout {timeout} s, {} job(s) at a time, {} runs.",
+        suite_dir.display(),
+        problems.len(),
+        index.problems.len(),
+        if opts.quick { format!(", every {QUICK_STRIDE}th: --quick") } else { String::new() },
+        opts.jobs.max(1),
+        rows.len()
+    );
+    let summary_path = out_dir.join(SUMMARY_FILE);
+    std::fs::write(&summary_path, summary.markdown(&context))
+        .map_err(|source| Error::Io { path: summary_path.clone(), source })?;
+    let (plots, plot_error) = match plots::write_all(&out_dir, &summary, timeout) {
+        Ok(p) => (p, None),
+        Err(e) => (Vec::new(), Some(e)),
+    };
+    Ok(BenchReport { out_dir, runs, resumed, summary, summary_path, results_path, plots, plot_error })
+}
+
+/// One run: load, plan (a panic is caught and reported), re-validate a success.
+fn run_one(suite_dir: &Path, entry: &SuiteEntry, planner: &str, timeout_s: f64, solver: &dyn Solver) -> Row {
+    let mut row = Row {
+        problem: entry.name.clone(),
+        family: entry.family.clone(),
+        layout: entry.layout.clone(),
+        robots: entry.robots,
+        trajectories: entry.trajectories,
+        horizon: entry.horizon,
+        known_solvable: entry.known_solvable,
+        planner: planner.to_string(),
+        timeout_s,
+        status: "error".to_string(),
+        valid: None,
+        success: false,
+        time_s: 0.0,
+        wall_s: 0.0,
+        expansions: None,
+        message: String::new(),
+    };
+    let path = suite_dir.join(&entry.file);
+    let loaded = load::read_text(&path)
+        .and_then(|text| load::parse_problem(&text))
+        .and_then(|file| load::problem::<KinovaGen3, 7>(&file).map(|p| (file, Box::new(p))));
+    let (file, problem) = match loaded {
+        Ok(x) => x,
+        Err(e) => {
+            row.message = format!("{}: {}", path.display(), e.to_string().replace('\n', "; "));
+            return row;
+        }
+    };
+    let start = Instant::now();
+    let outcome = catch_unwind(AssertUnwindSafe(|| solver.solve(planner, &file, &problem, timeout_s)));
+    row.wall_s = start.elapsed().as_secs_f64();
+    let solution = match outcome {
+        Ok(Ok(s)) => s,
+        Ok(Err(e)) => {
+            row.message = e;
+            return row;
+        }
+        Err(_) => {
+            row.message = "the planner panicked".to_string();
+            return row;
+        }
+    };
+    row.status = solution.status.as_str().to_string();
+    row.time_s = solution.planning_time_s;
+    row.expansions = solution.stats.get("expansions").and_then(|v| v.as_u64());
+    row.message = solution.message.clone();
+    if solution.status == Status::Solved {
+        let report = validate::validate::<KinovaGen3, 7>(&file, &problem, &solution);
+        row.valid = Some(report.is_valid());
+        row.success = report.is_valid();
+        if !report.is_valid() {
+            row.message = report.summary();
+        }
+    }
+    row
+}

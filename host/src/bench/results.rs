@@ -1,0 +1,130 @@
+//! `results.csv`: one row per (problem, planner) run, appended and flushed as runs finish, so
+//! an interrupted benchmark keeps what it did and a rerun skips it.
+
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::Error;
+
+/// One run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub problem: String,
+    pub family: String,
+    pub layout: String,
+    pub robots: usize,
+    pub trajectories: usize,
+    #[serde(rename = "H")]
+    pub horizon: usize,
+    pub known_solvable: bool,
+    pub planner: String,
+    pub timeout_s: f64,
+    /// The planner's status, or `error` when the run could not happen or the planner failed.
+    pub status: String,
+    /// For `solved` runs, whether the host validator accepts the solution; empty otherwise.
+    pub valid: Option<bool>,
+    /// Solved with a valid solution (within the timeout: a planner stops at it).
+    pub success: bool,
+    /// The planning time the planner reports.
+    pub time_s: f64,
+    /// Wall-clock time of the whole call, loading and checking excluded.
+    pub wall_s: f64,
+    /// Search node expansions, when the planner reports them.
+    pub expansions: Option<u64>,
+    /// Why a run failed, or what the validator found wrong with a "success".
+    pub message: String,
+}
+
+impl Row {
+    pub fn key(&self) -> (&str, &str) {
+        (&self.problem, &self.planner)
+    }
+}
+
+/// The header line the current [`Row`] writes.
+fn header() -> Result<String, Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let dummy = Row {
+        problem: String::new(),
+        family: String::new(),
+        layout: String::new(),
+        robots: 0,
+        trajectories: 0,
+        horizon: 0,
+        known_solvable: false,
+        planner: String::new(),
+        timeout_s: 0.0,
+        status: String::new(),
+        valid: None,
+        success: false,
+        time_s: 0.0,
+        wall_s: 0.0,
+        expansions: None,
+        message: String::new(),
+    };
+    w.serialize(&dummy).map_err(|e| Error::Csv { path: PathBuf::new(), message: e.to_string() })?;
+    let bytes = w.into_inner().map_err(|e| Error::Csv { path: PathBuf::new(), message: e.to_string() })?;
+    let text = String::from_utf8_lossy(&bytes);
+    Ok(text.lines().next().unwrap_or_default().to_string())
+}
+
+/// Appends rows to a results file, flushing each.
+pub struct Appender {
+    path: PathBuf,
+    writer: csv::Writer<File>,
+}
+
+impl Appender {
+    pub fn append(&mut self, row: &Row) -> Result<(), Error> {
+        let csv_err = |e: &dyn std::fmt::Display| Error::Csv { path: self.path.clone(), message: e.to_string() };
+        self.writer.serialize(row).map_err(|e| csv_err(&e))?;
+        self.writer.flush().map_err(|e| csv_err(&e))
+    }
+}
+
+/// Opens `path` for appending and returns the rows already in it. A last line cut short by an
+/// interruption is dropped; a file with another header is refused rather than mixed.
+pub fn open(path: &Path) -> Result<(Vec<Row>, Appender), Error> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let expected = header()?;
+    let mut rows = Vec::new();
+    let existing = match std::fs::read(path) {
+        Ok(bytes) => bytes,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        Err(e) => return Err(io(e)),
+    };
+    let complete = existing.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    if complete < existing.len() {
+        let file = OpenOptions::new().write(true).open(path).map_err(io)?;
+        file.set_len(complete as u64).map_err(io)?;
+    }
+    if complete > 0 {
+        let mut reader = csv::Reader::from_reader(&existing[..complete]);
+        let found = reader.headers().map_err(|e| Error::Csv { path: path.to_path_buf(), message: e.to_string() })?;
+        let found = found.iter().collect::<Vec<_>>().join(",");
+        if found != expected {
+            return Err(Error::Csv {
+                path: path.to_path_buf(),
+                message: format!(
+                    "its header is `{found}`, this version writes `{expected}`: use another --out directory"
+                ),
+            });
+        }
+        for (i, record) in reader.deserialize::<Row>().enumerate() {
+            let row = record.map_err(|e| Error::Csv {
+                path: path.to_path_buf(),
+                message: format!("row {}: {e}", i + 1),
+            })?;
+            rows.push(row);
+        }
+    }
+    let mut file = OpenOptions::new().create(true).append(true).open(path).map_err(io)?;
+    if complete == 0 {
+        writeln!(file, "{expected}").map_err(io)?;
+    }
+    let writer = csv::WriterBuilder::new().has_headers(false).from_writer(file);
+    Ok((rows, Appender { path: path.to_path_buf(), writer }))
+}

@@ -1,0 +1,78 @@
+//! `omcbsa ik`: inverse kinematics over stdin.
+
+use std::process::ExitCode;
+
+use omcbsa::format::Pose;
+use omcbsa::models::ModelKind;
+use omcbsa::pose;
+use omcbsa_core::ik::{ik, ik_multi_start, IkError, IkParams, MultiStart};
+use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::rng::Rng;
+
+use super::{bad_input, configuration, lines};
+
+/// Inverse kinematics: reads one tool pose per line on stdin,
+/// {"position":[x,y,z],"quat_xyzw":[x,y,z,w]} in the model's base frame, and writes a JSON
+/// array of joint values per line, or {"error":"line N: ..."} saying why there is none; exit
+/// code 1 if any line failed. The answer is within 1e-5 m and 1e-4 rad of the pose and within
+/// the joint limits. Deterministic: every line starts from the same random seed.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Robot model.
+    #[arg(long, value_parser = ModelKind::parse)]
+    model: ModelKind,
+    /// A configuration (JSON array) to start from before the random starts; the answer is
+    /// then usually the solution nearest to it.
+    #[arg(long, value_name = "JSON")]
+    seed_config: Option<String>,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    match args.model {
+        ModelKind::KinovaGen3 => solve_lines::<KinovaGen3, 7>(args),
+    }
+}
+
+fn solve_lines<M: Model<D>, const D: usize>(args: &Args) -> ExitCode {
+    let start = match args
+        .seed_config
+        .as_deref()
+        .map(|s| configuration::<M, D>(s, "--seed-config"))
+    {
+        None => None,
+        Some(Ok(q)) => Some(q),
+        Some(Err(e)) => return bad_input(e),
+    };
+    lines::answer_each(|line| {
+        let pose: Pose = serde_json::from_str(line).map_err(|e| {
+            format!("not a pose {{\"position\":[x,y,z],\"quat_xyzw\":[x,y,z,w]}}: {e}")
+        })?;
+        let target = pose::to_frame(&pose).map_err(|e| e.to_string())?;
+        let q = solve::<M, D>(&target, start.as_ref(), args.seed).map_err(|e| e.to_string())?;
+        serde_json::to_value(q.to_vec()).map_err(|e| e.to_string())
+    })
+}
+
+/// IK from `start` if given, else (or if that fails) from random starts.
+fn solve<M: Model<D>, const D: usize>(
+    target: &Frame,
+    start: Option<&[f64; D]>,
+    seed: u64,
+) -> Result<[f64; D], IkError> {
+    let params = IkParams::default();
+    if let Some(Ok(q)) = start.map(|s| ik::<M, D>(target, s, &params)) {
+        return Ok(q);
+    }
+    let mut out = [[0.0; D]; 1];
+    ik_multi_start::<M, D>(
+        target,
+        &params,
+        &MultiStart::default(),
+        &mut Rng::new(seed),
+        &mut out,
+    )?;
+    Ok(out[0])
+}

@@ -1,0 +1,83 @@
+//! `omcbsa validate`: checks a solution file against its problem file.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use omcbsa::error::InputError;
+use omcbsa::load;
+use omcbsa::models::ModelKind;
+use omcbsa::validate::{validate, Report};
+use omcbsa_core::model::{KinovaGen3, Model};
+
+use super::{bad_input, negative};
+
+/// Checks a solution against its problem: the five rules of docs/FORMATS.md with the
+/// project's collision model. Prints `valid`, or every violation with its rule, robot and
+/// step. Exit code 0 valid, 1 invalid, 2 bad input.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Problem file (omcbsa.problem.v1).
+    problem: PathBuf,
+    /// Solution file (omcbsa.solution.v1).
+    solution: PathBuf,
+    /// Print the report as JSON: {"valid": bool, "summary": "...", "violations": [...]}.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    let report = match check(args) {
+        Ok(report) => report,
+        Err(message) => return bad_input(message),
+    };
+    if args.json {
+        let value = serde_json::json!({
+            "valid": report.is_valid(),
+            "summary": report.summary(),
+            "violations": report.violations,
+        });
+        println!("{value}");
+    } else {
+        println!("{}", report.summary());
+        if report.violations.len() > 1 {
+            for v in &report.violations {
+                println!("  {v}");
+            }
+        }
+    }
+    if report.is_valid() {
+        ExitCode::SUCCESS
+    } else {
+        negative()
+    }
+}
+
+fn check(args: &Args) -> Result<Report, String> {
+    let read = |path: &Path| load::read_text(path).map_err(|e| in_file(path, e));
+    let file = load::parse_problem(&read(&args.problem)?).map_err(|e| in_file(&args.problem, e))?;
+    let solution =
+        load::parse_solution(&read(&args.solution)?).map_err(|e| in_file(&args.solution, e))?;
+    let model = load::model_of(&file).map_err(|e| in_file(&args.problem, e))?;
+    match model {
+        ModelKind::KinovaGen3 => check_with::<KinovaGen3, 7>(args, &file, &solution),
+    }
+}
+
+fn check_with<M: Model<D>, const D: usize>(
+    args: &Args,
+    file: &omcbsa::format::ProblemFile,
+    solution: &omcbsa::format::SolutionFile,
+) -> Result<Report, String> {
+    let problem = load::problem::<M, D>(file).map_err(|e| in_file(&args.problem, e))?;
+    Ok(validate::<M, D>(file, &problem, solution))
+}
+
+/// Every error of `e`, one per line, prefixed with the file's name.
+fn in_file(path: &Path, e: InputError) -> String {
+    let lines: Vec<String> = e
+        .errors
+        .iter()
+        .map(|f| format!("{}: {f}", path.display()))
+        .collect();
+    lines.join("\n")
+}

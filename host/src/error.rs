@@ -1,0 +1,109 @@
+//! Errors that name the field of the input they are about.
+
+use std::fmt;
+
+/// One thing wrong with the input, at `path` (`robots[2].initial`, `dt`, or empty for the
+/// whole document).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FieldError {
+    pub path: String,
+    pub message: String,
+}
+
+impl FieldError {
+    pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
+        FieldError {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The same error seen from the enclosing value: `position[1]` within `base` becomes
+    /// `base.position[1]`.
+    pub fn within(self, prefix: &str) -> Self {
+        let path = match (prefix.is_empty(), self.path.is_empty()) {
+            (true, _) => self.path,
+            (false, true) => prefix.to_string(),
+            (false, false) if self.path.starts_with('[') => format!("{prefix}{}", self.path),
+            (false, false) => format!("{prefix}.{}", self.path),
+        };
+        FieldError {
+            path,
+            message: self.message,
+        }
+    }
+}
+
+impl fmt::Display for FieldError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.path.is_empty() {
+            f.write_str(&self.message)
+        } else {
+            write!(f, "{}: {}", self.path, self.message)
+        }
+    }
+}
+
+/// Everything wrong with one input document (at least one entry).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InputError {
+    pub errors: Vec<FieldError>,
+}
+
+impl InputError {
+    pub fn one(path: impl Into<String>, message: impl Into<String>) -> Self {
+        InputError {
+            errors: vec![FieldError::new(path, message)],
+        }
+    }
+
+    /// Whether some error is at `path` and its message contains `text`.
+    pub fn has(&self, path: &str, text: &str) -> bool {
+        self.errors
+            .iter()
+            .any(|e| e.path == path && e.message.contains(text))
+    }
+}
+
+impl From<FieldError> for InputError {
+    fn from(e: FieldError) -> Self {
+        InputError { errors: vec![e] }
+    }
+}
+
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, e) in self.errors.iter().enumerate() {
+            if i > 0 {
+                f.write_str("\n")?;
+            }
+            write!(f, "{e}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// Collects the errors of one document so that all of them are reported at once.
+#[derive(Debug, Default)]
+pub struct Errors(Vec<FieldError>);
+
+impl Errors {
+    pub fn push(&mut self, path: impl Into<String>, message: impl Into<String>) {
+        self.0.push(FieldError::new(path, message));
+    }
+
+    pub fn add(&mut self, e: FieldError) {
+        self.0.push(e);
+    }
+
+    /// `Ok(())` if nothing was collected.
+    pub fn finish(self) -> Result<(), InputError> {
+        if self.0.is_empty() {
+            Ok(())
+        } else {
+            Err(InputError { errors: self.0 })
+        }
+    }
+}

@@ -1,0 +1,184 @@
+//! The file formats `omcbsa.problem.v1` and `omcbsa.solution.v1` as serde types
+//! (docs/FORMATS.md).
+//!
+//! These types mirror the JSON one to one and check only what the JSON shape itself says
+//! (field names, types, fixed array lengths). Every rule about values (finite numbers, unit
+//! quaternions, lengths that depend on the model, ...) is checked by [`crate::load`], which
+//! names the field and index that breaks it.
+//!
+//! Unknown fields are refused everywhere except inside `stats`: a misspelt optional field
+//! (`"initail"`, `"tolerence"`) would otherwise be dropped silently and change the problem.
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+/// The `format` string of a problem file.
+pub const PROBLEM_FORMAT: &str = "omcbsa.problem.v1";
+/// The `format` string of a solution file.
+pub const SOLUTION_FORMAT: &str = "omcbsa.solution.v1";
+
+/// A rigid pose in the world frame: position in metres, unit quaternion in ROS order.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    pub position: [f64; 3],
+    pub quat_xyzw: [f64; 4],
+}
+
+impl Pose {
+    pub const IDENTITY: Pose = Pose {
+        position: [0.0; 3],
+        quat_xyzw: [0.0, 0.0, 0.0, 1.0],
+    };
+}
+
+/// A problem file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemFile {
+    pub format: String,
+    pub name: String,
+    pub dt: f64,
+    pub robots: Vec<RobotSpec>,
+    pub trajectories: Vec<TrajectorySpec>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub obstacles: Vec<ObstacleSpec>,
+    #[serde(default)]
+    pub tolerance: ToleranceSpec,
+}
+
+/// One robot of a problem file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSpec {
+    pub name: String,
+    pub model: String,
+    pub base: Pose,
+    /// The arm's current configuration; its length depends on the model, so it is checked
+    /// by [`crate::load`], not here.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tcp: Option<Pose>,
+}
+
+/// One trajectory of tool centre point poses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrajectorySpec {
+    pub name: String,
+    pub poses: Vec<Pose>,
+}
+
+/// The obstacle shapes of the format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShapeKind {
+    Box,
+    Sphere,
+    Capsule,
+    Cylinder,
+}
+
+impl ShapeKind {
+    /// The name the file uses.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ShapeKind::Box => "box",
+            ShapeKind::Sphere => "sphere",
+            ShapeKind::Capsule => "capsule",
+            ShapeKind::Cylinder => "cylinder",
+        }
+    }
+}
+
+/// One obstacle. The size fields a shape needs are optional here so that a missing one is
+/// reported by [`crate::load`] with the obstacle's index and the shape that needs it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    pub name: String,
+    pub shape: ShapeKind,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_extents: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_length: Option<f64>,
+    pub pose: Pose,
+}
+
+/// Pose tolerance; each field defaults to the spec's value when left out.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToleranceSpec {
+    #[serde(default = "default_position_tolerance")]
+    pub position_m: f64,
+    #[serde(default = "default_orientation_tolerance")]
+    pub orientation_rad: f64,
+}
+
+fn default_position_tolerance() -> f64 {
+    0.001
+}
+
+fn default_orientation_tolerance() -> f64 {
+    0.01
+}
+
+impl Default for ToleranceSpec {
+    fn default() -> Self {
+        ToleranceSpec {
+            position_m: default_position_tolerance(),
+            orientation_rad: default_orientation_tolerance(),
+        }
+    }
+}
+
+/// How a planning run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    Solved,
+    NoSolution,
+    Timeout,
+    OutOfMemory,
+    InvalidProblem,
+}
+
+impl Status {
+    /// The name the file uses.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Status::Solved => "solved",
+            Status::NoSolution => "no_solution",
+            Status::Timeout => "timeout",
+            Status::OutOfMemory => "out_of_memory",
+            Status::InvalidProblem => "invalid_problem",
+        }
+    }
+}
+
+/// A solution file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolutionFile {
+    pub format: String,
+    /// The `name` of the problem this solves.
+    pub problem: String,
+    pub planner: String,
+    pub status: Status,
+    #[serde(default)]
+    pub message: String,
+    pub planning_time_s: f64,
+    /// `assignment[i]`: the trajectory robot i tracks, `None` for a robot that holds.
+    /// Planners that stop before assigning may leave it empty.
+    #[serde(default)]
+    pub assignment: Vec<Option<usize>>,
+    /// `joint_paths[i][t]`: robot i's configuration at step t; present only when solved.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_paths: Option<Vec<Vec<Vec<f64>>>>,
+    /// Free-form counters; any keys are accepted and kept.
+    #[serde(default)]
+    pub stats: Map<String, Value>,
+}

@@ -1,0 +1,13 @@
+//! # omcbsa (host)
+//!
+//! The std side of omcbsa: the problem and solution file formats ([`format`]), reading and
+//! checking them into the core's fixed-capacity problem ([`load`]), and checking a solution
+//! against its problem ([`validate`]). The `omcbsa` binary is a thin command line over these.
+
+pub mod error;
+pub mod format;
+pub mod load;
+pub mod models;
+pub mod planners;
+pub mod pose;
+pub mod validate;

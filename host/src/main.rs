@@ -1,0 +1,35 @@
+//! `omcbsa`: the command-line program. One module per subcommand under `cli/`.
+
+mod cli;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "omcbsa",
+    version,
+    about = "Multi-arm on-manifold planning (Ω-CBSA)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Fk(cli::fk::Args),
+    Ik(cli::ik::Args),
+    Plan(cli::plan::Args),
+    Validate(cli::validate::Args),
+}
+
+fn main() -> ExitCode {
+    match Cli::parse().command {
+        Command::Fk(args) => cli::fk::run(&args),
+        Command::Ik(args) => cli::ik::run(&args),
+        Command::Plan(args) => cli::plan::run(&args),
+        Command::Validate(args) => cli::validate::run(&args),
+    }
+}

@@ -1,0 +1,266 @@
+//! Every planner by name, with its storage allocated here, before the core is called: the
+//! core itself never allocates.
+
+use std::time::Instant;
+
+use crate::error::InputError;
+use crate::format::{ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT};
+use crate::load;
+use crate::models::ModelKind;
+use crate::validate::validate;
+use omcbsa_core::baselines::{
+    CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage, IkTracking,
+    IkTrackingParams,
+};
+use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
+use omcbsa_core::model::KinovaGen3;
+use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
+use omcbsa_core::pp::{Prioritized, Variant};
+use omcbsa_core::problem::{Problem, MAX_ROBOTS};
+use omcbsa_core::search::{Node, OmegaParams, OpenEntry, PointConstraint, Slot, Workspace};
+
+/// Planner names, as the command line and the benchmark spell them.
+pub const PLANNERS: [&str; 6] = ["omcbsa", "pp", "pp-single", "ik-tracking", "descartes", "composite-astar"];
+
+/// Degrees of freedom of the planned model (Kinova Gen3).
+pub const DOF: usize = 7;
+
+/// Sizes of the bounded pools. Bytes: Ω-A* 112 per search node; Ω-CBSA about 220 per CT node,
+/// `H * 56` per pooled path; composite A* about 490 per node.
+#[derive(Clone, Copy, Debug)]
+pub struct Capacities {
+    pub search_nodes: usize,
+    pub ct_nodes: usize,
+    pub path_slots: usize,
+    pub constraints: usize,
+    pub composite_nodes: usize,
+    pub descartes_samples: usize,
+}
+
+impl Default for Capacities {
+    fn default() -> Self {
+        Capacities {
+            search_nodes: 1 << 16,
+            ct_nodes: 1 << 13,
+            path_slots: 1 << 13,
+            constraints: 1 << 12,
+            composite_nodes: 1 << 16,
+            descartes_samples: 12,
+        }
+    }
+}
+
+/// What a planning run produced.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub status: Status,
+    pub planning_time_s: f64,
+    /// Per robot: the trajectory tracked, `None` when holding (meaningful when solved).
+    pub assignment: Vec<Option<usize>>,
+    /// Per robot: H configurations (only when solved).
+    pub joint_paths: Vec<Vec<[f64; DOF]>>,
+    pub stats: Stats,
+}
+
+/// `std::time::Instant` as the core's clock.
+pub struct WallClock(Instant);
+
+impl WallClock {
+    pub fn start() -> Self {
+        WallClock(Instant::now())
+    }
+}
+
+impl Clock for WallClock {
+    fn seconds(&self) -> f64 {
+        self.0.elapsed().as_secs_f64()
+    }
+}
+
+/// All pools of all planners, allocated once and reused run after run.
+pub struct Storage {
+    caps: Capacities,
+    nodes: Vec<Node<DOF>>,
+    open: Vec<OpenEntry>,
+    table: Vec<Slot>,
+    ct_nodes: Vec<CtNode>,
+    ct_open: Vec<OpenEntry>,
+    paths: Vec<[f64; DOF]>,
+    scratch: Vec<[f64; DOF]>,
+    points: Vec<PointConstraint>,
+    composite: Vec<CompositeNode<DOF>>,
+    cost: Vec<f64>,
+    parent: Vec<u16>,
+    width: Vec<u16>,
+    out: Vec<[f64; DOF]>,
+}
+
+impl Storage {
+    /// Pools for problems of horizon at most `max_h`.
+    pub fn new(caps: Capacities, max_h: usize) -> Self {
+        let k = caps.descartes_samples * max_h;
+        Storage {
+            caps,
+            nodes: vec![Node::default(); caps.search_nodes],
+            open: vec![OpenEntry::default(); 2 * caps.search_nodes],
+            table: vec![Slot::default(); (2 * caps.search_nodes).next_power_of_two()],
+            ct_nodes: vec![CtNode::default(); caps.ct_nodes],
+            ct_open: vec![OpenEntry::default(); caps.ct_nodes],
+            paths: vec![[0.0; DOF]; caps.path_slots * max_h],
+            scratch: vec![[0.0; DOF]; max_h.max(k)],
+            points: vec![PointConstraint { t: 0, segment: false, p: [0.0; 3], margin: 0.0 }; caps.constraints],
+            composite: vec![CompositeNode::default(); caps.composite_nodes],
+            cost: vec![0.0; k],
+            parent: vec![0; k],
+            width: vec![0; max_h],
+            out: vec![[0.0; DOF]; MAX_ROBOTS * max_h],
+        }
+    }
+
+    /// Runs planner `name` on `problem`; this call allocates nothing but the returned
+    /// [`Outcome`]'s vectors, after the core call.
+    pub fn solve(&mut self, name: &str, problem: &Problem<DOF>, timeout_s: f64) -> Result<Outcome, String> {
+        let clock = WallClock::start();
+        let mut stats = Stats::default();
+        let (status, assignment) = self.solve_core(name, problem, &clock, timeout_s, &mut stats)?;
+        let planning_time_s = clock.seconds();
+        let h = problem.horizon();
+        let n = problem.robots.len();
+        let solved = status == Status::Solved;
+        Ok(Outcome {
+            status,
+            planning_time_s,
+            assignment: assignment[..n].iter().map(|a| a.map(usize::from)).collect(),
+            joint_paths: if solved { (0..n).map(|i| self.out[i * h..(i + 1) * h].to_vec()).collect() } else { Vec::new() },
+            stats,
+        })
+    }
+
+    /// The core call alone (no allocation happens in it): the status and the assignment; the
+    /// paths are left in this storage.
+    pub fn solve_core(
+        &mut self,
+        name: &str,
+        problem: &Problem<DOF>,
+        clock: &dyn Clock,
+        timeout_s: f64,
+        stats: &mut Stats,
+    ) -> Result<(Status, [Option<u8>; MAX_ROBOTS]), String> {
+        let h = problem.horizon();
+        if h * MAX_ROBOTS > self.out.len() || h > self.width.len() {
+            return Err(format!("horizon {h} is longer than this storage was made for ({})", self.width.len()));
+        }
+        let mut out = Solution::new(&mut self.out);
+        let omega = OmegaParams::default();
+        let status = match name {
+            "omcbsa" => {
+                let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
+                let st = CbsStorage {
+                    nodes: &mut self.ct_nodes,
+                    open: &mut self.ct_open,
+                    paths: &mut self.paths,
+                    scratch: &mut self.scratch,
+                    points: &mut self.points,
+                };
+                let mut p = OmegaCbsa::new(CbsParams::default(), ws, st);
+                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+            }
+            "pp" | "pp-single" => {
+                let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
+                let v = if name == "pp" { Variant::MultiGoal } else { Variant::SingleGoal };
+                let mut p = Prioritized::new(v, omega, ws, &mut self.scratch);
+                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+            }
+            "ik-tracking" => {
+                let mut p = IkTracking { params: IkTrackingParams::default() };
+                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+            }
+            "descartes" => {
+                let st = DescartesStorage {
+                    layers: &mut self.scratch,
+                    cost: &mut self.cost,
+                    parent: &mut self.parent,
+                    width: &mut self.width,
+                };
+                let params = DescartesParams { samples: self.caps.descartes_samples, ..DescartesParams::default() };
+                let mut p = Descartes::new(params, st);
+                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+            }
+            "composite-astar" => {
+                let mut p = CompositeAstar::new(CompositeParams::default(), &mut self.composite, &mut self.open);
+                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+            }
+            other => return Err(format!("unknown planner {other:?} (known: {})", PLANNERS.join(", "))),
+        };
+        Ok((status, out.assignment))
+    }
+}
+
+fn workspace<'a>(
+    nodes: &'a mut [Node<DOF>],
+    open: &'a mut [OpenEntry],
+    table: &'a mut [Slot],
+) -> Result<Workspace<'a, DOF>, String> {
+    Workspace::new(nodes, open, table).map_err(|e| format!("search workspace: {e:?}"))
+}
+
+impl Outcome {
+    /// The solution file of this outcome for `file`.
+    pub fn to_solution_file(&self, file: &ProblemFile, planner: &str) -> SolutionFile {
+        let (status, message) = match self.status {
+            Status::Solved => (FileStatus::Solved, String::new()),
+            Status::NoSolution => (FileStatus::NoSolution, "the search space was exhausted".to_string()),
+            Status::Timeout => (FileStatus::Timeout, "the time limit was reached".to_string()),
+            Status::OutOfMemory(pool) => (FileStatus::OutOfMemory, format!("{pool} is full")),
+            Status::InvalidProblem(why) => (FileStatus::InvalidProblem, why.to_string()),
+        };
+        let s = &self.stats;
+        let mut stats = serde_json::Map::new();
+        stats.insert("expansions".into(), s.expansions.into());
+        stats.insert("low_level_calls".into(), s.low_level_calls.into());
+        stats.insert("ct_nodes".into(), s.ct_nodes.into());
+        stats.insert("conflicts_resolved".into(), s.conflicts_resolved.into());
+        stats.insert("warm_start_solved".into(), s.warm_start_solved.into());
+        SolutionFile {
+            format: SOLUTION_FORMAT.to_string(),
+            problem: file.name.clone(),
+            planner: planner.to_string(),
+            status,
+            message,
+            planning_time_s: self.planning_time_s,
+            assignment: if status == FileStatus::Solved { self.assignment.clone() } else { Vec::new() },
+            joint_paths: (status == FileStatus::Solved)
+                .then(|| self.joint_paths.iter().map(|p| p.iter().map(|q| q.to_vec()).collect()).collect()),
+            stats,
+        }
+    }
+}
+
+/// Plans a problem file with planner `name` and returns its solution file. A plan the planner
+/// calls solved is validated first; if it fails validation it is reported as not solved, with
+/// the violation in `message`, never as solved.
+pub fn plan_file(file: &ProblemFile, name: &str, timeout_s: f64) -> Result<SolutionFile, InputOrPlanError> {
+    let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
+    let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
+    let mut storage = Storage::new(Capacities::default(), problem.horizon());
+    let outcome = storage.solve(name, &problem, timeout_s).map_err(InputOrPlanError::Plan)?;
+    let mut solution = outcome.to_solution_file(file, name);
+    if solution.status == FileStatus::Solved {
+        let report = validate::<KinovaGen3, DOF>(file, &problem, &solution);
+        if !report.is_valid() {
+            solution.status = FileStatus::NoSolution;
+            solution.message = format!("planner bug: its plan failed validation: {}", report.summary());
+            solution.joint_paths = None;
+        }
+    }
+    Ok(solution)
+}
+
+/// Why [`plan_file`] gave no solution file.
+#[derive(Debug)]
+pub enum InputOrPlanError {
+    /// The problem file breaks the spec.
+    Input(InputError),
+    /// The request cannot run (an unknown planner name).
+    Plan(String),
+}

@@ -1,0 +1,200 @@
+//! One problem of the suite: sample a layout and a task, look for a witness, and turn both
+//! into the file formats, checking the witness with the host validator.
+
+use omcbsa_core::geometry::Shape;
+use omcbsa_core::model::Frame;
+use omcbsa_core::rng::Rng;
+use serde_json::Map;
+
+use super::family::{Family, Hand};
+use super::frames::{at, v3};
+use super::layout::{Layout, NamedObstacle};
+use super::witness::{random_motion, shuffle, task_witness, Gen3, Placed, Scene, Q, RETRACT};
+use super::{Error, Spec, SuiteEntry, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR};
+use crate::format::{
+    ObstacleSpec, Pose, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToleranceSpec,
+    TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
+};
+use crate::{load, pose, validate};
+
+/// Time between poses: `velocity * dt` is 0.24 to 0.28 rad, above the planners' 0.2 rad
+/// null-space step.
+pub const DT: f64 = 0.2;
+/// Shortest and longest horizon.
+const HORIZON: (usize, usize) = (20, 40);
+/// A gripper 12 cm beyond the tool flange.
+const TCP_OFFSET: f64 = 0.12;
+
+pub struct Generated {
+    pub entry: SuiteEntry,
+    pub problem: ProblemFile,
+    pub witness: Option<SolutionFile>,
+}
+
+/// One sampled problem: its layout, hands (designed arm included) and maybe a witness.
+struct Sample {
+    layout: Layout,
+    hands: Vec<Hand>,
+    witness: Option<Vec<Vec<Q>>>,
+}
+
+pub fn generate(spec: &Spec) -> Result<Generated, Error> {
+    let samples = if spec.family == Family::Random { RANDOM_SAMPLES } else { TASK_SAMPLES };
+    let mut last = None;
+    for k in 0..samples {
+        let mut rng = Rng::new(spec.seed.wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+        let Some(sample) = sample(spec, &mut rng) else { continue };
+        let generated = files(spec, &sample, &mut rng)?;
+        if generated.witness.is_some() {
+            return Ok(generated);
+        }
+        last = Some(generated);
+    }
+    last.ok_or_else(|| Error::Generation {
+        problem: spec.name.clone(),
+        message: format!("no random motion found in {samples} samples"),
+    })
+}
+
+fn tcp() -> Frame {
+    at(v3(0.0, 0.0, TCP_OFFSET))
+}
+
+fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
+    let mut layout = spec.family.layout(spec.layout, spec.robots, rng);
+    let h = HORIZON.0 + (rng.next_u64() % (HORIZON.1 - HORIZON.0 + 1) as u64) as usize;
+    let hands = spec.family.hands(&mut layout, h, rng);
+    let obstacles: Vec<_> = layout.obstacles.iter().map(|(_, o)| *o).collect();
+    let scene = Scene { obstacles: &obstacles, dt: DT, tcp: tcp() };
+    match hands {
+        Some(hands) => {
+            let witness = task_witness(&scene, &layout.bases, &hands, rng);
+            Some(Sample { layout, hands, witness })
+        }
+        None => {
+            // One arm holds in a third of the problems with three or more arms.
+            let n = layout.bases.len();
+            let holder = (n >= 3 && rng.next_f64() < 1.0 / 3.0).then(|| (rng.next_u64() % n as u64) as usize);
+            let mut order: Vec<usize> = (0..n).collect();
+            shuffle(&mut order, rng);
+            let mut placed: Vec<(usize, Placed)> = Vec::with_capacity(n);
+            for arm in order {
+                let base = layout.bases[arm];
+                let others: Vec<Placed> = placed.iter().map(|(_, p)| Placed { base: p.base, path: p.path.clone() }).collect();
+                let path = random_motion(&scene, &base, &layout.stations[arm], h, holder != Some(arm), &others, rng)?;
+                placed.push((arm, Placed { base, path }));
+            }
+            placed.sort_by_key(|(arm, _)| *arm);
+            let paths: Vec<Vec<Q>> = placed.into_iter().map(|(_, p)| p.path).collect();
+            let hands = (0..n)
+                .filter(|&arm| holder != Some(arm))
+                .map(|arm| Hand { arm, poses: paths[arm].iter().map(|q| scene.tcp_pose(&layout.bases[arm], q)).collect() })
+                .collect();
+            Some(Sample { layout, hands, witness: Some(paths) })
+        }
+    }
+}
+
+/// The problem file (trajectories shuffled) and, if the witness passes the validator, the
+/// witness solution.
+fn files(spec: &Spec, sample: &Sample, rng: &mut Rng) -> Result<Generated, Error> {
+    let n = sample.layout.bases.len();
+    let hands = &sample.hands;
+    // listed[j] = the hand listed j-th; never the identity when it could be.
+    let mut listed: Vec<usize> = (0..hands.len()).collect();
+    while hands.len() >= 2 && listed.iter().enumerate().all(|(j, &k)| hands[k].arm == j) {
+        shuffle(&mut listed, rng);
+    }
+    let mut assignment: Vec<Option<usize>> = vec![None; n];
+    for (j, &k) in listed.iter().enumerate() {
+        assignment[hands[k].arm] = Some(j);
+    }
+    let holds = hands.len() < n;
+    let robots = (sample.layout.bases.iter().enumerate())
+        .map(|(i, base)| RobotSpec {
+            name: format!("arm_{i}"),
+            model: "kinova_gen3".to_string(),
+            base: rounded(base),
+            // Holding arms hold their witness configuration; every arm needs an initial one
+            // then, and the others get the retract pose.
+            initial: holds.then(|| {
+                let q = match (&sample.witness, assignment[i]) {
+                    (Some(paths), None) => paths[i][0],
+                    _ => RETRACT,
+                };
+                q.iter().map(|&x| round(x)).collect()
+            }),
+            tcp: Some(rounded(&tcp())),
+        })
+        .collect();
+    let trajectories = (listed.iter().enumerate())
+        .map(|(j, &k)| TrajectorySpec { name: format!("hand_{j}"), poses: hands[k].poses.iter().map(rounded).collect() })
+        .collect();
+    let problem = ProblemFile {
+        format: PROBLEM_FORMAT.to_string(),
+        name: spec.name.clone(),
+        dt: DT,
+        robots,
+        trajectories,
+        obstacles: sample.layout.obstacles.iter().map(obstacle_spec).collect(),
+        tolerance: ToleranceSpec::default(),
+    };
+    let witness = match &sample.witness {
+        Some(paths) => {
+            let solution = SolutionFile {
+                format: SOLUTION_FORMAT.to_string(),
+                problem: spec.name.clone(),
+                planner: "witness".to_string(),
+                status: Status::Solved,
+                message: String::new(),
+                planning_time_s: 0.0,
+                assignment,
+                joint_paths: Some(paths.iter().map(|p| p.iter().map(|q| q.iter().map(|&x| round(x)).collect()).collect()).collect()),
+                stats: Map::new(),
+            };
+            passes(spec, &problem, &solution)?.then_some(solution)
+        }
+        None => None,
+    };
+    let entry = SuiteEntry {
+        name: spec.name.clone(),
+        file: format!("{}.json", spec.name),
+        family: spec.family.name().to_string(),
+        layout: spec.layout.name().to_string(),
+        robots: n,
+        trajectories: hands.len(),
+        horizon: hands[0].poses.len(),
+        known_solvable: witness.is_some(),
+        seed: spec.seed,
+        witness: witness.as_ref().map(|_| format!("{WITNESS_DIR}/{}.json", spec.name)),
+    };
+    Ok(Generated { entry, problem, witness })
+}
+
+/// Whether the host validator accepts the witness. A problem the loader refuses is a bug of
+/// the generator.
+fn passes(spec: &Spec, problem: &ProblemFile, solution: &SolutionFile) -> Result<bool, Error> {
+    let core = load::problem::<Gen3, 7>(problem)
+        .map_err(|e| Error::Generation { problem: spec.name.clone(), message: e.to_string() })?;
+    Ok(validate::validate::<Gen3, 7>(problem, &core, solution).is_valid())
+}
+
+/// Nine decimals: nanometres and nanoradians, far below every tolerance, and short files.
+fn round(x: f64) -> f64 {
+    (x * 1e9).round() / 1e9
+}
+
+fn rounded(frame: &Frame) -> Pose {
+    let p = pose::from_frame(frame);
+    Pose { position: p.position.map(round), quat_xyzw: p.quat_xyzw.map(round) }
+}
+
+fn obstacle_spec((name, o): &NamedObstacle) -> ObstacleSpec {
+    let (shape, half_extents, radius, half_length) = match o.shape {
+        Shape::Box { half_extents } => (ShapeKind::Box, Some(half_extents.map(round)), None, None),
+        Shape::Sphere { radius } => (ShapeKind::Sphere, None, Some(round(radius)), None),
+        Shape::Capsule { radius, half_length } => (ShapeKind::Capsule, None, Some(round(radius)), Some(round(half_length))),
+        Shape::Cylinder { radius, half_length } => (ShapeKind::Cylinder, None, Some(round(radius)), Some(round(half_length))),
+    };
+    ObstacleSpec { name: name.clone(), shape, half_extents, radius, half_length, pose: rounded(&o.pose) }
+}

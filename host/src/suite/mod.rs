@@ -1,0 +1,189 @@
+//! The benchmark suite generator (`omcbsa gen-bench`): a fixed-seed, byte-for-byte
+//! reproducible set of problems with 2 to 6 Kinova Gen3 arms, in four layouts, over six motion
+//! families shaped like policy outputs.
+//!
+//! Every problem is built from a witness when one is found: a collision-free joint motion per
+//! arm (IK tracking of the task's hands from random seeds, or for the random family a smooth
+//! random joint motion mapped to the hands by forward kinematics), confirmed by the host
+//! validator. Its trajectories are then listed in shuffled order, so the listed order is not
+//! the assignment. A task whose witness search fails is resampled a few times
+//! ([`TASK_SAMPLES`]); if every sample fails, the last one is still emitted, recorded as not
+//! known to be solvable (it may be, or not).
+//!
+//! Output: `OUTDIR/<name>.json` per problem, `OUTDIR/witnesses/<name>.json` (the witness as an
+//! `omcbsa.solution.v1` file) per known-solvable problem, and the index `OUTDIR/suite.json`.
+
+mod emit;
+mod family;
+mod frames;
+mod layout;
+mod witness;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use omcbsa_core::rng::Rng;
+
+pub use family::Family;
+pub use layout::LayoutKind;
+
+/// The index file of a suite directory.
+pub const INDEX_FILE: &str = "suite.json";
+/// The `format` string of the index.
+pub const INDEX_FORMAT: &str = "omcbsa.suite.v1";
+/// Where witnesses are written, under the suite directory.
+pub const WITNESS_DIR: &str = "witnesses";
+/// Samples of a task family tried before a problem is emitted without a witness.
+pub const TASK_SAMPLES: u64 = 6;
+/// Samples of the random family tried before generation gives up (its problems always come
+/// from a witness).
+const RANDOM_SAMPLES: u64 = 64;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct GenOptions {
+    /// Seed of the whole suite.
+    pub seed: u64,
+    /// Problems per motion family, spread evenly over the family's layouts and arm counts.
+    pub per_family: usize,
+}
+
+impl Default for GenOptions {
+    /// The published suite: 6 families x 76 = 456 problems.
+    fn default() -> Self {
+        GenOptions { seed: 20_250_606, per_family: 76 }
+    }
+}
+
+/// What [`gen_bench`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GenReport {
+    pub problems: usize,
+    pub known_solvable: usize,
+    pub seconds: f64,
+}
+
+/// The suite index (`suite.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuiteIndex {
+    pub format: String,
+    pub seed: u64,
+    pub problems: Vec<SuiteEntry>,
+}
+
+/// One problem of the suite.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuiteEntry {
+    pub name: String,
+    /// The problem file, relative to the suite directory.
+    pub file: String,
+    pub family: String,
+    pub layout: String,
+    pub robots: usize,
+    pub trajectories: usize,
+    #[serde(rename = "H")]
+    pub horizon: usize,
+    pub known_solvable: bool,
+    /// The seed the problem was generated from.
+    pub seed: u64,
+    /// The witness solution file, relative to the suite directory, when known solvable.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub witness: Option<String>,
+}
+
+#[derive(Debug)]
+pub enum Error {
+    Io { path: PathBuf, source: std::io::Error },
+    /// A suite index that cannot be read.
+    Index { path: PathBuf, message: String },
+    /// The generator made a problem it cannot stand behind (a bug, reported, not written).
+    Generation { problem: String, message: String },
+}
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Error::Index { path, message } => write!(f, "{}: {message}", path.display()),
+            Error::Generation { problem, message } => write!(f, "generating {problem}: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
+    move |source| Error::Io { path: path.to_path_buf(), source }
+}
+
+/// What to generate for one problem.
+struct Spec {
+    name: String,
+    family: Family,
+    layout: LayoutKind,
+    robots: usize,
+    seed: u64,
+}
+
+fn specs(opts: &GenOptions) -> Vec<Spec> {
+    let mut specs = Vec::new();
+    for (f, family) in Family::ALL.into_iter().enumerate() {
+        let cells = family.cells();
+        for k in 0..opts.per_family {
+            let (layout, robots) = cells[k % cells.len()];
+            let seed = Rng::new(opts.seed ^ ((f as u64) << 32 | k as u64)).next_u64();
+            let name = format!("{}_{}_{robots}arms_{k:03}", family.name(), layout.name());
+            specs.push(Spec { name, family, layout, robots, seed });
+        }
+    }
+    specs
+}
+
+/// Writes the suite into `outdir` (created if missing). Problems are generated in parallel
+/// and written in a fixed order; the same options give the same bytes.
+pub fn gen_bench(outdir: &Path, opts: &GenOptions) -> Result<GenReport, Error> {
+    let start = Instant::now();
+    let witness_dir = outdir.join(WITNESS_DIR);
+    std::fs::create_dir_all(&witness_dir).map_err(io(&witness_dir))?;
+    let generated: Vec<emit::Generated> = specs(opts)
+        .par_iter()
+        .map(|spec| emit::generate(spec))
+        .collect::<Result<_, _>>()?;
+    let mut problems = Vec::with_capacity(generated.len());
+    for g in generated {
+        write_json(&outdir.join(&g.entry.file), &g.problem)?;
+        if let (Some(file), Some(witness)) = (&g.entry.witness, &g.witness) {
+            write_json(&outdir.join(file), witness)?;
+        }
+        problems.push(g.entry);
+    }
+    let known_solvable = problems.iter().filter(|e| e.known_solvable).count();
+    let index = SuiteIndex { format: INDEX_FORMAT.to_string(), seed: opts.seed, problems };
+    write_json(&outdir.join(INDEX_FILE), &index)?;
+    Ok(GenReport { problems: index.problems.len(), known_solvable, seconds: start.elapsed().as_secs_f64() })
+}
+
+/// Reads `suite_dir/suite.json`.
+pub fn read_index(suite_dir: &Path) -> Result<SuiteIndex, Error> {
+    let path = suite_dir.join(INDEX_FILE);
+    let text = std::fs::read_to_string(&path).map_err(io(&path))?;
+    let index: SuiteIndex = serde_json::from_str(&text)
+        .map_err(|e| Error::Index { path: path.clone(), message: e.to_string() })?;
+    if index.format != INDEX_FORMAT {
+        let message = format!("format is {:?}, expected {INDEX_FORMAT:?}", index.format);
+        return Err(Error::Index { path, message });
+    }
+    Ok(index)
+}
+
+/// Compact JSON and a final newline: the suite is large and read by programs.
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Error> {
+    let mut text = serde_json::to_string(value)
+        .map_err(|e| Error::Io { path: path.to_path_buf(), source: e.into() })?;
+    text.push('\n');
+    std::fs::write(path, text).map_err(io(path))
+}

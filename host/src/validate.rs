@@ -1,0 +1,598 @@
+//! Checks a solution against its problem: the five rules of docs/FORMATS.md ("What makes a
+//! solution valid"), with the project's collision model, reporting every violation with its
+//! rule, robot, step and what failed.
+
+use std::fmt;
+
+use omcbsa_core::collision::{ArmPose, Sweep};
+use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::nalgebra::Vector3;
+use omcbsa_core::problem::Problem;
+use serde::Serialize;
+
+use crate::format::{ProblemFile, SolutionFile, Status};
+use crate::pose::short;
+
+/// How far a holding robot may be from `initial`, per joint (only float noise).
+pub const HOLD_TOLERANCE: f64 = 1e-9;
+/// Slack on the velocity rule, for the rounding of `v_max * dt`.
+pub const VELOCITY_SLACK: f64 = 1e-9;
+/// Largest displacement of any point of a link between two checked configurations of a motion
+/// (metres).
+pub const MOTION_CHECK_SPACING: f64 = 0.002;
+
+/// The rule a violation breaks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rule {
+    /// Not a solved solution of this problem.
+    Solution,
+    JointLimits,
+    Tracking,
+    Velocity,
+    Collision,
+    Assignment,
+}
+
+impl Rule {
+    /// The rule's number in the spec (none for [`Rule::Solution`]).
+    pub fn number(self) -> Option<u8> {
+        match self {
+            Rule::Solution => None,
+            Rule::JointLimits => Some(1),
+            Rule::Tracking => Some(2),
+            Rule::Velocity => Some(3),
+            Rule::Collision => Some(4),
+            Rule::Assignment => Some(5),
+        }
+    }
+
+    fn title(self) -> &'static str {
+        match self {
+            Rule::Solution => "solution",
+            Rule::JointLimits => "joint limits",
+            Rule::Tracking => "tracking",
+            Rule::Velocity => "velocity",
+            Rule::Collision => "collision",
+            Rule::Assignment => "assignment",
+        }
+    }
+}
+
+/// One broken rule.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Violation {
+    pub rule: Rule,
+    /// The robot (index into `robots`) the violation is about, if one.
+    pub robot: Option<usize>,
+    /// The step (0-based), or for a motion the step it starts from.
+    pub step: Option<usize>,
+    /// What failed, naming joints, links, obstacles and trajectories.
+    pub detail: String,
+}
+
+impl fmt::Display for Violation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.rule.number() {
+            Some(n) => write!(f, "rule {n} ({})", self.rule.title())?,
+            None => f.write_str(self.rule.title())?,
+        }
+        if let Some(r) = self.robot {
+            write!(f, ", robot {r}")?;
+        }
+        if let Some(t) = self.step {
+            write!(f, ", step {t}")?;
+        }
+        write!(f, ": {}", self.detail)
+    }
+}
+
+/// The outcome of a validation: valid when there are no violations.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Report {
+    pub violations: Vec<Violation>,
+}
+
+impl Report {
+    pub fn is_valid(&self) -> bool {
+        self.violations.is_empty()
+    }
+
+    /// A one-line human answer: `valid`, or the first violation and how many there are.
+    pub fn summary(&self) -> String {
+        match self.violations.as_slice() {
+            [] => "valid".to_string(),
+            [only] => format!("invalid: {only}"),
+            [first, rest @ ..] => format!("invalid: {first} (and {} more)", rest.len()),
+        }
+    }
+
+    fn add(&mut self, rule: Rule, robot: Option<usize>, step: Option<usize>, detail: String) {
+        self.violations.push(Violation {
+            rule,
+            robot,
+            step,
+            detail,
+        });
+    }
+}
+
+/// Checks `solution` against `problem` (the checked file and its converted form) for robots of
+/// model `M`.
+pub fn validate<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    problem: &Problem<D>,
+    solution: &SolutionFile,
+) -> Report {
+    let mut report = Report::default();
+    if solution.problem != file.name {
+        report.add(
+            Rule::Solution,
+            None,
+            None,
+            format!(
+                "the solution is for problem {:?}, not {:?}",
+                solution.problem, file.name
+            ),
+        );
+    }
+    if solution.status != Status::Solved {
+        // Without paths there is nothing else to check.
+        report.add(
+            Rule::Solution,
+            None,
+            None,
+            format!("status is {}, not solved", solution.status.as_str()),
+        );
+        return report;
+    }
+    check_assignment(file, solution, &mut report);
+    let Some(paths) = joint_paths::<M, D>(problem, solution, &mut report) else {
+        return report;
+    };
+    check_limits::<M, D>(&paths, &mut report);
+    check_tracking::<M, D>(file, problem, &solution.assignment, &paths, &mut report);
+    check_velocity::<M, D>(problem.dt, &paths, &mut report);
+    check_collisions::<M, D>(file, problem, &paths, &mut report);
+    report
+}
+
+/// Rule 5, the assignment: one entry per robot, existing trajectories, each exactly once.
+fn check_assignment(file: &ProblemFile, solution: &SolutionFile, report: &mut Report) {
+    let assignment = &solution.assignment;
+    let (n_robots, n_traj) = (file.robots.len(), file.trajectories.len());
+    if assignment.len() != n_robots {
+        report.add(
+            Rule::Assignment,
+            None,
+            None,
+            format!(
+                "assignment has {} entries for {n_robots} robots",
+                assignment.len()
+            ),
+        );
+    }
+    let mut tracker: Vec<Option<usize>> = vec![None; n_traj];
+    for (i, a) in assignment.iter().enumerate() {
+        match *a {
+            Some(j) if j >= n_traj => report.add(
+                Rule::Assignment,
+                Some(i),
+                None,
+                format!("assignment[{i}] = {j}, but there are only {n_traj} trajectories"),
+            ),
+            Some(j) => match tracker[j] {
+                Some(k) => report.add(
+                    Rule::Assignment,
+                    Some(i),
+                    None,
+                    format!(
+                        "trajectory {j} ({:?}) is also assigned to robot {k}",
+                        file.trajectories[j].name
+                    ),
+                ),
+                None => tracker[j] = Some(i),
+            },
+            None if file.robots.get(i).is_some_and(|r| r.initial.is_none()) => report.add(
+                Rule::Assignment,
+                Some(i),
+                None,
+                "holds (assignment null), but the problem gives it no initial configuration"
+                    .to_string(),
+            ),
+            None => {}
+        }
+    }
+    for (j, t) in tracker.iter().enumerate() {
+        if t.is_none() {
+            report.add(
+                Rule::Assignment,
+                None,
+                None,
+                format!(
+                    "trajectory {j} ({:?}) is tracked by no robot",
+                    file.trajectories[j].name
+                ),
+            );
+        }
+    }
+}
+
+/// Rule 5, the paths: one path per robot of H configurations of D joints. `None` (reported)
+/// if their shape is wrong, since the other rules cannot be checked then.
+fn joint_paths<M: Model<D>, const D: usize>(
+    problem: &Problem<D>,
+    solution: &SolutionFile,
+    report: &mut Report,
+) -> Option<Vec<Vec<[f64; D]>>> {
+    let before = report.violations.len();
+    let Some(paths) = &solution.joint_paths else {
+        report.add(
+            Rule::Assignment,
+            None,
+            None,
+            "joint_paths is missing".to_string(),
+        );
+        return None;
+    };
+    let (n_robots, horizon) = (problem.robots.len(), problem.horizon());
+    if paths.len() != n_robots {
+        report.add(
+            Rule::Assignment,
+            None,
+            None,
+            format!(
+                "joint_paths has {} paths for {n_robots} robots",
+                paths.len()
+            ),
+        );
+    }
+    let mut out = Vec::with_capacity(paths.len());
+    for (i, path) in paths.iter().enumerate() {
+        if path.len() != horizon {
+            report.add(
+                Rule::Assignment,
+                Some(i),
+                None,
+                format!(
+                    "joint_paths[{i}] has {} configurations, expected H = {horizon}",
+                    path.len()
+                ),
+            );
+        }
+        let mut configurations = Vec::with_capacity(path.len());
+        for (t, q) in path.iter().enumerate() {
+            match <[f64; D]>::try_from(q.as_slice()) {
+                Ok(q) => configurations.push(q),
+                Err(_) => report.add(
+                    Rule::Assignment,
+                    Some(i),
+                    Some(t),
+                    format!(
+                        "joint_paths[{i}][{t}] has {} joint values, model {} has {D}",
+                        q.len(),
+                        M::NAME
+                    ),
+                ),
+            }
+        }
+        out.push(configurations);
+    }
+    (report.violations.len() == before).then_some(out)
+}
+
+/// Rule 1.
+fn check_limits<M: Model<D>, const D: usize>(paths: &[Vec<[f64; D]>], report: &mut Report) {
+    for (i, path) in paths.iter().enumerate() {
+        for (t, q) in path.iter().enumerate() {
+            for (j, &v) in q.iter().enumerate() {
+                if !(M::LOWER[j] <= v && v <= M::UPPER[j]) {
+                    report.add(
+                        Rule::JointLimits,
+                        Some(i),
+                        Some(t),
+                        format!(
+                            "joint {} = {} is outside its limits [{}, {}]",
+                            M::JOINT_NAMES[j],
+                            short(v),
+                            short(M::LOWER[j]),
+                            short(M::UPPER[j])
+                        ),
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Rule 2: tracking robots' tool centre points on their trajectory, holding robots still.
+fn check_tracking<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    problem: &Problem<D>,
+    assignment: &[Option<usize>],
+    paths: &[Vec<[f64; D]>],
+    report: &mut Report,
+) {
+    let tol = &problem.tolerance;
+    for (i, (path, robot)) in paths.iter().zip(&problem.robots).enumerate() {
+        match assignment.get(i).copied().flatten() {
+            Some(j) => {
+                // A trajectory index out of range is a rule 5 violation, reported already.
+                let Some(trajectory) = problem.trajectories.get(j) else {
+                    continue;
+                };
+                let name = &file.trajectories[j].name;
+                for (t, (q, target)) in path.iter().zip(trajectory).enumerate() {
+                    let tcp = robot.base.compose(&M::fk(q)).compose(&robot.tcp);
+                    let dp = (tcp.pos - target.pos).norm();
+                    let angle = rotation_angle(&tcp, target);
+                    if dp > tol.position {
+                        report.add(
+                            Rule::Tracking,
+                            Some(i),
+                            Some(t),
+                            format!(
+                                "the TCP is {} m from pose {t} of trajectory {j} ({name:?}); \
+                                 tolerance {} m",
+                                short(dp),
+                                short(tol.position)
+                            ),
+                        );
+                    }
+                    if angle > tol.orientation {
+                        report.add(
+                            Rule::Tracking,
+                            Some(i),
+                            Some(t),
+                            format!(
+                                "the TCP is rotated {} rad from pose {t} of trajectory {j} \
+                                 ({name:?}); tolerance {} rad",
+                                short(angle),
+                                short(tol.orientation)
+                            ),
+                        );
+                    }
+                }
+            }
+            None => {
+                // A holding robot without `initial` is a rule 5 violation, reported already.
+                let Some(initial) = &robot.initial else {
+                    continue;
+                };
+                for (t, q) in path.iter().enumerate() {
+                    if let Some(j) = (0..D).find(|&j| (q[j] - initial[j]).abs() > HOLD_TOLERANCE) {
+                        report.add(
+                            Rule::Tracking,
+                            Some(i),
+                            Some(t),
+                            format!(
+                                "holds, but joint {} = {} differs from its initial {}",
+                                M::JOINT_NAMES[j],
+                                short(q[j]),
+                                short(initial[j])
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Angle of the rotation taking `a`'s orientation to `b`'s, from the trace (with the sine
+/// from the skew part, so it is accurate near 0 and near pi).
+fn rotation_angle(a: &Frame, b: &Frame) -> f64 {
+    let r = a.rot.tr_mul(&b.rot);
+    let cos = 0.5 * (r.trace() - 1.0);
+    let sin = 0.5
+        * Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        )
+        .norm();
+    sin.atan2(cos)
+}
+
+/// Rule 3.
+fn check_velocity<M: Model<D>, const D: usize>(
+    dt: f64,
+    paths: &[Vec<[f64; D]>],
+    report: &mut Report,
+) {
+    for (i, path) in paths.iter().enumerate() {
+        for (t, pair) in path.windows(2).enumerate() {
+            for (j, (a, b)) in pair[0].iter().zip(&pair[1]).enumerate() {
+                let dq = (b - a).abs();
+                let max = M::VELOCITY[j] * dt;
+                if dq > max + VELOCITY_SLACK {
+                    report.add(
+                        Rule::Velocity,
+                        Some(i),
+                        Some(t),
+                        format!(
+                            "joint {} moves {} between steps {t} and {}, more than its velocity \
+                             limit {} * dt {} = {}",
+                            M::JOINT_NAMES[j],
+                            short(dq),
+                            t + 1,
+                            short(M::VELOCITY[j]),
+                            short(dt),
+                            short(max)
+                        ),
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// What a robot's links hit, by capsule index (into `Model::CAPSULES`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Contact {
+    Obstacle {
+        robot: usize,
+        capsule: usize,
+        obstacle: usize,
+    },
+    Robot {
+        robot: usize,
+        capsule: usize,
+        other: usize,
+        other_capsule: usize,
+    },
+    SelfLinks {
+        robot: usize,
+        capsule: usize,
+        other_capsule: usize,
+    },
+}
+
+impl Contact {
+    fn robot(&self) -> usize {
+        match *self {
+            Contact::Obstacle { robot, .. }
+            | Contact::Robot { robot, .. }
+            | Contact::SelfLinks { robot, .. } => robot,
+        }
+    }
+
+    fn describe<M: Model<D>, const D: usize>(&self, file: &ProblemFile) -> String {
+        let link = |capsule: usize| {
+            let link = M::CAPSULES
+                .get(capsule)
+                .map_or(usize::MAX, |c| usize::from(c.link));
+            M::LINK_NAMES.get(link).copied().unwrap_or("?")
+        };
+        match *self {
+            Contact::Obstacle {
+                capsule, obstacle, ..
+            } => format!(
+                "link {} hits obstacle {obstacle} ({:?})",
+                link(capsule),
+                file.obstacles[obstacle].name
+            ),
+            Contact::Robot {
+                capsule,
+                other,
+                other_capsule,
+                ..
+            } => format!(
+                "link {} hits link {} of robot {other} ({:?})",
+                link(capsule),
+                link(other_capsule),
+                file.robots[other].name
+            ),
+            Contact::SelfLinks {
+                capsule,
+                other_capsule,
+                ..
+            } => {
+                format!(
+                    "link {} hits its own link {}",
+                    link(capsule),
+                    link(other_capsule)
+                )
+            }
+        }
+    }
+}
+
+/// Rule 4, at every step and along every motion between steps.
+fn check_collisions<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    problem: &Problem<D>,
+    paths: &[Vec<[f64; D]>],
+    report: &mut Report,
+) {
+    let horizon = problem.horizon();
+    let arms_at = |configurations: &mut dyn Iterator<Item = [f64; D]>| -> Vec<ArmPose> {
+        (problem.robots.iter().zip(configurations))
+            .map(|(robot, q)| ArmPose::new::<M, D>(&robot.base, &q))
+            .collect()
+    };
+    let mut step_collides = vec![false; horizon];
+    for (t, collides) in step_collides.iter_mut().enumerate() {
+        let contacts = contacts::<M, D>(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
+        *collides = !contacts.is_empty();
+        for c in contacts {
+            report.add(
+                Rule::Collision,
+                Some(c.robot()),
+                Some(t),
+                c.describe::<M, D>(file),
+            );
+        }
+    }
+    for t in 0..horizon.saturating_sub(1) {
+        // The step's own violation says enough.
+        if step_collides[t] || step_collides[t + 1] {
+            continue;
+        }
+        // All robots move together, checked at the same instants: as many as the robot whose
+        // points move farthest needs.
+        let sweeps: Vec<Sweep<M, D>> = paths
+            .iter()
+            .map(|p| Sweep::new(&p[t], &p[t + 1], MOTION_CHECK_SPACING))
+            .collect();
+        let count = sweeps.iter().map(|s| s.count()).max().unwrap_or(1);
+        let sweeps: Vec<_> = sweeps.into_iter().map(|s| s.with_count(count)).collect();
+        for k in 0..count {
+            let contacts =
+                contacts::<M, D>(problem, &arms_at(&mut sweeps.iter().map(|s| s.config(k))));
+            for c in &contacts {
+                let detail = format!(
+                    "moving from step {t} to {}, at {:.1} % of the way: {}",
+                    t + 1,
+                    100.0 * (k as f64 + 0.5) / count as f64,
+                    c.describe::<M, D>(file)
+                );
+                report.add(Rule::Collision, Some(c.robot()), Some(t), detail);
+            }
+            if !contacts.is_empty() {
+                break;
+            }
+        }
+    }
+}
+
+/// What overlaps with the arms at `arms` (touching is not overlapping): every obstacle each
+/// arm hits, the first pair of its own links, the first pair of links with each other arm.
+fn contacts<M: Model<D>, const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Contact> {
+    let obstacles = problem.obstacles.as_slice();
+    let mut found = Vec::new();
+    for (robot, arm) in arms.iter().enumerate() {
+        let mut from = 0;
+        while let Some(k) = arm.obstacle_hit(&obstacles[from..], 0.0) {
+            let obstacle = from + k;
+            // `obstacle_hit` names the obstacle; the link is found for the message.
+            let capsule = (M::CAPSULES.iter().zip(arm.capsules()))
+                .position(|(c, w)| c.link != 0 && obstacles[obstacle].hits_capsule(w, 0.0))
+                .unwrap_or(usize::MAX);
+            found.push(Contact::Obstacle {
+                robot,
+                capsule,
+                obstacle,
+            });
+            from = obstacle + 1;
+        }
+        if let Some((capsule, other_capsule)) = arm.self_hit(0.0) {
+            found.push(Contact::SelfLinks {
+                robot,
+                capsule,
+                other_capsule,
+            });
+        }
+        for (other, other_arm) in arms.iter().enumerate().skip(robot + 1) {
+            if let Some((capsule, other_capsule)) = arm.arm_hit(other_arm, 0.0) {
+                found.push(Contact::Robot {
+                    robot,
+                    capsule,
+                    other,
+                    other_capsule,
+                });
+            }
+        }
+    }
+    found
+}

@@ -1,0 +1,217 @@
+//! The `omcbsa` binary: fk and ik over stdin (bad lines included) and validate's exit codes.
+
+mod common;
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+
+use common::*;
+use serde_json::Value;
+
+fn omcbsa(args: &[&str], stdin: &str) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(stdin.as_bytes())
+        .unwrap();
+    child.wait_with_output().unwrap()
+}
+
+fn stdout_lines(out: &Output) -> Vec<Value> {
+    let text = String::from_utf8(out.stdout.clone()).unwrap();
+    text.lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn error_of(v: &Value) -> &str {
+    v["error"]
+        .as_str()
+        .unwrap_or_else(|| panic!("not an error object: {v}"))
+}
+
+fn fk(q: &[f64]) -> Value {
+    let out = omcbsa(
+        &["fk", "--model", "kinova_gen3"],
+        &format!("{}\n", Value::from(q.to_vec())),
+    );
+    assert_eq!(out.status.code(), Some(0));
+    stdout_lines(&out).remove(0)
+}
+
+#[test]
+fn fk_answers_every_line_and_reports_bad_ones() {
+    let input = "[0, 0, 0, 0, 0, 0, 0]\nnot json\n[0, 0, 0]\n[0, 0, 0, 3.5, 0, 0, 0]\n\n[0.1, 0.35, 0, 1.8, 0, 1.0, 0]\n";
+    let out = omcbsa(&["fk", "--model", "kinova_gen3"], input);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "a failed line makes exit code 1"
+    );
+    let lines = stdout_lines(&out);
+    assert_eq!(lines.len(), 6, "one answer per line");
+    // All zeros: the Gen3 stands straight up, its tool frame 1.187 m above the base.
+    let z = lines[0]["position"][2].as_f64().unwrap();
+    assert!((z - 1.18738).abs() < 1e-4, "{}", lines[0]);
+    assert!(error_of(&lines[1]).starts_with("line 2: q: not a JSON array of 7 numbers"));
+    assert_eq!(
+        error_of(&lines[2]),
+        "line 3: q: expected 7 joint values for model kinova_gen3, got 3"
+    );
+    assert_eq!(
+        error_of(&lines[3]),
+        "line 4: q[3]: 3.5 is outside the limits [-2.57, 2.57] of joint joint_4"
+    );
+    assert_eq!(error_of(&lines[4]), "line 5: empty line");
+    let quat: Vec<f64> = serde_json::from_value(lines[5]["quat_xyzw"].clone()).unwrap();
+    assert!((quat.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-12);
+    assert!(quat[3] >= 0.0, "w >= 0");
+}
+
+#[test]
+fn fk_with_only_good_lines_exits_0_and_an_unknown_model_is_a_usage_error() {
+    assert_eq!(fk(&Q0)["position"].as_array().unwrap().len(), 3);
+    let out = omcbsa(&["fk", "--model", "ur5"], "");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .contains("unknown model \"ur5\" (compiled in: kinova_gen3)"));
+}
+
+#[test]
+fn ik_inverts_fk_and_reports_bad_and_unreachable_poses() {
+    let pose = fk(&Q0);
+    let input = format!(
+        "{pose}\n{}\n{}\n{}\n",
+        r#"{"position": [0.5, 0, 0.3], "quat_xyzw": [0, 0, 0, 0.98]}"#,
+        r#"{"position": [5.0, 0, 0.3], "quat_xyzw": [0, 0, 0, 1]}"#,
+        r#"{"position": [NaN, 0, 0.3], "quat_xyzw": [0, 0, 0, 1]}"#
+    );
+    let out = omcbsa(&["ik", "--model", "kinova_gen3"], &input);
+    assert_eq!(out.status.code(), Some(1));
+    let lines = stdout_lines(&out);
+    assert_eq!(lines.len(), 4);
+    let q: Vec<f64> = serde_json::from_value(lines[0].clone()).expect("a configuration");
+    let back = fk(&q);
+    for k in 0..3 {
+        let d = back["position"][k].as_f64().unwrap() - pose["position"][k].as_f64().unwrap();
+        assert!(d.abs() < 1e-5, "{back} vs {pose}");
+    }
+    assert_eq!(
+        error_of(&lines[1]),
+        "line 2: quat_xyzw: norm 0.98 is more than 1e-6 away from 1"
+    );
+    assert!(
+        error_of(&lines[2]).starts_with("line 3: no IK solution found"),
+        "{}",
+        lines[2]
+    );
+    assert!(
+        error_of(&lines[3]).starts_with("line 4: not a pose"),
+        "{}",
+        lines[3]
+    );
+}
+
+#[test]
+fn ik_is_deterministic_and_follows_the_seed_configuration() {
+    let input = format!("{}\n", fk(&Q0));
+    let a = omcbsa(&["ik", "--model", "kinova_gen3"], &input);
+    let b = omcbsa(&["ik", "--model", "kinova_gen3"], &input);
+    assert_eq!((a.status.code(), &a.stdout), (Some(0), &b.stdout));
+    // Started next to Q0, the projection lands next to Q0 (the arm has a null space, so only
+    // "next to").
+    let seed = Value::from(near_q0(0.2).to_vec()).to_string();
+    let out = omcbsa(
+        &["ik", "--model", "kinova_gen3", "--seed-config", &seed],
+        &input,
+    );
+    let q: Vec<f64> = serde_json::from_value(stdout_lines(&out).remove(0)).unwrap();
+    let far = q
+        .iter()
+        .zip(Q0)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(far < 0.1, "{q:?}");
+    let out = omcbsa(
+        &["ik", "--model", "kinova_gen3", "--seed-config", "[0, 0]"],
+        &input,
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--seed-config: expected 7 joint values"));
+}
+
+/// Writes `(name, text)` files into a fresh directory and returns their paths.
+fn files(test: &str, contents: &[(&str, String)]) -> Vec<String> {
+    let dir: PathBuf =
+        std::env::temp_dir().join(format!("omcbsa-cli-{test}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    (contents.iter())
+        .map(|(name, text)| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).unwrap();
+            path.to_string_lossy().into_owned()
+        })
+        .collect()
+}
+
+#[test]
+fn validate_exit_codes() {
+    let (p, s) = tiny();
+    let mut bad_s = s.clone();
+    bad_s.joint_paths.as_mut().unwrap()[0][1][5] = 2.5;
+    let mut bad_p = serde_json::to_value(&p).unwrap();
+    bad_p["dt"] = Value::from(0);
+    let paths = files(
+        "validate",
+        &[
+            ("p.json", serde_json::to_string(&p).unwrap()),
+            ("s.json", serde_json::to_string(&s).unwrap()),
+            ("bad_s.json", serde_json::to_string(&bad_s).unwrap()),
+            ("bad_p.json", bad_p.to_string()),
+        ],
+    );
+    let run = |args: &[&str]| {
+        let out = omcbsa(args, "");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (code, stdout, _) = run(&["validate", &paths[0], &paths[1]]);
+    assert_eq!((code, stdout.as_str()), (Some(0), "valid\n"));
+    let (code, stdout, _) = run(&["validate", &paths[0], &paths[2]]);
+    assert_eq!(code, Some(1));
+    assert!(
+        stdout.starts_with("invalid: rule 1 (joint limits), robot 0, step 1: joint joint_6 = 2.5"),
+        "{stdout}"
+    );
+    let (code, stdout, _) = run(&["validate", "--json", &paths[0], &paths[2]]);
+    let report: Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        (code, &report["valid"], &report["violations"][0]["rule"]),
+        (Some(1), &Value::from(false), &Value::from("joint_limits"))
+    );
+    let (code, _, stderr) = run(&["validate", &paths[3], &paths[1]]);
+    assert_eq!(code, Some(2));
+    assert!(
+        stderr.contains("bad_p.json: dt: must be > 0, got 0"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run(&["validate", &paths[0], "/nonexistent/s.json"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        stderr.contains("cannot read /nonexistent/s.json"),
+        "{stderr}"
+    );
+    assert_eq!(run(&["validate", &paths[0]]).0, Some(2), "usage error");
+}

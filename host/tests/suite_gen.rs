@@ -1,0 +1,86 @@
+//! The suite generator: the same options give the same bytes, every problem loads, every
+//! witness is a valid solution of its problem, and the listed order is not the assignment.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use omcbsa::format::SolutionFile;
+use omcbsa::load;
+use omcbsa::suite::{gen_bench, read_index, GenOptions, INDEX_FILE};
+use omcbsa::validate::validate;
+use omcbsa_core::model::KinovaGen3;
+
+/// Two problems per family: 12 problems, every family, several layouts and arm counts.
+fn small() -> GenOptions {
+    GenOptions { per_family: 2, ..GenOptions::default() }
+}
+
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    for sub in [dir.to_path_buf(), dir.join("witnesses")] {
+        for entry in std::fs::read_dir(&sub).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_file() {
+                let key = path.strip_prefix(dir).unwrap().display().to_string();
+                out.insert(key, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn generation_is_deterministic_and_every_problem_is_valid_input() {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let report = gen_bench(a.path(), &small()).unwrap();
+    gen_bench(b.path(), &small()).unwrap();
+    let (fa, fb) = (files(a.path()), files(b.path()));
+    assert_eq!(fa.keys().collect::<Vec<_>>(), fb.keys().collect::<Vec<_>>());
+    for (name, bytes) in &fa {
+        assert!(bytes == &fb[name], "{name} differs between two runs");
+    }
+    assert!(fa.contains_key(INDEX_FILE));
+
+    let index = read_index(a.path()).unwrap();
+    assert_eq!(index.problems.len(), 12);
+    assert_eq!(report.problems, 12);
+    let families: std::collections::BTreeSet<_> = index.problems.iter().map(|e| e.family.as_str()).collect();
+    assert_eq!(families.len(), 6, "{families:?}");
+    for entry in &index.problems {
+        let text = load::read_text(&a.path().join(&entry.file)).unwrap();
+        let file = load::parse_problem(&text).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+        let problem = load::problem::<KinovaGen3, 7>(&file).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+        assert_eq!(file.name, entry.name);
+        assert_eq!(
+            (file.robots.len(), file.trajectories.len(), problem.horizon()),
+            (entry.robots, entry.trajectories, entry.horizon),
+            "{}",
+            entry.name
+        );
+        assert!((2..=6).contains(&entry.robots));
+        assert!((20..=40).contains(&entry.horizon));
+        assert_eq!(entry.known_solvable, entry.witness.is_some());
+    }
+    assert_eq!(report.known_solvable, index.problems.iter().filter(|e| e.known_solvable).count());
+    // The witness search must work for most problems, or the suite says little.
+    assert!(2 * report.known_solvable >= index.problems.len(), "{report:?}");
+}
+
+#[test]
+fn witnesses_solve_their_problems_under_a_shuffled_order() {
+    let dir = tempfile::tempdir().unwrap();
+    gen_bench(dir.path(), &small()).unwrap();
+    let index = read_index(dir.path()).unwrap();
+    for entry in index.problems.iter().filter(|e| e.known_solvable) {
+        let file = load::parse_problem(&load::read_text(&dir.path().join(&entry.file)).unwrap()).unwrap();
+        let problem = load::problem::<KinovaGen3, 7>(&file).unwrap();
+        let text = load::read_text(&dir.path().join(entry.witness.as_ref().unwrap())).unwrap();
+        let witness: SolutionFile = load::parse_solution(&text).unwrap();
+        let report = validate::<KinovaGen3, 7>(&file, &problem, &witness);
+        assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
+        let listed: Vec<Option<usize>> = (0..file.robots.len()).map(Some).collect();
+        if file.trajectories.len() >= 2 {
+            assert_ne!(witness.assignment, listed, "{}: listed order is the assignment", entry.name);
+        }
+    }
+}

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Creates the Python venv used by the hardware-in-the-loop tests at <repo root>/.venv
+# (ignored by git) with the pinned versions of hw-adapter/mock/requirements.txt.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+venv="$root/.venv"
+if [ ! -x "$venv/bin/python" ]; then
+    python3 -m venv "$venv"
+fi
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$here/requirements.txt"
+echo "mock-arm venv ready: $venv/bin/python"

@@ -1,0 +1,216 @@
+//! CANopen CiA 301 framing: NMT, SYNC, SDO expedited download, PDO, heartbeat and EMCY.
+//! Predefined connection set: the COB-ID of each service is its function code plus the node id.
+
+use crate::frame::CanFrame;
+
+pub const NMT_ID: u16 = 0x000;
+pub const SYNC_ID: u16 = 0x080;
+const EMCY_BASE: u16 = 0x080;
+const TPDO1_BASE: u16 = 0x180;
+const RPDO1_BASE: u16 = 0x200;
+const SDO_RESPONSE_BASE: u16 = 0x580;
+const SDO_REQUEST_BASE: u16 = 0x600;
+const HEARTBEAT_BASE: u16 = 0x700;
+
+/// NMT command specifiers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NmtCommand {
+    Start = 0x01,
+    Stop = 0x02,
+    EnterPreOperational = 0x80,
+}
+
+/// NMT states as reported in heartbeats.
+pub const NMT_STATE_BOOTUP: u8 = 0x00;
+pub const NMT_STATE_STOPPED: u8 = 0x04;
+pub const NMT_STATE_OPERATIONAL: u8 = 0x05;
+pub const NMT_STATE_PRE_OPERATIONAL: u8 = 0x7F;
+
+pub fn nmt_state_name(state: u8) -> &'static str {
+    match state {
+        NMT_STATE_BOOTUP => "boot-up",
+        NMT_STATE_STOPPED => "stopped",
+        NMT_STATE_OPERATIONAL => "operational",
+        NMT_STATE_PRE_OPERATIONAL => "pre-operational",
+        _ => "unknown",
+    }
+}
+
+fn frame(id: u16, data: &[u8]) -> CanFrame {
+    // Every caller passes a base id plus a node id <= 127 and at most 8 bytes.
+    CanFrame::new(id, data).expect("CANopen frame within CAN 2.0A limits")
+}
+
+/// NMT command to `node` (0 addresses every node).
+pub fn nmt(cmd: NmtCommand, node: u8) -> CanFrame {
+    frame(NMT_ID, &[cmd as u8, node])
+}
+
+pub fn sync() -> CanFrame {
+    frame(SYNC_ID, &[])
+}
+
+pub fn rpdo1(node: u8, data: &[u8]) -> CanFrame {
+    frame(RPDO1_BASE + u16::from(node), data)
+}
+
+/// COB-IDs of a node's first PDOs (for the PDO communication parameters).
+pub fn rpdo1_cob_id(node: u8) -> u32 {
+    u32::from(RPDO1_BASE + u16::from(node))
+}
+pub fn tpdo1_cob_id(node: u8) -> u32 {
+    u32::from(TPDO1_BASE + u16::from(node))
+}
+
+/// A value written by SDO expedited download (1, 2 or 4 bytes, little endian on the bus).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SdoValue {
+    U8(u8),
+    U16(u16),
+    U32(u32),
+}
+
+impl SdoValue {
+    fn bytes(self) -> ([u8; 4], usize) {
+        match self {
+            SdoValue::U8(v) => ([v, 0, 0, 0], 1),
+            SdoValue::U16(v) => {
+                let b = v.to_le_bytes();
+                ([b[0], b[1], 0, 0], 2)
+            }
+            SdoValue::U32(v) => (v.to_le_bytes(), 4),
+        }
+    }
+}
+
+/// SDO expedited download request (client command specifier 1, e=1, s=1, n = unused bytes).
+pub fn sdo_download(node: u8, index: u16, sub: u8, value: SdoValue) -> CanFrame {
+    let (bytes, len) = value.bytes();
+    let cmd = 0x23 | (((4 - len) as u8) << 2);
+    let i = index.to_le_bytes();
+    frame(
+        SDO_REQUEST_BASE + u16::from(node),
+        &[cmd, i[0], i[1], sub, bytes[0], bytes[1], bytes[2], bytes[3]],
+    )
+}
+
+/// What a node said, decoded from a frame on the bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Message {
+    Heartbeat {
+        node: u8,
+        state: u8,
+    },
+    Emcy(Emcy),
+    Tpdo1 {
+        node: u8,
+        data: CanFrame,
+    },
+    SdoResponse {
+        node: u8,
+        reply: SdoReply,
+    },
+    /// Anything else (including our own traffic echoed by some adapters).
+    Other,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Emcy {
+    pub node: u8,
+    pub code: u16,
+    pub register: u8,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SdoReply {
+    DownloadAck { index: u16, sub: u8 },
+    Abort { index: u16, sub: u8, code: u32 },
+    Unexpected { command: u8 },
+}
+
+pub fn decode(f: &CanFrame) -> Message {
+    let id = f.id();
+    let d = f.data();
+    let node = (id & 0x7F) as u8;
+    if node == 0 {
+        return Message::Other;
+    }
+    match id & 0x780 {
+        HEARTBEAT_BASE if d.len() == 1 => Message::Heartbeat {
+            node,
+            state: d[0] & 0x7F,
+        },
+        EMCY_BASE if d.len() == 8 => Message::Emcy(Emcy {
+            node,
+            code: u16::from_le_bytes([d[0], d[1]]),
+            register: d[2],
+        }),
+        TPDO1_BASE => Message::Tpdo1 { node, data: *f },
+        SDO_RESPONSE_BASE if d.len() == 8 => {
+            let index = u16::from_le_bytes([d[1], d[2]]);
+            let sub = d[3];
+            let reply = match d[0] {
+                0x60 => SdoReply::DownloadAck { index, sub },
+                0x80 => SdoReply::Abort {
+                    index,
+                    sub,
+                    code: u32::from_le_bytes([d[4], d[5], d[6], d[7]]),
+                },
+                command => SdoReply::Unexpected { command },
+            };
+            Message::SdoResponse { node, reply }
+        }
+        _ => Message::Other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sdo_download_layout() {
+        let f = sdo_download(3, 0x6060, 0, SdoValue::U8(8));
+        assert_eq!(f.id(), 0x603);
+        assert_eq!(f.data(), &[0x2F, 0x60, 0x60, 0, 8, 0, 0, 0]);
+        let f = sdo_download(1, 0x1017, 0, SdoValue::U16(100));
+        assert_eq!(f.data(), &[0x2B, 0x17, 0x10, 0, 100, 0, 0, 0]);
+        let f = sdo_download(7, 0x1600, 1, SdoValue::U32(0x607A_0020));
+        assert_eq!(f.data(), &[0x23, 0x00, 0x16, 1, 0x20, 0, 0x7A, 0x60]);
+    }
+
+    #[test]
+    fn decodes_node_messages() {
+        let hb = CanFrame::new(0x705, &[0x05]).unwrap();
+        assert_eq!(
+            decode(&hb),
+            Message::Heartbeat {
+                node: 5,
+                state: NMT_STATE_OPERATIONAL
+            }
+        );
+        let emcy = CanFrame::new(0x082, &[0x10, 0x83, 0x01, 0, 0, 0, 0, 0]).unwrap();
+        assert_eq!(
+            decode(&emcy),
+            Message::Emcy(Emcy {
+                node: 2,
+                code: 0x8310,
+                register: 1
+            })
+        );
+        let abort = CanFrame::new(0x581, &[0x80, 0x60, 0x60, 0, 0x11, 0, 0x09, 0x06]).unwrap();
+        assert_eq!(
+            decode(&abort),
+            Message::SdoResponse {
+                node: 1,
+                reply: SdoReply::Abort {
+                    index: 0x6060,
+                    sub: 0,
+                    code: 0x0609_0011
+                }
+            }
+        );
+        assert_eq!(decode(&sync()), Message::Other);
+        assert_eq!(decode(&nmt(NmtCommand::Stop, 0)), Message::Other);
+    }
+}

@@ -1,0 +1,24 @@
+//! omcbsa hardware adapter: streams a multi-arm joint-space plan to Kinova Gen3 arms over CAN
+//! (CANopen CiA 301 / CiA 402 cyclic synchronous position), one bus per arm.
+//!
+//! - [`transport`]: the [`Transport`] trait and its SLCAN, SocketCAN and in-process mock buses.
+//! - [`canopen`], [`cia402`]: the protocol.
+//! - [`interpolate`]: waypoints to control-rate commands within joint limits.
+//! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
+//! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`).
+
+pub mod arm;
+pub mod canopen;
+pub mod cia402;
+pub mod executor;
+pub mod frame;
+pub mod interpolate;
+pub mod log;
+pub mod mock;
+pub mod plan;
+pub mod transport;
+
+pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
+pub use frame::CanFrame;
+pub use plan::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
+pub use transport::{Transport, TransportError};

@@ -1,0 +1,290 @@
+//! SLCAN: the ASCII serial protocol of Lawicel-compatible USB-CAN adapters (CANable, CANUSB...).
+//!
+//! Host to adapter: `C\r` close, `Sn\r` bitrate, `O\r` open, `tIIILDD..\r` transmit a standard
+//! frame. The adapter answers a command with `\r` (ok) or `\x07` (bell: error), may acknowledge a
+//! transmission with `z\r`, and reports received frames as `tIIILDD..\r`. Works on any serial
+//! device or pseudo-terminal.
+
+use super::{Transport, TransportError};
+use crate::frame::CanFrame;
+use serialport::SerialPort;
+use std::io::{ErrorKind, Read, Write};
+use std::time::{Duration, Instant};
+
+pub const DEFAULT_BITRATE: u32 = 500_000;
+
+/// Time the adapter gets to acknowledge each set-up command.
+const COMMAND_ACK_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// The `Sn` command of a bitrate in bit/s.
+fn bitrate_command(bitrate: u32) -> Option<&'static str> {
+    Some(match bitrate {
+        10_000 => "S0",
+        20_000 => "S1",
+        50_000 => "S2",
+        100_000 => "S3",
+        125_000 => "S4",
+        250_000 => "S5",
+        500_000 => "S6",
+        800_000 => "S7",
+        1_000_000 => "S8",
+        _ => return None,
+    })
+}
+
+/// `tIIILDD..\r` for a frame.
+pub fn encode(frame: &CanFrame) -> String {
+    let mut s = format!("t{:03X}{}", frame.id(), frame.data().len());
+    for b in frame.data() {
+        s.push_str(&format!("{b:02X}"));
+    }
+    s.push('\r');
+    s
+}
+
+/// What one line from the adapter (without its `\r`) says.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Reply {
+    /// `\r` alone, `z` or `Z`: a command or transmission was accepted.
+    Ack,
+    /// A received standard data frame.
+    Frame(CanFrame),
+    /// Extended or remote frames: valid SLCAN, but nothing CANopen uses.
+    Ignored,
+}
+
+/// Parses one line from the adapter.
+pub fn decode(line: &[u8]) -> Result<Reply, String> {
+    let text = std::str::from_utf8(line).map_err(|_| format!("non-ASCII line {line:?}"))?;
+    let bad = || format!("malformed SLCAN line {text:?}");
+    match text.as_bytes().first() {
+        None | Some(b'z') | Some(b'Z') => Ok(Reply::Ack),
+        Some(b'T') | Some(b'r') | Some(b'R') => Ok(Reply::Ignored),
+        Some(b't') => {
+            let id = text
+                .get(1..4)
+                .and_then(|h| u16::from_str_radix(h, 16).ok())
+                .ok_or_else(bad)?;
+            let len = text
+                .get(4..5)
+                .and_then(|h| h.parse::<usize>().ok())
+                .filter(|&l| l <= 8)
+                .ok_or_else(bad)?;
+            // Some adapters append a 4-digit timestamp: accept and ignore it.
+            let hex = text.get(5..).ok_or_else(bad)?;
+            if hex.len() != 2 * len && hex.len() != 2 * len + 4 {
+                return Err(bad());
+            }
+            let mut data = [0u8; 8];
+            for (i, d) in data.iter_mut().take(len).enumerate() {
+                *d = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).map_err(|_| bad())?;
+            }
+            CanFrame::new(id, &data[..len])
+                .map(Reply::Frame)
+                .ok_or_else(bad)
+        }
+        Some(_) => Err(bad()),
+    }
+}
+
+pub struct SlcanTransport {
+    name: String,
+    port: Box<dyn SerialPort>,
+    /// Bytes read but not yet split into lines.
+    pending: Vec<u8>,
+}
+
+impl SlcanTransport {
+    /// Opens the adapter at `path` (serial device or pty), sets `bitrate` and opens the channel.
+    pub fn open(path: &str, bitrate: u32) -> Result<Self, TransportError> {
+        let name = format!("slcan:{path}");
+        let fail = |reason: String| TransportError::Open {
+            bus: name.clone(),
+            reason,
+        };
+        let speed = bitrate_command(bitrate)
+            .ok_or_else(|| fail(format!("unsupported bitrate {bitrate} bit/s")))?;
+        // The serial baud rate is irrelevant for USB adapters and ptys; 115200 is customary.
+        let port = serialport::new(path, 115_200)
+            .timeout(COMMAND_ACK_TIMEOUT)
+            .open()
+            .map_err(|e| fail(e.to_string()))?;
+        let mut t = Self {
+            name: name.clone(),
+            port,
+            pending: Vec::new(),
+        };
+        // Close first in case a previous user left the channel open; a closed adapter answers
+        // this with a bell, which is fine, so the reply is only drained.
+        t.write_all(b"C\r", COMMAND_ACK_TIMEOUT)?;
+        t.drain_replies(Duration::from_millis(20))?;
+        t.command(speed)?;
+        t.command("O")?;
+        Ok(t)
+    }
+
+    /// Sends a set-up command and waits for the adapter's acknowledgement.
+    fn command(&mut self, cmd: &str) -> Result<(), TransportError> {
+        self.write_all(format!("{cmd}\r").as_bytes(), COMMAND_ACK_TIMEOUT)?;
+        let deadline = Instant::now() + COMMAND_ACK_TIMEOUT;
+        loop {
+            match self.next_line(deadline) {
+                Ok(Some(line)) if line.is_empty() => return Ok(()),
+                Ok(Some(_)) => continue,
+                Ok(None) => {
+                    return Err(TransportError::Open {
+                        bus: self.name.clone(),
+                        reason: format!(
+                            "adapter did not acknowledge `{cmd}` within {COMMAND_ACK_TIMEOUT:?} \
+                             (is an SLCAN adapter attached?)"
+                        ),
+                    })
+                }
+                Err(e) => {
+                    return Err(TransportError::Open {
+                        bus: self.name.clone(),
+                        reason: format!("adapter rejected `{cmd}`: {e}"),
+                    })
+                }
+            }
+        }
+    }
+
+    fn drain_replies(&mut self, wait: Duration) -> Result<(), TransportError> {
+        let deadline = Instant::now() + wait;
+        while let Ok(Some(_)) = self.next_line(deadline) {}
+        self.pending.clear();
+        Ok(())
+    }
+
+    fn write_all(&mut self, bytes: &[u8], timeout: Duration) -> Result<(), TransportError> {
+        self.port
+            .set_timeout(timeout)
+            .map_err(|e| self.io(e.to_string()))?;
+        self.port
+            .write_all(bytes)
+            .map_err(|e| self.io(e.to_string()))
+    }
+
+    fn io(&self, reason: String) -> TransportError {
+        TransportError::Io {
+            bus: self.name.clone(),
+            reason,
+        }
+    }
+
+    /// The next line from the adapter (without `\r`), `None` at the deadline. A bell is an
+    /// error: the adapter refused the last command or transmission.
+    fn next_line(&mut self, deadline: Instant) -> Result<Option<Vec<u8>>, TransportError> {
+        loop {
+            if let Some(pos) = self.pending.iter().position(|&b| b == b'\r' || b == 7) {
+                let bell = self.pending[pos] == 7;
+                let line: Vec<u8> = self.pending.drain(..=pos).take(pos).collect();
+                if bell {
+                    return Err(self.io("adapter answered with a bell (error)".into()));
+                }
+                return Ok(Some(line));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            // A zero timeout would block forever in some serial backends: poll for 1 ms at least.
+            self.port
+                .set_timeout(left.max(Duration::from_millis(1)))
+                .map_err(|e| self.io(e.to_string()))?;
+            let mut buf = [0u8; 512];
+            match self.port.read(&mut buf) {
+                Ok(0) => {
+                    return Err(TransportError::Closed {
+                        bus: self.name.clone(),
+                    })
+                }
+                Ok(n) => self.pending.extend_from_slice(&buf[..n]),
+                Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => {
+                    if Instant::now() >= deadline {
+                        return Ok(None);
+                    }
+                }
+                Err(e) => return Err(self.io(e.to_string())),
+            }
+        }
+    }
+}
+
+impl Transport for SlcanTransport {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn send(&mut self, frame: &CanFrame, timeout: Duration) -> Result<(), TransportError> {
+        self.port
+            .set_timeout(timeout)
+            .map_err(|e| self.io(e.to_string()))?;
+        match self.port.write_all(encode(frame).as_bytes()) {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == ErrorKind::TimedOut => Err(TransportError::SendTimeout {
+                bus: self.name.clone(),
+                frame: *frame,
+                timeout,
+            }),
+            Err(e) => Err(self.io(e.to_string())),
+        }
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, TransportError> {
+        let deadline = Instant::now() + timeout;
+        while let Some(line) = self.next_line(deadline)? {
+            match decode(&line).map_err(|e| self.io(e))? {
+                Reply::Frame(f) => return Ok(Some(f)),
+                Reply::Ack | Reply::Ignored => {}
+            }
+        }
+        Ok(None)
+    }
+}
+
+impl Drop for SlcanTransport {
+    fn drop(&mut self) {
+        // Best effort: leave the adapter's channel closed.
+        let _ = self.port.write_all(b"C\r");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encode_decode_round_trip() {
+        let f = CanFrame::new(0x203, &[0x10, 0x00, 0xFF, 0x7F, 0x0F, 0x00]).unwrap();
+        let line = encode(&f);
+        assert_eq!(line, "t20361000FF7F0F00\r");
+        assert_eq!(decode(line.trim_end().as_bytes()).unwrap(), Reply::Frame(f));
+        let empty = CanFrame::new(0x080, &[]).unwrap();
+        assert_eq!(decode(b"t0800").unwrap(), Reply::Frame(empty));
+    }
+
+    #[test]
+    fn decode_acks_ignores_and_rejects() {
+        assert_eq!(decode(b"").unwrap(), Reply::Ack);
+        assert_eq!(decode(b"z").unwrap(), Reply::Ack);
+        assert_eq!(decode(b"T123456780").unwrap(), Reply::Ignored);
+        // timestamped frame
+        assert!(matches!(decode(b"t1812AABB1234").unwrap(), Reply::Frame(_)));
+        for bad in [&b"t18"[..], b"t1819AA", b"t181AAB", b"t18G0", b"x"] {
+            assert!(decode(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn unsupported_bitrate_and_missing_device_are_clear_errors() {
+        let e = SlcanTransport::open("/dev/null", 42)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("unsupported bitrate 42"), "{e}");
+        let e = SlcanTransport::open("/dev/does-not-exist", DEFAULT_BITRATE)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("slcan:/dev/does-not-exist"), "{e}");
+    }
+}

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Runs every test on a fresh machine, installing what the tests need first:
+#   - the bare-metal target, to prove the core builds with no std and no alloc;
+#   - the Python venv of the mock arms (hardware-in-the-loop tests).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== bare-metal build of the core (thumbv7em-none-eabihf: no std, no alloc)"
+rustup target add thumbv7em-none-eabihf >/dev/null
+cargo build -p omcbsa-core --release --target thumbv7em-none-eabihf
+
+if [ -f hw-adapter/mock/setup_venv.sh ]; then
+  echo "== Python venv for the mock arms"
+  bash hw-adapter/mock/setup_venv.sh
+fi
+
+echo "== tests"
+cargo test --workspace
