@@ -151,6 +151,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // 3.14159265358979 is a figure from Kinova's URDF
     fn literals_round_trip() {
         for v in [
             0.15643,

@@ -14,7 +14,7 @@
 
 use crate::collision::ArmPose;
 use crate::model::Model;
-use crate::motion::{contact_point, motions_conflict, ArmMotion};
+use crate::motion::{contact_point, motions_collide, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
@@ -439,7 +439,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             if t + 1 < self.h {
                 let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
                 let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
-                if motions_conflict::<M, D>(&ma, &mb, self.params.low.motion_step).is_some() {
+                if motions_collide::<M, D>(&ma, &mb, self.params.low.motion_step) {
                     c = c.saturating_add(1);
                 }
             }
@@ -475,7 +475,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     } else if t + 1 < self.h {
                         let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
                         let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
-                        motions_conflict::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| PointConstraint {
+                        motions_contact::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| PointConstraint {
                             t: t as u16,
                             segment: true,
                             p: c.point,

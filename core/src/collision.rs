@@ -59,18 +59,30 @@ const _: () = assert!(MAX_ARM_CAPSULES <= u32::BITS as usize);
 /// Fails compilation (through [`ArmPose::new`]) for a model an `ArmPose` cannot hold, or
 /// whose capsule and pair indices point nowhere, so that indexing with them cannot fail.
 const fn check_model<M: Model<D>, const D: usize>() {
-    assert!(M::CAPSULES.len() <= MAX_ARM_CAPSULES, "model has more than MAX_ARM_CAPSULES");
-    assert!(M::LINK_NAMES.len() <= MAX_LINK_FRAMES, "model has more than MAX_LINK_FRAMES");
+    assert!(
+        M::CAPSULES.len() <= MAX_ARM_CAPSULES,
+        "model has more than MAX_ARM_CAPSULES"
+    );
+    assert!(
+        M::LINK_NAMES.len() <= MAX_LINK_FRAMES,
+        "model has more than MAX_LINK_FRAMES"
+    );
     let mut i = 0;
     while i < M::CAPSULES.len() {
-        assert!((M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(), "capsule on no link");
+        assert!(
+            (M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(),
+            "capsule on no link"
+        );
         i += 1;
     }
     let mut i = 0;
     while i < M::SELF_PAIRS.len() {
         let (a, b) = M::SELF_PAIRS[i];
         let n = M::CAPSULES.len();
-        assert!((a as usize) < n && (b as usize) < n, "self pair names no capsule");
+        assert!(
+            (a as usize) < n && (b as usize) < n,
+            "self pair names no capsule"
+        );
         i += 1;
     }
 }
@@ -98,8 +110,11 @@ impl ArmPose {
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
         M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]);
         let mut pose = ArmPose {
-            capsules: [Capsule::new(Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.0), 0.0);
-                MAX_ARM_CAPSULES],
+            capsules: [Capsule::new(
+                Vector3::new(0.0, 0.0, 0.0),
+                Vector3::new(0.0, 0.0, 0.0),
+                0.0,
+            ); MAX_ARM_CAPSULES],
             boxes: [Aabb::EMPTY; MAX_ARM_CAPSULES],
             len: M::CAPSULES.len(),
             on_base: 0,
@@ -109,8 +124,7 @@ impl ArmPose {
         };
         for (i, c) in M::CAPSULES.iter().enumerate() {
             let link = base.compose(&frames[usize::from(c.link)]);
-            let capsule =
-                Capsule::new(link.apply(&c.a.into()), link.apply(&c.b.into()), c.radius);
+            let capsule = Capsule::new(link.apply(&c.a.into()), link.apply(&c.b.into()), c.radius);
             let aabb = capsule.aabb();
             pose.capsules[i] = capsule;
             pose.boxes[i] = aabb;
@@ -150,10 +164,13 @@ impl ArmPose {
 
     /// The first of the model's self-collision pairs (capsule indices) closer than `margin`.
     pub fn self_hit(&self, margin: f64) -> Option<(usize, usize)> {
-        self.self_pairs.iter().map(|&(a, b)| (usize::from(a), usize::from(b))).find(|&(a, b)| {
-            self.boxes[a].near(&self.boxes[b], margin)
-                && self.capsules[a].hits(&self.capsules[b], margin)
-        })
+        self.self_pairs
+            .iter()
+            .map(|&(a, b)| (usize::from(a), usize::from(b)))
+            .find(|&(a, b)| {
+                self.boxes[a].near(&self.boxes[b], margin)
+                    && self.capsules[a].hits(&self.capsules[b], margin)
+            })
     }
 
     /// The first pair of capsules (this arm's, the other's), base links included, closer
@@ -162,14 +179,16 @@ impl ArmPose {
         if !self.aabb.near(&other.aabb, margin) {
             return None;
         }
-        (0..self.len).filter(|&i| self.boxes[i].near(&other.aabb, margin)).find_map(|i| {
-            (0..other.len)
-                .find(|&j| {
-                    self.boxes[i].near(&other.boxes[j], margin)
-                        && self.capsules[i].hits(&other.capsules[j], margin)
-                })
-                .map(|j| (i, j))
-        })
+        (0..self.len)
+            .filter(|&i| self.boxes[i].near(&other.aabb, margin))
+            .find_map(|i| {
+                (0..other.len)
+                    .find(|&j| {
+                        self.boxes[i].near(&other.boxes[j], margin)
+                            && self.capsules[i].hits(&other.capsules[j], margin)
+                    })
+                    .map(|j| (i, j))
+            })
     }
 
     /// Whether `p` lies in any link volume (base included).
@@ -188,7 +207,7 @@ impl ArmPose {
                     continue;
                 }
                 let depth = -a.signed_distance(b);
-                if deepest.is_none_or(|(d, _)| depth > d) {
+                if depth > deepest.map_or(0.0, |(d, _)| d) {
                     if let Some(p) = a.witness(b) {
                         deepest = Some((depth, p));
                     }
@@ -199,13 +218,19 @@ impl ArmPose {
     }
 }
 
-/// A straight joint-space motion of model `M` from `q0` to `q1`, checked at `count`
-/// configurations: the midpoints of `count` equal pieces. Moving joint `j` by `dq` moves no
-/// link point by more than `REACH[j] * |dq|`, so along the whole motion no point moves more
-/// than `length = sum_j REACH[j] |q1_j - q0_j|`, and every configuration of a piece is within
-/// `margin = length / (2 count)` of the piece's midpoint at every link point. Each link is
-/// therefore inside its capsules at the nearest check inflated by `margin`: if every check is
-/// clear with that inflation, so is the whole motion, ends included.
+/// A straight joint-space motion of model `M` from `q0` to `q1`, split into `count` equal
+/// pieces. Moving joint `j` by `dq` moves no link point by more than `REACH[j] * |dq|`, so
+/// along the whole motion no point moves more than `length = sum_j REACH[j] |q1_j - q0_j|`,
+/// and over a piece of `k` of the `count` pieces no point is farther than
+/// `length * k / (2 count)` from where it is at the piece's middle. Each link then stays
+/// inside its capsules at that middle configuration inflated by that much: if that check is
+/// clear, so is the whole piece, ends included.
+///
+/// [`Sweep::arm_collides`] and [`sweeps_collide`] use this from the top down: one check of
+/// the whole motion, then of its halves where that fails, down to single pieces (inflated by
+/// [`Sweep::margin`]), so that a motion far from everything costs one check, and one near
+/// something costs at most about twice the `count` checks of a uniform pass. A motion is
+/// reported as colliding only when a single-piece check fails.
 #[derive(Debug)]
 pub struct Sweep<M: Model<D>, const D: usize> {
     q0: [f64; D],
@@ -225,59 +250,82 @@ impl<M: Model<D>, const D: usize> Clone for Sweep<M, D> {
 impl<M: Model<D>, const D: usize> Copy for Sweep<M, D> {}
 
 impl<M: Model<D>, const D: usize> Sweep<M, D> {
-    /// Checks spaced so that no link point moves more than `max_disp` between neighbouring
-    /// checks (so `margin <= max_disp / 2`), unless that takes more than
-    /// [`MAX_SWEEP_CHECKS`] checks. Any count is conservative, only the margin changes: beyond
-    /// the cap, or for a `max_disp` that is not positive, the margin grows.
+    /// Pieces short enough that no link point moves more than `max_disp` over one (so
+    /// `margin <= max_disp / 2`), unless that takes more than [`MAX_SWEEP_CHECKS`] pieces.
+    /// Any count is conservative, only the margin changes: beyond the cap, or for a
+    /// `max_disp` that is not positive, the margin grows.
     pub fn new(q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
         let dq = core::array::from_fn(|j| q1[j] - q0[j]);
         let length = (0..D).map(|j| M::REACH[j] * libm::fabs(dq[j])).sum::<f64>();
-        let sweep = Sweep { q0: *q0, dq, length, count: 1, model: PhantomData };
-        let pieces = if max_disp > 0.0 { libm::ceil(length / max_disp) } else { 1.0 };
-        // `as` saturates; NaN (from a NaN input) gives 0 and so one check.
-        sweep.with_count(pieces as usize)
+        let pieces = if max_disp > 0.0 {
+            libm::ceil(length / max_disp)
+        } else {
+            1.0
+        };
+        Sweep {
+            q0: *q0,
+            dq,
+            length,
+            count: 1,
+            model: PhantomData,
+        }
+        // `as` saturates; NaN (from a NaN input) gives 0 and so one piece.
+        .with_count(pieces as usize)
     }
 
-    /// The same motion checked at `count` configurations (clamped to `1..=MAX_SWEEP_CHECKS`),
-    /// e.g. the larger of two arms' counts when they move together.
+    /// The same motion in `count` pieces (clamped to `1..=MAX_SWEEP_CHECKS`), e.g. the larger
+    /// of two arms' counts when they move together.
     pub fn with_count(self, count: usize) -> Self {
-        Sweep { count: count.clamp(1, MAX_SWEEP_CHECKS), ..self }
+        Sweep {
+            count: count.clamp(1, MAX_SWEEP_CHECKS),
+            ..self
+        }
     }
 
+    /// Number of pieces.
     pub fn count(&self) -> usize {
         self.count
     }
 
-    /// How far any link point may be from where it is at the nearest check.
+    /// Bound on how far any link point travels over the whole motion.
+    pub fn length(&self) -> f64 {
+        self.length
+    }
+
+    /// How far any link point may be from where it is at the middle of its piece.
     pub fn margin(&self) -> f64 {
         self.length / (2.0 * self.count as f64)
     }
 
-    /// Configuration of check `i` (`0..count`).
+    /// The configuration at the middle of piece `i` (`0..count`).
     pub fn config(&self, i: usize) -> [f64; D] {
-        let s = (i as f64 + 0.5) / self.count as f64;
-        core::array::from_fn(|j| self.q0[j] + self.dq[j] * s)
+        self.at((i as f64 + 0.5) / self.count as f64)
     }
 
-    /// The arm at check `i`.
+    /// The arm at the middle of piece `i`.
     pub fn arm(&self, base: &Frame, i: usize) -> ArmPose {
         ArmPose::new::<M, D>(base, &self.config(i))
     }
 
+    /// The configuration a fraction `s` (`0..=1`) of the way.
+    pub fn at(&self, s: f64) -> [f64; D] {
+        core::array::from_fn(|j| self.q0[j] + self.dq[j] * s)
+    }
+
     /// Whether the arm may hit an obstacle or itself anywhere along the motion. Two links
-    /// of one arm may each be `margin` off, so self pairs are checked at twice the margin.
+    /// of one arm may each be off by the margin, so self pairs are checked at twice it.
     pub fn arm_collides(&self, base: &Frame, obstacles: &[Obstacle]) -> bool {
-        let margin = self.margin();
-        (0..self.count).any(|i| {
-            let arm = self.arm(base, i);
+        bisect(0, self.count, self.count, &|s, half_width| {
+            let arm = ArmPose::new::<M, D>(base, &self.at(s));
+            let margin = self.length * half_width;
             arm.obstacle_hit(obstacles, margin).is_some() || arm.self_hit(2.0 * margin).is_some()
         })
     }
 }
 
 /// Whether two arms moving at the same time (each along its sweep, over the same time span)
-/// may collide: both are checked at the same instants, the larger of their counts, with the
-/// sum of their margins.
+/// may collide: both are checked at the same instants, with the sum of their margins, down
+/// to the finer of their pieces.
 pub fn sweeps_collide<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usize>(
     a: &Sweep<A, DA>,
     base_a: &Frame,
@@ -285,7 +333,29 @@ pub fn sweeps_collide<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usi
     base_b: &Frame,
 ) -> bool {
     let count = a.count.max(b.count);
-    let (a, b) = (a.with_count(count), b.with_count(count));
-    let margin = a.margin() + b.margin();
-    (0..count).any(|i| a.arm(base_a, i).arm_hit(&b.arm(base_b, i), margin).is_some())
+    bisect(0, count, count, &|s, half_width| {
+        let arm_a = ArmPose::new::<A, DA>(base_a, &a.at(s));
+        let arm_b = ArmPose::new::<B, DB>(base_b, &b.at(s));
+        arm_a
+            .arm_hit(&arm_b, (a.length + b.length) * half_width)
+            .is_some()
+    })
+}
+
+/// Whether `hit(s, w)` holds for a single piece after checking pieces `first..end` of `count`
+/// as a whole at their middle `s`, with `w` half their width (a fraction of the motion), and
+/// then halves of the ones that fail. Recursion depth is at most `log2(MAX_SWEEP_CHECKS) + 1`.
+fn bisect(first: usize, end: usize, count: usize, hit: &impl Fn(f64, f64) -> bool) -> bool {
+    let n = count as f64;
+    if !hit(
+        (first + end) as f64 / (2.0 * n),
+        (end - first) as f64 / (2.0 * n),
+    ) {
+        return false;
+    }
+    if end - first == 1 {
+        return true;
+    }
+    let mid = (first + end) / 2;
+    bisect(first, mid, count, hit) || bisect(mid, end, count, hit)
 }

@@ -136,15 +136,11 @@ fn solve<M: Model<D>, const D: usize>(
         }
         let lambda = boost * (params.damping + 0.5 * cost);
         let dq = step::<M, D>(&q, &jac, &err, lambda, params.max_step);
-        let mut next = q;
-        for i in 0..D {
-            next[i] += dq[i];
-        }
-        let next = clamp::<M, D>(&next);
+        let next = clamp::<M, D>(&core::array::from_fn(|i| q[i] + dq[i]));
         let (next_frame, next_jac) = M::jacobian(&next);
         let next_err = pose_error(&next_frame, target);
         let next_cost = next_err.norm_squared();
-        // `!(a < b)` also rejects NaN.
+        // A NaN cost (from overflow on absurd targets) is rejected here too.
         if next_cost < cost {
             stalled = if next_cost > 0.99 * cost {
                 stalled + 1

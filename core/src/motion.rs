@@ -6,7 +6,7 @@
 
 use nalgebra::Vector3;
 
-use crate::collision::{ArmPose, Sweep};
+use crate::collision::{sweeps_collide, ArmPose, Sweep};
 use crate::geometry::{Capsule, Obstacle};
 use crate::model::{Frame, Model};
 
@@ -36,30 +36,46 @@ pub fn motion_is_free<M: Model<D>, const D: usize>(m: &ArmMotion<'_, D>, obstacl
     !m.sweep::<M>(max_step).arm_collides(m.base, obstacles)
 }
 
-/// Where two arms' simultaneous motions first come too close, or `None` when they stay clear.
-/// Both are checked at the same instants (the larger count of checks) with the sum of their
-/// margins, as [`crate::collision::sweeps_collide`] does.
-pub fn motions_conflict<M: Model<D>, const D: usize>(
+/// Whether two arms' simultaneous motions come too close (see
+/// [`crate::collision::sweeps_collide`]).
+pub fn motions_collide<M: Model<D>, const D: usize>(a: &ArmMotion<'_, D>, b: &ArmMotion<'_, D>, max_step: f64) -> bool {
+    // Cheap rejection: during the step every point of an arm stays within its sweep length
+    // of where it starts.
+    let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
+    let (a0, b0) = (ArmPose::new::<M, D>(a.base, a.from), ArmPose::new::<M, D>(b.base, b.from));
+    if !a0.aabb().near(b0.aabb(), length(&sa) + length(&sb)) {
+        return false;
+    }
+    sweeps_collide(&sa, a.base, &sb, b.base)
+}
+
+/// Where two arms' simultaneous motions first come too close: the same pieces and margins as
+/// [`motions_collide`], scanned in order. `None` when they stay clear.
+pub fn motions_contact<M: Model<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     b: &ArmMotion<'_, D>,
     max_step: f64,
 ) -> Option<Contact> {
     let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
-    // Cheap rejection: during the step every point of an arm stays within its sweep length
-    // of where it starts.
-    let (la, lb) = (2.0 * sa.margin() * sa.count() as f64, 2.0 * sb.margin() * sb.count() as f64);
-    let (a0, b0) = (ArmPose::new::<M, D>(a.base, a.from), ArmPose::new::<M, D>(b.base, b.from));
-    if !a0.aabb().near(b0.aabb(), la + lb) {
-        return None;
-    }
     let count = sa.count().max(sb.count());
-    let (sa, sb) = (sa.with_count(count), sb.with_count(count));
-    let margin = sa.margin() + sb.margin();
+    let margin = (length(&sa) + length(&sb)) / (2.0 * count as f64);
     (0..count).find_map(|i| {
-        let (pa, pb) = (sa.arm(a.base, i), sb.arm(b.base, i));
+        let s = (i as f64 + 0.5) / count as f64;
+        let (pa, pb) = (ArmPose::new::<M, D>(a.base, &sa.at(s)), ArmPose::new::<M, D>(b.base, &sb.at(s)));
         pa.arm_hit(&pb, margin)?;
         contact_point(&pa, &pb, margin).map(|point| Contact { point, margin })
     })
+}
+
+/// How far any link point travels over the sweep (bounded by the model's reach).
+fn length<M: Model<D>, const D: usize>(s: &Sweep<M, D>) -> f64 {
+    2.0 * s.margin() * s.count() as f64
+}
+
+/// Whether the arm comes within `margin` of `p` anywhere along its motion.
+pub fn motion_near_point<M: Model<D>, const D: usize>(m: &ArmMotion<'_, D>, p: &[f64; 3], margin: f64, max_step: f64) -> bool {
+    let sweep = m.sweep::<M>(max_step);
+    (0..sweep.count()).any(|i| near_point(&ArmPose::new::<M, D>(m.base, &sweep.config(i)), p, sweep.margin() + margin))
 }
 
 /// A point within `margin / 2` of both arms' volumes when they come closer than `margin`:

@@ -22,7 +22,11 @@ fn v(p: &Vector3<f64>) -> Vec3 {
 }
 
 fn uniform3(rng: &mut Rng, lo: f64, hi: f64) -> Vector3<f64> {
-    Vector3::new(rng.uniform(lo, hi), rng.uniform(lo, hi), rng.uniform(lo, hi))
+    Vector3::new(
+        rng.uniform(lo, hi),
+        rng.uniform(lo, hi),
+        rng.uniform(lo, hi),
+    )
 }
 
 /// A uniformly random rotation, as both libraries' types.
@@ -51,18 +55,34 @@ fn obstacle(rng: &mut Rng, kind: usize) -> (Obstacle, Box<dyn ParryShape>, Pose3
     let (shape, parry, ppose): (Shape, Box<dyn ParryShape>, Pose3) = match kind {
         0 => {
             let h = uniform3(rng, 0.005, 0.4);
-            (Shape::Box { half_extents: h.into() }, Box::new(ps::Cuboid::new(v(&h))), ppose)
+            (
+                Shape::Box {
+                    half_extents: h.into(),
+                },
+                Box::new(ps::Cuboid::new(v(&h))),
+                ppose,
+            )
         }
-        1 => (Shape::Sphere { radius: r }, Box::new(ps::Ball::new(r)), ppose),
+        1 => (
+            Shape::Sphere { radius: r },
+            Box::new(ps::Ball::new(r)),
+            ppose,
+        ),
         2 => (
-            Shape::Capsule { radius: r, half_length: hl },
+            Shape::Capsule {
+                radius: r,
+                half_length: hl,
+            },
             Box::new(ps::Capsule::new_z(hl, r)),
             ppose,
         ),
         _ => {
             let y_to_z = Rot3::from_rotation_x(core::f64::consts::FRAC_PI_2);
             (
-                Shape::Cylinder { radius: r, half_length: hl },
+                Shape::Cylinder {
+                    radius: r,
+                    half_length: hl,
+                },
                 Box::new(ps::Cylinder::new(hl, r)),
                 Pose3::from_parts(v(&pos), rq * y_to_z),
             )
@@ -154,7 +174,10 @@ fn capsule_capsule_matches_parry() {
             reference_distance(&c1.segment, &parry_segment(&c2.segment), &Pose3::IDENTITY)
                 - c1.radius
                 - c2.radius;
-        assert!((c1.signed_distance(&c2) - reference).abs() < TOL, "{c1:?} {c2:?}");
+        assert!(
+            (c1.signed_distance(&c2) - reference).abs() < TOL,
+            "{c1:?} {c2:?}"
+        );
         let margin = some_margin(&mut rng);
         if (reference - margin).abs() > CLEAR {
             assert_eq!(c1.hits(&c2, margin), reference < margin, "{c1:?} {c2:?}");
@@ -190,19 +213,30 @@ fn obstacle_capsule_matches_parry() {
             let margin = some_margin(&mut rng);
             if axis == 0.0 || (axis - c.radius - margin).abs() > CLEAR {
                 let expected = axis == 0.0 || axis < c.radius + margin;
-                assert_eq!(obstacle.hits_capsule(&c, margin), expected, "{obstacle:?} {c:?}");
+                assert_eq!(
+                    obstacle.hits_capsule(&c, margin),
+                    expected,
+                    "{obstacle:?} {c:?}"
+                );
             }
             if (axis - c.radius).abs() > GJK_CLEAR {
                 let overlap =
                     query::intersection_test(&Pose3::IDENTITY, &parry_capsule(&c), &pose, &*shape)
                         .unwrap()
                         .intersecting;
-                assert_eq!(obstacle.hits_capsule(&c, 0.0), overlap, "{obstacle:?} {c:?}");
+                assert_eq!(
+                    obstacle.hits_capsule(&c, 0.0),
+                    overlap,
+                    "{obstacle:?} {c:?}"
+                );
             }
         }
         assert!(worst < TOL, "shape {kind}: worst distance error {worst}");
         // The poses must exercise both separated and overlapping pairs.
-        assert!(touching > TRIALS / 10 && touching < TRIALS * 9 / 10, "shape {kind}: {touching}");
+        assert!(
+            touching > TRIALS / 10 && touching < TRIALS * 9 / 10,
+            "shape {kind}: {touching}"
+        );
     }
 }
 
@@ -216,11 +250,18 @@ fn point_containment_matches_parry() {
             let p = obstacle.pose.pos + uniform3(&mut rng, -0.3, 0.3);
             let proj = shape.project_point(&pose, v(&p), false);
             if (proj.point - v(&p)).length() > CLEAR {
-                assert_eq!(obstacle.contains_point(&p), proj.is_inside, "{obstacle:?} {p}");
+                assert_eq!(
+                    obstacle.contains_point(&p),
+                    proj.is_inside,
+                    "{obstacle:?} {p}"
+                );
                 inside += usize::from(proj.is_inside);
             }
         }
-        assert!(inside > TRIALS / 10, "shape {kind}: only {inside} points inside");
+        assert!(
+            inside > TRIALS / 10,
+            "shape {kind}: only {inside} points inside"
+        );
     }
 }
 
@@ -272,7 +313,10 @@ fn near_boxes_are_necessary_for_hits() {
             let margin = rng.uniform(0.0, 0.05);
             if obstacle.hits_capsule(&c, margin) {
                 hits += 1;
-                assert!(obstacle.aabb().near(&c.aabb(), margin), "{obstacle:?} {c:?}");
+                assert!(
+                    obstacle.aabb().near(&c.aabb(), margin),
+                    "{obstacle:?} {c:?}"
+                );
             }
         }
     }
@@ -286,14 +330,20 @@ fn witness_lies_in_both_capsules_exactly_when_they_overlap() {
     // Solid capsules: a bare segment has no inside.
     let solid = |rng: &mut Rng| {
         let c = capsule(rng);
-        Capsule { radius: c.radius.max(0.01), ..c }
+        Capsule {
+            radius: c.radius.max(0.01),
+            ..c
+        }
     };
     for _ in 0..TRIALS {
         let (c1, c2) = (solid(&mut rng), solid(&mut rng));
         match c1.witness(&c2) {
             Some(p) => {
                 found += 1;
-                assert!(c1.contains_point(&p) && c2.contains_point(&p), "{c1:?} {c2:?} {p}");
+                assert!(
+                    c1.contains_point(&p) && c2.contains_point(&p),
+                    "{c1:?} {c2:?} {p}"
+                );
                 assert!(c1.hits(&c2, 0.0));
             }
             None => assert!(!c1.hits(&c2, 0.0), "{c1:?} {c2:?}"),
@@ -310,34 +360,75 @@ fn seg(a: [f64; 3], b: [f64; 3]) -> Segment {
 fn parallel_and_point_like_segments() {
     let x = seg([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
     // Parallel, overlapping, either direction: the gap between the lines.
-    assert_eq!(x.distance2_to_segment(&seg([0.5, 1.0, 0.0], [2.0, 1.0, 0.0])), 1.0);
-    assert_eq!(x.distance2_to_segment(&seg([2.0, 0.0, 2.0], [0.5, 0.0, 2.0])), 4.0);
+    assert_eq!(
+        x.distance2_to_segment(&seg([0.5, 1.0, 0.0], [2.0, 1.0, 0.0])),
+        1.0
+    );
+    assert_eq!(
+        x.distance2_to_segment(&seg([2.0, 0.0, 2.0], [0.5, 0.0, 2.0])),
+        4.0
+    );
     // Parallel, disjoint along the axis: end to end.
-    assert_eq!(x.distance2_to_segment(&seg([3.0, 1.0, 0.0], [4.0, 1.0, 0.0])), 5.0);
-    assert_eq!(x.distance2_to_segment(&seg([-4.0, 1.0, 0.0], [-3.0, 1.0, 0.0])), 10.0);
-    assert_eq!(x.distance2_to_segment(&seg([-2.0, 0.0, 0.0], [-3.0, 0.0, 0.0])), 4.0);
+    assert_eq!(
+        x.distance2_to_segment(&seg([3.0, 1.0, 0.0], [4.0, 1.0, 0.0])),
+        5.0
+    );
+    assert_eq!(
+        x.distance2_to_segment(&seg([-4.0, 1.0, 0.0], [-3.0, 1.0, 0.0])),
+        10.0
+    );
+    assert_eq!(
+        x.distance2_to_segment(&seg([-2.0, 0.0, 0.0], [-3.0, 0.0, 0.0])),
+        4.0
+    );
     // Nearly parallel (angle 1e-9), the far ends closest.
     let d2 = x.distance2_to_segment(&seg([2.0, 1.0, 0.0], [3.0, 1.0 - 1e-9, 0.0]));
     assert!((d2 - 2.0).abs() < 1e-12, "{d2}");
     // Collinear and overlapping.
-    assert_eq!(x.distance2_to_segment(&seg([0.2, 0.0, 0.0], [0.7, 0.0, 0.0])), 0.0);
+    assert_eq!(
+        x.distance2_to_segment(&seg([0.2, 0.0, 0.0], [0.7, 0.0, 0.0])),
+        0.0
+    );
     // Points.
     let p = seg([0.5, 2.0, 0.0], [0.5, 2.0, 0.0]);
     assert_eq!(x.distance2_to_segment(&p), 4.0);
     assert_eq!(p.distance2_to_segment(&x), 4.0);
-    assert_eq!(p.distance2_to_segment(&seg([0.5, 0.0, 0.0], [0.5, 0.0, 0.0])), 4.0);
+    assert_eq!(
+        p.distance2_to_segment(&seg([0.5, 0.0, 0.0], [0.5, 0.0, 0.0])),
+        4.0
+    );
     // Crossing.
-    assert_eq!(x.distance2_to_segment(&seg([0.5, -1.0, 0.5], [0.5, 1.0, 0.5])), 0.25);
+    assert_eq!(
+        x.distance2_to_segment(&seg([0.5, -1.0, 0.5], [0.5, 1.0, 0.5])),
+        0.25
+    );
 }
 
 fn obstacle_at(shape: Shape, pos: [f64; 3]) -> Obstacle {
-    Obstacle { shape, pose: Frame { rot: Matrix3::identity(), pos: pos.into() } }
+    Obstacle {
+        shape,
+        pose: Frame {
+            rot: Matrix3::identity(),
+            pos: pos.into(),
+        },
+    }
 }
 
 #[test]
 fn solids_against_segments_by_hand() {
-    let cube = obstacle_at(Shape::Box { half_extents: [1.0, 1.0, 1.0] }, [0.0; 3]);
-    let pipe = obstacle_at(Shape::Cylinder { radius: 1.0, half_length: 1.0 }, [0.0; 3]);
+    let cube = obstacle_at(
+        Shape::Box {
+            half_extents: [1.0, 1.0, 1.0],
+        },
+        [0.0; 3],
+    );
+    let pipe = obstacle_at(
+        Shape::Cylinder {
+            radius: 1.0,
+            half_length: 1.0,
+        },
+        [0.0; 3],
+    );
     let line = |a: [f64; 3], b: [f64; 3]| Capsule::new(a.into(), b.into(), 0.0);
     // A segment entirely inside, one through, one beside a face, one past an edge.
     let inside = line([-0.5, 0.0, 0.0], [0.5, 0.2, 0.1]);

@@ -12,14 +12,12 @@ const D: usize = 7;
 
 /// Asserts that `q` is within the joint limits and reaches `target` within the tolerances.
 fn assert_valid(q: &[f64; D], target: &Frame, params: &IkParams) {
-    for i in 0..D {
+    for (i, x) in q.iter().enumerate() {
+        let (lo, hi) = (Gen3::LOWER[i], Gen3::UPPER[i]);
         assert!(
-            Gen3::LOWER[i] <= q[i] && q[i] <= Gen3::UPPER[i],
-            "joint {} = {} outside [{}, {}]",
-            i + 1,
-            q[i],
-            Gen3::LOWER[i],
-            Gen3::UPPER[i]
+            lo <= *x && *x <= hi,
+            "joint {} = {x} outside [{lo}, {hi}]",
+            i + 1
         );
     }
     let reached = Gen3::fk(q);

@@ -251,3 +251,23 @@ fn synthetic_collision_data_comes_from_its_file() {
     assert_eq!(SyntheticChain::SELF_PAIRS, expected);
     assert_eq!(SyntheticChain::REACH[1], 1.0, "prismatic");
 }
+
+#[test]
+fn gen3_urdf_is_kinovas_file_with_a_licence_header() {
+    let kinova = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/robots/kinova_gen3/GEN3-7DOF-NOVISION_FOR_URDF_ARM_V12.urdf");
+    let Ok(original) = std::fs::read_to_string(&kinova) else {
+        println!(
+            "SKIPPED: Kinova's reference URDF not found at {}",
+            kinova.display()
+        );
+        return;
+    };
+    let ours = std::fs::read_to_string(robot_file(GEN3_URDF)).expect("project URDF");
+    let (header, body) = ours.split_once("-->\r\n").expect("licence comment first");
+    assert!(header.contains("Kinova inc.") && header.contains("LICENSE"));
+    assert_eq!(
+        body, original,
+        "figures must stay exactly as Kinova published them"
+    );
+}

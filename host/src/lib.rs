@@ -4,10 +4,14 @@
 //! checking them into the core's fixed-capacity problem ([`load`]), and checking a solution
 //! against its problem ([`validate`]). The `omcbsa` binary is a thin command line over these.
 
+pub mod bench;
+pub mod demo;
 pub mod error;
+pub mod execute;
 pub mod format;
 pub mod load;
 pub mod models;
 pub mod planners;
 pub mod pose;
+pub mod suite;
 pub mod validate;

@@ -19,6 +19,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    Demo(cli::demo::Args),
+    Execute(cli::execute::Args),
     Fk(cli::fk::Args),
     Ik(cli::ik::Args),
     Plan(cli::plan::Args),
@@ -27,6 +29,8 @@ enum Command {
 
 fn main() -> ExitCode {
     match Cli::parse().command {
+        Command::Demo(args) => cli::demo::run(&args),
+        Command::Execute(args) => cli::execute::run(&args),
         Command::Fk(args) => cli::fk::run(&args),
         Command::Ik(args) => cli::ik::run(&args),
         Command::Plan(args) => cli::plan::run(&args),

@@ -9,8 +9,8 @@ use crate::load;
 use crate::models::ModelKind;
 use crate::validate::validate;
 use omcbsa_core::baselines::{
-    CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage, IkTracking,
-    IkTrackingParams,
+    CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
+    IkTracking, IkTrackingParams,
 };
 use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
 use omcbsa_core::model::KinovaGen3;
@@ -20,7 +20,14 @@ use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 use omcbsa_core::search::{Node, OmegaParams, OpenEntry, PointConstraint, Slot, Workspace};
 
 /// Planner names, as the command line and the benchmark spell them.
-pub const PLANNERS: [&str; 6] = ["omcbsa", "pp", "pp-single", "ik-tracking", "descartes", "composite-astar"];
+pub const PLANNERS: [&str; 6] = [
+    "omcbsa",
+    "pp",
+    "pp-single",
+    "ik-tracking",
+    "descartes",
+    "composite-astar",
+];
 
 /// Degrees of freedom of the planned model (Kinova Gen3).
 pub const DOF: usize = 7;
@@ -108,7 +115,15 @@ impl Storage {
             ct_open: vec![OpenEntry::default(); caps.ct_nodes],
             paths: vec![[0.0; DOF]; caps.path_slots * max_h],
             scratch: vec![[0.0; DOF]; max_h.max(k)],
-            points: vec![PointConstraint { t: 0, segment: false, p: [0.0; 3], margin: 0.0 }; caps.constraints],
+            points: vec![
+                PointConstraint {
+                    t: 0,
+                    segment: false,
+                    p: [0.0; 3],
+                    margin: 0.0
+                };
+                caps.constraints
+            ],
             composite: vec![CompositeNode::default(); caps.composite_nodes],
             cost: vec![0.0; k],
             parent: vec![0; k],
@@ -119,7 +134,12 @@ impl Storage {
 
     /// Runs planner `name` on `problem`; this call allocates nothing but the returned
     /// [`Outcome`]'s vectors, after the core call.
-    pub fn solve(&mut self, name: &str, problem: &Problem<DOF>, timeout_s: f64) -> Result<Outcome, String> {
+    pub fn solve(
+        &mut self,
+        name: &str,
+        problem: &Problem<DOF>,
+        timeout_s: f64,
+    ) -> Result<Outcome, String> {
         let clock = WallClock::start();
         let mut stats = Stats::default();
         let (status, assignment) = self.solve_core(name, problem, &clock, timeout_s, &mut stats)?;
@@ -131,7 +151,13 @@ impl Storage {
             status,
             planning_time_s,
             assignment: assignment[..n].iter().map(|a| a.map(usize::from)).collect(),
-            joint_paths: if solved { (0..n).map(|i| self.out[i * h..(i + 1) * h].to_vec()).collect() } else { Vec::new() },
+            joint_paths: if solved {
+                (0..n)
+                    .map(|i| self.out[i * h..(i + 1) * h].to_vec())
+                    .collect()
+            } else {
+                Vec::new()
+            },
             stats,
         })
     }
@@ -148,7 +174,10 @@ impl Storage {
     ) -> Result<(Status, [Option<u8>; MAX_ROBOTS]), String> {
         let h = problem.horizon();
         if h * MAX_ROBOTS > self.out.len() || h > self.width.len() {
-            return Err(format!("horizon {h} is longer than this storage was made for ({})", self.width.len()));
+            return Err(format!(
+                "horizon {h} is longer than this storage was made for ({})",
+                self.width.len()
+            ));
         }
         let mut out = Solution::new(&mut self.out);
         let omega = OmegaParams::default();
@@ -163,17 +192,33 @@ impl Storage {
                     points: &mut self.points,
                 };
                 let mut p = OmegaCbsa::new(CbsParams::default(), ws, st);
-                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+                Planner::<KinovaGen3, DOF>::solve(
+                    &mut p, problem, clock, timeout_s, &mut out, stats,
+                )
             }
-            "pp" | "pp-single" => {
+            // Ω-A* alone is prioritised planning with one robot.
+            "omega-astar" if problem.robots.len() != 1 => Status::InvalidProblem(
+                "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
+            ),
+            "pp" | "pp-single" | "omega-astar" => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
-                let v = if name == "pp" { Variant::MultiGoal } else { Variant::SingleGoal };
+                let v = if name == "pp-single" {
+                    Variant::SingleGoal
+                } else {
+                    Variant::MultiGoal
+                };
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch);
-                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+                Planner::<KinovaGen3, DOF>::solve(
+                    &mut p, problem, clock, timeout_s, &mut out, stats,
+                )
             }
             "ik-tracking" => {
-                let mut p = IkTracking { params: IkTrackingParams::default() };
-                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+                let mut p = IkTracking {
+                    params: IkTrackingParams::default(),
+                };
+                Planner::<KinovaGen3, DOF>::solve(
+                    &mut p, problem, clock, timeout_s, &mut out, stats,
+                )
             }
             "descartes" => {
                 let st = DescartesStorage {
@@ -182,15 +227,31 @@ impl Storage {
                     parent: &mut self.parent,
                     width: &mut self.width,
                 };
-                let params = DescartesParams { samples: self.caps.descartes_samples, ..DescartesParams::default() };
+                let params = DescartesParams {
+                    samples: self.caps.descartes_samples,
+                    ..DescartesParams::default()
+                };
                 let mut p = Descartes::new(params, st);
-                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+                Planner::<KinovaGen3, DOF>::solve(
+                    &mut p, problem, clock, timeout_s, &mut out, stats,
+                )
             }
             "composite-astar" => {
-                let mut p = CompositeAstar::new(CompositeParams::default(), &mut self.composite, &mut self.open);
-                Planner::<KinovaGen3, DOF>::solve(&mut p, problem, clock, timeout_s, &mut out, stats)
+                let mut p = CompositeAstar::new(
+                    CompositeParams::default(),
+                    &mut self.composite,
+                    &mut self.open,
+                );
+                Planner::<KinovaGen3, DOF>::solve(
+                    &mut p, problem, clock, timeout_s, &mut out, stats,
+                )
             }
-            other => return Err(format!("unknown planner {other:?} (known: {})", PLANNERS.join(", "))),
+            other => {
+                return Err(format!(
+                    "unknown planner {other:?} (known: omega-astar, {})",
+                    PLANNERS.join(", ")
+                ))
+            }
         };
         Ok((status, out.assignment))
     }
@@ -209,8 +270,14 @@ impl Outcome {
     pub fn to_solution_file(&self, file: &ProblemFile, planner: &str) -> SolutionFile {
         let (status, message) = match self.status {
             Status::Solved => (FileStatus::Solved, String::new()),
-            Status::NoSolution => (FileStatus::NoSolution, "the search space was exhausted".to_string()),
-            Status::Timeout => (FileStatus::Timeout, "the time limit was reached".to_string()),
+            Status::NoSolution => (
+                FileStatus::NoSolution,
+                "the search space was exhausted".to_string(),
+            ),
+            Status::Timeout => (
+                FileStatus::Timeout,
+                "the time limit was reached".to_string(),
+            ),
             Status::OutOfMemory(pool) => (FileStatus::OutOfMemory, format!("{pool} is full")),
             Status::InvalidProblem(why) => (FileStatus::InvalidProblem, why.to_string()),
         };
@@ -228,9 +295,17 @@ impl Outcome {
             status,
             message,
             planning_time_s: self.planning_time_s,
-            assignment: if status == FileStatus::Solved { self.assignment.clone() } else { Vec::new() },
-            joint_paths: (status == FileStatus::Solved)
-                .then(|| self.joint_paths.iter().map(|p| p.iter().map(|q| q.to_vec()).collect()).collect()),
+            assignment: if status == FileStatus::Solved {
+                self.assignment.clone()
+            } else {
+                Vec::new()
+            },
+            joint_paths: (status == FileStatus::Solved).then(|| {
+                self.joint_paths
+                    .iter()
+                    .map(|p| p.iter().map(|q| q.to_vec()).collect())
+                    .collect()
+            }),
             stats,
         }
     }
@@ -239,17 +314,26 @@ impl Outcome {
 /// Plans a problem file with planner `name` and returns its solution file. A plan the planner
 /// calls solved is validated first; if it fails validation it is reported as not solved, with
 /// the violation in `message`, never as solved.
-pub fn plan_file(file: &ProblemFile, name: &str, timeout_s: f64) -> Result<SolutionFile, InputOrPlanError> {
+pub fn plan_file(
+    file: &ProblemFile,
+    name: &str,
+    timeout_s: f64,
+) -> Result<SolutionFile, InputOrPlanError> {
     let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
     let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
-    let outcome = storage.solve(name, &problem, timeout_s).map_err(InputOrPlanError::Plan)?;
+    let outcome = storage
+        .solve(name, &problem, timeout_s)
+        .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, name);
     if solution.status == FileStatus::Solved {
         let report = validate::<KinovaGen3, DOF>(file, &problem, &solution);
         if !report.is_valid() {
             solution.status = FileStatus::NoSolution;
-            solution.message = format!("planner bug: its plan failed validation: {}", report.summary());
+            solution.message = format!(
+                "planner bug: its plan failed validation: {}",
+                report.summary()
+            );
             solution.joint_paths = None;
         }
     }

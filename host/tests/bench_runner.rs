@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use omcbsa::bench::{run_bench_with, BenchOptions, Error, Row, QUICK_STRIDE};
 use omcbsa::format::{
-    Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec, TrajectorySpec, PROBLEM_FORMAT,
-    SOLUTION_FORMAT,
+    Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec, TrajectorySpec,
+    PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use omcbsa::pose::from_frame;
 use omcbsa::suite::{SuiteEntry, SuiteIndex, INDEX_FILE, INDEX_FORMAT};
@@ -31,7 +31,10 @@ fn problem(name: &str, h: usize) -> ProblemFile {
             initial: None,
             tcp: None,
         }],
-        trajectories: vec![TrajectorySpec { name: "hand".to_string(), poses: vec![pose; h] }],
+        trajectories: vec![TrajectorySpec {
+            name: "hand".to_string(),
+            poses: vec![pose; h],
+        }],
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
     }
@@ -43,7 +46,11 @@ fn write_suite(dir: &Path, n: usize) {
     for k in 0..n {
         let name = format!("p{k:02}");
         let file = format!("{name}.json");
-        std::fs::write(dir.join(&file), serde_json::to_string(&problem(&name, 3)).unwrap()).unwrap();
+        std::fs::write(
+            dir.join(&file),
+            serde_json::to_string(&problem(&name, 3)).unwrap(),
+        )
+        .unwrap();
         problems.push(SuiteEntry {
             name,
             file,
@@ -57,13 +64,22 @@ fn write_suite(dir: &Path, n: usize) {
             witness: None,
         });
     }
-    let index = SuiteIndex { format: INDEX_FORMAT.to_string(), seed: 0, problems };
+    let index = SuiteIndex {
+        format: INDEX_FORMAT.to_string(),
+        seed: 0,
+        problems,
+    };
     std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
 }
 
 /// Fake planners: `good` solves correctly, `liar` claims a success with a path that leaves
 /// the trajectory, `slow` times out, `crash` panics.
-fn fake(planner: &str, file: &ProblemFile, problem: &Problem<7>, _timeout: f64) -> Result<SolutionFile, String> {
+fn fake(
+    planner: &str,
+    file: &ProblemFile,
+    problem: &Problem<7>,
+    _timeout: f64,
+) -> Result<SolutionFile, String> {
     let h = problem.horizon();
     let (status, paths) = match planner {
         "good" => (Status::Solved, Some(vec![vec![HOME.to_vec(); h]])),
@@ -80,7 +96,10 @@ fn fake(planner: &str, file: &ProblemFile, problem: &Problem<7>, _timeout: f64) 
         planning_time_s: if planner == "good" { 0.002 } else { 0.5 },
         assignment: vec![Some(0)],
         joint_paths: paths,
-        stats: serde_json::json!({"expansions": 7}).as_object().unwrap().clone(),
+        stats: serde_json::json!({"expansions": 7})
+            .as_object()
+            .unwrap()
+            .clone(),
     })
 }
 
@@ -96,7 +115,11 @@ fn options(planners: &[&str], out: &Path) -> BenchOptions {
 }
 
 fn read_rows(path: &Path) -> Vec<Row> {
-    csv::Reader::from_path(path).unwrap().deserialize().map(|r| r.unwrap()).collect()
+    csv::Reader::from_path(path)
+        .unwrap()
+        .deserialize()
+        .map(|r| r.unwrap())
+        .collect()
 }
 
 #[test]
@@ -104,7 +127,12 @@ fn every_run_is_a_row_and_invalid_successes_are_failures() {
     let suite = tempfile::tempdir().unwrap();
     let out = tempfile::tempdir().unwrap();
     write_suite(suite.path(), 4);
-    let report = run_bench_with(suite.path(), &options(&["good", "liar", "slow", "crash"], out.path()), &fake).unwrap();
+    let report = run_bench_with(
+        suite.path(),
+        &options(&["good", "liar", "slow", "crash"], out.path()),
+        &fake,
+    )
+    .unwrap();
     assert_eq!((report.runs, report.resumed), (16, 0));
     let rows = read_rows(&report.results_path);
     assert_eq!(rows.len(), 16);
@@ -118,20 +146,45 @@ fn every_run_is_a_row_and_invalid_successes_are_failures() {
         assert_eq!((r.status.as_str(), r.valid, r.success), expected, "{r:?}");
     }
     let liar = rows.iter().find(|r| r.planner == "liar").unwrap();
-    assert!(liar.message.contains("rule 2 (tracking)"), "{}", liar.message);
-    assert_eq!(rows.iter().find(|r| r.planner == "good").unwrap().expansions, Some(7));
-    assert!(rows.iter().find(|r| r.planner == "crash").unwrap().message.contains("panicked"));
+    assert!(
+        liar.message.contains("rule 2 (tracking)"),
+        "{}",
+        liar.message
+    );
+    assert_eq!(
+        rows.iter()
+            .find(|r| r.planner == "good")
+            .unwrap()
+            .expansions,
+        Some(7)
+    );
+    assert!(rows
+        .iter()
+        .find(|r| r.planner == "crash")
+        .unwrap()
+        .message
+        .contains("panicked"));
 
     let summary = std::fs::read_to_string(&report.summary_path).unwrap();
-    assert!(summary.contains("| good | 1 | 2 | 100.0 % (2) |"), "{summary}");
-    assert!(summary.contains("| liar | all | 4 | 0.0 % (0) |"), "{summary}");
+    assert!(
+        summary.contains("| good | 1 | 2 | 100.0 % (2) |"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("| liar | all | 4 | 0.0 % (0) |"),
+        "{summary}"
+    );
     assert!(summary.contains("Invalid \"successes\""), "{summary}");
     let good = report.summary.cell("good", None).unwrap();
     assert_eq!((good.median(), good.mean()), (Some(0.002), Some(0.002)));
     assert_eq!(report.plot_error, None);
     assert_eq!(report.plots.len(), 6);
     for plot in &report.plots {
-        assert!(std::fs::metadata(plot).unwrap().len() > 1000, "{}", plot.display());
+        assert!(
+            std::fs::metadata(plot).unwrap().len() > 1000,
+            "{}",
+            plot.display()
+        );
     }
 }
 
@@ -149,26 +202,50 @@ fn rerunning_resumes_and_a_cut_last_line_is_run_again() {
     assert_eq!((first.runs, calls.load(Ordering::SeqCst)), (3, 3));
 
     // A second planner: only its runs are made.
-    let second = run_bench_with(suite.path(), &options(&["good", "slow"], out.path()), &counting).unwrap();
-    assert_eq!((second.runs, second.resumed, calls.load(Ordering::SeqCst)), (3, 3, 6));
+    let second = run_bench_with(
+        suite.path(),
+        &options(&["good", "slow"], out.path()),
+        &counting,
+    )
+    .unwrap();
+    assert_eq!(
+        (second.runs, second.resumed, calls.load(Ordering::SeqCst)),
+        (3, 3, 6)
+    );
 
     // An interruption in the middle of writing the last row: that run is made again.
     let path = &second.results_path;
     let text = std::fs::read_to_string(path).unwrap();
     let cut = text.trim_end().rfind('\n').unwrap() + 10;
     std::fs::write(path, &text[..cut]).unwrap();
-    let third = run_bench_with(suite.path(), &options(&["good", "slow"], out.path()), &counting).unwrap();
-    assert_eq!((third.runs, third.resumed, calls.load(Ordering::SeqCst)), (1, 5, 7));
+    let third = run_bench_with(
+        suite.path(),
+        &options(&["good", "slow"], out.path()),
+        &counting,
+    )
+    .unwrap();
+    assert_eq!(
+        (third.runs, third.resumed, calls.load(Ordering::SeqCst)),
+        (1, 5, 7)
+    );
     let rows = read_rows(path);
     assert_eq!(rows.len(), 6);
-    let mut keys: Vec<_> = rows.iter().map(|r| (r.problem.clone(), r.planner.clone())).collect();
+    let mut keys: Vec<_> = rows
+        .iter()
+        .map(|r| (r.problem.clone(), r.planner.clone()))
+        .collect();
     keys.sort();
     keys.dedup();
     assert_eq!(keys.len(), 6);
     assert_eq!(third.summary.cell("slow", None).unwrap().runs, 3);
 
     // Nothing left to do.
-    let fourth = run_bench_with(suite.path(), &options(&["good", "slow"], out.path()), &counting).unwrap();
+    let fourth = run_bench_with(
+        suite.path(),
+        &options(&["good", "slow"], out.path()),
+        &counting,
+    )
+    .unwrap();
     assert_eq!((fourth.runs, calls.load(Ordering::SeqCst)), (0, 7));
 }
 
@@ -178,7 +255,10 @@ fn another_timeout_is_refused_rather_than_mixed() {
     let out = tempfile::tempdir().unwrap();
     write_suite(suite.path(), 1);
     run_bench_with(suite.path(), &options(&["good"], out.path()), &fake).unwrap();
-    let opts = BenchOptions { timeout_s: 2.0, ..options(&["good"], out.path()) };
+    let opts = BenchOptions {
+        timeout_s: 2.0,
+        ..options(&["good"], out.path())
+    };
     match run_bench_with(suite.path(), &opts, &fake) {
         Err(Error::Options(m)) => assert!(m.contains("timeout of 5 s"), "{m}"),
         other => panic!("expected a refusal, got {other:?}"),
@@ -190,18 +270,33 @@ fn quick_runs_every_stride_th_problem_with_a_short_timeout() {
     let suite = tempfile::tempdir().unwrap();
     let out = tempfile::tempdir().unwrap();
     write_suite(suite.path(), 2 * QUICK_STRIDE + 1);
-    let opts = BenchOptions { quick: true, ..options(&["good"], out.path()) };
+    let opts = BenchOptions {
+        quick: true,
+        ..options(&["good"], out.path())
+    };
     let report = run_bench_with(suite.path(), &opts, &fake).unwrap();
-    let mut problems: Vec<String> = read_rows(&report.results_path).into_iter().map(|r| r.problem).collect();
+    let mut problems: Vec<String> = read_rows(&report.results_path)
+        .into_iter()
+        .map(|r| r.problem)
+        .collect();
     problems.sort();
-    let expected: Vec<String> = (0..3).map(|k| format!("p{:02}", k * QUICK_STRIDE)).collect();
+    let expected: Vec<String> = (0..3)
+        .map(|k| format!("p{:02}", k * QUICK_STRIDE))
+        .collect();
     assert_eq!(problems, expected);
-    assert!(read_rows(&report.results_path).iter().all(|r| r.timeout_s == 1.0));
+    assert!(read_rows(&report.results_path)
+        .iter()
+        .all(|r| r.timeout_s == 1.0));
 }
 
 #[test]
 fn a_missing_suite_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
-    let err = run_bench_with(&dir.path().join("nope"), &options(&["good"], dir.path()), &fake).unwrap_err();
+    let err = run_bench_with(
+        &dir.path().join("nope"),
+        &options(&["good"], dir.path()),
+        &fake,
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("suite.json"), "{err}");
 }

@@ -12,7 +12,10 @@ use omcbsa_core::model::KinovaGen3;
 
 /// Two problems per family: 12 problems, every family, several layouts and arm counts.
 fn small() -> GenOptions {
-    GenOptions { per_family: 2, ..GenOptions::default() }
+    GenOptions {
+        per_family: 2,
+        ..GenOptions::default()
+    }
 }
 
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
@@ -44,15 +47,21 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
     let index = read_index(a.path()).unwrap();
     assert_eq!(index.problems.len(), 12);
     assert_eq!(report.problems, 12);
-    let families: std::collections::BTreeSet<_> = index.problems.iter().map(|e| e.family.as_str()).collect();
+    let families: std::collections::BTreeSet<_> =
+        index.problems.iter().map(|e| e.family.as_str()).collect();
     assert_eq!(families.len(), 6, "{families:?}");
     for entry in &index.problems {
         let text = load::read_text(&a.path().join(&entry.file)).unwrap();
         let file = load::parse_problem(&text).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
-        let problem = load::problem::<KinovaGen3, 7>(&file).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+        let problem =
+            load::problem::<KinovaGen3, 7>(&file).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         assert_eq!(file.name, entry.name);
         assert_eq!(
-            (file.robots.len(), file.trajectories.len(), problem.horizon()),
+            (
+                file.robots.len(),
+                file.trajectories.len(),
+                problem.horizon()
+            ),
             (entry.robots, entry.trajectories, entry.horizon),
             "{}",
             entry.name
@@ -61,9 +70,15 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
         assert!((20..=40).contains(&entry.horizon));
         assert_eq!(entry.known_solvable, entry.witness.is_some());
     }
-    assert_eq!(report.known_solvable, index.problems.iter().filter(|e| e.known_solvable).count());
+    assert_eq!(
+        report.known_solvable,
+        index.problems.iter().filter(|e| e.known_solvable).count()
+    );
     // The witness search must work for most problems, or the suite says little.
-    assert!(2 * report.known_solvable >= index.problems.len(), "{report:?}");
+    assert!(
+        2 * report.known_solvable >= index.problems.len(),
+        "{report:?}"
+    );
 }
 
 #[test]
@@ -72,7 +87,8 @@ fn witnesses_solve_their_problems_under_a_shuffled_order() {
     gen_bench(dir.path(), &small()).unwrap();
     let index = read_index(dir.path()).unwrap();
     for entry in index.problems.iter().filter(|e| e.known_solvable) {
-        let file = load::parse_problem(&load::read_text(&dir.path().join(&entry.file)).unwrap()).unwrap();
+        let file =
+            load::parse_problem(&load::read_text(&dir.path().join(&entry.file)).unwrap()).unwrap();
         let problem = load::problem::<KinovaGen3, 7>(&file).unwrap();
         let text = load::read_text(&dir.path().join(entry.witness.as_ref().unwrap())).unwrap();
         let witness: SolutionFile = load::parse_solution(&text).unwrap();
@@ -80,7 +96,11 @@ fn witnesses_solve_their_problems_under_a_shuffled_order() {
         assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
         let listed: Vec<Option<usize>> = (0..file.robots.len()).map(Some).collect();
         if file.trajectories.len() >= 2 {
-            assert_ne!(witness.assignment, listed, "{}: listed order is the assignment", entry.name);
+            assert_ne!(
+                witness.assignment, listed,
+                "{}: listed order is the assignment",
+                entry.name
+            );
         }
     }
 }

@@ -5,7 +5,8 @@
 //! - [`canopen`], [`cia402`]: the protocol.
 //! - [`interpolate`]: waypoints to control-rate commands within joint limits.
 //! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
-//! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`).
+//! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
+//!   what a mock received, checked against the streamed trajectory.
 
 pub mod arm;
 pub mod canopen;
@@ -16,6 +17,7 @@ pub mod interpolate;
 pub mod log;
 pub mod mock;
 pub mod plan;
+pub mod record;
 pub mod transport;
 
 pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};

@@ -2,9 +2,15 @@
 //! tests and `omcbsa demo`. The mock opens a pseudo-terminal, prints `PTY <path>` on its first
 //! line of output, and then plays an SLCAN adapter with seven CiA 402 drives behind it.
 
+use crate::plan::Plan;
+use crate::record;
+use crate::transport::{self, Transport, TransportError};
+use crate::ExecConfig;
+use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// The mock arm script in this crate's source tree.
 pub fn script_path() -> PathBuf {
@@ -27,6 +33,27 @@ pub fn venv_python() -> Result<PathBuf, String> {
     }
 }
 
+/// The venv's python, first creating the venv with `hw-adapter/mock/setup_venv.sh` if it is
+/// missing (the script's output goes to this process's output).
+pub fn ensure_venv() -> Result<PathBuf, String> {
+    if let Ok(python) = venv_python() {
+        return Ok(python);
+    }
+    let setup = script_path().with_file_name("setup_venv.sh");
+    let status = Command::new("bash")
+        .arg(&setup)
+        .status()
+        .map_err(|e| format!("cannot run {}: {e}", setup.display()))?;
+    if !status.success() {
+        return Err(format!(
+            "{} failed ({status}): the mock arms need python3 with venv and pip, and access \
+             to the Python package index",
+            setup.display()
+        ));
+    }
+    venv_python()
+}
+
 #[derive(Clone, Debug)]
 pub struct MockArmOptions {
     /// Joint positions at power-on, rad.
@@ -39,46 +66,138 @@ pub struct MockArmOptions {
     pub extra_args: Vec<String>,
 }
 
-/// Starts a mock arm; returns the pty path to open as an SLCAN adapter, and the process. The
-/// mock exits when the pty is closed (or after its own safety timeout).
-pub fn spawn_mock_arm(
-    python: &Path,
-    script: &Path,
-    opts: &MockArmOptions,
-) -> Result<(String, Child), String> {
-    let initial: Vec<String> = opts.initial.iter().map(|q| format!("{q:.17e}")).collect();
-    let mut cmd = Command::new(python);
-    // `--flag=value`: a negative first position would otherwise read as a flag.
-    cmd.arg(script)
-        .arg(format!("--initial={}", initial.join(",")))
-        .arg(format!("--period={}", opts.period));
-    if let Some(r) = &opts.record {
-        cmd.arg("--record").arg(r);
+/// Executor settings for the mocks: feedback deadlines generous enough for three Python
+/// processes sharing a busy 2-core machine.
+pub fn exec_config() -> ExecConfig {
+    ExecConfig {
+        feedback_timeout: Duration::from_millis(250),
+        heartbeat_timeout: Duration::from_millis(500),
+        ..ExecConfig::default()
     }
-    cmd.args(&opts.extra_args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped());
-    let mut child = cmd.spawn().map_err(|e| {
-        format!(
-            "cannot start mock arm {} {}: {e}",
-            python.display(),
-            script.display()
-        )
-    })?;
-    let mut line = String::new();
-    let read = child
-        .stdout
-        .take()
-        .map(|out| BufReader::new(out).read_line(&mut line));
-    match (read, line.trim().strip_prefix("PTY ")) {
-        (Some(Ok(_)), Some(path)) => Ok((path.to_string(), child)),
-        _ => {
-            let _ = child.kill();
-            let status = child.wait().map(|s| s.to_string()).unwrap_or_default();
-            Err(format!(
-                "mock arm did not report its pty (first line {:?}, {status})",
-                line.trim()
-            ))
+}
+
+/// A running mock arm; killed when dropped.
+pub struct MockArm {
+    pub name: String,
+    /// The pseudo-terminal to open as an SLCAN adapter.
+    pub pty: String,
+    pub record: Option<PathBuf>,
+    child: Child,
+}
+
+impl MockArm {
+    /// Starts the mock `script` with `python` and waits for it to report its pty.
+    pub fn spawn(
+        python: &Path,
+        script: &Path,
+        name: &str,
+        opts: &MockArmOptions,
+    ) -> Result<Self, String> {
+        let initial: Vec<String> = opts.initial.iter().map(|q| format!("{q:.17e}")).collect();
+        let mut cmd = Command::new(python);
+        // `--flag=value`: a negative first position would otherwise read as a flag.
+        cmd.arg(script)
+            .arg(format!("--initial={}", initial.join(",")))
+            .arg(format!("--period={}", opts.period));
+        if let Some(r) = &opts.record {
+            cmd.arg("--record").arg(r);
+        }
+        cmd.args(&opts.extra_args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped());
+        let mut child = cmd.spawn().map_err(|e| {
+            format!(
+                "cannot start mock arm {name:?} ({} {}): {e}",
+                python.display(),
+                script.display()
+            )
+        })?;
+        let mut line = String::new();
+        let read = child
+            .stdout
+            .take()
+            .map(|out| BufReader::new(out).read_line(&mut line));
+        match (read, line.trim().strip_prefix("PTY ")) {
+            (Some(Ok(_)), Some(path)) => Ok(MockArm {
+                name: name.to_string(),
+                pty: path.to_string(),
+                record: opts.record.clone(),
+                child,
+            }),
+            _ => {
+                let _ = child.kill();
+                let status = child.wait().map(|s| s.to_string()).unwrap_or_default();
+                Err(format!(
+                    "mock arm {name:?} did not report its pty (first line {:?}, {status})",
+                    line.trim()
+                ))
+            }
         }
     }
+
+    /// Opens the mock's pty as an SLCAN bus.
+    pub fn open_bus(&self) -> Result<Box<dyn Transport>, TransportError> {
+        transport::open(&format!("slcan:{}", self.pty))
+    }
+
+    /// Waits for the mock to exit (it does once its pty is closed) and returns its record
+    /// (empty without one).
+    pub fn finish(mut self) -> Result<Vec<Value>, String> {
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while self.child.try_wait().ok().flatten().is_none() {
+            if Instant::now() > deadline {
+                return Err(format!(
+                    "mock arm {:?} did not exit after its pty was closed",
+                    self.name
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        match &self.record {
+            Some(path) => record::read(path),
+            None => Ok(Vec::new()),
+        }
+    }
+}
+
+impl Drop for MockArm {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts one mock arm per arm of `plan`, each at its arm's first waypoint, recording to
+/// `record(name)`, with the further flags `extra[i]` for arm i.
+pub fn spawn_for_plan(
+    python: &Path,
+    plan: &Plan,
+    record: impl Fn(&str) -> PathBuf,
+    extra: &[Vec<String>],
+) -> Result<Vec<MockArm>, String> {
+    (plan.arms.iter().enumerate())
+        .map(|(i, arm)| {
+            let path = record(&arm.name);
+            // A stale record from an earlier run must not pass for this run's.
+            let _ = std::fs::remove_file(&path);
+            let opts = MockArmOptions {
+                initial: *arm
+                    .joint_path
+                    .first()
+                    .ok_or_else(|| format!("arm {:?} has an empty joint path", arm.name))?,
+                period: 0.002,
+                record: Some(path),
+                extra_args: extra.get(i).cloned().unwrap_or_default(),
+            };
+            MockArm::spawn(python, &script_path(), &arm.name, &opts)
+        })
+        .collect()
+}
+
+/// The buses of `mocks`, paired with their arm names, as [`crate::Executor::new`] takes them.
+pub fn open_buses(mocks: &[MockArm]) -> Result<Vec<(String, Box<dyn Transport>)>, TransportError> {
+    mocks
+        .iter()
+        .map(|m| Ok((m.name.clone(), m.open_bus()?)))
+        .collect()
 }

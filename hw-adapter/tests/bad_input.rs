@@ -39,7 +39,7 @@ fn plan_that_does_not_validate_is_refused_before_anything_is_sent() {
     );
     for m in mocks {
         let name = m.name.clone();
-        assert!(m.finish().is_empty(), "{name} received frames");
+        assert!(record_of(m).is_empty(), "{name} received frames");
     }
 }
 
@@ -91,7 +91,7 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
     assert!(text.contains("no motion command was sent"), "{text}");
     for m in mocks {
         let name = m.name.clone();
-        let record = m.finish();
+        let record = record_of(m);
         assert_eq!(
             kinds(&record, "rpdo"),
             0,

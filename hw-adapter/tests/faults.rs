@@ -38,7 +38,7 @@ fn run_with_fault(tag: &str, flags: &[&str]) -> (FaultReport, Vec<(String, Vec<V
     println!("{report}");
     let records = mocks
         .into_iter()
-        .map(|m| (m.name.clone(), m.finish()))
+        .map(|m| (m.name.clone(), record_of(m)))
         .collect();
     (report, records)
 }

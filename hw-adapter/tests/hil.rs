@@ -4,9 +4,10 @@
 mod common;
 
 use common::*;
-use omcbsa_hw::cia402::{counts_to_rad, CW_DISABLE_OPERATION, CW_ENABLE_OPERATION};
+use omcbsa_hw::cia402::counts_to_rad;
 use omcbsa_hw::interpolate::interpolate;
-use omcbsa_hw::{ExecConfig, Executor, JointLimits};
+use omcbsa_hw::record::check_followed;
+use omcbsa_hw::{ExecConfig, Executor, JointLimits, JOINTS};
 
 #[test]
 fn three_arms_follow_the_interpolated_plan() {
@@ -25,43 +26,18 @@ fn three_arms_follow_the_interpolated_plan() {
     let traj = interpolate(&plan, &limits, 0.002).unwrap();
     for (arm, mock) in mocks.into_iter().enumerate() {
         let name = mock.name.clone();
-        let record = mock.finish();
-        assert_eq!(
-            kinds(&record, "violation"),
-            0,
-            "{name}: the mock refused commands"
-        );
-        let per_node = targets(&record);
+        let record = record_of(mock);
         let cmds = &traj.commands[arm];
-        for (j, received) in per_node.iter().enumerate() {
-            let streamed: Vec<_> = received
-                .iter()
-                .filter(|r| r.2 == u64::from(CW_ENABLE_OPERATION))
-                .collect();
-            assert_eq!(
-                streamed.len(),
-                cmds.len() + cfg.settle_cycles,
-                "{name} joint {}",
-                j + 1
-            );
-            for (k, r) in streamed.iter().enumerate() {
-                let want = counts_to_rad(cmds[k.min(cmds.len() - 1)][j]);
-                let got = counts_to_rad(r.1 as i32);
-                assert!(
-                    (got - want).abs() <= 1e-6,
-                    "{name} joint {} cycle {k}: {got} vs {want}",
-                    j + 1
-                );
-            }
-            // the plan's waypoints themselves are reached: first and last exactly (to 1e-7)
-            let path = &plan.arms[arm].joint_path;
-            assert!((counts_to_rad(streamed[0].1 as i32) - path[0][j]).abs() <= 1e-7);
+        let cycles = check_followed(&record, cmds, cfg.settle_cycles, &limits, 0.002)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(cycles, cmds.len() + cfg.settle_cycles);
+        // the plan's waypoints themselves are reached: first and last exactly (to 1e-7)
+        let path = &plan.arms[arm].joint_path;
+        for j in 0..JOINTS {
+            assert!((counts_to_rad(cmds[0][j]) - path[0][j]).abs() <= 1e-7);
             assert!(
-                (counts_to_rad(streamed.last().unwrap().1 as i32) - path[path.len() - 1][j]).abs()
-                    <= 1e-7
+                (counts_to_rad(cmds[cmds.len() - 1][j]) - path[path.len() - 1][j]).abs() <= 1e-7
             );
-            // and the run ends by disabling operation
-            assert_eq!(received.last().unwrap().2, u64::from(CW_DISABLE_OPERATION));
         }
     }
     let lines = std::fs::read_to_string(&log).unwrap();

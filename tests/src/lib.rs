@@ -98,3 +98,106 @@ pub fn plan_and_validate(file: &ProblemFile, planner: &str, timeout: f64) -> Sol
     }
     sol
 }
+
+/// A random smooth joint path of `h` steps starting near `q0`, within position and velocity
+/// limits (`dt`), made of two sine waves per joint with random amplitude and phase.
+pub fn random_path(rng: &mut omcbsa_core::rng::Rng, q0: &[f64; DOF], spread: f64, h: usize, dt: f64) -> Vec<[f64; DOF]> {
+    let amp: [f64; DOF] = std::array::from_fn(|_| rng.uniform(-spread, spread));
+    let phase: [f64; DOF] = std::array::from_fn(|_| rng.uniform(0.0, std::f64::consts::PI));
+    let vmax = KinovaGen3::VELOCITY;
+    (0..h)
+        .map(|t| {
+            let s = t as f64 / (h.max(2) - 1) as f64;
+            std::array::from_fn(|i| {
+                // |d/dt| <= amp * pi / (h * dt): scaled to stay under 70 % of the limit.
+                let w = std::f64::consts::PI;
+                let a = amp[i].clamp(-0.7 * vmax[i] * (h as f64 - 1.0) * dt / w, 0.7 * vmax[i] * (h as f64 - 1.0) * dt / w);
+                let q = q0[i] + a * ((w * s + phase[i]).sin() - phase[i].sin());
+                q.clamp(KinovaGen3::LOWER[i] + 0.05, KinovaGen3::UPPER[i] - 0.05)
+            })
+        })
+        .collect()
+}
+
+/// Whether the witness paths are collision-free (steps and motions, obstacles, self, each
+/// other) and within velocity limits, by the core's own checks.
+pub fn witness_is_valid(bases: &[Frame], paths: &[Vec<[f64; DOF]>], obstacles: &[omcbsa_core::geometry::Obstacle], dt: f64) -> bool {
+    use omcbsa_core::search::{OtherArm, OthersMode, Validity};
+    (0..bases.len()).all(|i| {
+        let others: Vec<OtherArm<'_, DOF>> =
+            (0..i).map(|k| OtherArm { base: bases[k], path: &paths[k] }).collect();
+        let v = Validity::<KinovaGen3, DOF>::new(bases[i], obstacles, &others, OthersMode::Avoid, &[], dt, 0.04);
+        let p = &paths[i];
+        (0..p.len()).all(|t| {
+            v.state(&p[t], t).is_some()
+                && (t + 1 == p.len() || (v.step_within_limits(&p[t], &p[t + 1]) && v.motion(&p[t], &p[t + 1], t).is_some()))
+        })
+    })
+}
+
+/// A one-arm problem that needs a null-space elbow swing: the hand follows the witness `p0`
+/// (random, from `seed`), the arm starts (`initial`) in the other elbow family (0.8 rad along
+/// the null space), and a ball sits where that family's elbow is at step 8. Returns the problem
+/// and the path IK tracking takes from `initial`, or `None` if this seed does not give such a
+/// scene.
+pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> {
+    use omcbsa_core::kinematics::null_space_basis;
+    use omcbsa_core::problem::Robot;
+    use omcbsa_core::search::{OthersMode, Validity};
+    let home = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+    let mut rng = omcbsa_core::rng::Rng::new(seed);
+    let base = frame([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
+    let q0: [f64; DOF] = std::array::from_fn(|i| home[i] + rng.uniform(-0.6, 0.6));
+    let p0 = random_path(&mut rng, &q0, 0.8, 16, 0.2);
+    let (_, j) = KinovaGen3::jacobian(&p0[0]);
+    let n = *null_space_basis::<DOF>(&j).first()?;
+    let shifted: [f64; DOF] = std::array::from_fn(|i| p0[0][i] + 0.8 * n[i]);
+    let free = Validity::<KinovaGen3, DOF>::new(base, &[], &[], OthersMode::Avoid, &[], 0.2, 0.04);
+    let traj: omcbsa_core::problem::Trajectory = p0.iter().map(|q| KinovaGen3::fk(q)).collect();
+    let robot = Robot { base, tcp: Frame::IDENTITY, initial: None };
+    let mut alt = vec![[0.0; DOF]; p0.len()];
+    omcbsa_core::tracking::track::<KinovaGen3, DOF>(&robot, &traj, &shifted, &free, &Default::default(), &mut alt)?;
+    let mut f = [Frame::IDENTITY; 9];
+    KinovaGen3::link_frames(&alt[8], &mut f);
+    let elbow = f[4].pos;
+    let ball = omcbsa_core::geometry::Obstacle {
+        shape: omcbsa_core::geometry::Shape::Sphere { radius: 0.06 },
+        pose: Frame { rot: Frame::IDENTITY.rot, pos: elbow },
+    };
+    if !witness_is_valid(&[base], &[p0.clone()], &[ball], 0.2) {
+        return None;
+    }
+    let file = problem_json(
+        &format!("elbow_swing_{seed}"),
+        0.2,
+        vec![robot_json("arm", &base, Some(&alt[0]))],
+        vec![trajectory_json("hand", &base, &p0)],
+        vec![sphere("ball", [elbow.x, elbow.y, elbow.z], 0.06)],
+    );
+    Some((file, alt))
+}
+
+/// Two arms facing each other `0.7..1.0` m apart, each following a random smooth witness path
+/// (from `seed`); the trajectories are listed in the reverse order. `None` if the witness
+/// collides.
+pub fn facing_pair_problem(seed: u64) -> Option<ProblemFile> {
+    let home = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+    let mut rng = omcbsa_core::rng::Rng::new(seed);
+    let gap = rng.uniform(0.7, 1.0);
+    let b0 = frame([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
+    let b1 = frame([gap, 0.0, 0.0], [0.0, 0.0, std::f64::consts::PI]);
+    let q0: [f64; DOF] = std::array::from_fn(|i| home[i] + rng.uniform(-0.5, 0.5));
+    let q1: [f64; DOF] = std::array::from_fn(|i| home[i] + rng.uniform(-0.5, 0.5));
+    let p0 = random_path(&mut rng, &q0, 1.0, 20, 0.2);
+    let p1 = random_path(&mut rng, &q1, 1.0, 20, 0.2);
+    if !witness_is_valid(&[b0, b1], &[p0.clone(), p1.clone()], &[], 0.2) {
+        return None;
+    }
+    Some(problem_json(
+        &format!("facing_pair_{seed}"),
+        0.2,
+        vec![robot_json("a", &b0, None), robot_json("b", &b1, None)],
+        vec![trajectory_json("h1", &b1, &p1), trajectory_json("h0", &b0, &p0)],
+        vec![],
+    ))
+}

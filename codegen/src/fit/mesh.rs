@@ -16,7 +16,7 @@ pub struct Mesh {
 }
 
 impl Mesh {
-    /// Reads a binary or ASCII STL file; identical vertices are merged.
+    /// The vertices of a binary or ASCII STL file, identical ones merged.
     pub fn read_stl(path: &Path) -> Result<Mesh, FitError> {
         let file =
             File::open(path).map_err(|e| FitError::new(format!("{}: {e}", path.display())))?;
@@ -37,11 +37,7 @@ impl Mesh {
                 path.display()
             )));
         }
-        let triangles = stl.faces.iter().map(|f| f.vertices).collect();
-        Ok(Mesh {
-            vertices,
-            triangles,
-        })
+        Ok(Mesh { vertices })
     }
 
     /// The mesh scaled per axis, then moved by `pose`.
@@ -54,12 +50,9 @@ impl Mesh {
         self
     }
 
-    /// Adds `other`'s triangles to this mesh.
+    /// Adds `other`'s vertices to this mesh.
     pub fn append(&mut self, other: Mesh) {
-        let offset = self.vertices.len();
         self.vertices.extend(other.vertices);
-        self.triangles
-            .extend(other.triangles.into_iter().map(|t| t.map(|i| i + offset)));
     }
 
     /// Extent of the axis-aligned bounding box.
@@ -139,11 +132,10 @@ fn origin_pose(origin: &urdf_rs::Pose) -> Isometry3<f64> {
 mod tests {
     use super::*;
 
-    /// The corner tetrahedron of the unit cube.
+    /// The corners of the unit cube's corner tetrahedron.
     fn tetrahedron() -> Mesh {
         Mesh {
             vertices: vec![Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::z()],
-            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
         }
     }
 

@@ -7,7 +7,7 @@
 
 use crate::ik::{ik_multi_start, MultiStart};
 use crate::model::{Frame, Model};
-use crate::motion::{motions_conflict, ArmMotion};
+use crate::motion::{motions_collide, ArmMotion};
 use crate::collision::ArmPose;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::pp::Orders;
@@ -276,7 +276,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
             let a = ArmMotion { base: &self.pr.robots[i].base, from: &from[i], to: &to[i] };
             for k in i + 1..self.n {
                 let b = ArmMotion { base: &self.pr.robots[k].base, from: &from[k], to: &to[k] };
-                if motions_conflict::<M, D>(&a, &b, self.p.low.motion_step).is_some() {
+                if motions_collide::<M, D>(&a, &b, self.p.low.motion_step) {
                     return false;
                 }
             }

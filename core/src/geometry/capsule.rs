@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 
-use super::aabb::Aabb;
+use super::aabb::{self, Aabb};
 use super::segment::Segment;
 
 /// All points within `radius` of the segment `a`-`b` (a sphere when `a == b`).
@@ -14,13 +14,19 @@ pub struct Capsule {
 
 impl Capsule {
     pub const fn new(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> Capsule {
-        Capsule { segment: Segment::new(a, b), radius }
+        Capsule {
+            segment: Segment::new(a, b),
+            radius,
+        }
     }
 
     pub fn aabb(&self) -> Aabb {
         let s = &self.segment;
         let r = Vector3::repeat(self.radius);
-        Aabb { min: s.a.inf(&s.b) - r, max: s.a.sup(&s.b) + r }
+        Aabb {
+            min: aabb::min3(&s.a, &s.b) - r,
+            max: aabb::max3(&s.a, &s.b) + r,
+        }
     }
 
     /// Signed distance between the surfaces: negative when the capsules overlap (then minus

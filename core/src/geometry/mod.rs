@@ -47,10 +47,18 @@ impl Obstacle {
                 Aabb::around(c, &(rot.abs() * Vector3::from(half_extents)))
             }
             Shape::Sphere { radius } => Aabb::around(c, &Vector3::repeat(radius)),
-            Shape::Capsule { radius, half_length } => {
-                Capsule { segment: self.axis(half_length), radius }.aabb()
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => Capsule {
+                segment: self.axis(half_length),
+                radius,
             }
-            Shape::Cylinder { radius, half_length } => {
+            .aabb(),
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => {
                 // A disc of radius r with unit normal n spans r * sqrt(1 - n_i^2) along axis i.
                 let n = rot.column(2);
                 let disc = n.map(|n_i| radius * libm::sqrt((1.0 - n_i * n_i).max(0.0)));
@@ -60,16 +68,18 @@ impl Obstacle {
     }
 
     pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
-        let local = self.to_local(p);
+        let local = self.local_point(p);
         match self.shape {
             Shape::Box { half_extents } => solid::box_contains(&half_extents.into(), &local),
             Shape::Sphere { radius } => local.norm_squared() <= radius * radius,
-            Shape::Capsule { radius, half_length } => {
-                self.axis(half_length).distance2_to_point(p) <= radius * radius
-            }
-            Shape::Cylinder { radius, half_length } => {
-                solid::cylinder_contains(radius, half_length, &local)
-            }
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => self.axis(half_length).distance2_to_point(p) <= radius * radius,
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => solid::cylinder_contains(radius, half_length, &local),
         }
     }
 
@@ -96,16 +106,23 @@ impl Obstacle {
     fn distance2_to_segment(&self, seg: &Segment, want: Want) -> (f64, f64) {
         match self.shape {
             Shape::Sphere { radius } => (seg.distance2_to_point(&self.pose.pos), radius),
-            Shape::Capsule { radius, half_length } => {
-                (seg.distance2_to_segment(&self.axis(half_length)), radius)
-            }
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => (seg.distance2_to_segment(&self.axis(half_length)), radius),
             Shape::Box { half_extents } => {
                 let h = Vector3::from(half_extents);
-                let local = self.segment_to_local(seg);
-                (solid::segment_distance2(&local, want, |p| solid::box_project(&h, p)), 0.0)
+                let local = self.local_segment(seg);
+                (
+                    solid::segment_distance2(&local, want, |p| solid::box_project(&h, p)),
+                    0.0,
+                )
             }
-            Shape::Cylinder { radius, half_length } => {
-                let local = self.segment_to_local(seg);
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => {
+                let local = self.local_segment(seg);
                 let project = |p: &Vector3<f64>| solid::cylinder_project(radius, half_length, p);
                 (solid::segment_distance2(&local, want, project), 0.0)
             }
@@ -118,12 +135,12 @@ impl Obstacle {
         Segment::new(self.pose.pos - z, self.pose.pos + z)
     }
 
-    fn to_local(&self, p: &Vector3<f64>) -> Vector3<f64> {
+    fn local_point(&self, p: &Vector3<f64>) -> Vector3<f64> {
         self.pose.rot.tr_mul(&(p - self.pose.pos))
     }
 
-    fn segment_to_local(&self, seg: &Segment) -> Segment {
-        Segment::new(self.to_local(&seg.a), self.to_local(&seg.b))
+    fn local_segment(&self, seg: &Segment) -> Segment {
+        Segment::new(self.local_point(&seg.a), self.local_point(&seg.b))
     }
 }
 

@@ -61,7 +61,11 @@ impl Segment {
         let det = l1 * l2 - c * c;
         // Free minimum of s, or s = 0 for (nearly) parallel segments: any s is then on the
         // valley floor, and the projection steps below find the right end of the overlap.
-        let s = if det > PARALLEL_SIN2 * l1 * l2 { clamp01((c * e2 - l2 * e1) / det) } else { 0.0 };
+        let s = if det > PARALLEL_SIN2 * l1 * l2 {
+            clamp01((c * e2 - l2 * e1) / det)
+        } else {
+            0.0
+        };
         // Best t for that s; if it leaves [0, 1], clamp it and re-optimise s for that end.
         let t = (c * s + e2) / l2;
         if t < 0.0 {

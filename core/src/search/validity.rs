@@ -4,7 +4,7 @@
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
-use crate::motion::{motion_is_free, motions_conflict, near_point, ArmMotion};
+use crate::motion::{motion_is_free, motion_near_point, motions_collide, near_point, ArmMotion};
 
 use super::{OtherArm, OthersMode, PointConstraint};
 
@@ -81,21 +81,15 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         if !motion_is_free::<M, D>(&me, self.obstacles, self.motion_step) {
             return None;
         }
-        if self.points.iter().any(|pc| pc.segment && pc.t as usize == t) {
-            let sweep = me.sweep::<M>(self.motion_step);
-            for i in 0..sweep.count() {
-                let pose = sweep.arm(&self.base, i);
-                for pc in self.points {
-                    if pc.segment && pc.t as usize == t && near_point(&pose, &pc.p, sweep.margin() + pc.margin) {
-                        return None;
-                    }
-                }
+        for pc in self.points {
+            if pc.segment && pc.t as usize == t && motion_near_point::<M, D>(&me, &pc.p, pc.margin, self.motion_step) {
+                return None;
             }
         }
         let mut c = 0u16;
         for other in self.others {
             let theirs = ArmMotion { base: &other.base, from: &other.path[t], to: &other.path[t + 1] };
-            if motions_conflict::<M, D>(&me, &theirs, self.motion_step).is_some() {
+            if motions_collide::<M, D>(&me, &theirs, self.motion_step) {
                 if self.others_mode == OthersMode::Avoid {
                     return None;
                 }

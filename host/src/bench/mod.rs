@@ -27,7 +27,7 @@ use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::problem::Problem;
 
 use crate::format::{ProblemFile, SolutionFile, Status};
-use crate::planners::{Capacities, Outcome, Storage};
+use crate::planners::{Capacities, Storage};
 use crate::suite::{self, SuiteEntry};
 use crate::{load, validate};
 
@@ -47,14 +47,26 @@ const WORKER_STACK: usize = 16 << 20;
 
 /// Runs one planner on one problem: the problem as read and as loaded, and the timeout.
 pub trait Solver: Sync {
-    fn solve(&self, planner: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64) -> Result<SolutionFile, String>;
+    fn solve(
+        &self,
+        planner: &str,
+        file: &ProblemFile,
+        problem: &Problem<7>,
+        timeout_s: f64,
+    ) -> Result<SolutionFile, String>;
 }
 
 impl<F> Solver for F
 where
     F: Fn(&str, &ProblemFile, &Problem<7>, f64) -> Result<SolutionFile, String> + Sync,
 {
-    fn solve(&self, planner: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64) -> Result<SolutionFile, String> {
+    fn solve(
+        &self,
+        planner: &str,
+        file: &ProblemFile,
+        problem: &Problem<7>,
+        timeout_s: f64,
+    ) -> Result<SolutionFile, String> {
         self(planner, file, problem, timeout_s)
     }
 }
@@ -117,8 +129,14 @@ pub struct BenchReport {
 #[derive(Debug)]
 pub enum Error {
     Suite(suite::Error),
-    Io { path: PathBuf, source: std::io::Error },
-    Csv { path: PathBuf, message: String },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    Csv {
+        path: PathBuf,
+        message: String,
+    },
     Options(String),
 }
 
@@ -143,8 +161,15 @@ impl From<suite::Error> for Error {
 
 /// Benchmarks the planners of `omcbsa plan` and the baselines ([`PLANNERS`]) on a suite.
 pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, Error> {
-    if let Some(p) = opts.planners.iter().find(|p| !PLANNERS.contains(&p.as_str())) {
-        return Err(Error::Options(format!("unknown planner {p:?} (known: {})", PLANNERS.join(", "))));
+    if let Some(p) = opts
+        .planners
+        .iter()
+        .find(|p| !PLANNERS.contains(&p.as_str()))
+    {
+        return Err(Error::Options(format!(
+            "unknown planner {p:?} (known: {})",
+            PLANNERS.join(", ")
+        )));
     }
     run_bench_with(suite_dir, opts, &solve_with_planners)
 }
@@ -155,62 +180,52 @@ thread_local! {
 }
 
 /// Runs one of the built-in planners with this thread's pools.
-fn solve_with_planners(name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64) -> Result<SolutionFile, String> {
+fn solve_with_planners(
+    name: &str,
+    file: &ProblemFile,
+    problem: &Problem<7>,
+    timeout_s: f64,
+) -> Result<SolutionFile, String> {
     STORAGE.with(|cell| {
         let mut slot = cell.borrow_mut();
-        let storage = slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
-        storage.solve(name, problem, timeout_s).map(|outcome| solution_file(name, file, &outcome))
+        let storage =
+            slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
+        storage
+            .solve(name, problem, timeout_s)
+            .map(|outcome| outcome.to_solution_file(file, name))
     })
 }
 
 /// Longest horizon the worker pools are sized for (the suite's longest is 40 steps).
 const MAX_BENCH_HORIZON: usize = 64;
 
-fn solution_file(planner: &str, file: &ProblemFile, outcome: &Outcome) -> SolutionFile {
-    use omcbsa_core::planner::Status as Core;
-    let (status, message) = match outcome.status {
-        Core::Solved => (Status::Solved, String::new()),
-        Core::NoSolution => (Status::NoSolution, String::new()),
-        Core::Timeout => (Status::Timeout, String::new()),
-        Core::OutOfMemory(m) => (Status::OutOfMemory, m.to_string()),
-        Core::InvalidProblem(m) => (Status::InvalidProblem, m.to_string()),
-    };
-    let s = &outcome.stats;
-    let stats = serde_json::json!({
-        "expansions": s.expansions,
-        "low_level_calls": s.low_level_calls,
-        "ct_nodes": s.ct_nodes,
-        "conflicts_resolved": s.conflicts_resolved,
-        "warm_start_solved": s.warm_start_solved,
-    });
-    let solved = status == Status::Solved;
-    SolutionFile {
-        format: crate::format::SOLUTION_FORMAT.to_string(),
-        problem: file.name.clone(),
-        planner: planner.to_string(),
-        status,
-        message,
-        planning_time_s: outcome.planning_time_s,
-        assignment: outcome.assignment.clone(),
-        joint_paths: solved.then(|| outcome.joint_paths.iter().map(|p| p.iter().map(|q| q.to_vec()).collect()).collect()),
-        stats: stats.as_object().cloned().unwrap_or_default(),
-    }
-}
-
 /// [`run_bench`] with any planners behind `solver`.
-pub fn run_bench_with(suite_dir: &Path, opts: &BenchOptions, solver: &dyn Solver) -> Result<BenchReport, Error> {
+pub fn run_bench_with(
+    suite_dir: &Path,
+    opts: &BenchOptions,
+    solver: &dyn Solver,
+) -> Result<BenchReport, Error> {
     if opts.planners.is_empty() {
         return Err(Error::Options("no planner selected".to_string()));
     }
     if !(opts.timeout_s.is_finite() && opts.timeout_s > 0.0) {
-        return Err(Error::Options(format!("timeout must be > 0 seconds, got {}", opts.timeout_s)));
+        return Err(Error::Options(format!(
+            "timeout must be > 0 seconds, got {}",
+            opts.timeout_s
+        )));
     }
     let timeout = opts.effective_timeout();
     let index = suite::read_index(suite_dir)?;
     let stride = if opts.quick { QUICK_STRIDE } else { 1 };
     let problems: Vec<&SuiteEntry> = index.problems.iter().step_by(stride).collect();
-    let out_dir = opts.out.clone().unwrap_or_else(|| suite_dir.join(if opts.quick { "bench-quick" } else { "bench" }));
-    std::fs::create_dir_all(&out_dir).map_err(|source| Error::Io { path: out_dir.clone(), source })?;
+    let out_dir = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| suite_dir.join(if opts.quick { "bench-quick" } else { "bench" }));
+    std::fs::create_dir_all(&out_dir).map_err(|source| Error::Io {
+        path: out_dir.clone(),
+        source,
+    })?;
     let results_path = out_dir.join(RESULTS_FILE);
     let (mut rows, mut appender) = results::open(&results_path)?;
     if let Some(r) = rows.iter().find(|r| r.timeout_s != timeout) {
@@ -222,17 +237,25 @@ pub fn run_bench_with(suite_dir: &Path, opts: &BenchOptions, solver: &dyn Solver
         )));
     }
     let resumed = rows.len();
-    let done: std::collections::HashSet<(String, String)> =
-        rows.iter().map(|r| (r.problem.clone(), r.planner.clone())).collect();
+    let done: std::collections::HashSet<(String, String)> = rows
+        .iter()
+        .map(|r| (r.problem.clone(), r.planner.clone()))
+        .collect();
     let jobs: Vec<(&SuiteEntry, &str)> = (problems.iter())
         .flat_map(|e| opts.planners.iter().map(move |p| (*e, p.as_str())))
         .filter(|(e, p)| !done.contains(&(e.name.clone(), p.to_string())))
         .collect();
 
-    let bar = if opts.progress { ProgressBar::new(jobs.len() as u64) } else { ProgressBar::hidden() };
+    let bar = if opts.progress {
+        ProgressBar::new(jobs.len() as u64)
+    } else {
+        ProgressBar::hidden()
+    };
     bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))
@@ -280,7 +303,8 @@ pub fn run_bench_with(suite_dir: &Path, opts: &BenchOptions, solver: &dyn Solver
     }
 
     let summary = Summary::new(&rows, &opts.planners);
-    let context = format!(
+    let context =
+        format!(
         "Suite `{}` ({} of its {} problems{}), timeout {timeout} s, {} job(s) at a time, {} runs.",
         suite_dir.display(),
         problems.len(),
@@ -290,17 +314,34 @@ pub fn run_bench_with(suite_dir: &Path, opts: &BenchOptions, solver: &dyn Solver
         rows.len()
     );
     let summary_path = out_dir.join(SUMMARY_FILE);
-    std::fs::write(&summary_path, summary.markdown(&context))
-        .map_err(|source| Error::Io { path: summary_path.clone(), source })?;
+    std::fs::write(&summary_path, summary.markdown(&context)).map_err(|source| Error::Io {
+        path: summary_path.clone(),
+        source,
+    })?;
     let (plots, plot_error) = match plots::write_all(&out_dir, &summary, timeout) {
         Ok(p) => (p, None),
         Err(e) => (Vec::new(), Some(e)),
     };
-    Ok(BenchReport { out_dir, runs, resumed, summary, summary_path, results_path, plots, plot_error })
+    Ok(BenchReport {
+        out_dir,
+        runs,
+        resumed,
+        summary,
+        summary_path,
+        results_path,
+        plots,
+        plot_error,
+    })
 }
 
 /// One run: load, plan (a panic is caught and reported), re-validate a success.
-fn run_one(suite_dir: &Path, entry: &SuiteEntry, planner: &str, timeout_s: f64, solver: &dyn Solver) -> Row {
+fn run_one(
+    suite_dir: &Path,
+    entry: &SuiteEntry,
+    planner: &str,
+    timeout_s: f64,
+    solver: &dyn Solver,
+) -> Row {
     let mut row = Row {
         problem: entry.name.clone(),
         family: entry.family.clone(),
@@ -331,7 +372,9 @@ fn run_one(suite_dir: &Path, entry: &SuiteEntry, planner: &str, timeout_s: f64, 
         }
     };
     let start = Instant::now();
-    let outcome = catch_unwind(AssertUnwindSafe(|| solver.solve(planner, &file, &problem, timeout_s)));
+    let outcome = catch_unwind(AssertUnwindSafe(|| {
+        solver.solve(planner, &file, &problem, timeout_s)
+    }));
     row.wall_s = start.elapsed().as_secs_f64();
     let solution = match outcome {
         Ok(Ok(s)) => s,

@@ -12,8 +12,10 @@ use super::summary::Summary;
 
 const SIZE: (u32, u32) = (900, 540);
 /// Fonts tried when `fc-match` finds none (Debian's fonts-dejavu-core).
-const FALLBACK_FONTS: [&str; 2] =
-    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"];
+const FALLBACK_FONTS: [&str; 2] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+];
 
 /// The figures, by file name.
 const CHARTS: [&str; 3] = ["success_overall", "success_by_robots", "runtime_cdf"];
@@ -28,20 +30,27 @@ pub fn write_all(dir: &Path, summary: &Summary, timeout_s: f64) -> Result<Vec<Pa
         {
             let root = SVGBackend::new(&svg, SIZE).into_drawing_area();
             draw(name, &root, summary, timeout_s)?;
-            root.present().map_err(|e| format!("{}: {e}", svg.display()))?;
+            root.present()
+                .map_err(|e| format!("{}: {e}", svg.display()))?;
         }
         let png = dir.join(format!("{name}.png"));
         {
             let root = BitMapBackend::new(&png, SIZE).into_drawing_area();
             draw(name, &root, summary, timeout_s)?;
-            root.present().map_err(|e| format!("{}: {e}", png.display()))?;
+            root.present()
+                .map_err(|e| format!("{}: {e}", png.display()))?;
         }
         written.extend([svg, png]);
     }
     Ok(written)
 }
 
-fn draw<DB: DrawingBackend>(name: &str, root: &DrawingArea<DB, Shift>, s: &Summary, timeout_s: f64) -> Result<(), String> {
+fn draw<DB: DrawingBackend>(
+    name: &str,
+    root: &DrawingArea<DB, Shift>,
+    s: &Summary,
+    timeout_s: f64,
+) -> Result<(), String> {
     match name {
         "success_overall" => success_overall(root, s),
         "success_by_robots" => success_by_robots(root, s),
@@ -76,9 +85,13 @@ fn font_path() -> Option<PathBuf> {
         .filter(|o| o.status.success())
         .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
     let truetype = |p: &PathBuf| {
-        p.is_file() && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("ttf") || e.eq_ignore_ascii_case("otf"))
+        p.is_file()
+            && p.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("ttf") || e.eq_ignore_ascii_case("otf"))
     };
-    fc.into_iter().chain(FALLBACK_FONTS.iter().map(PathBuf::from)).find(truetype)
+    fc.into_iter()
+        .chain(FALLBACK_FONTS.iter().map(PathBuf::from))
+        .find(truetype)
 }
 
 fn color(i: usize) -> RGBColor {
@@ -90,7 +103,10 @@ fn err(e: impl std::fmt::Display) -> String {
     format!("drawing a plot: {e}")
 }
 
-fn success_overall<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summary) -> Result<(), String> {
+fn success_overall<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &Summary,
+) -> Result<(), String> {
     root.fill(&WHITE).map_err(err)?;
     let n = s.planners.len();
     let mut chart = ChartBuilder::on(root)
@@ -113,23 +129,38 @@ fn success_overall<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summar
         .label_style(("sans-serif", 16))
         .draw()
         .map_err(err)?;
-    let rates: Vec<f64> = (s.planners.iter()).map(|p| 100.0 * s.cell(p, None).map_or(0.0, |c| c.success_rate())).collect();
+    let rates: Vec<f64> = (s.planners.iter())
+        .map(|p| 100.0 * s.cell(p, None).map_or(0.0, |c| c.success_rate()))
+        .collect();
     chart
         .draw_series(rates.iter().enumerate().map(|(i, &r)| {
-            let mut bar = Rectangle::new([(SegmentValue::Exact(i), 0.0), (SegmentValue::Exact(i + 1), r)], color(i).filled());
+            let mut bar = Rectangle::new(
+                [
+                    (SegmentValue::Exact(i), 0.0),
+                    (SegmentValue::Exact(i + 1), r),
+                ],
+                color(i).filled(),
+            );
             bar.set_margin(0, 0, 18, 18);
             bar
         }))
         .map_err(err)?;
     chart
         .draw_series(rates.iter().enumerate().map(|(i, &r)| {
-            Text::new(format!("{r:.1} %"), (SegmentValue::CenterOf(i), r + 4.0), ("sans-serif", 15).into_font())
+            Text::new(
+                format!("{r:.1} %"),
+                (SegmentValue::CenterOf(i), r + 4.0),
+                ("sans-serif", 15).into_font(),
+            )
         }))
         .map_err(err)?;
     Ok(())
 }
 
-fn success_by_robots<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summary) -> Result<(), String> {
+fn success_by_robots<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &Summary,
+) -> Result<(), String> {
     root.fill(&WHITE).map_err(err)?;
     let lo = s.robot_counts.first().copied().unwrap_or(2) as f64;
     let hi = s.robot_counts.last().copied().unwrap_or(6) as f64;
@@ -152,7 +183,10 @@ fn success_by_robots<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summ
         .map_err(err)?;
     for (i, p) in s.planners.iter().enumerate() {
         let points: Vec<(f64, f64)> = (s.robot_counts.iter())
-            .filter_map(|&n| s.cell(p, Some(n)).map(|c| (n as f64, 100.0 * c.success_rate())))
+            .filter_map(|&n| {
+                s.cell(p, Some(n))
+                    .map(|c| (n as f64, 100.0 * c.success_rate()))
+            })
             .collect();
         let c = color(i);
         chart
@@ -160,7 +194,9 @@ fn success_by_robots<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summ
             .map_err(err)?
             .label(p.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3)));
-        chart.draw_series(points.into_iter().map(|pt| Circle::new(pt, 5, c.filled()))).map_err(err)?;
+        chart
+            .draw_series(points.into_iter().map(|pt| Circle::new(pt, 5, c.filled())))
+            .map_err(err)?;
     }
     chart
         .configure_series_labels()
@@ -173,13 +209,26 @@ fn success_by_robots<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summ
     Ok(())
 }
 
-fn runtime_cdf<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summary, timeout_s: f64) -> Result<(), String> {
+fn runtime_cdf<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &Summary,
+    timeout_s: f64,
+) -> Result<(), String> {
     root.fill(&WHITE).map_err(err)?;
-    let fastest = (s.cells.values()).flat_map(|c| c.times.first().copied()).fold(f64::INFINITY, f64::min);
-    let lo = if fastest.is_finite() { (fastest * 0.8).max(1e-5) } else { 1e-3 };
+    let fastest = (s.cells.values())
+        .flat_map(|c| c.times.first().copied())
+        .fold(f64::INFINITY, f64::min);
+    let lo = if fastest.is_finite() {
+        (fastest * 0.8).max(1e-5)
+    } else {
+        1e-3
+    };
     let hi = timeout_s.max(lo * 10.0);
     let mut chart = ChartBuilder::on(root)
-        .caption("Planning time: share of runs solved within t", ("sans-serif", 26))
+        .caption(
+            "Planning time: share of runs solved within t",
+            ("sans-serif", 26),
+        )
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -195,7 +244,9 @@ fn runtime_cdf<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Summary, t
         .draw()
         .map_err(err)?;
     for (i, p) in s.planners.iter().enumerate() {
-        let Some(cell) = s.cell(p, None) else { continue };
+        let Some(cell) = s.cell(p, None) else {
+            continue;
+        };
         let runs = cell.runs.max(1) as f64;
         // A step curve: flat until each success time, then one run higher.
         let mut points = vec![(lo, 0.0)];

@@ -65,8 +65,14 @@ fn header() -> Result<String, Error> {
         expansions: None,
         message: String::new(),
     };
-    w.serialize(&dummy).map_err(|e| Error::Csv { path: PathBuf::new(), message: e.to_string() })?;
-    let bytes = w.into_inner().map_err(|e| Error::Csv { path: PathBuf::new(), message: e.to_string() })?;
+    w.serialize(&dummy).map_err(|e| Error::Csv {
+        path: PathBuf::new(),
+        message: e.to_string(),
+    })?;
+    let bytes = w.into_inner().map_err(|e| Error::Csv {
+        path: PathBuf::new(),
+        message: e.to_string(),
+    })?;
     let text = String::from_utf8_lossy(&bytes);
     Ok(text.lines().next().unwrap_or_default().to_string())
 }
@@ -79,7 +85,10 @@ pub struct Appender {
 
 impl Appender {
     pub fn append(&mut self, row: &Row) -> Result<(), Error> {
-        let csv_err = |e: &dyn std::fmt::Display| Error::Csv { path: self.path.clone(), message: e.to_string() };
+        let csv_err = |e: &dyn std::fmt::Display| Error::Csv {
+            path: self.path.clone(),
+            message: e.to_string(),
+        };
         self.writer.serialize(row).map_err(|e| csv_err(&e))?;
         self.writer.flush().map_err(|e| csv_err(&e))
     }
@@ -88,7 +97,10 @@ impl Appender {
 /// Opens `path` for appending and returns the rows already in it. A last line cut short by an
 /// interruption is dropped; a file with another header is refused rather than mixed.
 pub fn open(path: &Path) -> Result<(Vec<Row>, Appender), Error> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let expected = header()?;
     let mut rows = Vec::new();
     let existing = match std::fs::read(path) {
@@ -96,14 +108,20 @@ pub fn open(path: &Path) -> Result<(Vec<Row>, Appender), Error> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
         Err(e) => return Err(io(e)),
     };
-    let complete = existing.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let complete = existing
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
     if complete < existing.len() {
         let file = OpenOptions::new().write(true).open(path).map_err(io)?;
         file.set_len(complete as u64).map_err(io)?;
     }
     if complete > 0 {
         let mut reader = csv::Reader::from_reader(&existing[..complete]);
-        let found = reader.headers().map_err(|e| Error::Csv { path: path.to_path_buf(), message: e.to_string() })?;
+        let found = reader.headers().map_err(|e| Error::Csv {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         let found = found.iter().collect::<Vec<_>>().join(",");
         if found != expected {
             return Err(Error::Csv {
@@ -121,10 +139,22 @@ pub fn open(path: &Path) -> Result<(Vec<Row>, Appender), Error> {
             rows.push(row);
         }
     }
-    let mut file = OpenOptions::new().create(true).append(true).open(path).map_err(io)?;
+    let mut file = OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(io)?;
     if complete == 0 {
         writeln!(file, "{expected}").map_err(io)?;
     }
-    let writer = csv::WriterBuilder::new().has_headers(false).from_writer(file);
-    Ok((rows, Appender { path: path.to_path_buf(), writer }))
+    let writer = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_writer(file);
+    Ok((
+        rows,
+        Appender {
+            path: path.to_path_buf(),
+            writer,
+        },
+    ))
 }

@@ -21,7 +21,11 @@ pub struct Cell {
 impl Cell {
     fn new(rows: &[&Row]) -> Cell {
         let solvable: Vec<_> = rows.iter().filter(|r| r.known_solvable).collect();
-        let mut times: Vec<f64> = rows.iter().filter(|r| r.success).map(|r| r.time_s).collect();
+        let mut times: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.success)
+            .map(|r| r.time_s)
+            .collect();
         times.sort_by(f64::total_cmp);
         Cell {
             runs: rows.len(),
@@ -80,7 +84,11 @@ impl Summary {
     /// Groups `rows`; planners listed in `order` come first, others after in order of
     /// appearance.
     pub fn new(rows: &[Row], order: &[String]) -> Summary {
-        let mut planners: Vec<String> = order.iter().filter(|p| rows.iter().any(|r| &r.planner == *p)).cloned().collect();
+        let mut planners: Vec<String> = order
+            .iter()
+            .filter(|p| rows.iter().any(|r| &r.planner == *p))
+            .cloned()
+            .collect();
         for r in rows {
             if !planners.contains(&r.planner) {
                 planners.push(r.planner.clone());
@@ -98,8 +106,17 @@ impl Summary {
             }
             cells.insert((p.clone(), None), Cell::new(&mine));
         }
-        let invalid = rows.iter().filter(|r| r.valid == Some(false)).cloned().collect();
-        Summary { planners, robot_counts, cells, invalid }
+        let invalid = rows
+            .iter()
+            .filter(|r| r.valid == Some(false))
+            .cloned()
+            .collect();
+        Summary {
+            planners,
+            robot_counts,
+            cells,
+            invalid,
+        }
     }
 
     pub fn cell(&self, planner: &str, robots: Option<usize>) -> Option<&Cell> {
@@ -132,13 +149,22 @@ impl Summary {
                 let _ = write!(s, " {} |", pct(c.success_rate()));
             }
             let all = &self.cells[&(p.clone(), None)];
-            let _ = writeln!(s, " {} | {} |", pct(all.success_rate()), pct(all.solvable_success_rate()));
+            let _ = writeln!(
+                s,
+                " {} | {} |",
+                pct(all.success_rate()),
+                pct(all.solvable_success_rate())
+            );
         }
         let _ = writeln!(s, "\n## Per planner and number of arms\n");
         let _ = writeln!(s, "| planner | arms | runs | success | success (known solvable) | median (ms) | mean (ms) |");
         let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
         for p in &self.planners {
-            let groups = self.robot_counts.iter().map(|&n| (n.to_string(), Some(n))).chain([("all".to_string(), None)]);
+            let groups = self
+                .robot_counts
+                .iter()
+                .map(|&n| (n.to_string(), Some(n)))
+                .chain([("all".to_string(), None)]);
             for (label, key) in groups {
                 let c = &self.cells[&(p.clone(), key)];
                 let _ = writeln!(

@@ -2,6 +2,8 @@
 //! line answered), 1 a negative answer (not solved, invalid, some line failed), 2 bad input
 //! or usage (clap exits with 2 on usage errors too).
 
+pub mod demo;
+pub mod execute;
 pub mod fk;
 pub mod ik;
 mod lines;

@@ -19,7 +19,8 @@ pub struct Args {
     /// Where to write the solution (omcbsa.solution.v1); standard output if absent.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// omcbsa, pp, pp-single, ik-tracking, descartes or composite-astar.
+    /// omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar, or omega-astar (one
+    /// robot only).
     #[arg(long, default_value = "omcbsa")]
     planner: String,
     /// Planning time limit, seconds.
@@ -28,11 +29,18 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    if !PLANNERS.contains(&args.planner.as_str()) {
-        return bad_input(format!("--planner: unknown planner {:?} (known: {})", args.planner, PLANNERS.join(", ")));
+    if !PLANNERS.contains(&args.planner.as_str()) && args.planner != "omega-astar" {
+        return bad_input(format!(
+            "--planner: unknown planner {:?} (known: omega-astar, {})",
+            args.planner,
+            PLANNERS.join(", ")
+        ));
     }
     if !(args.timeout > 0.0 && args.timeout.is_finite()) {
-        return bad_input(format!("--timeout: must be a positive number of seconds, got {}", args.timeout));
+        return bad_input(format!(
+            "--timeout: must be a positive number of seconds, got {}",
+            args.timeout
+        ));
     }
     let path = args.problem.display();
     let file = match load::read_text(&args.problem).and_then(|t| load::parse_problem(&t)) {
@@ -61,7 +69,11 @@ pub fn run(args: &Args) -> ExitCode {
         args.planner,
         solution.status.as_str(),
         solution.planning_time_s * 1e3,
-        if solution.message.is_empty() { String::new() } else { format!(" ({})", solution.message) }
+        if solution.message.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", solution.message)
+        }
     );
     if solution.status == Status::Solved {
         ExitCode::SUCCESS

@@ -9,6 +9,7 @@ use serde_json::Map;
 use super::family::{Family, Hand};
 use super::frames::{at, v3};
 use super::layout::{Layout, NamedObstacle};
+use super::trap::traps;
 use super::witness::{random_motion, shuffle, task_witness, Gen3, Placed, Scene, Q, RETRACT};
 use super::{Error, Spec, SuiteEntry, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR};
 use crate::format::{
@@ -39,11 +40,20 @@ struct Sample {
 }
 
 pub fn generate(spec: &Spec) -> Result<Generated, Error> {
-    let samples = if spec.family == Family::Random { RANDOM_SAMPLES } else { TASK_SAMPLES };
+    let samples = if spec.family == Family::Random {
+        RANDOM_SAMPLES
+    } else {
+        TASK_SAMPLES
+    };
     let mut last = None;
     for k in 0..samples {
-        let mut rng = Rng::new(spec.seed.wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let Some(sample) = sample(spec, &mut rng) else { continue };
+        let mut rng = Rng::new(
+            spec.seed
+                .wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15)),
+        );
+        let Some(sample) = sample(spec, &mut rng) else {
+            continue;
+        };
         let generated = files(spec, &sample, &mut rng)?;
         if generated.witness.is_some() {
             return Ok(generated);
@@ -65,32 +75,68 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
     let h = HORIZON.0 + (rng.next_u64() % (HORIZON.1 - HORIZON.0 + 1) as u64) as usize;
     let hands = spec.family.hands(&mut layout, h, rng);
     let obstacles: Vec<_> = layout.obstacles.iter().map(|(_, o)| *o).collect();
-    let scene = Scene { obstacles: &obstacles, dt: DT, tcp: tcp() };
+    let scene = Scene {
+        obstacles: &obstacles,
+        dt: DT,
+        tcp: tcp(),
+    };
     match hands {
         Some(hands) => {
             let witness = task_witness(&scene, &layout.bases, &hands, rng);
-            Some(Sample { layout, hands, witness })
+            Some(Sample {
+                layout,
+                hands,
+                witness,
+            })
         }
         None => {
             // One arm holds in a third of the problems with three or more arms.
             let n = layout.bases.len();
-            let holder = (n >= 3 && rng.next_f64() < 1.0 / 3.0).then(|| (rng.next_u64() % n as u64) as usize);
+            let holder = (n >= 3 && rng.next_f64() < 1.0 / 3.0)
+                .then(|| (rng.next_u64() % n as u64) as usize);
             let mut order: Vec<usize> = (0..n).collect();
             shuffle(&mut order, rng);
             let mut placed: Vec<(usize, Placed)> = Vec::with_capacity(n);
             for arm in order {
                 let base = layout.bases[arm];
-                let others: Vec<Placed> = placed.iter().map(|(_, p)| Placed { base: p.base, path: p.path.clone() }).collect();
-                let path = random_motion(&scene, &base, &layout.stations[arm], h, holder != Some(arm), &others, rng)?;
+                let others: Vec<Placed> = placed
+                    .iter()
+                    .map(|(_, p)| Placed {
+                        base: p.base,
+                        path: p.path.clone(),
+                    })
+                    .collect();
+                let path = random_motion(
+                    &scene,
+                    &base,
+                    &layout.stations[arm],
+                    h,
+                    holder != Some(arm),
+                    &others,
+                    rng,
+                )?;
                 placed.push((arm, Placed { base, path }));
             }
             placed.sort_by_key(|(arm, _)| *arm);
             let paths: Vec<Vec<Q>> = placed.into_iter().map(|(_, p)| p.path).collect();
             let hands = (0..n)
                 .filter(|&arm| holder != Some(arm))
-                .map(|arm| Hand { arm, poses: paths[arm].iter().map(|q| scene.tcp_pose(&layout.bases[arm], q)).collect() })
-                .collect();
-            Some(Sample { layout, hands, witness: Some(paths) })
+                .map(|arm| Hand {
+                    arm,
+                    poses: paths[arm]
+                        .iter()
+                        .map(|q| scene.tcp_pose(&layout.bases[arm], q))
+                        .collect(),
+                })
+                .collect::<Vec<_>>();
+            layout
+                .obstacles
+                .extend(traps(&scene, &layout.bases, &hands, &paths));
+            Some(Sample {
+                layout,
+                hands,
+                witness: Some(paths),
+            })
         }
     }
 }
@@ -128,7 +174,10 @@ fn files(spec: &Spec, sample: &Sample, rng: &mut Rng) -> Result<Generated, Error
         })
         .collect();
     let trajectories = (listed.iter().enumerate())
-        .map(|(j, &k)| TrajectorySpec { name: format!("hand_{j}"), poses: hands[k].poses.iter().map(rounded).collect() })
+        .map(|(j, &k)| TrajectorySpec {
+            name: format!("hand_{j}"),
+            poses: hands[k].poses.iter().map(rounded).collect(),
+        })
         .collect();
     let problem = ProblemFile {
         format: PROBLEM_FORMAT.to_string(),
@@ -149,7 +198,16 @@ fn files(spec: &Spec, sample: &Sample, rng: &mut Rng) -> Result<Generated, Error
                 message: String::new(),
                 planning_time_s: 0.0,
                 assignment,
-                joint_paths: Some(paths.iter().map(|p| p.iter().map(|q| q.iter().map(|&x| round(x)).collect()).collect()).collect()),
+                joint_paths: Some(
+                    paths
+                        .iter()
+                        .map(|p| {
+                            p.iter()
+                                .map(|q| q.iter().map(|&x| round(x)).collect())
+                                .collect()
+                        })
+                        .collect(),
+                ),
                 stats: Map::new(),
             };
             passes(spec, &problem, &solution)?.then_some(solution)
@@ -166,16 +224,24 @@ fn files(spec: &Spec, sample: &Sample, rng: &mut Rng) -> Result<Generated, Error
         horizon: hands[0].poses.len(),
         known_solvable: witness.is_some(),
         seed: spec.seed,
-        witness: witness.as_ref().map(|_| format!("{WITNESS_DIR}/{}.json", spec.name)),
+        witness: witness
+            .as_ref()
+            .map(|_| format!("{WITNESS_DIR}/{}.json", spec.name)),
     };
-    Ok(Generated { entry, problem, witness })
+    Ok(Generated {
+        entry,
+        problem,
+        witness,
+    })
 }
 
 /// Whether the host validator accepts the witness. A problem the loader refuses is a bug of
 /// the generator.
 fn passes(spec: &Spec, problem: &ProblemFile, solution: &SolutionFile) -> Result<bool, Error> {
-    let core = load::problem::<Gen3, 7>(problem)
-        .map_err(|e| Error::Generation { problem: spec.name.clone(), message: e.to_string() })?;
+    let core = load::problem::<Gen3, 7>(problem).map_err(|e| Error::Generation {
+        problem: spec.name.clone(),
+        message: e.to_string(),
+    })?;
     Ok(validate::validate::<Gen3, 7>(problem, &core, solution).is_valid())
 }
 
@@ -186,15 +252,41 @@ fn round(x: f64) -> f64 {
 
 fn rounded(frame: &Frame) -> Pose {
     let p = pose::from_frame(frame);
-    Pose { position: p.position.map(round), quat_xyzw: p.quat_xyzw.map(round) }
+    Pose {
+        position: p.position.map(round),
+        quat_xyzw: p.quat_xyzw.map(round),
+    }
 }
 
 fn obstacle_spec((name, o): &NamedObstacle) -> ObstacleSpec {
     let (shape, half_extents, radius, half_length) = match o.shape {
         Shape::Box { half_extents } => (ShapeKind::Box, Some(half_extents.map(round)), None, None),
         Shape::Sphere { radius } => (ShapeKind::Sphere, None, Some(round(radius)), None),
-        Shape::Capsule { radius, half_length } => (ShapeKind::Capsule, None, Some(round(radius)), Some(round(half_length))),
-        Shape::Cylinder { radius, half_length } => (ShapeKind::Cylinder, None, Some(round(radius)), Some(round(half_length))),
+        Shape::Capsule {
+            radius,
+            half_length,
+        } => (
+            ShapeKind::Capsule,
+            None,
+            Some(round(radius)),
+            Some(round(half_length)),
+        ),
+        Shape::Cylinder {
+            radius,
+            half_length,
+        } => (
+            ShapeKind::Cylinder,
+            None,
+            Some(round(radius)),
+            Some(round(half_length)),
+        ),
     };
-    ObstacleSpec { name: name.clone(), shape, half_extents, radius, half_length, pose: rounded(&o.pose) }
+    ObstacleSpec {
+        name: name.clone(),
+        shape,
+        half_extents,
+        radius,
+        half_length,
+        pose: rounded(&o.pose),
+    }
 }

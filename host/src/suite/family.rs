@@ -52,7 +52,9 @@ impl Family {
     pub fn cells(self) -> Vec<(LayoutKind, usize)> {
         use LayoutKind::*;
         let on = |kinds: &[LayoutKind], arms: &[usize]| -> Vec<(LayoutKind, usize)> {
-            arms.iter().flat_map(|&n| kinds.iter().map(move |&k| (k, n))).collect()
+            arms.iter()
+                .flat_map(|&n| kinds.iter().map(move |&k| (k, n)))
+                .collect()
         };
         match self {
             Family::Sweep => on(&[Row, FacingRows], &[2, 3, 4, 5, 6]),
@@ -95,7 +97,9 @@ impl Family {
     /// shelf) to `layout`. `None` for [`Family::Random`], which is made in joint space.
     pub fn hands(self, layout: &mut Layout, h: usize, rng: &mut Rng) -> Option<Vec<Hand>> {
         let steps = |f: &mut dyn FnMut(f64) -> Frame| -> Vec<Frame> {
-            (0..h).map(|t| f(t as f64 / (h - 1).max(1) as f64)).collect()
+            (0..h)
+                .map(|t| f(t as f64 / (h - 1).max(1) as f64))
+                .collect()
         };
         let hands = match self {
             Family::Sweep => sweep(layout, rng, &steps),
@@ -126,27 +130,50 @@ fn sweep(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
     let shelf_z = hand_z + rng.uniform(0.28, 0.35);
     // Far enough out for the wrist to fold back (see `layout::WIDE_ROW_GAP`).
     let reach = rng.uniform(0.6, 0.65);
-    let starts: Vec<V3> = (layout.bases.iter().zip(&layout.stations)).map(|(b, s)| b.pos + s.front * reach).collect();
+    let starts: Vec<V3> = (layout.bases.iter().zip(&layout.stations))
+        .map(|(b, s)| b.pos + s.front * reach)
+        .collect();
     let (xs, ys): (Vec<f64>, Vec<f64>) = starts.iter().map(|p| (p.x, p.y)).unzip();
     let fold = |v: &[f64], f: fn(f64, f64) -> f64, init: f64| v.iter().copied().fold(init, f);
-    let (x0, x1) = (fold(&xs, f64::min, f64::INFINITY) - 0.15, fold(&xs, f64::max, f64::NEG_INFINITY) + 0.15);
-    let (y0, y1) = (fold(&ys, f64::min, f64::INFINITY) - 0.5, fold(&ys, f64::max, f64::NEG_INFINITY) + 0.5);
+    let (x0, x1) = (
+        fold(&xs, f64::min, f64::INFINITY) - 0.15,
+        fold(&xs, f64::max, f64::NEG_INFINITY) + 0.15,
+    );
+    let (y0, y1) = (
+        fold(&ys, f64::min, f64::INFINITY) - 0.5,
+        fold(&ys, f64::max, f64::NEG_INFINITY) + 0.5,
+    );
     layout.obstacles.push(obstacle_box(
         "shelf",
         v3(0.5 * (x0 + x1), 0.5 * (y0 + y1), shelf_z + 0.01),
         [0.5 * (x1 - x0), 0.5 * (y1 - y0), 0.01],
     ));
-    for (k, (x, y)) in [(x0, y0), (x0, y1), (x1, y0), (x1, y1)].into_iter().enumerate() {
-        layout.obstacles.push(post(&format!("shelf_post_{k}"), x, y, surface, shelf_z - surface, 0.02));
+    for (k, (x, y)) in [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
+        .into_iter()
+        .enumerate()
+    {
+        layout.obstacles.push(post(
+            &format!("shelf_post_{k}"),
+            x,
+            y,
+            surface,
+            shelf_z - surface,
+            0.02,
+        ));
     }
-    let length = rng.uniform(0.25, 0.4);
+    let length = rng.uniform(0.3, 0.5);
     (layout.stations.iter().zip(&starts).enumerate())
         .map(|(arm, (station, start))| {
             let start = v3(start.x, start.y - 0.5 * length, hand_z);
             let wobble = rng.uniform(-0.03, 0.03);
             let pitch = rng.uniform(-0.3, 0.3);
             let poses = steps(&mut |s| {
-                let p = start + v3(wobble * (PI * s).sin(), length * ease(s), 0.02 * (2.0 * PI * s).sin());
+                let p = start
+                    + v3(
+                        wobble * (PI * s).sin(),
+                        length * ease(s),
+                        0.02 * (2.0 * PI * s).sin(),
+                    );
                 let side = station.front.cross(&v3(0.0, 0.0, 1.0));
                 aligned(p, rot(side, pitch) * station.front, v3(0.0, 0.0, -1.0))
             });
@@ -164,17 +191,36 @@ fn box_flip(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
     let (frame0, axis, half, faces): (Frame, V3, V3, Vec<(V3, V3)>) = match layout.kind {
         LayoutKind::Torso => {
             let t = layout.torsos[0];
-            let frame0 = Frame { rot: t.rot, pos: t.apply(&v3(0.45, 0.0, 0.95)) };
-            let faces = vec![(v3(0.0, 1.0, 0.0), V3::zeros()), (v3(0.0, -1.0, 0.0), V3::zeros())];
-            (frame0, v3(1.0, 0.0, 0.0), v3(size, rng.uniform(0.12, 0.16), size), faces)
+            let frame0 = Frame {
+                rot: t.rot,
+                pos: t.apply(&v3(0.45, 0.0, 0.95)),
+            };
+            let faces = vec![
+                (v3(0.0, 1.0, 0.0), V3::zeros()),
+                (v3(0.0, -1.0, 0.0), V3::zeros()),
+            ];
+            (
+                frame0,
+                v3(1.0, 0.0, 0.0),
+                v3(size, rng.uniform(0.12, 0.16), size),
+                faces,
+            )
         }
         LayoutKind::Ring => {
             // Arm k faces the centre from heading(a_k): it takes the face whose normal points
             // back at it. The box's x axis points at arm 0.
             let a0 = layout.bases[0].pos.y.atan2(layout.bases[0].pos.x);
-            let frame0 = Frame { rot: yaw(a0), pos: layout.centre + v3(0.0, 0.0, 0.3) };
+            let frame0 = Frame {
+                rot: yaw(a0),
+                pos: layout.centre + v3(0.0, 0.0, 0.3),
+            };
             let faces = (layout.bases.iter())
-                .map(|b| (frame0.rot.transpose() * v3(b.pos.x, b.pos.y, 0.0).normalize(), V3::zeros()))
+                .map(|b| {
+                    (
+                        frame0.rot.transpose() * v3(b.pos.x, b.pos.y, 0.0).normalize(),
+                        V3::zeros(),
+                    )
+                })
                 .map(|(n, o)| (n.map(|c| c.round()), o))
                 .collect();
             (frame0, v3(0.0, 1.0, 0.0), V3::repeat(size), faces)
@@ -182,15 +228,36 @@ fn box_flip(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
         _ => {
             // Facing rows: a board between the rows, each arm on the face toward it at its
             // own y.
-            let pos = v3(0.5 * (layout.bases[0].pos.x + layout.bases[n - 1].pos.x), 0.0, 0.0);
+            let pos = v3(
+                0.5 * (layout.bases[0].pos.x + layout.bases[n - 1].pos.x),
+                0.0,
+                0.0,
+            );
             let ys: Vec<f64> = layout.stations.iter().map(|s| s.point.y).collect();
-            let (lo, hi) = ys.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| (a.min(y), b.max(y)));
+            let (lo, hi) = ys
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
+                    (a.min(y), b.max(y))
+                });
             let centre = v3(pos.x, 0.5 * (lo + hi), layout.surface + 0.35);
             let half = v3(size, 0.5 * (hi - lo) + 0.08, size);
             let faces = (layout.bases.iter().zip(&layout.stations))
-                .map(|(b, s)| (v3((pos.x - b.pos.x).signum() * -1.0, 0.0, 0.0), v3(0.0, s.point.y - centre.y, 0.0)))
+                .map(|(b, s)| {
+                    (
+                        v3((pos.x - b.pos.x).signum() * -1.0, 0.0, 0.0),
+                        v3(0.0, s.point.y - centre.y, 0.0),
+                    )
+                })
                 .collect();
-            (Frame { rot: Matrix3::identity(), pos: centre }, v3(0.0, 1.0, 0.0), half, faces)
+            (
+                Frame {
+                    rot: Matrix3::identity(),
+                    pos: centre,
+                },
+                v3(0.0, 1.0, 0.0),
+                half,
+                faces,
+            )
         }
     };
     let angle = rng.uniform(0.6, 0.95) * if rng.next_f64() < 0.5 { 1.0 } else { -1.0 };
@@ -199,8 +266,14 @@ fn box_flip(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
         .map(|(arm, &(normal, offset))| {
             let poses = steps(&mut |s| {
                 let r = frame0.rot * rot(axis, angle * ease(s));
-                let p = frame0.pos + v3(0.0, 0.0, lift * ease(s)) + r * (half.component_mul(&normal) + offset);
-                let up = if normal.z.abs() > 0.5 { v3(1.0, 0.0, 0.0) } else { v3(0.0, 0.0, 1.0) };
+                let p = frame0.pos
+                    + v3(0.0, 0.0, lift * ease(s))
+                    + r * (half.component_mul(&normal) + offset);
+                let up = if normal.z.abs() > 0.5 {
+                    v3(1.0, 0.0, 0.0)
+                } else {
+                    v3(0.0, 0.0, 1.0)
+                };
                 aligned(p, -(r * normal), r * up)
             });
             Hand { arm, poses }
@@ -233,12 +306,17 @@ fn cloth(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
 /// table centre.
 fn pushing(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
     let z = layout.surface + 0.03;
-    let common = if rng.next_f64() < 0.5 { Some(heading(rng.uniform(0.0, 2.0 * PI))) } else { None };
+    let common = if rng.next_f64() < 0.5 {
+        Some(heading(rng.uniform(0.0, 2.0 * PI)))
+    } else {
+        None
+    };
     let length = rng.uniform(0.15, 0.3);
     (layout.bases.iter().zip(&layout.stations).enumerate())
         .map(|(arm, (base, station))| {
             let side = station.front.cross(&v3(0.0, 0.0, 1.0));
-            let start = base.pos + station.front * rng.uniform(0.4, 0.5) + side * rng.uniform(-0.05, 0.05);
+            let start =
+                base.pos + station.front * rng.uniform(0.4, 0.5) + side * rng.uniform(-0.05, 0.05);
             let start = v3(start.x, start.y, z);
             let dir = common.unwrap_or_else(|| {
                 let to_centre = layout.centre - start;
@@ -272,7 +350,12 @@ fn bimanual(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
         }
         let width = rng.uniform(0.26, 0.36);
         let start = torso.apply(&v3(0.45, 0.0, rng.uniform(0.85, 0.95)));
-        let shift = torso.rot * v3(rng.uniform(-0.08, 0.08), rng.uniform(-0.1, 0.1), rng.uniform(0.0, 0.15));
+        let shift = torso.rot
+            * v3(
+                rng.uniform(-0.08, 0.08),
+                rng.uniform(-0.1, 0.1),
+                rng.uniform(0.0, 0.15),
+            );
         let turn = rng.uniform(-0.35, 0.35);
         let roll = rng.uniform(-0.25, 0.25);
         for (arm, side) in [(2 * k, 1.0), (2 * k + 1, -1.0)] {
@@ -280,7 +363,11 @@ fn bimanual(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
                 let e = ease(s);
                 let r = yaw(turn * e) * torso.rot * rot(v3(1.0, 0.0, 0.0), roll * e);
                 let inward = r * v3(0.0, -side, 0.0);
-                aligned(start + shift * e - inward * (0.5 * width), inward, r * v3(1.0, 0.0, 0.0))
+                aligned(
+                    start + shift * e - inward * (0.5 * width),
+                    inward,
+                    r * v3(1.0, 0.0, 0.0),
+                )
             });
             hands.push(Hand { arm, poses });
         }

@@ -10,7 +10,10 @@ pub fn v3(x: f64, y: f64, z: f64) -> V3 {
 }
 
 pub fn at(pos: V3) -> Frame {
-    Frame { rot: Matrix3::identity(), pos }
+    Frame {
+        rot: Matrix3::identity(),
+        pos,
+    }
 }
 
 /// Rotation by `angle` about the unit vector `axis`.
@@ -29,7 +32,10 @@ pub fn aligned(pos: V3, z: V3, x_hint: V3) -> Frame {
     let z = z.normalize();
     let x = (x_hint - z * x_hint.dot(&z)).normalize();
     let y = z.cross(&x);
-    Frame { rot: Matrix3::from_columns(&[x, y, z]), pos }
+    Frame {
+        rot: Matrix3::from_columns(&[x, y, z]),
+        pos,
+    }
 }
 
 /// A horizontal unit vector at angle `a` from world x.

@@ -55,22 +55,37 @@ pub struct Layout {
 
 /// Gap between the two rows of [`LayoutKind::FacingRows`] when the hands point down at the
 /// table between them.
-pub const ROW_GAP: f64 = 1.25;
+pub const ROW_GAP: f64 = 1.15;
 /// The gap when the hands point at each other: a hand pointing forward needs about 0.55 m
 /// from its base, or the elbow cannot fold enough to bring the wrist back.
-pub const WIDE_ROW_GAP: f64 = 1.45;
+pub const WIDE_ROW_GAP: f64 = 1.4;
 /// Height of the torsos' shoulder mounts and of their table top.
 const SHOULDER_Z: f64 = 1.0;
 const TORSO_TABLE_Z: f64 = 0.65;
 
 pub fn obstacle_box(name: &str, centre: V3, half_extents: [f64; 3]) -> NamedObstacle {
-    (name.to_string(), Obstacle { shape: Shape::Box { half_extents }, pose: at(centre) })
+    (
+        name.to_string(),
+        Obstacle {
+            shape: Shape::Box { half_extents },
+            pose: at(centre),
+        },
+    )
 }
 
 /// A vertical cylinder standing on `z0`, `height` tall.
 pub fn post(name: &str, x: f64, y: f64, z0: f64, height: f64, radius: f64) -> NamedObstacle {
-    let shape = Shape::Cylinder { radius, half_length: 0.5 * height };
-    (name.to_string(), Obstacle { shape, pose: at(v3(x, y, z0 + 0.5 * height)) })
+    let shape = Shape::Cylinder {
+        radius,
+        half_length: 0.5 * height,
+    };
+    (
+        name.to_string(),
+        Obstacle {
+            shape,
+            pose: at(v3(x, y, z0 + 0.5 * height)),
+        },
+    )
 }
 
 /// An arm on the floor (z = 0) at `pos`, upright, facing the horizontal direction `front`.
@@ -103,19 +118,36 @@ fn on_floor(kind: LayoutKind, arms: Vec<(Frame, Station)>, table: ([f64; 2], [f6
 
 /// `n` arms along y at x = 0, facing +x, with a table in front.
 pub fn row(n: usize, rng: &mut Rng) -> Layout {
-    let spacing = rng.uniform(0.5, 0.6);
+    let spacing = rng.uniform(0.42, 0.55);
     let half = 0.5 * (n as f64 - 1.0) * spacing;
     let arms = (0..n)
-        .map(|i| upright(v3(0.0, i as f64 * spacing - half, 0.0), v3(1.0, 0.0, 0.0), 0.5, 0.25))
+        .map(|i| {
+            upright(
+                v3(0.0, i as f64 * spacing - half, 0.0),
+                v3(1.0, 0.0, 0.0),
+                0.5,
+                0.25,
+            )
+        })
         .collect();
-    let mut layout = on_floor(LayoutKind::Row, arms, ([0.2, 1.0], [-half - 0.4, half + 0.4]));
+    let mut layout = on_floor(
+        LayoutKind::Row,
+        arms,
+        ([0.2, 1.0], [-half - 0.4, half + 0.4]),
+    );
     if rng.next_f64() < 0.5 {
-        layout.obstacles.push(obstacle_box("wall", v3(-0.35, 0.0, 0.6), [0.02, half + 0.6, 0.6]));
+        layout.obstacles.push(obstacle_box(
+            "wall",
+            v3(-0.35, 0.0, 0.6),
+            [0.02, half + 0.6, 0.6],
+        ));
     }
     if rng.next_f64() < 0.5 {
         for i in 0..n - 1 {
             let y = (i as f64 + 0.5) * spacing - half;
-            layout.obstacles.push(post(&format!("post_{i}"), 0.9, y, 0.0, 0.5, 0.03));
+            layout
+                .obstacles
+                .push(post(&format!("post_{i}"), 0.9, y, 0.0, 0.5, 0.03));
         }
     }
     layout
@@ -124,28 +156,47 @@ pub fn row(n: usize, rng: &mut Rng) -> Layout {
 /// `ceil(n / 2)` arms at x = 0 facing +x and the others at x = `gap` facing -x, the second
 /// row shifted along y, with a table between them.
 pub fn facing_rows(n: usize, gap: f64, rng: &mut Rng) -> Layout {
-    let spacing = rng.uniform(0.5, 0.6);
+    let spacing = rng.uniform(0.42, 0.55);
     let shift = rng.uniform(0.0, 0.5 * spacing);
     let (na, nb) = (n.div_ceil(2), n / 2);
     let place = |count: usize, i: usize| (i as f64 - 0.5 * (count as f64 - 1.0)) * spacing;
     let mut arms = Vec::with_capacity(n);
     for i in 0..na {
-        arms.push(upright(v3(0.0, place(na, i), 0.0), v3(1.0, 0.0, 0.0), 0.5, 0.25));
+        arms.push(upright(
+            v3(0.0, place(na, i), 0.0),
+            v3(1.0, 0.0, 0.0),
+            0.5,
+            0.25,
+        ));
     }
     for i in 0..nb {
-        arms.push(upright(v3(gap, place(nb, i) + shift, 0.0), v3(-1.0, 0.0, 0.0), 0.5, 0.25));
+        arms.push(upright(
+            v3(gap, place(nb, i) + shift, 0.0),
+            v3(-1.0, 0.0, 0.0),
+            0.5,
+            0.25,
+        ));
     }
     let half = 0.5 * (na as f64 - 1.0) * spacing + shift + 0.4;
-    let mut layout =
-        on_floor(LayoutKind::FacingRows, arms, ([0.2, gap - 0.2], [-half, half]));
+    let mut layout = on_floor(
+        LayoutKind::FacingRows,
+        arms,
+        ([0.2, gap - 0.2], [-half, half]),
+    );
     for (i, x) in [-0.35, gap + 0.35].into_iter().enumerate() {
         if rng.next_f64() < 0.3 {
-            layout.obstacles.push(obstacle_box(&format!("wall_{i}"), v3(x, 0.0, 0.6), [0.02, half + 0.2, 0.6]));
+            layout.obstacles.push(obstacle_box(
+                &format!("wall_{i}"),
+                v3(x, 0.0, 0.6),
+                [0.02, half + 0.2, 0.6],
+            ));
         }
     }
     if rng.next_f64() < 0.5 {
         for (i, y) in [-half + 0.05, half - 0.05].into_iter().enumerate() {
-            layout.obstacles.push(post(&format!("post_{i}"), 0.5 * gap, y, 0.0, 0.6, 0.03));
+            layout
+                .obstacles
+                .push(post(&format!("post_{i}"), 0.5 * gap, y, 0.0, 0.6, 0.03));
         }
     }
     layout
@@ -154,7 +205,11 @@ pub fn facing_rows(n: usize, gap: f64, rng: &mut Rng) -> Layout {
 /// Arms at the given angles on a circle around a round table, facing its centre.
 pub fn ring(angles: &[f64], rng: &mut Rng) -> Layout {
     let n = angles.len();
-    let radius = if n <= 3 { 0.65 } else { 0.65 + 0.05 * (n - 3) as f64 };
+    let radius = if n <= 3 {
+        0.65
+    } else {
+        0.65 + 0.05 * (n - 3) as f64
+    };
     let (bases, stations) = (angles.iter())
         .map(|&a| upright(heading(a) * radius, -heading(a), 0.45, 0.2))
         .unzip();
@@ -162,14 +217,21 @@ pub fn ring(angles: &[f64], rng: &mut Rng) -> Layout {
     let mut obstacles = vec![(
         "table".to_string(),
         Obstacle {
-            shape: Shape::Cylinder { radius: table_radius, half_length: 0.02 },
+            shape: Shape::Cylinder {
+                radius: table_radius,
+                half_length: 0.02,
+            },
             pose: at(v3(0.0, 0.0, -0.02)),
         },
     )];
     if rng.next_f64() < 0.5 {
         for (k, &a) in angles.iter().enumerate() {
             // Between this arm and the next one round the circle.
-            let next = if k + 1 < n { angles[k + 1] } else { angles[0] + 2.0 * PI };
+            let next = if k + 1 < n {
+                angles[k + 1]
+            } else {
+                angles[0] + 2.0 * PI
+            };
             let p = heading(0.5 * (a + next)) * (table_radius - 0.03);
             obstacles.push(post(&format!("post_{k}"), p.x, p.y, 0.0, 0.35, 0.025));
         }
@@ -188,7 +250,9 @@ pub fn ring(angles: &[f64], rng: &mut Rng) -> Layout {
 /// Evenly spaced ring angles starting at a random one.
 pub fn ring_angles(n: usize, rng: &mut Rng) -> Vec<f64> {
     let a0 = rng.uniform(0.0, 2.0 * PI / n as f64);
-    (0..n).map(|k| a0 + 2.0 * PI * k as f64 / n as f64).collect()
+    (0..n)
+        .map(|k| a0 + 2.0 * PI * k as f64 / n as f64)
+        .collect()
 }
 
 /// `ceil(n / 2)` torsos, each with two arms mounted on its sides with their bases tilted
@@ -197,11 +261,20 @@ pub fn torsos(n: usize, rng: &mut Rng) -> Layout {
     let count = n.div_ceil(2);
     let torso_frames: Vec<Frame> = match count {
         1 => vec![at(v3(0.0, 0.0, 0.0))],
-        2 => vec![at(v3(0.0, 0.0, 0.0)), Frame { rot: yaw(PI), pos: v3(1.5, 0.0, 0.0) }],
+        2 => vec![
+            at(v3(0.0, 0.0, 0.0)),
+            Frame {
+                rot: yaw(PI),
+                pos: v3(1.5, 0.0, 0.0),
+            },
+        ],
         _ => (0..count)
             .map(|k| {
                 let a = 2.0 * PI * k as f64 / count as f64;
-                Frame { rot: yaw(a + PI), pos: heading(a) * 0.95 }
+                Frame {
+                    rot: yaw(a + PI),
+                    pos: heading(a) * 0.95,
+                }
             })
             .collect(),
     };
@@ -218,28 +291,50 @@ pub fn torsos(n: usize, rng: &mut Rng) -> Layout {
             let mount = t.apply(&v3(0.0, 0.16 * side, SHOULDER_Z));
             let out = t.rot * v3(0.0, side * tilt.cos(), -tilt.sin());
             bases.push(aligned(mount, out, front));
-            stations.push(Station { front, point: t.apply(&v3(0.45, 0.18 * side, 0.95)) });
+            stations.push(Station {
+                front,
+                point: t.apply(&v3(0.45, 0.18 * side, 0.95)),
+            });
         }
         let body = (
             format!("torso_{k}"),
             Obstacle {
-                shape: Shape::Box { half_extents: [0.09, 0.14, 0.55] },
-                pose: Frame { rot: t.rot, pos: t.apply(&v3(0.0, 0.0, 0.55)) },
+                shape: Shape::Box {
+                    half_extents: [0.09, 0.14, 0.55],
+                },
+                pose: Frame {
+                    rot: t.rot,
+                    pos: t.apply(&v3(0.0, 0.0, 0.55)),
+                },
             },
         );
         let head = (
             format!("head_{k}"),
-            Obstacle { shape: Shape::Sphere { radius: 0.1 }, pose: at(t.apply(&v3(0.0, 0.0, 1.25))) },
+            Obstacle {
+                shape: Shape::Sphere { radius: 0.1 },
+                pose: at(t.apply(&v3(0.0, 0.0, 1.25))),
+            },
         );
         obstacles.extend([body, head]);
     }
     let table = match count {
-        1 => obstacle_box("table", v3(0.6, 0.0, TORSO_TABLE_Z - 0.02), [0.3, 0.6, 0.02]),
-        2 => obstacle_box("table", v3(0.75, 0.0, TORSO_TABLE_Z - 0.02), [0.45, 0.6, 0.02]),
+        1 => obstacle_box(
+            "table",
+            v3(0.6, 0.0, TORSO_TABLE_Z - 0.02),
+            [0.3, 0.6, 0.02],
+        ),
+        2 => obstacle_box(
+            "table",
+            v3(0.75, 0.0, TORSO_TABLE_Z - 0.02),
+            [0.45, 0.6, 0.02],
+        ),
         _ => (
             "table".to_string(),
             Obstacle {
-                shape: Shape::Cylinder { radius: 0.5, half_length: 0.02 },
+                shape: Shape::Cylinder {
+                    radius: 0.5,
+                    half_length: 0.02,
+                },
                 pose: at(v3(0.0, 0.0, TORSO_TABLE_Z - 0.02)),
             },
         ),

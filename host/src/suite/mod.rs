@@ -5,8 +5,10 @@
 //! Every problem is built from a witness when one is found: a collision-free joint motion per
 //! arm (IK tracking of the task's hands from random seeds, or for the random family a smooth
 //! random joint motion mapped to the hands by forward kinematics), confirmed by the host
-//! validator. Its trajectories are then listed in shuffled order, so the listed order is not
-//! the assignment. A task whose witness search fails is resampled a few times
+//! validator. Where one fits, a small fixture is then placed on the path plain IK tracking
+//! from the witness's start would take an elbow (see `trap`), so that solving takes the
+//! redundancy. Its trajectories are listed in shuffled order, so the listed order is not the
+//! assignment. A task whose witness search fails is resampled a few times
 //! ([`TASK_SAMPLES`]); if every sample fails, the last one is still emitted, recorded as not
 //! known to be solvable (it may be, or not).
 //!
@@ -17,6 +19,7 @@ mod emit;
 mod family;
 mod frames;
 mod layout;
+mod trap;
 mod witness;
 
 use std::path::{Path, PathBuf};
@@ -53,7 +56,10 @@ pub struct GenOptions {
 impl Default for GenOptions {
     /// The published suite: 6 families x 76 = 456 problems.
     fn default() -> Self {
-        GenOptions { seed: 20_250_606, per_family: 76 }
+        GenOptions {
+            seed: 20_250_606,
+            per_family: 76,
+        }
     }
 }
 
@@ -97,7 +103,10 @@ pub struct SuiteEntry {
 
 #[derive(Debug)]
 pub enum Error {
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     /// A suite index that cannot be read.
     Index { path: PathBuf, message: String },
     /// The generator made a problem it cannot stand behind (a bug, reported, not written).
@@ -117,7 +126,10 @@ impl std::fmt::Display for Error {
 impl std::error::Error for Error {}
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
-    move |source| Error::Io { path: path.to_path_buf(), source }
+    move |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// What to generate for one problem.
@@ -137,7 +149,13 @@ fn specs(opts: &GenOptions) -> Vec<Spec> {
             let (layout, robots) = cells[k % cells.len()];
             let seed = Rng::new(opts.seed ^ ((f as u64) << 32 | k as u64)).next_u64();
             let name = format!("{}_{}_{robots}arms_{k:03}", family.name(), layout.name());
-            specs.push(Spec { name, family, layout, robots, seed });
+            specs.push(Spec {
+                name,
+                family,
+                layout,
+                robots,
+                seed,
+            });
         }
     }
     specs
@@ -162,17 +180,27 @@ pub fn gen_bench(outdir: &Path, opts: &GenOptions) -> Result<GenReport, Error> {
         problems.push(g.entry);
     }
     let known_solvable = problems.iter().filter(|e| e.known_solvable).count();
-    let index = SuiteIndex { format: INDEX_FORMAT.to_string(), seed: opts.seed, problems };
+    let index = SuiteIndex {
+        format: INDEX_FORMAT.to_string(),
+        seed: opts.seed,
+        problems,
+    };
     write_json(&outdir.join(INDEX_FILE), &index)?;
-    Ok(GenReport { problems: index.problems.len(), known_solvable, seconds: start.elapsed().as_secs_f64() })
+    Ok(GenReport {
+        problems: index.problems.len(),
+        known_solvable,
+        seconds: start.elapsed().as_secs_f64(),
+    })
 }
 
 /// Reads `suite_dir/suite.json`.
 pub fn read_index(suite_dir: &Path) -> Result<SuiteIndex, Error> {
     let path = suite_dir.join(INDEX_FILE);
     let text = std::fs::read_to_string(&path).map_err(io(&path))?;
-    let index: SuiteIndex = serde_json::from_str(&text)
-        .map_err(|e| Error::Index { path: path.clone(), message: e.to_string() })?;
+    let index: SuiteIndex = serde_json::from_str(&text).map_err(|e| Error::Index {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
     if index.format != INDEX_FORMAT {
         let message = format!("format is {:?}, expected {INDEX_FORMAT:?}", index.format);
         return Err(Error::Index { path, message });
@@ -182,8 +210,10 @@ pub fn read_index(suite_dir: &Path) -> Result<SuiteIndex, Error> {
 
 /// Compact JSON and a final newline: the suite is large and read by programs.
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Error> {
-    let mut text = serde_json::to_string(value)
-        .map_err(|e| Error::Io { path: path.to_path_buf(), source: e.into() })?;
+    let mut text = serde_json::to_string(value).map_err(|e| Error::Io {
+        path: path.to_path_buf(),
+        source: e.into(),
+    })?;
     text.push('\n');
     std::fs::write(path, text).map_err(io(path))
 }

@@ -8,8 +8,9 @@
 
 use omcbsa_core::geometry::Obstacle;
 use omcbsa_core::ik::{ik, IkParams};
+use omcbsa_core::kinematics::null_space_basis;
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
-use omcbsa_core::motion::{motion_is_free, motions_conflict, ArmMotion};
+use omcbsa_core::motion::{motion_is_free, motions_collide, ArmMotion};
 use omcbsa_core::rng::Rng;
 
 use super::family::Hand;
@@ -24,13 +25,25 @@ pub const STEP_FRACTION: f64 = 0.75;
 /// Largest point displacement between collision checks along a motion (metres).
 const MOTION_STEP: f64 = 0.01;
 /// Random IK seeds tried per arm and priority order.
-const TRACK_ATTEMPTS: usize = 6;
+const TRACK_ATTEMPTS: usize = 8;
+/// Largest null-space push per step of a swinging witness (rad along a unit null vector).
+const NULL_SWING: f64 = 0.1;
+/// Attempts of [`Scene::track`] without a null-space swing.
+const PLAIN_ATTEMPTS: usize = 2;
 /// Priority orders tried for one task.
 const ORDERS: usize = 3;
 
 /// Kinova's retract configuration (arm folded back over its base), with joint 4 kept off its
 /// limit: the pose an idle arm holds.
-pub const RETRACT: Q = [0.0, -0.35, std::f64::consts::PI, -2.5, 0.0, -0.87, std::f64::consts::FRAC_PI_2];
+pub const RETRACT: Q = [
+    0.0,
+    -0.35,
+    std::f64::consts::PI,
+    -2.5,
+    0.0,
+    -0.87,
+    std::f64::consts::FRAC_PI_2,
+];
 
 /// What every arm of a problem moves among.
 pub struct Scene<'a> {
@@ -56,8 +69,12 @@ impl Scene<'_> {
         let m = ArmMotion { base, from, to };
         motion_is_free::<Gen3, 7>(&m, self.obstacles, MOTION_STEP)
             && placed.iter().all(|o| {
-                let other = ArmMotion { base: &o.base, from: &o.path[t.saturating_sub(1)], to: &o.path[t] };
-                motions_conflict::<Gen3, 7>(&m, &other, MOTION_STEP).is_none()
+                let other = ArmMotion {
+                    base: &o.base,
+                    from: &o.path[t.saturating_sub(1)],
+                    to: &o.path[t],
+                };
+                !motions_collide::<Gen3, 7>(&m, &other, MOTION_STEP)
             })
     }
 
@@ -75,23 +92,43 @@ impl Scene<'_> {
     }
 
     /// IK target in the model's base frame for a world TCP pose.
-    fn target(&self, base: &Frame, pose: &Frame) -> Frame {
+    pub fn target(&self, base: &Frame, pose: &Frame) -> Frame {
         base.inverse().compose(pose).compose(&self.tcp.inverse())
     }
 
     /// Tracks `poses` by IK from random seeds, each step from the previous configuration,
-    /// checking as it goes. The first path that passes, if any.
-    pub fn track(&self, base: &Frame, poses: &[Frame], placed: &[Placed], rng: &mut Rng) -> Option<Vec<Q>> {
+    /// checking as it goes. All but the last [`PLAIN_ATTEMPTS`] attempts also swing the arm
+    /// through its null space (the seed of each step is pushed along the Jacobian's null space
+    /// by a slow sine before IK projects it back), so witnesses are not what plain IK tracking
+    /// finds.
+    /// The first path that passes, if any.
+    pub fn track(
+        &self,
+        base: &Frame,
+        poses: &[Frame],
+        placed: &[Placed],
+        rng: &mut Rng,
+    ) -> Option<Vec<Q>> {
         let params = IkParams::default();
-        'attempt: for _ in 0..TRACK_ATTEMPTS {
+        'attempt: for attempt in 0..TRACK_ATTEMPTS {
             let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
+            let swing = if attempt + PLAIN_ATTEMPTS < TRACK_ATTEMPTS {
+                rng.uniform(0.5, 1.0) * NULL_SWING
+            } else {
+                0.0
+            };
+            let phase = rng.uniform(0.0, 2.0 * std::f64::consts::PI);
             let Ok(mut q) = ik::<Gen3, 7>(&self.target(base, &poses[0]), &seed, &params) else {
                 continue;
             };
             let mut path = Vec::with_capacity(poses.len());
             for (t, pose) in poses.iter().enumerate() {
-                let next = if t == 0 { q } else {
-                    match ik::<Gen3, 7>(&self.target(base, pose), &q, &params) {
+                let next = if t == 0 {
+                    q
+                } else {
+                    let push = swing * (phase + 0.15 * t as f64).sin();
+                    let seed = along_null_space(&q, push);
+                    match ik::<Gen3, 7>(&self.target(base, pose), &seed, &params) {
                         Ok(next) => next,
                         Err(_) => continue 'attempt,
                     }
@@ -124,7 +161,12 @@ impl Scene<'_> {
 /// A witness for task hands: the arms not in `hands` hold first, then the hands' arms track
 /// their hand one after the other, in up to [`ORDERS`] random priority orders. Returns every
 /// arm's path (holding arms included) in arm order.
-pub fn task_witness(scene: &Scene, bases: &[Frame], hands: &[Hand], rng: &mut Rng) -> Option<Vec<Vec<Q>>> {
+pub fn task_witness(
+    scene: &Scene,
+    bases: &[Frame],
+    hands: &[Hand],
+    rng: &mut Rng,
+) -> Option<Vec<Vec<Q>>> {
     let h = hands.first()?.poses.len();
     let mut order: Vec<usize> = (0..hands.len()).collect();
     'order: for _ in 0..ORDERS {
@@ -134,7 +176,10 @@ pub fn task_witness(scene: &Scene, bases: &[Frame], hands: &[Hand], rng: &mut Rn
         for arm in (0..bases.len()).filter(|a| hands.iter().all(|hand| hand.arm != *a)) {
             let q = scene.hold(&bases[arm], h, &placed, rng)?;
             owners.push(arm);
-            placed.push(Placed { base: bases[arm], path: vec![q; h] });
+            placed.push(Placed {
+                base: bases[arm],
+                path: vec![q; h],
+            });
         }
         for &k in &order {
             let arm = hands[k].arm;
@@ -142,9 +187,15 @@ pub fn task_witness(scene: &Scene, bases: &[Frame], hands: &[Hand], rng: &mut Rn
                 continue 'order;
             };
             owners.push(arm);
-            placed.push(Placed { base: bases[arm], path });
+            placed.push(Placed {
+                base: bases[arm],
+                path,
+            });
         }
-        let mut paths: Vec<(usize, Vec<Q>)> = owners.into_iter().zip(placed.into_iter().map(|p| p.path)).collect();
+        let mut paths: Vec<(usize, Vec<Q>)> = owners
+            .into_iter()
+            .zip(placed.into_iter().map(|p| p.path))
+            .collect();
         paths.sort_by_key(|(arm, _)| *arm);
         return Some(paths.into_iter().map(|(_, p)| p).collect());
     }
@@ -167,22 +218,37 @@ pub fn random_motion(
     let params = IkParams::default();
     let span = (h - 1).max(1) as f64;
     for _ in 0..TRACK_ATTEMPTS {
-        let jitter = v3(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-0.08, 0.12));
+        let jitter = v3(
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-0.08, 0.12),
+        );
         let side = station.front.cross(&v3(0.0, 0.0, 1.0));
         let pitch = rng.uniform(0.0, 1.3);
         let approach: V3 = rot(side, pitch) * station.front;
         let start = aligned(station.point + jitter, approach, side);
         let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
-        let Ok(q0) = ik::<Gen3, 7>(&scene.target(base, &start), &seed, &params) else { continue };
+        let Ok(q0) = ik::<Gen3, 7>(&scene.target(base, &start), &seed, &params) else {
+            continue;
+        };
         // Per joint: two sines (cycles over the horizon, amplitude, phase).
         let waves: Vec<[(f64, f64, f64); 2]> = (0..7)
             .map(|j| {
-                let budget = if moving { 0.5 * STEP_FRACTION * Gen3::VELOCITY[j] * scene.dt } else { 0.0 };
+                let budget = if moving {
+                    0.5 * STEP_FRACTION * Gen3::VELOCITY[j] * scene.dt
+                } else {
+                    0.0
+                };
                 std::array::from_fn(|_| {
                     let cycles = rng.uniform(0.3, 1.2);
                     // Largest step of A sin(2 pi c t / span) is A * 2 pi c / span.
-                    let amplitude = rng.uniform(0.3, 1.0) * 0.5 * budget * span / (2.0 * std::f64::consts::PI * cycles);
-                    (cycles, amplitude, rng.uniform(0.0, 2.0 * std::f64::consts::PI))
+                    let amplitude = rng.uniform(0.3, 1.0) * 0.5 * budget * span
+                        / (2.0 * std::f64::consts::PI * cycles);
+                    (
+                        cycles,
+                        amplitude,
+                        rng.uniform(0.0, 2.0 * std::f64::consts::PI),
+                    )
                 })
             })
             .collect();
@@ -204,6 +270,15 @@ pub fn random_motion(
         }
     }
     None
+}
+
+/// `q` moved by `amount` along the null space of its Jacobian (unchanged at a singularity).
+fn along_null_space(q: &Q, amount: f64) -> Q {
+    let (_, jacobian) = Gen3::jacobian(q);
+    match null_space_basis(&jacobian).first() {
+        Some(n) => std::array::from_fn(|j| q[j] + amount * n[j]),
+        None => *q,
+    }
 }
 
 /// Fisher-Yates with the suite's generator.

@@ -1,0 +1,156 @@
+//! `omcbsa execute`: streams a solution's joint paths to the arms over CAN.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::Duration;
+
+use omcbsa::error::InputError;
+use omcbsa::execute::CheckedSolution;
+use omcbsa::load;
+use omcbsa_hw::executor::Progress;
+use omcbsa_hw::{
+    transport, ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report, Transport,
+};
+
+use super::{bad_input, negative};
+
+/// Streams a solution to the arms, one CAN bus per arm, at the control rate: refuses to start
+/// unless the solution validates against the problem. Exit code 0 done, 1 stopped by a fault
+/// (every arm quick-stopped; the report says why), 2 bad input, a bus that cannot be opened or
+/// an arm that does not answer at start-up (nothing moved).
+#[derive(clap::Args)]
+pub struct Args {
+    /// Problem file (omcbsa.problem.v1).
+    problem: PathBuf,
+    /// Solution file (omcbsa.solution.v1).
+    solution: PathBuf,
+    /// The bus of the problem's robot NAME: slcan:/dev/ttyACM0 (serial-line CAN adapter) or
+    /// socketcan:can0. Once per arm; every robot that moves needs one.
+    #[arg(long = "arm", value_name = "NAME=BUS", value_parser = parse_arm)]
+    arms: Vec<(String, String)>,
+    /// Interpolate and check every command, send nothing (the buses are not opened).
+    #[arg(long)]
+    dry_run: bool,
+    /// Write every command sent (or, in a dry run, that would be sent) here, as JSON lines.
+    #[arg(long, value_name = "FILE")]
+    log: Option<PathBuf>,
+    /// Control rate, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 500.0)]
+    rate: f64,
+}
+
+fn parse_arm(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((name, bus)) if !name.is_empty() && !bus.is_empty() => {
+            Ok((name.to_string(), bus.to_string()))
+        }
+        _ => Err(format!(
+            "expected NAME=BUS (e.g. left=slcan:/dev/ttyACM0), got {s:?}"
+        )),
+    }
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    // 10 kHz: beyond it the period (100 µs) is below what the executor's threads can keep.
+    if !(args.rate > 0.0 && args.rate <= 10_000.0) {
+        return bad_input(format!(
+            "--rate: must be in (0, 10000] Hz, got {}",
+            args.rate
+        ));
+    }
+    let (checked, plan) = match load_plan(args) {
+        Ok(loaded) => loaded,
+        Err(e) => return bad_input(e),
+    };
+    let mut buses = Vec::new();
+    if !args.dry_run {
+        for (name, bus) in &args.arms {
+            match transport::open(bus) {
+                Ok(b) => buses.push((name.clone(), b)),
+                Err(e) => return bad_input(format!("arm {name:?}: {e}")),
+            }
+        }
+    }
+    let config = ExecConfig {
+        period: Duration::from_secs_f64(1.0 / args.rate),
+        dry_run: args.dry_run,
+        log_path: args.log.clone(),
+        ..ExecConfig::default()
+    };
+    match stream(plan, buses, config, &checked) {
+        Ok(_) => ExitCode::SUCCESS,
+        Err(code) => code,
+    }
+}
+
+/// Reads both files, validates the solution, and builds the plan for the `--arm` names.
+fn load_plan(args: &Args) -> Result<(CheckedSolution, Plan), String> {
+    fn read<T>(path: &Path, parse: fn(&str) -> Result<T, InputError>) -> Result<T, String> {
+        load::read_text(path)
+            .and_then(|t| parse(&t))
+            .map_err(|e| format!("{}: {e}", path.display()))
+    }
+    let problem = read(&args.problem, load::parse_problem)?;
+    let solution = read(&args.solution, load::parse_solution)?;
+    let checked = CheckedSolution::new(problem, solution)
+        .map_err(|e| format!("{}: {e}", args.problem.display()))?;
+    let names: Vec<&str> = args.arms.iter().map(|(n, _)| n.as_str()).collect();
+    let plan = checked.plan(&names).map_err(|e| format!("--arm: {e}"))?;
+    // The executor checks again before it sends anything; checking here too means a solution
+    // that cannot run never opens a bus.
+    checked
+        .validate(&plan)
+        .map_err(|e| ExecError::Refused(e).to_string())?;
+    Ok((checked, plan))
+}
+
+/// Runs the executor with progress output and prints its report; on failure, prints why and
+/// returns the exit code ([`failure`]).
+pub fn stream(
+    plan: Plan,
+    buses: Vec<(String, Box<dyn Transport>)>,
+    config: ExecConfig,
+    checked: &CheckedSolution,
+) -> Result<Report, ExitCode> {
+    let names = plan.arms.iter().map(|a| a.name.clone()).collect();
+    let report = Executor::new(plan, JointLimits::kinova_gen3(), buses, config)
+        .and_then(|e| e.on_progress(progress_printer(names)).run(checked))
+        .map_err(failure)?;
+    println!("{report}");
+    Ok(report)
+}
+
+/// Prints why the executor failed; exit code 1 for a fault stop, 2 for a refusal before any
+/// motion (bad plan, start-up failure).
+pub fn failure(e: ExecError) -> ExitCode {
+    match e {
+        ExecError::Fault(report) => {
+            eprintln!("error: stopped by a fault\n{report}");
+            negative()
+        }
+        e => bad_input(e),
+    }
+}
+
+/// Prints a line each time every arm has streamed another tenth of the run.
+pub fn progress_printer(names: Vec<String>) -> impl Fn(Progress) + Send + Sync {
+    let state = Mutex::new((vec![0usize; names.len()], 0usize));
+    move |p: Progress| {
+        let mut state = state.lock().unwrap_or_else(|e| e.into_inner());
+        let (cycles, printed) = &mut *state;
+        if let Some(i) = names.iter().position(|n| n == p.arm) {
+            cycles[i] = p.cycle;
+        }
+        let done = cycles.iter().copied().min().unwrap_or(0);
+        let tenth = done * 10 / p.cycles.max(1);
+        if tenth > *printed {
+            *printed = tenth;
+            eprintln!(
+                "streaming: {:3}% ({done}/{} cycles on every arm)",
+                tenth * 10,
+                p.cycles
+            );
+        }
+    }
+}

@@ -1,0 +1,235 @@
+//! The built-in problem of `omcbsa demo`: three Kinova Gen3 arms on a ring around a box, each
+//! hand on one of the box's side faces while the box is lifted and flipped about a horizontal
+//! axis.
+//!
+//! The problem is made from a witness, so it is solvable by construction: each arm's hand is
+//! placed on its face by IK with the box at rest and again with the box flipped, the arm moves
+//! between the two in joint space with a smooth start and stop, within the velocity limits,
+//! and that motion's tool poses (forward kinematics) are the arm's trajectory. The witness is
+//! confirmed by the host validator (no collision, every rule met). The trajectories are listed
+//! in shuffled order, so the listed order is not the assignment.
+//!
+//! [`run_on_mock_arms`] streams a plan to Python mock arms and checks what they received.
+
+use std::f64::consts::{PI, TAU};
+use std::fmt;
+use std::path::Path;
+
+use omcbsa_core::ik::{ik, IkParams};
+use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
+use omcbsa_hw::executor::Progress;
+use omcbsa_hw::interpolate::interpolate;
+use omcbsa_hw::mock::{exec_config, open_buses, spawn_for_plan};
+use omcbsa_hw::record::check_followed;
+use omcbsa_hw::{ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use serde_json::Map;
+
+use crate::execute::CheckedSolution;
+use crate::format::{
+    Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec, TrajectorySpec,
+    PROBLEM_FORMAT, SOLUTION_FORMAT,
+};
+use crate::pose::from_frame;
+
+pub const NAME: &str = "demo_box_flip_3arms";
+/// The robots, on the ring at 0, 120 and 240 degrees.
+pub const ROBOTS: [&str; 3] = ["north", "south_west", "south_east"];
+pub const DT: f64 = 0.1;
+/// Steps of the motion (3 s).
+pub const STEPS: usize = 31;
+/// `ORDER[j]`: the robot whose hand trajectory `j` is.
+const ORDER: [usize; 3] = [2, 0, 1];
+
+const RING_RADIUS: f64 = 0.75;
+const BOX_HEIGHT: f64 = 0.35;
+const BOX_HALF: f64 = 0.1;
+/// Flip of the box about its horizontal y axis, and how far it is lifted meanwhile.
+const FLIP: f64 = 0.5;
+const LIFT: f64 = 0.1;
+/// The tool centre point beyond Kinova's tool frame (the fingertips of a gripper).
+const TCP_LENGTH: f64 = 0.12;
+/// IK seed: the arm reaching forward, elbow up, tool pointing ahead.
+const SEED: [f64; 7] = [0.0, 0.6, 0.0, 1.8, 0.0, 0.7, PI / 2.0];
+
+/// The demo problem and the witness it was made from.
+pub struct Demo {
+    pub problem: ProblemFile,
+    pub witness: SolutionFile,
+}
+
+fn heading(k: usize) -> f64 {
+    TAU * k as f64 / ROBOTS.len() as f64
+}
+
+fn frame(rot: Matrix3<f64>, pos: Vector3<f64>) -> Frame {
+    Frame { rot, pos }
+}
+
+fn base(k: usize) -> Frame {
+    let a = heading(k);
+    // The arm faces the box: its x axis points at the ring's centre.
+    let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), a + PI).into_inner();
+    frame(rot, RING_RADIUS * Vector3::new(a.cos(), a.sin(), 0.0))
+}
+
+fn tcp() -> Frame {
+    frame(Matrix3::identity(), Vector3::new(0.0, 0.0, TCP_LENGTH))
+}
+
+/// Hand `k` on its face of the box flipped by `s` (0 at rest, 1 fully flipped): at the face's
+/// centre, tool z into the face, tool x up the face.
+fn hand(k: usize, s: f64) -> Frame {
+    let flip = Rotation3::from_axis_angle(&Vector3::y_axis(), FLIP * s).into_inner();
+    let centre = Vector3::new(0.0, 0.0, BOX_HEIGHT + LIFT * s);
+    let a = heading(k);
+    let normal = flip * Vector3::new(a.cos(), a.sin(), 0.0);
+    let z = -normal;
+    let up = flip * Vector3::z();
+    let x = (up - z * up.dot(&z)).normalize();
+    frame(
+        Matrix3::from_columns(&[x, z.cross(&x), z]),
+        centre + BOX_HALF * normal,
+    )
+}
+
+/// Arm `k`'s configuration with its hand at `hand`, by IK from `seed`.
+fn reach(k: usize, hand: &Frame, seed: &[f64; 7]) -> Result<[f64; 7], String> {
+    let target = base(k).inverse().compose(hand).compose(&tcp().inverse());
+    ik::<KinovaGen3, 7>(&target, seed, &IkParams::default())
+        .map_err(|e| format!("demo arm {:?} cannot reach its face: {e}", ROBOTS[k]))
+}
+
+/// `0 -> 0`, `1 -> 1` with zero speed at both ends.
+fn ease(s: f64) -> f64 {
+    0.5 - 0.5 * (PI * s).cos()
+}
+
+/// Arm `k`'s witness motion.
+fn motion(k: usize) -> Result<Vec<[f64; 7]>, String> {
+    let start = reach(k, &hand(k, 0.0), &SEED)?;
+    let end = reach(k, &hand(k, 1.0), &start)?;
+    Ok((0..STEPS)
+        .map(|t| {
+            let s = ease(t as f64 / (STEPS - 1) as f64);
+            std::array::from_fn(|j| start[j] + s * (end[j] - start[j]))
+        })
+        .collect())
+}
+
+/// Builds the demo problem and its witness, checked by the validator.
+pub fn box_flip() -> Result<Demo, String> {
+    let paths = (0..ROBOTS.len())
+        .map(motion)
+        .collect::<Result<Vec<_>, _>>()?;
+    let robots = (ROBOTS.iter().enumerate())
+        .map(|(k, name)| RobotSpec {
+            name: name.to_string(),
+            model: KinovaGen3::NAME.to_string(),
+            base: from_frame(&base(k)),
+            initial: None,
+            tcp: Some(from_frame(&tcp())),
+        })
+        .collect();
+    let trajectories = (ORDER.iter().enumerate())
+        .map(|(j, &k)| TrajectorySpec {
+            name: format!("hand_{j}"),
+            poses: (paths[k].iter())
+                .map(|q| from_frame(&base(k).compose(&KinovaGen3::fk(q)).compose(&tcp())))
+                .collect::<Vec<Pose>>(),
+        })
+        .collect();
+    let problem = ProblemFile {
+        format: PROBLEM_FORMAT.to_string(),
+        name: NAME.to_string(),
+        dt: DT,
+        robots,
+        trajectories,
+        obstacles: Vec::new(),
+        tolerance: ToleranceSpec::default(),
+    };
+    let witness = SolutionFile {
+        format: SOLUTION_FORMAT.to_string(),
+        problem: NAME.to_string(),
+        planner: "witness".to_string(),
+        status: Status::Solved,
+        message: String::new(),
+        planning_time_s: 0.0,
+        assignment: (0..ROBOTS.len())
+            .map(|k| ORDER.iter().position(|&o| o == k))
+            .collect(),
+        joint_paths: Some(
+            paths
+                .iter()
+                .map(|p| p.iter().map(|q| q.to_vec()).collect())
+                .collect(),
+        ),
+        stats: Map::new(),
+    };
+    let checked = CheckedSolution::new(problem, witness).map_err(|e| e.to_string())?;
+    if !checked.report().is_valid() {
+        return Err(format!(
+            "the demo's witness does not validate: {}",
+            checked.report().summary()
+        ));
+    }
+    let (problem, witness) = checked.into_parts();
+    Ok(Demo { problem, witness })
+}
+
+/// Why [`run_on_mock_arms`] failed.
+#[derive(Debug)]
+pub enum MockRunError {
+    /// The mock arms could not be started or their buses opened.
+    Mocks(String),
+    /// The executor refused to start or was stopped by a fault.
+    Exec(ExecError),
+    /// What a mock arm received is not the interpolated plan.
+    Record { arm: String, error: String },
+}
+
+impl fmt::Display for MockRunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MockRunError::Mocks(e) => write!(f, "mock arms: {e}"),
+            MockRunError::Exec(e) => write!(f, "{e}"),
+            MockRunError::Record { arm, error } => {
+                write!(f, "mock arm {arm:?} did not receive the plan: {error}")
+            }
+        }
+    }
+}
+
+/// Streams `plan` to one Python mock arm per arm (`python` from the mock's venv), each started
+/// at its arm's first configuration and recording to `record_dir/mock-NAME.jsonl`, then checks
+/// that every mock received exactly the interpolated plan and nothing that breaks a limit.
+pub fn run_on_mock_arms(
+    python: &Path,
+    plan: Plan,
+    validator: &dyn PlanValidator,
+    record_dir: &Path,
+    progress: impl Fn(Progress) + Send + Sync + 'static,
+) -> Result<Report, MockRunError> {
+    let record = |name: &str| record_dir.join(format!("mock-{name}.jsonl"));
+    let mocks = spawn_for_plan(python, &plan, record, &[]).map_err(MockRunError::Mocks)?;
+    let buses = open_buses(&mocks).map_err(|e| MockRunError::Mocks(e.to_string()))?;
+    let config = exec_config();
+    let limits = JointLimits::kinova_gen3();
+    let period = config.period.as_secs_f64();
+    let traj = interpolate(&plan, &limits, period)
+        .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;
+    let settle = config.settle_cycles;
+    let report = Executor::new(plan, limits, buses, config)
+        .map_err(MockRunError::Exec)?
+        .on_progress(progress)
+        .run(validator)
+        .map_err(MockRunError::Exec)?;
+    for (mock, cmds) in mocks.into_iter().zip(&traj.commands) {
+        let arm = mock.name.clone();
+        let checked = mock
+            .finish()
+            .and_then(|r| check_followed(&r, cmds, settle, &limits, period));
+        checked.map_err(|error| MockRunError::Record { arm, error })?;
+    }
+    Ok(report)
+}

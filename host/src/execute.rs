@@ -1,0 +1,151 @@
+//! From a solved problem to the hardware adapter (`omcbsa_hw`): the adapter's [`Plan`] for
+//! the robots that have an arm, and its validation gate backed by the host validator.
+
+use omcbsa_core::model::KinovaGen3;
+use omcbsa_hw::{ArmPlan, Plan, PlanValidator, JOINTS};
+
+use crate::error::InputError;
+use crate::format::{ProblemFile, SolutionFile};
+use crate::load;
+use crate::models::ModelKind;
+use crate::validate::{validate, Report};
+
+/// A solution validated against its problem. As a [`PlanValidator`] it accepts exactly the
+/// plans that stream this solution (when it is valid) to every robot that moves.
+pub struct CheckedSolution {
+    problem: ProblemFile,
+    solution: SolutionFile,
+    report: Report,
+}
+
+impl CheckedSolution {
+    /// Checks `problem` and validates `solution` against it; an error only for a problem
+    /// file that breaks the spec (an invalid solution is a [`Report`] with violations).
+    pub fn new(problem: ProblemFile, solution: SolutionFile) -> Result<Self, InputError> {
+        let report = match load::model_of(&problem)? {
+            ModelKind::KinovaGen3 => {
+                let core = load::problem::<KinovaGen3, JOINTS>(&problem)?;
+                validate::<KinovaGen3, JOINTS>(&problem, &core, &solution)
+            }
+        };
+        Ok(CheckedSolution {
+            problem,
+            solution,
+            report,
+        })
+    }
+
+    pub fn report(&self) -> &Report {
+        &self.report
+    }
+
+    pub fn problem(&self) -> &ProblemFile {
+        &self.problem
+    }
+
+    pub fn solution(&self) -> &SolutionFile {
+        &self.solution
+    }
+
+    pub fn into_parts(self) -> (ProblemFile, SolutionFile) {
+        (self.problem, self.solution)
+    }
+
+    /// The plan streaming the solution's joint paths to the robots `arms` names (in the
+    /// problem's order). Errors name unknown or repeated names; whether every robot that
+    /// moves has an arm is the gate's question ([`PlanValidator::validate`]).
+    pub fn plan(&self, arms: &[&str]) -> Result<Plan, String> {
+        let robots = &self.problem.robots;
+        let unknown: Vec<String> = (arms.iter())
+            .filter(|a| !robots.iter().any(|r| r.name == **a))
+            .map(|a| format!("{a:?}"))
+            .collect();
+        if !unknown.is_empty() {
+            let known: Vec<String> = robots.iter().map(|r| format!("{:?}", r.name)).collect();
+            return Err(format!(
+                "unknown arm name {}: the problem's robots are {}",
+                unknown.join(", "),
+                known.join(", ")
+            ));
+        }
+        if let Some((_, a)) = (arms.iter().enumerate()).find(|(i, a)| arms[..*i].contains(a)) {
+            return Err(format!("arm {a:?} is given twice"));
+        }
+        let paths = self.paths()?;
+        let arms = (robots.iter().zip(paths))
+            .enumerate()
+            .filter(|(_, (r, _))| arms.contains(&r.name.as_str()))
+            .map(|(i, (r, path))| {
+                let joint_path = (path.iter().enumerate())
+                    .map(|(t, q)| {
+                        <[f64; JOINTS]>::try_from(q.as_slice()).map_err(|_| {
+                            format!(
+                                "joint_paths[{i}][{t}]: expected {JOINTS} joint values, got {}",
+                                q.len()
+                            )
+                        })
+                    })
+                    .collect::<Result<_, _>>()?;
+                Ok(ArmPlan {
+                    name: r.name.clone(),
+                    joint_path,
+                })
+            })
+            .collect::<Result<_, String>>()?;
+        Ok(Plan {
+            dt: self.problem.dt,
+            arms,
+        })
+    }
+
+    fn paths(&self) -> Result<&Vec<Vec<Vec<f64>>>, String> {
+        self.solution.joint_paths.as_ref().ok_or_else(|| {
+            format!(
+                "the solution has no joint paths (status {}): nothing to execute",
+                self.solution.status.as_str()
+            )
+        })
+    }
+}
+
+impl PlanValidator for CheckedSolution {
+    fn validate(&self, plan: &Plan) -> Result<(), String> {
+        if !self.report.is_valid() {
+            return Err(self.report.summary());
+        }
+        if plan.dt != self.problem.dt {
+            return Err(format!(
+                "the plan's time step {} s is not the problem's dt {} s",
+                plan.dt, self.problem.dt
+            ));
+        }
+        let paths = self.paths()?;
+        for arm in &plan.arms {
+            let i = (self.problem.robots.iter())
+                .position(|r| r.name == arm.name)
+                .ok_or_else(|| format!("arm {:?} is not a robot of the problem", arm.name))?;
+            let same = paths.get(i).is_some_and(|p| {
+                p.len() == arm.joint_path.len()
+                    && p.iter().zip(&arm.joint_path).all(|(a, b)| a == b)
+            });
+            if !same {
+                return Err(format!(
+                    "arm {:?}: the joint path is not the solution's path for robot {i}",
+                    arm.name
+                ));
+            }
+        }
+        // An arm left out would stand still where the solution has it move: a collision.
+        for (r, path) in self.problem.robots.iter().zip(paths) {
+            let moves = path.windows(2).any(|w| w[0] != w[1]);
+            if moves && !plan.arms.iter().any(|a| a.name == r.name) {
+                return Err(format!(
+                    "robot {:?} moves in the solution but has no arm: every robot that moves \
+                     needs one",
+                    r.name
+                ));
+            }
+        }
+        Ok(())
+    }
+}

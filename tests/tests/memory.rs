@@ -1,0 +1,96 @@
+//! Bounded memory: the core allocates nothing while it plans, and planning fits in a small
+//! thread stack.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use omcbsa::planners::{Capacities, Storage, WallClock};
+use omcbsa::planners::PLANNERS;
+use omcbsa_core::planner::{Stats, Status};
+use omcbsa_tests::*;
+
+/// Counts allocations of the current thread while counting is on.
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<Option<usize>> = const { Cell::new(None) };
+}
+
+fn bump() {
+    // `try_with`: the allocator may run while the thread's locals are being torn down.
+    let _ = COUNT.try_with(|c| {
+        if let Some(n) = c.get() {
+            c.set(Some(n + 1));
+        }
+    });
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        bump();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        bump();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        bump();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+/// Runs `f` and returns how many allocations it made on this thread.
+fn allocations<R>(f: impl FnOnce() -> R) -> (R, usize) {
+    COUNT.with(|c| c.set(Some(0)));
+    let r = f();
+    let n = COUNT.with(|c| c.replace(None)).unwrap_or(0);
+    (r, n)
+}
+
+/// Stack the planners are documented to run in (README: "Memory").
+const PLANNER_STACK: usize = 512 * 1024;
+
+#[test]
+fn counting_allocator_counts() {
+    let (_, n) = allocations(|| vec![1u8; 10]);
+    assert!(n >= 1, "the counting allocator must see a Vec allocation");
+}
+
+/// A two-arm plan with conflicts to resolve (Ω-CBSA branches and replans) allocates nothing
+/// inside the core call, for every planner, in a thread with a small stack.
+#[test]
+fn planning_allocates_nothing_in_a_small_stack() {
+    let file = facing_pair_problem(5).expect("scene");
+    let problem = core_problem(&file);
+    let handle = std::thread::Builder::new()
+        .stack_size(PLANNER_STACK)
+        .spawn(move || {
+            // The storage is allocated on the heap before the core is called.
+            let mut storage = Storage::new(Capacities { search_nodes: 1 << 14, composite_nodes: 1 << 12, ..Capacities::default() }, problem.horizon());
+            let mut results = Vec::with_capacity(PLANNERS.len());
+            for name in PLANNERS {
+                let clock = WallClock::start();
+                let mut stats = Stats::default();
+                let (r, n) = allocations(|| storage.solve_core(name, &problem, &clock, 5.0, &mut stats));
+                let status = r.expect("known planner").0;
+                results.push((name, status, n, stats));
+            }
+            results
+        })
+        .expect("spawn");
+    let results = handle.join().expect("planning thread did not overflow its stack");
+    for (name, status, n, stats) in &results {
+        assert_eq!(*n, 0, "{name} allocated {n} times while planning");
+        if *name == "omcbsa" {
+            assert_eq!(*status, Status::Solved);
+            assert!(stats.conflicts_resolved > 0, "the scene should make Ω-CBSA branch: {stats:?}");
+        }
+    }
+}
