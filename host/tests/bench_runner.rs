@@ -15,7 +15,7 @@ use omcbsa_core::model::{KinovaGen3, Model};
 use omcbsa_core::problem::Problem;
 
 /// Kinova's home configuration: clear of itself.
-const HOME: [f64; 7] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+const HOME: [f64; 7] = [0.0, 0.26, 3.1, -2.27, 0.0, 0.96, 1.57];
 
 /// A one-arm problem whose hand stays where `HOME` puts it, for `h` steps.
 fn problem(name: &str, h: usize) -> ProblemFile {

@@ -1,23 +1,76 @@
-//! The built-in problem of `omcbsa demo`.
+//! The built-in problem of `omcbsa demo`, and the demo itself end to end (three Python mock
+//! arms; the venv of hw-adapter/mock/setup_venv.sh, which the demo creates if it is missing).
+
+use std::process::Command;
 
 use omcbsa::demo::{box_flip, NAME, ROBOTS, STEPS};
+use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
+use omcbsa::load;
 use omcbsa::planners::plan_file;
 
 #[test]
-fn scratch() {
+fn demo_problem_is_made_from_a_valid_witness_and_planned_by_omcbsa() {
+    // box_flip() refuses a witness the validator does not accept.
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
-    for p in demo.witness.joint_paths.as_ref().unwrap() {
-        eprintln!("{:?}\n{:?}", p[0], p[p.len() - 1]);
+    assert_eq!(demo.problem.name, NAME);
+    assert_eq!(demo.problem.robots.len(), ROBOTS.len());
+    assert!(demo
+        .problem
+        .trajectories
+        .iter()
+        .all(|t| t.poses.len() == STEPS));
+    // The listed order is not the assignment.
+    let identity: Vec<Option<usize>> = (0..ROBOTS.len()).map(Some).collect();
+    assert_ne!(demo.witness.assignment, identity);
+    // Every robot moves.
+    for path in demo.witness.joint_paths.as_ref().unwrap() {
+        assert_ne!(path[0], path[STEPS - 1]);
     }
-    let t = std::time::Instant::now();
-    let s = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
-    eprintln!(
-        "{:?} {} {:?} {:?} {:?}",
-        s.status,
-        s.message,
-        s.assignment,
-        t.elapsed(),
-        s.stats
+    // Deterministic.
+    assert_eq!(box_flip().unwrap().problem, demo.problem);
+
+    let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
+    assert_eq!(solution.status, Status::Solved, "{}", solution.message);
+}
+
+#[test]
+fn omcbsa_demo_plans_streams_and_summarises() {
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
+        .args(["demo", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stdout}\n{stderr}");
+    for line in [
+        "planned with Ω-CBSA in",
+        "validated: valid",
+        "executed: 3 arms",
+        "assignment            north -> hand_",
+        "mock arms' records    every command as planned",
+    ] {
+        assert!(stdout.contains(line), "{line:?} missing from\n{stdout}");
+    }
+    assert!(stderr.contains("streaming: 100%"), "{stderr}");
+    let problem = std::fs::read_to_string(out.path().join("problem.json")).unwrap();
+    let solution = std::fs::read_to_string(out.path().join("solution.json")).unwrap();
+    // What the demo wrote validates as files (JSON rounds the last bit of some numbers).
+    let problem = load::parse_problem(&problem).unwrap();
+    let solution = load::parse_solution(&solution).unwrap();
+    assert_eq!(
+        (problem.name.as_str(), solution.status),
+        (NAME, Status::Solved)
     );
+    let checked = CheckedSolution::new(problem, solution).unwrap();
+    assert!(
+        checked.report().is_valid(),
+        "{}",
+        checked.report().summary()
+    );
+    for r in ROBOTS {
+        assert!(out.path().join(format!("mock-{r}.jsonl")).exists(), "{r}");
+    }
 }

@@ -61,7 +61,8 @@ fn solution_that_does_not_validate_is_refused_before_any_bus_is_opened() {
     assert_eq!(code, 2, "{text}");
     assert!(
         text.contains(
-            "refusing to start: the plan does not validate: invalid: rule 3 (velocity), robot 0"
+            "refusing to start: the plan does not validate: invalid: rule 2 (tracking), robot 0, \
+             step 10"
         ),
         "{text}"
     );

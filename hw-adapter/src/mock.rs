@@ -4,7 +4,7 @@
 
 use crate::plan::Plan;
 use crate::record;
-use crate::transport::{self, Transport, TransportError};
+use crate::transport::{self, ArmBuses, Transport, TransportError};
 use crate::ExecConfig;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
@@ -194,8 +194,8 @@ pub fn spawn_for_plan(
         .collect()
 }
 
-/// The buses of `mocks`, paired with their arm names, as [`crate::Executor::new`] takes them.
-pub fn open_buses(mocks: &[MockArm]) -> Result<Vec<(String, Box<dyn Transport>)>, TransportError> {
+/// The buses of `mocks`, paired with their arm names.
+pub fn open_buses(mocks: &[MockArm]) -> Result<ArmBuses, TransportError> {
     mocks
         .iter()
         .map(|m| Ok((m.name.clone(), m.open_bus()?)))

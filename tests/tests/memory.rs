@@ -94,3 +94,19 @@ fn planning_allocates_nothing_in_a_small_stack() {
         }
     }
 }
+
+/// Storage reused run after run gives the same answers (a workspace made over buffers an
+/// earlier one used must not see the earlier search's states).
+#[test]
+fn storage_is_reusable() {
+    let (file, _) = elbow_swing_problem(42).expect("scene");
+    let problem = core_problem(&file);
+    let mut storage = Storage::new(Capacities::default(), problem.horizon());
+    let mut first = None;
+    for _ in 0..3 {
+        let mut stats = Stats::default();
+        let (status, _) = storage.solve_core("omega-astar", &problem, &WallClock::start(), 5.0, &mut stats).expect("planner");
+        assert_eq!(status, Status::Solved);
+        assert_eq!(*first.get_or_insert(stats), stats, "the same input must give the same search");
+    }
+}

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::demo::{box_flip, run_on_mock_arms, MockRunError, DT, STEPS};
+use omcbsa::demo::{box_flip, run_on_mock_arms, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::{plan_file, InputOrPlanError};
@@ -77,10 +77,7 @@ pub fn run(args: &Args) -> ExitCode {
         Ok(p) => p,
         Err(e) => return bad_input(e),
     };
-    let robots: Vec<&str> = (checked.problem().robots.iter())
-        .map(|r| r.name.as_str())
-        .collect();
-    let plan = match checked.plan(&robots) {
+    let plan = match checked.plan(&ROBOTS) {
         Ok(p) => p,
         Err(e) => return failed(e),
     };
@@ -88,7 +85,7 @@ pub fn run(args: &Args) -> ExitCode {
         "starting {} mock arms, each at its first configuration",
         plan.arms.len()
     );
-    let names = robots.iter().map(|r| r.to_string()).collect();
+    let names = ROBOTS.map(String::from).to_vec();
     let report = match run_on_mock_arms(&python, plan, &checked, &args.out, progress_printer(names))
     {
         Ok(r) => r,

@@ -9,9 +9,8 @@ use omcbsa::error::InputError;
 use omcbsa::execute::CheckedSolution;
 use omcbsa::load;
 use omcbsa_hw::executor::Progress;
-use omcbsa_hw::{
-    transport, ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report, Transport,
-};
+use omcbsa_hw::transport::{self, ArmBuses};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
 
 use super::{bad_input, negative};
 
@@ -52,10 +51,11 @@ fn parse_arm(s: &str) -> Result<(String, String), String> {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    // 10 kHz: beyond it the period (100 µs) is below what the executor's threads can keep.
-    if !(args.rate > 0.0 && args.rate <= 10_000.0) {
+    // At most 1 kHz: the Gen3's own control rate, and about what a 1 Mbit/s bus carries with
+    // 8 frames per arm and cycle.
+    if !(args.rate > 0.0 && args.rate <= 1000.0) {
         return bad_input(format!(
-            "--rate: must be in (0, 10000] Hz, got {}",
+            "--rate: must be in (0, 1000] Hz, got {}",
             args.rate
         ));
     }
@@ -107,9 +107,9 @@ fn load_plan(args: &Args) -> Result<(CheckedSolution, Plan), String> {
 
 /// Runs the executor with progress output and prints its report; on failure, prints why and
 /// returns the exit code ([`failure`]).
-pub fn stream(
+fn stream(
     plan: Plan,
-    buses: Vec<(String, Box<dyn Transport>)>,
+    buses: ArmBuses,
     config: ExecConfig,
     checked: &CheckedSolution,
 ) -> Result<Report, ExitCode> {

@@ -83,6 +83,11 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
     match hands {
         Some(hands) => {
             let witness = task_witness(&scene, &layout.bases, &hands, rng);
+            if let Some(paths) = &witness {
+                layout
+                    .obstacles
+                    .extend(traps(&scene, &layout.bases, &hands, paths));
+            }
             Some(Sample {
                 layout,
                 hands,

@@ -244,7 +244,7 @@ fn box_flip(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
             let faces = (layout.bases.iter().zip(&layout.stations))
                 .map(|(b, s)| {
                     (
-                        v3((pos.x - b.pos.x).signum() * -1.0, 0.0, 0.0),
+                        v3(-(pos.x - b.pos.x).signum(), 0.0, 0.0),
                         v3(0.0, s.point.y - centre.y, 0.0),
                     )
                 })

@@ -169,7 +169,7 @@ pub fn gen_bench(outdir: &Path, opts: &GenOptions) -> Result<GenReport, Error> {
     std::fs::create_dir_all(&witness_dir).map_err(io(&witness_dir))?;
     let generated: Vec<emit::Generated> = specs(opts)
         .par_iter()
-        .map(|spec| emit::generate(spec))
+        .map(emit::generate)
         .collect::<Result<_, _>>()?;
     let mut problems = Vec::with_capacity(generated.len());
     for g in generated {

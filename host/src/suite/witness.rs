@@ -27,7 +27,7 @@ const MOTION_STEP: f64 = 0.01;
 /// Random IK seeds tried per arm and priority order.
 const TRACK_ATTEMPTS: usize = 8;
 /// Largest null-space push per step of a swinging witness (rad along a unit null vector).
-const NULL_SWING: f64 = 0.1;
+const NULL_SWING: f64 = 0.08;
 /// Attempts of [`Scene::track`] without a null-space swing.
 const PLAIN_ATTEMPTS: usize = 2;
 /// Priority orders tried for one task.
@@ -98,9 +98,9 @@ impl Scene<'_> {
 
     /// Tracks `poses` by IK from random seeds, each step from the previous configuration,
     /// checking as it goes. All but the last [`PLAIN_ATTEMPTS`] attempts also swing the arm
-    /// through its null space (the seed of each step is pushed along the Jacobian's null space
-    /// by a slow sine before IK projects it back), so witnesses are not what plain IK tracking
-    /// finds.
+    /// through its null space (the seed of each step is pushed a fixed amount along the
+    /// Jacobian's null space before IK projects it back, so the elbow drifts steadily to one
+    /// side), so witnesses are not what plain IK tracking finds.
     /// The first path that passes, if any.
     pub fn track(
         &self,
@@ -113,11 +113,10 @@ impl Scene<'_> {
         'attempt: for attempt in 0..TRACK_ATTEMPTS {
             let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
             let swing = if attempt + PLAIN_ATTEMPTS < TRACK_ATTEMPTS {
-                rng.uniform(0.5, 1.0) * NULL_SWING
+                rng.uniform(0.3, 1.0) * NULL_SWING * if rng.next_f64() < 0.5 { 1.0 } else { -1.0 }
             } else {
                 0.0
             };
-            let phase = rng.uniform(0.0, 2.0 * std::f64::consts::PI);
             let Ok(mut q) = ik::<Gen3, 7>(&self.target(base, &poses[0]), &seed, &params) else {
                 continue;
             };
@@ -126,8 +125,7 @@ impl Scene<'_> {
                 let next = if t == 0 {
                     q
                 } else {
-                    let push = swing * (phase + 0.15 * t as f64).sin();
-                    let seed = along_null_space(&q, push);
+                    let seed = along_null_space(&q, swing);
                     match ik::<Gen3, 7>(&self.target(base, pose), &seed, &params) {
                         Ok(next) => next,
                         Err(_) => continue 'attempt,

@@ -35,6 +35,9 @@ pub trait Transport: Send {
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, TransportError>;
 }
 
+/// Buses paired with the names of the arms on them, as [`crate::Executor::new`] takes them.
+pub type ArmBuses = Vec<(String, Box<dyn Transport>)>;
+
 /// Opens a bus from a spec `slcan:PATH` or `socketcan:IFACE` (the `--arm NAME=SPEC` syntax).
 pub fn open(spec: &str) -> Result<Box<dyn Transport>, TransportError> {
     let bad = |reason: &str| TransportError::Open {

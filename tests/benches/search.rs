@@ -1,0 +1,34 @@
+//! Ω-A* node expansions per second, and whole Ω-CBSA plans, on fixed scenes.
+//! `cargo bench -p omcbsa-tests --bench search`
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use omcbsa::planners::{Capacities, Storage, WallClock};
+use omcbsa_core::planner::{Stats, Status};
+use omcbsa_core::problem::Problem;
+use omcbsa_tests::{core_problem, elbow_swing_problem, facing_pair_problem};
+
+fn run(storage: &mut Storage, planner: &str, problem: &Problem<7>) -> Stats {
+    let mut stats = Stats::default();
+    let (status, _) = storage.solve_core(planner, problem, &WallClock::start(), 60.0, &mut stats).expect("planner");
+    assert_eq!(status, Status::Solved);
+    stats
+}
+
+fn bench(c: &mut Criterion) {
+    let scenes = [
+        ("omega-astar/elbow_swing_42", "omega-astar", core_problem(&elbow_swing_problem(42).expect("scene").0)),
+        ("omcbsa/facing_pair_5", "omcbsa", core_problem(&facing_pair_problem(5).expect("scene"))),
+        ("pp/facing_pair_5", "pp", core_problem(&facing_pair_problem(5).expect("scene"))),
+    ];
+    let mut group = c.benchmark_group("expansions");
+    for (id, planner, problem) in &scenes {
+        let mut storage = Storage::new(Capacities::default(), problem.horizon());
+        let expansions = run(&mut storage, planner, problem).expansions;
+        group.throughput(Throughput::Elements(expansions));
+        group.bench_function(*id, |b| b.iter(|| run(&mut storage, planner, problem)));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
