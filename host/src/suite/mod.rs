@@ -185,7 +185,12 @@ pub fn gen_bench(outdir: &Path, opts: &GenOptions) -> Result<GenReport, Error> {
         seed: opts.seed,
         problems,
     };
-    write_json(&outdir.join(INDEX_FILE), &index)?;
+    let index_path = outdir.join(INDEX_FILE);
+    let text = serde_json::to_string_pretty(&index).map_err(|e| Error::Io {
+        path: index_path.clone(),
+        source: e.into(),
+    })?;
+    std::fs::write(&index_path, text + "\n").map_err(io(&index_path))?;
     Ok(GenReport {
         problems: index.problems.len(),
         known_solvable,
@@ -208,7 +213,8 @@ pub fn read_index(suite_dir: &Path) -> Result<SuiteIndex, Error> {
     Ok(index)
 }
 
-/// Compact JSON and a final newline: the suite is large and read by programs.
+/// Compact JSON and a final newline: problem files are large and read by programs (the index
+/// is written pretty, for people).
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Error> {
     let mut text = serde_json::to_string(value).map_err(|e| Error::Io {
         path: path.to_path_buf(),
