@@ -9,10 +9,8 @@ echo "== bare-metal build of the core (thumbv7em-none-eabihf: no std, no alloc)"
 rustup target add thumbv7em-none-eabihf >/dev/null
 cargo build -p omcbsa-core --release --target thumbv7em-none-eabihf
 
-if [ -f hw-adapter/mock/setup_venv.sh ]; then
-  echo "== Python venv for the mock arms"
-  bash hw-adapter/mock/setup_venv.sh
-fi
+echo "== Python venv for the mock arms (pinned python-can)"
+bash hw-adapter/mock/setup_venv.sh
 
 echo "== tests"
 cargo test --workspace

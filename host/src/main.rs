@@ -19,9 +19,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    Bench(cli::bench::Args),
     Demo(cli::demo::Args),
     Execute(cli::execute::Args),
     Fk(cli::fk::Args),
+    GenBench(cli::gen_bench::Args),
     Ik(cli::ik::Args),
     Plan(cli::plan::Args),
     Validate(cli::validate::Args),
@@ -29,9 +31,11 @@ enum Command {
 
 fn main() -> ExitCode {
     match Cli::parse().command {
+        Command::Bench(args) => cli::bench::run(&args),
         Command::Demo(args) => cli::demo::run(&args),
         Command::Execute(args) => cli::execute::run(&args),
         Command::Fk(args) => cli::fk::run(&args),
+        Command::GenBench(args) => cli::gen_bench::run(&args),
         Command::Ik(args) => cli::ik::run(&args),
         Command::Plan(args) => cli::plan::run(&args),
         Command::Validate(args) => cli::validate::run(&args),

@@ -4,7 +4,9 @@
 
 pub mod demo;
 pub mod execute;
+pub mod bench;
 pub mod fk;
+pub mod gen_bench;
 pub mod ik;
 mod lines;
 pub mod plan;

@@ -1,16 +1,23 @@
 //! The benchmark suite generator (`omcbsa gen-bench`): a fixed-seed, byte-for-byte
-//! reproducible set of problems with 2 to 6 Kinova Gen3 arms, in four layouts, over six motion
-//! families shaped like policy outputs.
+//! reproducible set of problems with 2 to 6 Kinova Gen3 arms, in four crowded layouts, over six
+//! motion families shaped like policy outputs.
 //!
 //! Every problem is built from a witness when one is found: a collision-free joint motion per
-//! arm (IK tracking of the task's hands from random seeds, or for the random family a smooth
-//! random joint motion mapped to the hands by forward kinematics), confirmed by the host
-//! validator. Where one fits, a small fixture is then placed on the path plain IK tracking
-//! from the witness's start would take an elbow (see `trap`), so that solving takes the
-//! redundancy. Its trajectories are listed in shuffled order, so the listed order is not the
-//! assignment. A task whose witness search fails is resampled a few times
-//! ([`TASK_SAMPLES`]); if every sample fails, the last one is still emitted, recorded as not
-//! known to be solvable (it may be, or not).
+//! arm (IK tracking of the task's hands from random seeds while the elbow swings through the
+//! null space, or for the random family a smooth random joint motion mapped to the hands by
+//! forward kinematics), confirmed by the host validator. Fixtures are then placed where plain,
+//! myopic IK tracking of each hand (from the witness's start and from other starts, by every
+//! arm in reach) takes an elbow or forearm but no witness arm goes (see `trap`), so that
+//! solving takes the redundancy the witness used. Its trajectories are listed in shuffled
+//! order, so the listed order is not the assignment.
+//!
+//! Resampling: a task whose witness search fails is resampled, up to [`TASK_SAMPLES`] samples
+//! ([`RANDOM_SAMPLES`] for the random family). A sample with a witness that the IK-tracking
+//! baseline still solves (within a fixed budget of work, see `myopic`) is also resampled, up
+//! to [`HARD_SAMPLES`] samples with a witness; then the first of them is kept. These are the
+//! only two grounds: no other planner is run, so the suite is not biased for or against any
+//! planner but IK tracking. If every sample fails to find a witness, the last one is still
+//! emitted, recorded as not known to be solvable (it may be, or not).
 //!
 //! Output: `OUTDIR/<name>.json` per problem, `OUTDIR/witnesses/<name>.json` (the witness as an
 //! `omcbsa.solution.v1` file) per known-solvable problem, and the index `OUTDIR/suite.json`.
@@ -19,6 +26,7 @@ mod emit;
 mod family;
 mod frames;
 mod layout;
+mod myopic;
 mod trap;
 mod witness;
 
@@ -41,6 +49,8 @@ pub const INDEX_FORMAT: &str = "omcbsa.suite.v1";
 pub const WITNESS_DIR: &str = "witnesses";
 /// Samples of a task family tried before a problem is emitted without a witness.
 pub const TASK_SAMPLES: u64 = 6;
+/// Samples with a witness tried before one that IK tracking solves is kept.
+pub const HARD_SAMPLES: usize = 4;
 /// Samples of the random family tried before generation gives up (its problems always come
 /// from a witness).
 const RANDOM_SAMPLES: u64 = 64;

@@ -1,0 +1,67 @@
+//! `omcbsa bench`: runs planners on a suite; CSV, summary and plots.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use omcbsa::bench::{run_bench, BenchOptions};
+use omcbsa::planners::PLANNERS;
+
+use super::bad_input;
+
+/// Runs every planner on every problem of SUITE_DIR (made by gen-bench), re-validating every
+/// reported success, and writes results.csv (resumable), summary.md and plots.
+/// Exit code 0 done, 1 if some reported success failed validation, 2 on an error.
+#[derive(clap::Args)]
+pub struct Args {
+    suite_dir: PathBuf,
+    /// Comma-separated planners.
+    #[arg(long, value_delimiter = ',', default_values_t = PLANNERS.map(String::from))]
+    planners: Vec<String>,
+    /// Per run, seconds.
+    #[arg(long, default_value_t = 5.0)]
+    timeout: f64,
+    /// Runs at a time (default: one per core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// A subset that finishes in under two minutes.
+    #[arg(long)]
+    quick: bool,
+    /// Output directory (default SUITE_DIR/bench, or SUITE_DIR/bench-quick).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    for p in &args.planners {
+        if !PLANNERS.contains(&p.as_str()) {
+            return bad_input(format!("--planners: unknown planner {p:?} (known: {})", PLANNERS.join(", ")));
+        }
+    }
+    let defaults = BenchOptions::default();
+    let opts = BenchOptions {
+        planners: args.planners.clone(),
+        timeout_s: args.timeout,
+        jobs: args.jobs.unwrap_or(defaults.jobs).max(1),
+        quick: args.quick,
+        out: args.out.clone(),
+        progress: true,
+    };
+    match run_bench(&args.suite_dir, &opts) {
+        Ok(report) => {
+            println!("{}", std::fs::read_to_string(&report.summary_path).unwrap_or_default());
+            println!("results: {}", report.results_path.display());
+            for p in &report.plots {
+                println!("plot: {}", p.display());
+            }
+            if let Some(e) = &report.plot_error {
+                eprintln!("plots not drawn: {e}");
+            }
+            if !report.summary.invalid.is_empty() {
+                eprintln!("error: {} reported successes failed validation", report.summary.invalid.len());
+                return ExitCode::from(1);
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => bad_input(e),
+    }
+}

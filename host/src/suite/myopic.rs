@@ -1,0 +1,46 @@
+//! Whether the IK-tracking baseline solves a problem: the generator resamples problems it
+//! solves (see the crate docs of `suite`), on a fixed budget of work rather than of time so
+//! that generation stays deterministic.
+
+use std::cell::Cell;
+
+use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
+use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
+use omcbsa_core::problem::{Problem, MAX_ROBOTS};
+
+use super::witness::Gen3;
+
+/// Looks at the clock IK tracking may take: it looks once per assignment and once per seed
+/// of every robot, so this bounds the tracks it tries.
+const BUDGET: u64 = 4000;
+
+/// A clock that advances one tick each time it is read.
+struct Ticks(Cell<u64>);
+
+impl Clock for Ticks {
+    fn seconds(&self) -> f64 {
+        let t = self.0.get() + 1;
+        self.0.set(t);
+        t as f64
+    }
+}
+
+/// Whether IK tracking (the baseline, with its default parameters) solves `problem` within
+/// [`BUDGET`].
+pub fn ik_tracking_solves(problem: &Problem<7>) -> bool {
+    let mut paths = vec![[0.0; 7]; MAX_ROBOTS * problem.horizon()];
+    let mut out = Solution::new(&mut paths);
+    let mut planner = IkTracking {
+        params: IkTrackingParams::default(),
+    };
+    let clock = Ticks(Cell::new(0));
+    let status = Planner::<Gen3, 7>::solve(
+        &mut planner,
+        problem,
+        &clock,
+        BUDGET as f64,
+        &mut out,
+        &mut Stats::default(),
+    );
+    status == Status::Solved
+}
