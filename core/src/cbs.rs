@@ -272,6 +272,9 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             node.slots[i] = self.keep_scratch()?;
             node.assignment[i] = assigned;
         }
+        if self.too_many_holders(&node) {
+            return Err(Status::NoSolution);
+        }
         for i in 0..self.n {
             for k in i + 1..self.n {
                 node.pairs[i][k] = self.pair_conflicts(&node, i, k);
@@ -394,10 +397,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         child.constraint = constraint;
         child.slots[robot] = self.keep_scratch()?;
         child.assignment[robot] = assigned;
-        // Robots hold only when no trajectory is left to them in this subtree; if more hold
-        // than can, some trajectory is never tracked below this node.
-        let holders = (0..self.n).filter(|&k| child.assignment[k] == HOLD).count();
-        if holders > self.n - self.pr.trajectories.len() {
+        if self.too_many_holders(&child) {
             return Ok(None);
         }
         for k in 0..self.n {
@@ -408,6 +408,13 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         }
         child.conflicts = self.count(&child);
         Ok(Some(child))
+    }
+
+    /// Robots hold only when no trajectory is left to them in the subtree of `node`; if more
+    /// hold than can, some trajectory is never tracked below it.
+    fn too_many_holders(&self, node: &CtNode) -> bool {
+        let holders = (0..self.n).filter(|&k| node.assignment[k] == HOLD).count();
+        holders > self.n - self.pr.trajectories.len()
     }
 
     /// Assignment conflicts plus geometric ones.

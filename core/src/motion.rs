@@ -10,6 +10,12 @@ use crate::collision::{sweeps_collide, ArmPose, Sweep};
 use crate::geometry::{Capsule, Obstacle};
 use crate::model::{Frame, Model};
 
+/// The default largest displacement (m) of any link point between two checked configurations
+/// of a motion. The checks inflate the links by half of it, so a smaller step rejects fewer
+/// motions that pass close to something; the sweeps' bisection keeps far-away motions at one
+/// check whatever the step.
+pub const MOTION_STEP: f64 = 0.01;
+
 /// One arm's motion over one step.
 #[derive(Clone, Copy, Debug)]
 pub struct ArmMotion<'a, const D: usize> {

@@ -126,7 +126,7 @@ pub fn witness_is_valid(bases: &[Frame], paths: &[Vec<[f64; DOF]>], obstacles: &
     (0..bases.len()).all(|i| {
         let others: Vec<OtherArm<'_, DOF>> =
             (0..i).map(|k| OtherArm { base: bases[k], path: &paths[k] }).collect();
-        let v = Validity::<KinovaGen3, DOF>::new(bases[i], obstacles, &others, OthersMode::Avoid, &[], dt, 0.04);
+        let v = Validity::<KinovaGen3, DOF>::new(bases[i], obstacles, &others, OthersMode::Avoid, &[], dt, omcbsa_core::motion::MOTION_STEP);
         let p = &paths[i];
         (0..p.len()).all(|t| {
             v.state(&p[t], t).is_some()
@@ -152,7 +152,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     let (_, j) = KinovaGen3::jacobian(&p0[0]);
     let n = *null_space_basis::<DOF>(&j).first()?;
     let shifted: [f64; DOF] = std::array::from_fn(|i| p0[0][i] + 0.8 * n[i]);
-    let free = Validity::<KinovaGen3, DOF>::new(base, &[], &[], OthersMode::Avoid, &[], 0.2, 0.04);
+    let free = Validity::<KinovaGen3, DOF>::new(base, &[], &[], OthersMode::Avoid, &[], 0.2, omcbsa_core::motion::MOTION_STEP);
     let traj: omcbsa_core::problem::Trajectory = p0.iter().map(|q| KinovaGen3::fk(q)).collect();
     let robot = Robot { base, tcp: Frame::IDENTITY, initial: None };
     let mut alt = vec![[0.0; DOF]; p0.len()];

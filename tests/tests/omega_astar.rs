@@ -17,7 +17,7 @@ fn omega_astar_swings_the_elbow_where_ik_tracking_fails() {
         let Some((file, _)) = elbow_swing_problem(seed) else { continue };
         let problem = core_problem(&file);
         let robot = problem.robots[0];
-        let valid = Validity::<KinovaGen3, DOF>::new(robot.base, &problem.obstacles, &[], OthersMode::Avoid, &[], problem.dt, 0.04);
+        let valid = Validity::<KinovaGen3, DOF>::new(robot.base, &problem.obstacles, &[], OthersMode::Avoid, &[], problem.dt, omcbsa_core::motion::MOTION_STEP);
         let mut path = vec![[0.0; DOF]; problem.horizon()];
         let init = robot.initial.expect("the scene sets initial");
         assert!(

@@ -24,7 +24,7 @@ pub struct DescartesParams {
 
 impl Default for DescartesParams {
     fn default() -> Self {
-        DescartesParams { samples: 12, ik: IkParams::default(), motion_step: 0.04, seed: 0x5eed }
+        DescartesParams { samples: 12, ik: IkParams::default(), motion_step: crate::motion::MOTION_STEP, seed: 0x5eed }
     }
 }
 

@@ -24,7 +24,7 @@ pub struct IkTrackingParams {
 
 impl Default for IkTrackingParams {
     fn default() -> Self {
-        IkTrackingParams { seeds: 10, ik: IkParams::default(), motion_step: 0.04, seed: 0x5eed }
+        IkTrackingParams { seeds: 10, ik: IkParams::default(), motion_step: crate::motion::MOTION_STEP, seed: 0x5eed }
     }
 }
 

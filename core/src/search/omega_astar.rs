@@ -49,10 +49,10 @@ impl Default for OmegaParams {
             epsilon: 0.2,
             w_h: 10.0,
             w_c: 0.1,
-            start_solutions: 8,
-            start_attempts: 32,
+            start_solutions: 16,
+            start_attempts: 96,
             resolution: 0.02,
-            motion_step: 0.04,
+            motion_step: crate::motion::MOTION_STEP,
             ik: IkParams::default(),
             seed: 0x5eed,
         }

@@ -23,11 +23,14 @@ use super::witness::{Gen3, Scene, Q, RETRACT};
 const RADII: [f64; 4] = [0.08, 0.065, 0.05, 0.04];
 /// Room left between a fixture and every witness arm, so a planner need not retrace the
 /// witness exactly.
-const CLEARANCE: f64 = 0.03;
+const CLEARANCE: f64 = 0.05;
 /// Random starts of IK tracking per (hand, arm), besides the witness's start and the retract.
-const STARTS: usize = 10;
+const STARTS: usize = 6;
 /// Most fixtures per hand.
-const PER_HAND: usize = 4;
+const PER_HAND: usize = 3;
+/// Fixtures block no track before this share of the horizon: a planner may start from any
+/// posture and needs time to swing its elbow.
+const FIRST_STEP: f64 = 0.2;
 /// Arms whose base is farther than this from a hand's first position are not tried on it.
 const REACH: f64 = 1.0;
 /// Largest point displacement between collision checks along a motion (metres).
@@ -138,7 +141,8 @@ impl<'a> Witness<'a> {
     fn block(&self, base: &Frame, path: &[Q], probes: &[usize]) -> Option<Obstacle> {
         let mut frames = vec![Frame::IDENTITY; Gen3::LINK_NAMES.len()];
         let mut points: Vec<(f64, V3)> = Vec::new();
-        for q in path {
+        let first = (FIRST_STEP * path.len() as f64).ceil() as usize;
+        for q in &path[first..] {
             Gen3::link_frames(q, &mut frames);
             for &l in probes {
                 let p = base.compose(&frames[l]).pos;

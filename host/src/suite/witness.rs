@@ -23,7 +23,7 @@ pub type Q = [f64; 7];
 /// Share of `velocity * dt` a witness joint may move per step.
 pub const STEP_FRACTION: f64 = 0.75;
 /// Largest point displacement between collision checks along a motion (metres).
-const MOTION_STEP: f64 = 0.01;
+const MOTION_STEP: f64 = omcbsa_core::motion::MOTION_STEP;
 /// Random IK seeds tried per arm and priority order.
 const TRACK_ATTEMPTS: usize = 8;
 /// Largest null-space push per step of a swinging witness (rad along a unit null vector).
@@ -113,7 +113,7 @@ impl Scene<'_> {
         'attempt: for attempt in 0..TRACK_ATTEMPTS {
             let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
             let swing = if attempt + PLAIN_ATTEMPTS < TRACK_ATTEMPTS {
-                rng.uniform(0.3, 1.0) * NULL_SWING * if rng.next_f64() < 0.5 { 1.0 } else { -1.0 }
+                rng.uniform(0.6, 1.0) * NULL_SWING * if rng.next_f64() < 0.5 { 1.0 } else { -1.0 }
             } else {
                 0.0
             };
