@@ -104,24 +104,23 @@ pub struct ArmPose {
 }
 
 impl ArmPose {
+    /// An arm with no capsules: it collides with nothing.
+    pub const EMPTY: ArmPose = ArmPose {
+        capsules: [Capsule::new(Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.0), 0.0); MAX_ARM_CAPSULES],
+        boxes: [Aabb::EMPTY; MAX_ARM_CAPSULES],
+        len: 0,
+        on_base: 0,
+        self_pairs: &[],
+        aabb: Aabb::EMPTY,
+        moving_aabb: Aabb::EMPTY,
+    };
+
     /// The capsules of model `M` at configuration `q`, its base frame at `base` in the world.
     pub fn new<M: Model<D>, const D: usize>(base: &Frame, q: &[f64; D]) -> ArmPose {
         const { check_model::<M, D>() };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
         M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]);
-        let mut pose = ArmPose {
-            capsules: [Capsule::new(
-                Vector3::new(0.0, 0.0, 0.0),
-                Vector3::new(0.0, 0.0, 0.0),
-                0.0,
-            ); MAX_ARM_CAPSULES],
-            boxes: [Aabb::EMPTY; MAX_ARM_CAPSULES],
-            len: M::CAPSULES.len(),
-            on_base: 0,
-            self_pairs: M::SELF_PAIRS,
-            aabb: Aabb::EMPTY,
-            moving_aabb: Aabb::EMPTY,
-        };
+        let mut pose = ArmPose { len: M::CAPSULES.len(), self_pairs: M::SELF_PAIRS, ..ArmPose::EMPTY };
         for (i, c) in M::CAPSULES.iter().enumerate() {
             let link = base.compose(&frames[usize::from(c.link)]);
             let capsule = Capsule::new(link.apply(&c.a.into()), link.apply(&c.b.into()), c.radius);

@@ -10,7 +10,7 @@
 //! the collisions with the other robots' given paths.
 
 use crate::geometry::Obstacle;
-use crate::ik::{ik, ik_multi_start, IkParams, MultiStart};
+use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
 use crate::model::{Frame, Model};
 use crate::problem::{Robot, Trajectory};
@@ -29,9 +29,9 @@ pub struct OmegaParams {
     pub w_h: f64,
     /// Weight of the collision count.
     pub w_c: f64,
-    /// Most IK solutions of the first pose put in OPEN per trajectory.
+    /// Most valid IK solutions of the first pose put in OPEN per trajectory.
     pub start_solutions: usize,
-    /// Random IK seeds tried per trajectory to find them.
+    /// Most random IK seeds tried per trajectory to find them.
     pub start_attempts: u32,
     /// Grid size (rad) of the duplicate detection on `q`.
     pub resolution: f64,
@@ -283,33 +283,30 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         Err(SearchError::NoSolution)
     }
 
-    /// Puts IK solutions of the first pose of every allowed trajectory in OPEN.
+    /// Puts IK solutions of the first pose of every allowed trajectory in OPEN: the one nearest
+    /// `initial` (when given), then solutions from random seeds until `start_solutions`
+    /// distinct valid states are in or `start_attempts` seeds were tried.
     fn seed_open(&self, ws: &mut Workspace<'_, D>, stats: &mut SearchStats) -> Result<(), SearchError> {
-        let multi = MultiStart { attempts: self.p.start_attempts, min_separation: 0.1 };
-        let mut sols = [[0.0; D]; 16];
-        let want = self.p.start_solutions.clamp(1, sols.len());
         for j in 0..self.q.trajectories.len() {
             if self.q.allowed & (1 << j) == 0 {
                 continue;
             }
             let target = self.target(j, 0);
+            let g0 = self.start_cost(j);
             // The same seeds for a trajectory whatever else is asked, so a replan under one
             // more constraint explores the same start states.
             let mut rng = Rng::new(self.p.seed ^ (j as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-            let mut n = 0;
-            if let Some(init) = &self.q.robot.initial {
-                if let Ok(s) = ik::<M, D>(&target, init, &self.p.ik) {
-                    sols[0] = s;
-                    n = 1;
+            let before = ws.used();
+            let seeds = self.q.robot.initial.into_iter().chain(
+                (0..self.p.start_attempts).map(|_| rng.configuration(&M::LOWER, &M::UPPER)),
+            );
+            for seed in seeds {
+                if ws.used() - before >= self.p.start_solutions {
+                    break;
                 }
-            }
-            if let Ok(k) = ik_multi_start::<M, D>(&target, &self.p.ik, &multi, &mut rng, &mut sols[n..want]) {
-                n += k;
-            }
-            let g0 = self.start_cost(j);
-            for s in &sols[..n] {
-                let Some(c) = self.valid.state(s, 0) else { continue };
-                let node = Node { q: *s, g: g0, parent: u32::MAX, t: 0, c, j: j as u8, closed: false };
+                let Ok(q) = ik::<M, D>(&target, &seed, &self.p.ik) else { continue };
+                let Some(c) = self.valid.state(&q, 0) else { continue };
+                let node = Node { q, g: g0, parent: u32::MAX, t: 0, c, j: j as u8, closed: false };
                 self.add(ws, node, stats)?;
             }
         }

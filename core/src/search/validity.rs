@@ -1,7 +1,10 @@
 //! The state validity checker shared by Ω-A*, IK tracking and the baselines: what a robot may
 //! occupy at a step and how it may move to the next.
 
+use core::cell::RefCell;
+
 use crate::collision::ArmPose;
+use crate::problem::MAX_ROBOTS;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
 use crate::motion::{motion_is_free, motion_near_point, motions_collide, near_point, ArmMotion};
@@ -19,6 +22,10 @@ pub struct Validity<'q, M, const D: usize> {
     pub step_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
     pub motion_step: f64,
+    /// The other robots' link capsules at the step asked for last: every successor of one
+    /// expansion is checked at the same step, so this saves all but the first placing.
+    /// (`usize::MAX`: none yet.)
+    others_at: RefCell<(usize, [ArmPose; MAX_ROBOTS])>,
     _model: core::marker::PhantomData<M>,
 }
 
@@ -36,7 +43,31 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         for (s, v) in step_limit.iter_mut().zip(M::VELOCITY.iter()) {
             *s = v * dt;
         }
-        Validity { base, obstacles, others, others_mode, points, step_limit, motion_step, _model: core::marker::PhantomData }
+        Validity {
+            base,
+            obstacles,
+            others,
+            others_mode,
+            points,
+            step_limit,
+            motion_step,
+            others_at: RefCell::new((usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS])),
+            _model: core::marker::PhantomData,
+        }
+    }
+
+    /// Runs `f` on the other robots' poses at step `t`, placing them only if the last call
+    /// was for another step.
+    fn with_others_at<R>(&self, t: usize, f: impl FnOnce(&[ArmPose]) -> R) -> R {
+        let mut cache = self.others_at.borrow_mut();
+        let (at, poses) = &mut *cache;
+        if *at != t {
+            for (p, other) in poses.iter_mut().zip(self.others) {
+                *p = ArmPose::new::<M, D>(&other.base, &other.path[t]);
+            }
+            *at = t;
+        }
+        f(&poses[..self.others.len()])
     }
 
     /// Whether no joint moves faster than its velocity limit from `a` to `b`.
@@ -61,17 +92,18 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 return None;
             }
         }
-        let mut c = 0u16;
-        for other in self.others {
-            let theirs = ArmPose::new::<M, D>(&other.base, &other.path[t]);
-            if pose.arm_hit(&theirs, 0.0).is_some() {
-                if self.others_mode == OthersMode::Avoid {
-                    return None;
+        self.with_others_at(t, |theirs| {
+            let mut c = 0u16;
+            for other in theirs {
+                if pose.arm_hit(other, 0.0).is_some() {
+                    if self.others_mode == OthersMode::Avoid {
+                        return None;
+                    }
+                    c += 1;
                 }
-                c += 1;
             }
-        }
-        Some(c)
+            Some(c)
+        })
     }
 
     /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see

@@ -9,13 +9,11 @@ use serde_json::Map;
 
 use super::family::{Family, Hand};
 use super::frames::{at, v3};
-use super::myopic::ik_tracking_solves;
 use super::layout::{Layout, NamedObstacle};
+use super::myopic::ik_tracking_solves;
 use super::trap::traps;
 use super::witness::{random_motion, shuffle, task_witness, Gen3, Placed, Scene, Q, RETRACT};
-use super::{
-    Error, Spec, SuiteEntry, HARD_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR,
-};
+use super::{Error, Spec, SuiteEntry, HARD_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR};
 use crate::format::{
     ObstacleSpec, Pose, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToleranceSpec,
     TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,

@@ -55,7 +55,7 @@ pub struct Layout {
 
 /// Gap between the two rows of [`LayoutKind::FacingRows`] when the hands point down at the
 /// table between them.
-pub const ROW_GAP: f64 = 1.15;
+pub const ROW_GAP: f64 = 1.05;
 /// The gap when the hands point at each other: a hand pointing forward needs about 0.55 m
 /// from its base, or the elbow cannot fold enough to bring the wrist back.
 pub const WIDE_ROW_GAP: f64 = 1.4;
@@ -118,7 +118,7 @@ fn on_floor(kind: LayoutKind, arms: Vec<(Frame, Station)>, table: ([f64; 2], [f6
 
 /// `n` arms along y at x = 0, facing +x, with a table in front.
 pub fn row(n: usize, rng: &mut Rng) -> Layout {
-    let spacing = rng.uniform(0.42, 0.55);
+    let spacing = rng.uniform(0.36, 0.48);
     let half = 0.5 * (n as f64 - 1.0) * spacing;
     let arms = (0..n)
         .map(|i| {
@@ -156,7 +156,7 @@ pub fn row(n: usize, rng: &mut Rng) -> Layout {
 /// `ceil(n / 2)` arms at x = 0 facing +x and the others at x = `gap` facing -x, the second
 /// row shifted along y, with a table between them.
 pub fn facing_rows(n: usize, gap: f64, rng: &mut Rng) -> Layout {
-    let spacing = rng.uniform(0.42, 0.55);
+    let spacing = rng.uniform(0.36, 0.48);
     let shift = rng.uniform(0.0, 0.5 * spacing);
     let (na, nb) = (n.div_ceil(2), n / 2);
     let place = |count: usize, i: usize| (i as f64 - 0.5 * (count as f64 - 1.0)) * spacing;
@@ -206,9 +206,9 @@ pub fn facing_rows(n: usize, gap: f64, rng: &mut Rng) -> Layout {
 pub fn ring(angles: &[f64], rng: &mut Rng) -> Layout {
     let n = angles.len();
     let radius = if n <= 3 {
-        0.65
+        0.6
     } else {
-        0.65 + 0.05 * (n - 3) as f64
+        0.6 + 0.04 * (n - 3) as f64
     };
     let (bases, stations) = (angles.iter())
         .map(|&a| upright(heading(a) * radius, -heading(a), 0.45, 0.2))

@@ -50,7 +50,7 @@ pub const WITNESS_DIR: &str = "witnesses";
 /// Samples of a task family tried before a problem is emitted without a witness.
 pub const TASK_SAMPLES: u64 = 6;
 /// Samples with a witness tried before one that IK tracking solves is kept.
-pub const HARD_SAMPLES: usize = 4;
+pub const HARD_SAMPLES: usize = 6;
 /// Samples of the random family tried before generation gives up (its problems always come
 /// from a witness).
 const RANDOM_SAMPLES: u64 = 64;

@@ -27,7 +27,7 @@ const CLEARANCE: f64 = 0.05;
 /// Random starts of IK tracking per (hand, arm), besides the witness's start and the retract.
 const STARTS: usize = 6;
 /// Most fixtures per hand.
-const PER_HAND: usize = 3;
+const PER_HAND: usize = 4;
 /// Fixtures block no track before this share of the horizon: a planner may start from any
 /// posture and needs time to swing its elbow.
 const FIRST_STEP: f64 = 0.2;
