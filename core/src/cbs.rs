@@ -14,7 +14,7 @@
 
 use crate::collision::ArmPose;
 use crate::model::Model;
-use crate::motion::{contact_point, motions_collide, motions_contact, ArmMotion};
+use crate::motion::{contact_point, motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
@@ -433,22 +433,26 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// Geometric conflicts of robots `i` and `k`: steps where they collide plus motions on
-    /// which they meet, exactly as Ω-A* counts them.
+    /// which they meet, exactly as Ω-A* counts them. Each arm is placed once per step.
     fn pair_conflicts(&self, node: &CtNode, i: usize, k: usize) -> u16 {
         let mut c = 0u16;
         let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
         let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
+        let place = |t: usize| [ArmPose::new::<M, D>(bi, &pi[t]), ArmPose::new::<M, D>(bk, &pk[t])];
+        let mut now = place(0);
         for t in 0..self.h {
-            let (a, b) = (ArmPose::new::<M, D>(bi, &pi[t]), ArmPose::new::<M, D>(bk, &pk[t]));
-            if a.arm_hit(&b, 0.0).is_some() {
+            if now[0].arm_hit(&now[1], 0.0).is_some() {
                 c = c.saturating_add(1);
             }
             if t + 1 < self.h {
+                let next = place(t + 1);
                 let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
                 let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
-                if motions_collide::<M, D>(&ma, &mb, self.params.low.motion_step) {
+                let (ea, eb) = ([now[0], next[0]], [now[1], next[1]]);
+                if motions_collide_posed::<M, D>(&ma, &ea, &mb, &eb, self.params.low.motion_step) {
                     c = c.saturating_add(1);
                 }
+                now = next;
             }
         }
         c

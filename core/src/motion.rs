@@ -45,11 +45,23 @@ pub fn motion_is_free<M: Model<D>, const D: usize>(m: &ArmMotion<'_, D>, obstacl
 /// Whether two arms' simultaneous motions come too close (see
 /// [`crate::collision::sweeps_collide`]).
 pub fn motions_collide<M: Model<D>, const D: usize>(a: &ArmMotion<'_, D>, b: &ArmMotion<'_, D>, max_step: f64) -> bool {
-    // Cheap rejection: during the step every point of an arm stays within its sweep length
-    // of where it starts.
+    let ends = |m: &ArmMotion<'_, D>| [ArmPose::new::<M, D>(m.base, m.from), ArmPose::new::<M, D>(m.base, m.to)];
+    motions_collide_posed::<M, D>(a, &ends(a), b, &ends(b), max_step)
+}
+
+/// [`motions_collide`] for callers that already placed both arms at both ends of the step.
+pub fn motions_collide_posed<M: Model<D>, const D: usize>(
+    a: &ArmMotion<'_, D>,
+    a_ends: &[ArmPose; 2],
+    b: &ArmMotion<'_, D>,
+    b_ends: &[ArmPose; 2],
+    max_step: f64,
+) -> bool {
     let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
-    let (a0, b0) = (ArmPose::new::<M, D>(a.base, a.from), ArmPose::new::<M, D>(b.base, b.from));
-    if !a0.aabb().near(b0.aabb(), length(&sa) + length(&sb)) {
+    // Cheap rejection: during the step every point of an arm stays within half its sweep
+    // length of where it is at one end or the other.
+    let boxed = |e: &[ArmPose; 2]| e[0].aabb().union(e[1].aabb());
+    if !boxed(a_ends).near(&boxed(b_ends), 0.5 * (sa.length() + sb.length())) {
         return false;
     }
     sweeps_collide(&sa, a.base, &sb, b.base)
@@ -64,18 +76,13 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
 ) -> Option<Contact> {
     let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
     let count = sa.count().max(sb.count());
-    let margin = (length(&sa) + length(&sb)) / (2.0 * count as f64);
+    let margin = (sa.length() + sb.length()) / (2.0 * count as f64);
     (0..count).find_map(|i| {
         let s = (i as f64 + 0.5) / count as f64;
         let (pa, pb) = (ArmPose::new::<M, D>(a.base, &sa.at(s)), ArmPose::new::<M, D>(b.base, &sb.at(s)));
         pa.arm_hit(&pb, margin)?;
         contact_point(&pa, &pb, margin).map(|point| Contact { point, margin })
     })
-}
-
-/// How far any link point travels over the sweep (bounded by the model's reach).
-fn length<M: Model<D>, const D: usize>(s: &Sweep<M, D>) -> f64 {
-    2.0 * s.margin() * s.count() as f64
 }
 
 /// Whether the arm comes within `margin` of `p` anywhere along its motion.

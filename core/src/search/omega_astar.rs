@@ -9,6 +9,7 @@
 //! onto the pose. `f = g + w_h (H - 1 - t) + w_c c` with `g` the joint-space path length and `c`
 //! the collisions with the other robots' given paths.
 
+use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
@@ -335,8 +336,9 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let target = self.target(node.j as usize, node.t as usize + 1);
         let mut moves = [[0.0; D]; MAX_MOVES];
         let n = manifold_moves::<M, D>(&target, &node.q, self.p, &mut moves);
+        let here = ArmPose::new::<M, D>(&self.q.robot.base, &node.q);
         for q in &moves[..n] {
-            self.try_successor(ws, index, node, q, stats)?;
+            self.try_successor(ws, index, node, &here, q, stats)?;
         }
         Ok(())
     }
@@ -346,6 +348,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         ws: &mut Workspace<'_, D>,
         parent: u32,
         node: &Node<D>,
+        here: &ArmPose,
         q: &[f64; D],
         stats: &mut SearchStats,
     ) -> Result<(), SearchError> {
@@ -354,8 +357,11 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         }
         let dist2: f64 = (0..D).map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i])).sum();
         let t1 = node.t as usize + 1;
-        let Some(c_state) = self.valid.state(q, t1) else { return Ok(()) };
-        let Some(c_motion) = self.valid.motion(&node.q, q, node.t as usize) else { return Ok(()) };
+        let Some((c_state, there)) = self.valid.state_posed(q, t1) else { return Ok(()) };
+        let ends = [*here, there];
+        let Some(c_motion) = self.valid.motion_posed(&node.q, q, &ends, node.t as usize) else {
+            return Ok(());
+        };
         let child = Node {
             q: *q,
             g: node.g + libm::sqrt(dist2),

@@ -7,7 +7,7 @@ use crate::collision::ArmPose;
 use crate::problem::MAX_ROBOTS;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
-use crate::motion::{motion_is_free, motion_near_point, motions_collide, near_point, ArmMotion};
+use crate::motion::{motion_is_free, motion_near_point, motions_collide_posed, near_point, ArmMotion};
 
 use super::{OtherArm, OthersMode, PointConstraint};
 
@@ -22,10 +22,10 @@ pub struct Validity<'q, M, const D: usize> {
     pub step_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
     pub motion_step: f64,
-    /// The other robots' link capsules at the step asked for last: every successor of one
-    /// expansion is checked at the same step, so this saves all but the first placing.
-    /// (`usize::MAX`: none yet.)
-    others_at: RefCell<(usize, [ArmPose; MAX_ROBOTS])>,
+    /// The other robots' link capsules at the two steps asked for last (`usize::MAX`: none
+    /// yet): every successor of one expansion is checked at the same steps, so this saves all
+    /// but the first placing.
+    others_at: RefCell<[(usize, [ArmPose; MAX_ROBOTS]); 2]>,
     _model: core::marker::PhantomData<M>,
 }
 
@@ -51,23 +51,28 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
             points,
             step_limit,
             motion_step,
-            others_at: RefCell::new((usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS])),
+            others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
             _model: core::marker::PhantomData,
         }
     }
 
-    /// Runs `f` on the other robots' poses at step `t`, placing them only if the last call
-    /// was for another step.
-    fn with_others_at<R>(&self, t: usize, f: impl FnOnce(&[ArmPose]) -> R) -> R {
+    /// Places the other robots at step `t` in the cache (slot `t % 2`) unless already there.
+    fn place_others(&self, t: usize) {
         let mut cache = self.others_at.borrow_mut();
-        let (at, poses) = &mut *cache;
+        let (at, poses) = &mut cache[t % 2];
         if *at != t {
             for (p, other) in poses.iter_mut().zip(self.others) {
                 *p = ArmPose::new::<M, D>(&other.base, &other.path[t]);
             }
             *at = t;
         }
-        f(&poses[..self.others.len()])
+    }
+
+    /// Runs `f` on the other robots' poses at step `t`.
+    fn with_others_at<R>(&self, t: usize, f: impl FnOnce(&[ArmPose]) -> R) -> R {
+        self.place_others(t);
+        let cache = self.others_at.borrow();
+        f(&cache[t % 2].1[..self.others.len()])
     }
 
     /// Whether no joint moves faster than its velocity limit from `a` to `b`.
@@ -78,6 +83,11 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     /// Checks a configuration at step `t`: joint limits, obstacles, self-collision, point
     /// constraints, and the other robots (forbidden or counted). Returns the collision count.
     pub fn state(&self, q: &[f64; D], t: usize) -> Option<u16> {
+        self.state_posed(q, t).map(|(c, _)| c)
+    }
+
+    /// [`Validity::state`], also returning the arm placed at `q`.
+    pub fn state_posed(&self, q: &[f64; D], t: usize) -> Option<(u16, ArmPose)> {
         for i in 0..D {
             if !(q[i] >= M::LOWER[i] && q[i] <= M::UPPER[i]) {
                 return None;
@@ -92,7 +102,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 return None;
             }
         }
-        self.with_others_at(t, |theirs| {
+        let c = self.with_others_at(t, |theirs| {
             let mut c = 0u16;
             for other in theirs {
                 if pose.arm_hit(other, 0.0).is_some() {
@@ -103,12 +113,19 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 }
             }
             Some(c)
-        })
+        })?;
+        Some((c, pose))
     }
 
     /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see
     /// [`crate::motion`]). Returns the number of other robots met on the way.
     pub fn motion(&self, a: &[f64; D], b: &[f64; D], t: usize) -> Option<u16> {
+        let ends = [ArmPose::new::<M, D>(&self.base, a), ArmPose::new::<M, D>(&self.base, b)];
+        self.motion_posed(a, b, &ends, t)
+    }
+
+    /// [`Validity::motion`] for a caller that already placed the arm at `a` and `b`.
+    pub fn motion_posed(&self, a: &[f64; D], b: &[f64; D], ends: &[ArmPose; 2], t: usize) -> Option<u16> {
         let me = ArmMotion { base: &self.base, from: a, to: b };
         if !motion_is_free::<M, D>(&me, self.obstacles, self.motion_step) {
             return None;
@@ -118,10 +135,14 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 return None;
             }
         }
+        self.place_others(t);
+        self.place_others(t + 1);
+        let cache = self.others_at.borrow();
         let mut c = 0u16;
-        for other in self.others {
+        for (o, other) in self.others.iter().enumerate() {
             let theirs = ArmMotion { base: &other.base, from: &other.path[t], to: &other.path[t + 1] };
-            if motions_collide::<M, D>(&me, &theirs, self.motion_step) {
+            let their_ends = [cache[t % 2].1[o], cache[(t + 1) % 2].1[o]];
+            if motions_collide_posed::<M, D>(&me, ends, &theirs, &their_ends, self.motion_step) {
                 if self.others_mode == OthersMode::Avoid {
                     return None;
                 }
