@@ -53,7 +53,7 @@ fn finds_the_assignment_the_listed_order_gets_wrong() {
 #[test]
 fn arms_pass_each_other_by_null_space_motion() {
     let mut shown = 0;
-    for seed in [5, 49, 52] {
+    for seed in [52, 60, 120] {
         let file = facing_pair_problem(seed).expect("witness is collision-free");
         let ik = plan_and_validate(&file, "ik-tracking", 5.0);
         assert_eq!(ik.status, Status::NoSolution, "seed {seed}: IK tracking should fail");

@@ -67,7 +67,7 @@ fn counting_allocator_counts() {
 /// inside the core call, for every planner, in a thread with a small stack.
 #[test]
 fn planning_allocates_nothing_in_a_small_stack() {
-    let file = facing_pair_problem(5).expect("scene");
+    let file = facing_pair_problem(52).expect("scene");
     let problem = core_problem(&file);
     let handle = std::thread::Builder::new()
         .stack_size(PLANNER_STACK)

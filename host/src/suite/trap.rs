@@ -11,7 +11,7 @@ use omcbsa_core::collision::ArmPose;
 use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Model};
-use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion};
+use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion, MOTION_STEP};
 use omcbsa_core::rng::Rng;
 
 use super::family::Hand;
@@ -33,8 +33,6 @@ const PER_HAND: usize = 4;
 const FIRST_STEP: f64 = 0.2;
 /// Arms whose base is farther than this from a hand's first position are not tried on it.
 const REACH: f64 = 1.0;
-/// Largest point displacement between collision checks along a motion (metres).
-const MOTION_STEP: f64 = 0.02;
 /// The points a fixture may sit on: the origins of joints 3 to 5 (upper arm, elbow, forearm).
 const PROBE_LINKS: [&str; 3] = ["half_arm_2_link", "forearm_link", "spherical_wrist_1_link"];
 
