@@ -55,7 +55,7 @@ fn allocations<R>(f: impl FnOnce() -> R) -> (R, usize) {
 }
 
 /// Stack the planners are documented to run in (README: "Memory").
-const PLANNER_STACK: usize = 512 * 1024;
+const PLANNER_STACK: usize = 1024 * 1024;
 
 #[test]
 fn counting_allocator_counts() {
