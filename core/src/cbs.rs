@@ -16,6 +16,7 @@ use crate::collision::ArmPose;
 use crate::model::Model;
 use crate::motion::{contact_point, motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{
@@ -254,47 +255,87 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         }
     }
 
-    /// The root: every robot planned in turn, warm-started by repeated IK tracking that
-    /// avoids the robots before it; a robot the warm start cannot place is planned by Ω-A*
-    /// with collisions counted.
+    /// The root. Warm start (within `warm_start_seconds`): priority orders in turn; in each,
+    /// every robot is placed by repeated IK tracking or, failing that, by Ω-A*, avoiding the
+    /// robots placed before it; the first order that places every robot gives a root with no
+    /// conflicts. Otherwise robots in index order by Ω-A* with collisions counted. Only the
+    /// root is built this way: every child replans by Ω-A* under its constraints, so
+    /// completeness is kept.
     fn root(&mut self, clock: &dyn Clock) -> Result<CtNode, Status> {
-        let mut node = CtNode::default();
         let warm = Until { clock, at: self.params.warm_start_seconds.min(self.deadline.at) };
-        let mut taken = 0u32;
-        for i in 0..self.n {
-            let assigned = match self.warm_start(i, &node, taken, &warm) {
-                Some(j) => j,
-                None => self.low_level(i, &node, self.all_trajectories(), 0, i)?,
-            };
-            if assigned != HOLD {
-                taken |= 1 << assigned;
+        if self.params.warm_start_seconds > 0.0 {
+            let mut orders = Orders::new(self.n, self.pr.trajectories.len(), false);
+            loop {
+                let mark = self.used_slots;
+                if let Some(node) = self.root_in_order(&orders.order, &warm)? {
+                    self.stats.warm_start_solved = node.conflicts == 0;
+                    return Ok(node);
+                }
+                self.used_slots = mark;
+                if warm.expired() || !orders.advance() {
+                    break;
+                }
             }
+        }
+        let mut node = CtNode::default();
+        for i in 0..self.n {
+            node.assignment[i] = self.low_level(i, &node, self.all_trajectories(), 0, (1u32 << i) - 1)?;
             node.slots[i] = self.keep_scratch()?;
-            node.assignment[i] = assigned;
         }
         if self.too_many_holders(&node) {
             return Err(Status::NoSolution);
         }
-        for i in 0..self.n {
-            for k in i + 1..self.n {
-                node.pairs[i][k] = self.pair_conflicts(&node, i, k);
-            }
-        }
-        node.conflicts = self.count(&node);
-        self.stats.warm_start_solved = node.conflicts == 0
-            && (0..self.n).all(|i| node.assignment[i] == HOLD || taken & (1 << node.assignment[i]) != 0);
+        self.finish(&mut node);
         Ok(node)
     }
 
-    /// Tries IK tracking of each free trajectory from a few seeds, avoiding robots `0..i`,
-    /// writing the path to scratch. Returns the trajectory taken.
-    fn warm_start(&mut self, i: usize, node: &CtNode, taken: u32, warm: &Until<'_>) -> Option<u8> {
-        if self.params.warm_start_seconds <= 0.0 {
-            return None;
+    /// Fills in a node's conflicts from its paths.
+    fn finish(&self, node: &mut CtNode) {
+        for i in 0..self.n {
+            for k in i + 1..self.n {
+                node.pairs[i][k] = self.pair_conflicts(node, i, k);
+            }
         }
+        node.conflicts = self.count(node);
+    }
+
+    /// One warm-start pass in priority `order`; `None` when some robot cannot be placed.
+    fn root_in_order(&mut self, order: &[u8; MAX_ROBOTS], warm: &Until<'_>) -> Result<Option<CtNode>, Status> {
+        let mut node = CtNode::default();
+        let (mut placed, mut taken) = (0u32, 0u32);
+        for (rank, &r) in order[..self.n].iter().enumerate() {
+            let r = r as usize;
+            let left = self.all_trajectories() & !taken;
+            // Hold only if the robots still to place can cover what is left without it.
+            let hold = self.can_hold() && (self.n - rank) as u32 > left.count_ones();
+            let assigned = match self.warm_track(r, &node, placed, left, warm) {
+                Some(j) => j,
+                None => match self.low_level_in(r, &node, left, 0, placed, OthersMode::Avoid, hold, Some(warm)) {
+                    Ok(j) => j,
+                    Err(Status::NoSolution | Status::Timeout) if !self.deadline.expired() => return Ok(None),
+                    Err(s) => return Err(s),
+                },
+            };
+            if assigned != HOLD {
+                taken |= 1 << assigned;
+            }
+            node.assignment[r] = assigned;
+            node.slots[r] = self.keep_scratch()?;
+            placed |= 1 << r;
+        }
+        if self.too_many_holders(&node) {
+            return Ok(None);
+        }
+        self.finish(&mut node);
+        Ok(Some(node))
+    }
+
+    /// Tries IK tracking of each trajectory in `left` from a few seeds, avoiding the robots in
+    /// `placed`, writing the path to scratch. Returns the trajectory taken.
+    fn warm_track(&mut self, i: usize, node: &CtNode, placed: u32, left: u32, warm: &Until<'_>) -> Option<u8> {
         let robot = self.pr.robots[i];
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
-        for k in 0..i {
+        for k in (0..self.n).filter(|k| placed & (1 << k) != 0) {
             let _ = others.push(OtherArm { base: self.pr.robots[k].base, path: slot_of(self.paths, node.slots[k], self.h) });
         }
         let valid = Validity::<M, D>::new(
@@ -307,7 +348,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             self.params.low.motion_step,
         );
         for j in 0..self.pr.trajectories.len() {
-            if taken & (1 << j) != 0 {
+            if left & (1 << j) == 0 {
                 continue;
             }
             let mut rng = Rng::new(self.params.low.seed ^ ((i as u64) << 32 | j as u64));
@@ -329,27 +370,49 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// Runs multi-goal Ω-A* for robot `i` against the paths of `node` (collisions counted),
-    /// with `npoints` point constraints in `self.points`. Robots `>= upto` are ignored (the
-    /// root plans robots in turn). Leaves the path in scratch; returns the trajectory.
-    fn low_level(&mut self, i: usize, node: &CtNode, allowed: u32, npoints: usize, upto: usize) -> Result<u8, Status> {
+    /// with `npoints` point constraints in `self.points`, against the robots in the bit set
+    /// `others` (the root plans robots in turn). Leaves the path in scratch; returns the
+    /// trajectory.
+    fn low_level(&mut self, i: usize, node: &CtNode, allowed: u32, npoints: usize, others: u32) -> Result<u8, Status> {
+        self.low_level_in(i, node, allowed, npoints, others, OthersMode::Count, self.can_hold(), None)
+    }
+
+    /// [`Run::low_level`] with the other robots counted or avoided, holding allowed or not,
+    /// and an earlier deadline.
+    #[allow(clippy::too_many_arguments)]
+    fn low_level_in(
+        &mut self,
+        i: usize,
+        node: &CtNode,
+        allowed: u32,
+        npoints: usize,
+        others_set: u32,
+        mode: OthersMode,
+        hold: bool,
+        until: Option<&Until<'_>>,
+    ) -> Result<u8, Status> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
-        for k in (0..upto.min(self.n)).filter(|k| *k != i) {
+        for k in (0..self.n).filter(|&k| k != i && others_set & (1 << k) != 0) {
             let _ = others.push(OtherArm { base: self.pr.robots[k].base, path: slot_of(self.paths, node.slots[k], self.h) });
         }
         let query = Query {
             robot: self.pr.robots[i],
             trajectories: &self.pr.trajectories,
             allowed,
-            hold: self.can_hold(),
+            hold,
             obstacles: &self.pr.obstacles,
             others: &others,
-            others_mode: OthersMode::Count,
+            others_mode: mode,
             points: &self.points[..npoints],
             dt: self.pr.dt,
         };
         let mut s = SearchStats::default();
         self.stats.low_level_calls += 1;
-        let r = plan::<M, D>(&query, &self.params.low, self.ws, &self.deadline, self.scratch, &mut s);
+        let deadline: &dyn Deadline = match until {
+            Some(u) => u,
+            None => &self.deadline,
+        };
+        let r = plan::<M, D>(&query, &self.params.low, self.ws, deadline, self.scratch, &mut s);
         self.stats.expansions += s.expansions as u64;
         match r {
             Ok(found) => Ok(found.trajectory.unwrap_or(HOLD)),
@@ -386,7 +449,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             c = Some((n.robot, n.constraint));
             at = n.parent;
         }
-        let assigned = match self.low_level(robot, parent, allowed, npoints, self.n) {
+        let assigned = match self.low_level(robot, parent, allowed, npoints, u32::MAX) {
             Ok(j) => j,
             Err(Status::NoSolution) => return Ok(None),
             Err(s) => return Err(s),

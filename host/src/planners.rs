@@ -86,6 +86,8 @@ impl Clock for WallClock {
 
 /// All pools of all planners, allocated once and reused run after run.
 pub struct Storage {
+    /// Ω-CBSA's settings (the paper's by default).
+    pub cbs_params: CbsParams,
     caps: Capacities,
     nodes: Vec<Node<DOF>>,
     open: Vec<OpenEntry>,
@@ -107,6 +109,7 @@ impl Storage {
     pub fn new(caps: Capacities, max_h: usize) -> Self {
         let k = caps.descartes_samples * max_h;
         Storage {
+            cbs_params: CbsParams::default(),
             caps,
             nodes: vec![Node::default(); caps.search_nodes],
             open: vec![OpenEntry::default(); 2 * caps.search_nodes],
@@ -191,7 +194,7 @@ impl Storage {
                     scratch: &mut self.scratch,
                     points: &mut self.points,
                 };
-                let mut p = OmegaCbsa::new(CbsParams::default(), ws, st);
+                let mut p = OmegaCbsa::new(self.cbs_params, ws, st);
                 Planner::<KinovaGen3, DOF>::solve(
                     &mut p, problem, clock, timeout_s, &mut out, stats,
                 )

@@ -2,7 +2,8 @@
 //! Every solution any planner reports is checked by the validator (`plan_and_validate`).
 
 use omcbsa::format::Status;
-use omcbsa::planners::DOF;
+use omcbsa::planners::{Capacities, Storage, DOF};
+use omcbsa::validate::validate;
 use omcbsa_core::ik::{ik_multi_start, MultiStart};
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::rng::Rng;
@@ -11,10 +12,6 @@ use serde_json::json;
 
 const HOME: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
 const PLANNERS: [&str; 3] = ["omcbsa", "pp", "pp-single"];
-
-fn conflicts_resolved(sol: &omcbsa::format::SolutionFile) -> u64 {
-    sol.stats["conflicts_resolved"].as_u64().unwrap_or(0)
-}
 
 /// Two arms 1.4 m apart, each hand path close to one arm and out of the other's reach, listed
 /// in the wrong order: robot 0 cannot even reach the first pose of trajectory 0.
@@ -47,23 +44,33 @@ fn finds_the_assignment_the_listed_order_gets_wrong() {
 }
 
 /// Facing arms whose hands' paths are feasible only with the right elbow postures: IK
-/// tracking fails under every assignment and from every seed it tries, while Ω-CBSA finds
-/// the arms in conflict, branches on witness points and the replanned arm moves through its
-/// null space around the other.
+/// tracking fails under every assignment and from every seed it tries. Ω-CBSA solves them; and
+/// with its warm start off (root paths by Ω-A* with collisions only counted) it finds the arms
+/// in conflict, branches on witness points, and the replanned arm moves through its null space
+/// around the other.
 #[test]
 fn arms_pass_each_other_by_null_space_motion() {
-    let mut shown = 0;
-    for seed in [52, 60, 120] {
+    let mut branched = 0;
+    for seed in [120, 137, 215] {
         let file = facing_pair_problem(seed).expect("witness is collision-free");
         let ik = plan_and_validate(&file, "ik-tracking", 5.0);
         assert_eq!(ik.status, Status::NoSolution, "seed {seed}: IK tracking should fail");
         let sol = plan_and_validate(&file, "omcbsa", 5.0);
         assert_eq!(sol.status, Status::Solved, "seed {seed}: {}", sol.message);
-        if conflicts_resolved(&sol) > 0 {
-            shown += 1;
+
+        let problem = core_problem(&file);
+        let mut storage = Storage::new(Capacities::default(), problem.horizon());
+        storage.cbs_params.warm_start_seconds = 0.0;
+        let outcome = storage.solve("omcbsa", &problem, 5.0).expect("planner");
+        let cold = outcome.to_solution_file(&file, "omcbsa");
+        assert_eq!(cold.status, Status::Solved, "seed {seed} without warm start: {}", cold.message);
+        let report = validate::<KinovaGen3, DOF>(&file, &problem, &cold);
+        assert!(report.is_valid(), "seed {seed}: {}", report.summary());
+        if outcome.stats.conflicts_resolved > 0 {
+            branched += 1;
         }
     }
-    assert!(shown >= 2, "Ω-CBSA should have resolved conflicts on these scenes");
+    assert!(branched == 3, "Ω-CBSA without warm start should have resolved conflicts on these scenes");
 }
 
 /// No arm can track trajectory 0: its hand passes through a ball at step 5. The search

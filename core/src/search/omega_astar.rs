@@ -52,7 +52,7 @@ impl Default for OmegaParams {
             w_c: 0.1,
             start_solutions: 16,
             start_attempts: 96,
-            resolution: 0.02,
+            resolution: 0.1,
             motion_step: crate::motion::MOTION_STEP,
             ik: IkParams::default(),
             seed: 0x5eed,
