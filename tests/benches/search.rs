@@ -17,8 +17,8 @@ fn run(storage: &mut Storage, planner: &str, problem: &Problem<7>) -> Stats {
 fn bench(c: &mut Criterion) {
     let scenes = [
         ("omega-astar/elbow_swing_42", "omega-astar", core_problem(&elbow_swing_problem(42).expect("scene").0)),
-        ("omcbsa/facing_pair_52", "omcbsa", core_problem(&facing_pair_problem(52).expect("scene"))),
-        ("pp/facing_pair_52", "pp", core_problem(&facing_pair_problem(52).expect("scene"))),
+        ("omcbsa/facing_pair_120", "omcbsa", core_problem(&facing_pair_problem(120).expect("scene"))),
+        ("pp/facing_pair_120", "pp", core_problem(&facing_pair_problem(120).expect("scene"))),
     ];
     let mut group = c.benchmark_group("expansions");
     for (id, planner, problem) in &scenes {

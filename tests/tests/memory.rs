@@ -63,17 +63,20 @@ fn counting_allocator_counts() {
     assert!(n >= 1, "the counting allocator must see a Vec allocation");
 }
 
-/// A two-arm plan with conflicts to resolve (Ω-CBSA branches and replans) allocates nothing
+/// A two-arm plan with conflicts to resolve (Ω-CBSA, without its warm start, branches and
+/// replans) allocates nothing
 /// inside the core call, for every planner, in a thread with a small stack.
 #[test]
 fn planning_allocates_nothing_in_a_small_stack() {
-    let file = facing_pair_problem(52).expect("scene");
+    let file = facing_pair_problem(120).expect("scene");
     let problem = core_problem(&file);
     let handle = std::thread::Builder::new()
         .stack_size(PLANNER_STACK)
         .spawn(move || {
             // The storage is allocated on the heap before the core is called.
             let mut storage = Storage::new(Capacities { search_nodes: 1 << 14, composite_nodes: 1 << 12, ..Capacities::default() }, problem.horizon());
+            // Cold start, so that Ω-CBSA branches on conflicts and replans under constraints.
+            storage.cbs_params.warm_start_seconds = 0.0;
             let mut results = Vec::with_capacity(PLANNERS.len());
             for name in PLANNERS {
                 let clock = WallClock::start();
