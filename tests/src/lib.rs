@@ -144,10 +144,9 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     use omcbsa_core::kinematics::null_space_basis;
     use omcbsa_core::problem::Robot;
     use omcbsa_core::search::{OthersMode, Validity};
-    let home = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
     let mut rng = omcbsa_core::rng::Rng::new(seed);
     let base = frame([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
-    let q0: [f64; DOF] = std::array::from_fn(|i| home[i] + rng.uniform(-0.6, 0.6));
+    let q0: [f64; DOF] = std::array::from_fn(|i| HOME[i] + rng.uniform(-0.6, 0.6));
     let p0 = random_path(&mut rng, &q0, 0.8, 16, 0.2);
     let (_, j) = KinovaGen3::jacobian(&p0[0]);
     let n = *null_space_basis::<DOF>(&j).first()?;
@@ -181,13 +180,12 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
 /// (from `seed`); the trajectories are listed in the reverse order. `None` if the witness
 /// collides.
 pub fn facing_pair_problem(seed: u64) -> Option<ProblemFile> {
-    let home = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
     let mut rng = omcbsa_core::rng::Rng::new(seed);
     let gap = rng.uniform(0.7, 1.0);
     let b0 = frame([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
     let b1 = frame([gap, 0.0, 0.0], [0.0, 0.0, std::f64::consts::PI]);
-    let q0: [f64; DOF] = std::array::from_fn(|i| home[i] + rng.uniform(-0.5, 0.5));
-    let q1: [f64; DOF] = std::array::from_fn(|i| home[i] + rng.uniform(-0.5, 0.5));
+    let q0: [f64; DOF] = std::array::from_fn(|i| HOME[i] + rng.uniform(-0.5, 0.5));
+    let q1: [f64; DOF] = std::array::from_fn(|i| HOME[i] + rng.uniform(-0.5, 0.5));
     let p0 = random_path(&mut rng, &q0, 1.0, 20, 0.2);
     let p1 = random_path(&mut rng, &q1, 1.0, 20, 0.2);
     if !witness_is_valid(&[b0, b1], &[p0.clone(), p1.clone()], &[], 0.2) {
@@ -200,4 +198,40 @@ pub fn facing_pair_problem(seed: u64) -> Option<ProblemFile> {
         vec![trajectory_json("h1", &b1, &p1), trajectory_json("h0", &b0, &p0)],
         vec![],
     ))
+}
+
+/// The Gen3's usual "home" configuration, hand forward.
+pub const HOME: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+
+/// Two arms 1.4 m apart, each hand path close to one arm and out of the other's reach, listed
+/// in the wrong order (trajectory 0 is robot 1's).
+pub fn listed_order_wrong_problem() -> ProblemFile {
+    let b0 = frame([0.0, -0.7, 0.0], [0.0, 0.0, 0.0]);
+    let b1 = frame([0.0, 0.7, 0.0], [0.0, 0.0, 0.0]);
+    let p0 = smooth_path(&HOME, &[0.4, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
+    let p1 = smooth_path(&HOME, &[-0.4, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
+    problem_json(
+        "listed_order_wrong",
+        0.2,
+        vec![robot_json("left", &b0, None), robot_json("right", &b1, None)],
+        vec![trajectory_json("right_hand", &b1, &p1), trajectory_json("left_hand", &b0, &p0)],
+        vec![],
+    )
+}
+
+/// Two arms, two hands; no arm can track trajectory 0, whose hand passes through a ball at
+/// step 5.
+pub fn blocked_hand_problem() -> ProblemFile {
+    let b0 = frame([0.0, -0.5, 0.0], [0.0, 0.0, 0.0]);
+    let b1 = frame([0.0, 0.5, 0.0], [0.0, 0.0, 0.0]);
+    let p0 = smooth_path(&HOME, &[0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 10);
+    let p1 = smooth_path(&HOME, &[-0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 10);
+    let hand = tool(&b0, &p0[5]).pos;
+    problem_json(
+        "blocked_hand",
+        0.2,
+        vec![robot_json("left", &b0, None), robot_json("right", &b1, None)],
+        vec![trajectory_json("blocked", &b0, &p0), trajectory_json("free", &b1, &p1)],
+        vec![sphere("ball", [hand.x, hand.y, hand.z], 0.03)],
+    )
 }

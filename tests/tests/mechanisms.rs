@@ -10,26 +10,16 @@ use omcbsa_core::rng::Rng;
 use omcbsa_tests::*;
 use serde_json::json;
 
-const HOME: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+
 const PLANNERS: [&str; 3] = ["omcbsa", "pp", "pp-single"];
 
 /// Two arms 1.4 m apart, each hand path close to one arm and out of the other's reach, listed
 /// in the wrong order: robot 0 cannot even reach the first pose of trajectory 0.
 #[test]
 fn finds_the_assignment_the_listed_order_gets_wrong() {
-    let b0 = frame([0.0, -0.7, 0.0], [0.0, 0.0, 0.0]);
-    let b1 = frame([0.0, 0.7, 0.0], [0.0, 0.0, 0.0]);
-    let p0 = smooth_path(&HOME, &[0.4, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
-    let p1 = smooth_path(&HOME, &[-0.4, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
-    let file = problem_json(
-        "listed_order_wrong",
-        0.2,
-        vec![robot_json("left", &b0, None), robot_json("right", &b1, None)],
-        vec![trajectory_json("right_hand", &b1, &p1), trajectory_json("left_hand", &b0, &p0)],
-        vec![],
-    );
+    let file = listed_order_wrong_problem();
     let problem = core_problem(&file);
-    let target = b0.inverse().compose(&problem.trajectories[0][0]);
+    let target = problem.robots[0].base.inverse().compose(&problem.trajectories[0][0]);
     let mut out = [[0.0; DOF]; 1];
     let multi = MultiStart { attempts: 200, min_separation: 0.1 };
     assert!(
@@ -78,18 +68,7 @@ fn arms_pass_each_other_by_null_space_motion() {
 /// so do the prioritised planners.
 #[test]
 fn proves_no_solution_before_the_timeout() {
-    let b0 = frame([0.0, -0.5, 0.0], [0.0, 0.0, 0.0]);
-    let b1 = frame([0.0, 0.5, 0.0], [0.0, 0.0, 0.0]);
-    let p0 = smooth_path(&HOME, &[0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 10);
-    let p1 = smooth_path(&HOME, &[-0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 10);
-    let hand = tool(&b0, &p0[5]).pos;
-    let file = problem_json(
-        "blocked_hand",
-        0.2,
-        vec![robot_json("left", &b0, None), robot_json("right", &b1, None)],
-        vec![trajectory_json("blocked", &b0, &p0), trajectory_json("free", &b1, &p1)],
-        vec![sphere("ball", [hand.x, hand.y, hand.z], 0.03)],
-    );
+    let file = blocked_hand_problem();
     for planner in PLANNERS {
         let sol = plan_and_validate(&file, planner, 5.0);
         assert_eq!(sol.status, Status::NoSolution, "{planner}: {}", sol.message);
