@@ -14,7 +14,7 @@
 
 use crate::collision::ArmPose;
 use crate::model::Model;
-use crate::motion::{contact_point, motions_collide_posed, motions_contact, ArmMotion};
+use crate::motion::{motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
@@ -40,7 +40,11 @@ pub struct CbsParams {
 
 impl Default for CbsParams {
     fn default() -> Self {
-        CbsParams { low: OmegaParams::default(), warm_start_seconds: 0.5, warm_start_seeds: 4 }
+        CbsParams {
+            low: OmegaParams::default(),
+            warm_start_seconds: 0.5,
+            warm_start_seeds: 4,
+        }
     }
 }
 
@@ -186,7 +190,9 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             if self.deadline.expired() {
                 return Status::Timeout;
             }
-            let Some(entry) = self.open.pop() else { return Status::NoSolution };
+            let Some(entry) = self.open.pop() else {
+                return Status::NoSolution;
+            };
             let node = self.nodes[entry.node as usize];
             let branches = match self.first_conflict(&node) {
                 Some(b) => b,
@@ -221,7 +227,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         self.nodes[self.used_nodes] = node;
         self.used_nodes += 1;
         self.stats.ct_nodes += 1;
-        if self.open.push(OpenEntry { f: node.conflicts as f64, t: 0, node: id }) {
+        if self.open.push(OpenEntry {
+            f: node.conflicts as f64,
+            t: 0,
+            node: id,
+        }) {
             Ok(())
         } else {
             Err(Status::OutOfMemory("CBS open list"))
@@ -262,7 +272,10 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// root is built this way: every child replans by Ω-A* under its constraints, so
     /// completeness is kept.
     fn root(&mut self, clock: &dyn Clock) -> Result<CtNode, Status> {
-        let warm = Until { clock, at: self.params.warm_start_seconds.min(self.deadline.at) };
+        let warm = Until {
+            clock,
+            at: self.params.warm_start_seconds.min(self.deadline.at),
+        };
         if self.params.warm_start_seconds > 0.0 {
             let mut orders = Orders::new(self.n, self.pr.trajectories.len(), false);
             loop {
@@ -279,7 +292,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         }
         let mut node = CtNode::default();
         for i in 0..self.n {
-            node.assignment[i] = self.low_level(i, &node, self.all_trajectories(), 0, (1u32 << i) - 1)?;
+            node.assignment[i] =
+                self.low_level(i, &node, self.all_trajectories(), 0, (1u32 << i) - 1)?;
             node.slots[i] = self.keep_scratch()?;
         }
         if self.too_many_holders(&node) {
@@ -300,7 +314,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// One warm-start pass in priority `order`; `None` when some robot cannot be placed.
-    fn root_in_order(&mut self, order: &[u8; MAX_ROBOTS], warm: &Until<'_>) -> Result<Option<CtNode>, Status> {
+    fn root_in_order(
+        &mut self,
+        order: &[u8; MAX_ROBOTS],
+        warm: &Until<'_>,
+    ) -> Result<Option<CtNode>, Status> {
         let mut node = CtNode::default();
         let (mut placed, mut taken) = (0u32, 0u32);
         for (rank, &r) in order[..self.n].iter().enumerate() {
@@ -310,9 +328,20 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             let hold = self.can_hold() && (self.n - rank) as u32 > left.count_ones();
             let assigned = match self.warm_track(r, &node, placed, left, warm) {
                 Some(j) => j,
-                None => match self.low_level_in(r, &node, left, 0, placed, OthersMode::Avoid, hold, Some(warm)) {
+                None => match self.low_level_in(
+                    r,
+                    &node,
+                    left,
+                    0,
+                    placed,
+                    OthersMode::Avoid,
+                    hold,
+                    Some(warm),
+                ) {
                     Ok(j) => j,
-                    Err(Status::NoSolution | Status::Timeout) if !self.deadline.expired() => return Ok(None),
+                    Err(Status::NoSolution | Status::Timeout) if !self.deadline.expired() => {
+                        return Ok(None)
+                    }
                     Err(s) => return Err(s),
                 },
             };
@@ -332,11 +361,21 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
 
     /// Tries IK tracking of each trajectory in `left` from a few seeds, avoiding the robots in
     /// `placed`, writing the path to scratch. Returns the trajectory taken.
-    fn warm_track(&mut self, i: usize, node: &CtNode, placed: u32, left: u32, warm: &Until<'_>) -> Option<u8> {
+    fn warm_track(
+        &mut self,
+        i: usize,
+        node: &CtNode,
+        placed: u32,
+        left: u32,
+        warm: &Until<'_>,
+    ) -> Option<u8> {
         let robot = self.pr.robots[i];
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
         for k in (0..self.n).filter(|k| placed & (1 << k) != 0) {
-            let _ = others.push(OtherArm { base: self.pr.robots[k].base, path: slot_of(self.paths, node.slots[k], self.h) });
+            let _ = others.push(OtherArm {
+                base: self.pr.robots[k].base,
+                path: slot_of(self.paths, node.slots[k], self.h),
+            });
         }
         let valid = Validity::<M, D>::new(
             robot.base,
@@ -361,7 +400,16 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     _ => rng.configuration(&M::LOWER, &M::UPPER),
                 };
                 let traj = &self.pr.trajectories[j];
-                if track::<M, D>(&robot, traj, &seed, &valid, &self.params.low.ik, self.scratch).is_some() {
+                if track::<M, D>(
+                    &robot,
+                    traj,
+                    &seed,
+                    &valid,
+                    &self.params.low.ik,
+                    self.scratch,
+                )
+                .is_some()
+                {
                     return Some(j as u8);
                 }
             }
@@ -373,8 +421,24 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// with `npoints` point constraints in `self.points`, against the robots in the bit set
     /// `others` (the root plans robots in turn). Leaves the path in scratch; returns the
     /// trajectory.
-    fn low_level(&mut self, i: usize, node: &CtNode, allowed: u32, npoints: usize, others: u32) -> Result<u8, Status> {
-        self.low_level_in(i, node, allowed, npoints, others, OthersMode::Count, self.can_hold(), None)
+    fn low_level(
+        &mut self,
+        i: usize,
+        node: &CtNode,
+        allowed: u32,
+        npoints: usize,
+        others: u32,
+    ) -> Result<u8, Status> {
+        self.low_level_in(
+            i,
+            node,
+            allowed,
+            npoints,
+            others,
+            OthersMode::Count,
+            self.can_hold(),
+            None,
+        )
     }
 
     /// [`Run::low_level`] with the other robots counted or avoided, holding allowed or not,
@@ -393,7 +457,10 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     ) -> Result<u8, Status> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
         for k in (0..self.n).filter(|&k| k != i && others_set & (1 << k) != 0) {
-            let _ = others.push(OtherArm { base: self.pr.robots[k].base, path: slot_of(self.paths, node.slots[k], self.h) });
+            let _ = others.push(OtherArm {
+                base: self.pr.robots[k].base,
+                path: slot_of(self.paths, node.slots[k], self.h),
+            });
         }
         let query = Query {
             robot: self.pr.robots[i],
@@ -412,7 +479,14 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             Some(u) => u,
             None => &self.deadline,
         };
-        let r = plan::<M, D>(&query, &self.params.low, self.ws, deadline, self.scratch, &mut s);
+        let r = plan::<M, D>(
+            &query,
+            &self.params.low,
+            self.ws,
+            deadline,
+            self.scratch,
+            &mut s,
+        );
         self.stats.expansions += s.expansions as u64;
         match r {
             Ok(found) => Ok(found.trajectory.unwrap_or(HOLD)),
@@ -422,7 +496,13 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
 
     /// The child of `parent` (stored at `id`) that adds `constraint` for `robot` and replans
     /// it; `None` when the robot has no path under its constraints.
-    fn child(&mut self, id: u32, parent: &CtNode, robot: usize, constraint: Constraint) -> Result<Option<CtNode>, Status> {
+    fn child(
+        &mut self,
+        id: u32,
+        parent: &CtNode,
+        robot: usize,
+        constraint: Constraint,
+    ) -> Result<Option<CtNode>, Status> {
         // Gather the robot's constraints along the branch.
         let mut allowed = self.all_trajectories();
         let mut npoints = 0;
@@ -501,7 +581,12 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let mut c = 0u16;
         let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
         let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
-        let place = |t: usize| [ArmPose::new::<M, D>(bi, &pi[t]), ArmPose::new::<M, D>(bk, &pk[t])];
+        let place = |t: usize| {
+            [
+                ArmPose::new::<M, D>(bi, &pi[t]),
+                ArmPose::new::<M, D>(bk, &pk[t]),
+            ]
+        };
         let mut now = place(0);
         for t in 0..self.h {
             if now[0].arm_hit(&now[1], 0.0).is_some() {
@@ -509,8 +594,16 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             }
             if t + 1 < self.h {
                 let next = place(t + 1);
-                let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
-                let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
+                let ma = ArmMotion {
+                    base: bi,
+                    from: &pi[t],
+                    to: &pi[t + 1],
+                };
+                let mb = ArmMotion {
+                    base: bk,
+                    from: &pk[t],
+                    to: &pk[t + 1],
+                };
                 let (ea, eb) = ([now[0], next[0]], [now[1], next[1]]);
                 if motions_collide_posed::<M, D>(&ma, &ea, &mb, &eb, self.params.low.motion_step) {
                     c = c.saturating_add(1);
@@ -543,17 +636,35 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     }
                     let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
                     let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
-                    let (a, b) = (ArmPose::new::<M, D>(bi, &pi[t]), ArmPose::new::<M, D>(bk, &pk[t]));
+                    let (a, b) = (
+                        ArmPose::new::<M, D>(bi, &pi[t]),
+                        ArmPose::new::<M, D>(bk, &pk[t]),
+                    );
                     let hit = if a.arm_hit(&b, 0.0).is_some() {
-                        contact_point(&a, &b, 0.0).map(|p| PointConstraint { t: t as u16, segment: false, p, margin: 0.0 })
-                    } else if t + 1 < self.h {
-                        let ma = ArmMotion { base: bi, from: &pi[t], to: &pi[t + 1] };
-                        let mb = ArmMotion { base: bk, from: &pk[t], to: &pk[t + 1] };
-                        motions_contact::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| PointConstraint {
+                        a.witness(&b, 0.0).map(|p| PointConstraint {
                             t: t as u16,
-                            segment: true,
-                            p: c.point,
-                            margin: c.margin,
+                            segment: false,
+                            p: [p.x, p.y, p.z],
+                            margin: 0.0,
+                        })
+                    } else if t + 1 < self.h {
+                        let ma = ArmMotion {
+                            base: bi,
+                            from: &pi[t],
+                            to: &pi[t + 1],
+                        };
+                        let mb = ArmMotion {
+                            base: bk,
+                            from: &pk[t],
+                            to: &pk[t + 1],
+                        };
+                        motions_contact::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| {
+                            PointConstraint {
+                                t: t as u16,
+                                segment: true,
+                                p: c.point,
+                                margin: c.margin,
+                            }
                         })
                     } else {
                         None

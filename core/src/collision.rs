@@ -106,7 +106,11 @@ pub struct ArmPose {
 impl ArmPose {
     /// An arm with no capsules: it collides with nothing.
     pub const EMPTY: ArmPose = ArmPose {
-        capsules: [Capsule::new(Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.0), 0.0); MAX_ARM_CAPSULES],
+        capsules: [Capsule::new(
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(0.0, 0.0, 0.0),
+            0.0,
+        ); MAX_ARM_CAPSULES],
         boxes: [Aabb::EMPTY; MAX_ARM_CAPSULES],
         len: 0,
         on_base: 0,
@@ -120,7 +124,11 @@ impl ArmPose {
         const { check_model::<M, D>() };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
         M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]);
-        let mut pose = ArmPose { len: M::CAPSULES.len(), self_pairs: M::SELF_PAIRS, ..ArmPose::EMPTY };
+        let mut pose = ArmPose {
+            len: M::CAPSULES.len(),
+            self_pairs: M::SELF_PAIRS,
+            ..ArmPose::EMPTY
+        };
         for (i, c) in M::CAPSULES.iter().enumerate() {
             let link = base.compose(&frames[usize::from(c.link)]);
             let capsule = Capsule::new(link.apply(&c.a.into()), link.apply(&c.b.into()), c.radius);
@@ -195,19 +203,24 @@ impl ArmPose {
         self.aabb.contains_point(p) && self.capsules().iter().any(|c| c.contains_point(p))
     }
 
-    /// A point inside both arms when they overlap: the witness of the most deeply
-    /// overlapping capsule pair (see [`Capsule::witness`]), so that a constraint keeping one
-    /// arm off it pushes the arms apart where they collide most.
-    pub fn witness(&self, other: &ArmPose) -> Option<Vector3<f64>> {
+    /// A point inside both arms inflated by `margin / 2` each, when they come closer than
+    /// `margin` (inside both arms themselves for `margin = 0`): the witness of the most
+    /// deeply overlapping capsule pair (see [`Capsule::witness`]), so that a constraint keeping
+    /// one arm off it pushes the arms apart where they collide most.
+    pub fn witness(&self, other: &ArmPose, margin: f64) -> Option<Vector3<f64>> {
+        let grow = |c: &Capsule| Capsule {
+            radius: c.radius + 0.5 * margin,
+            ..*c
+        };
         let mut deepest: Option<(f64, Vector3<f64>)> = None;
         for (a, box_a) in self.capsules().iter().zip(&self.boxes) {
             for (b, box_b) in other.capsules().iter().zip(&other.boxes) {
-                if !box_a.near(box_b, 0.0) {
+                if !box_a.near(box_b, margin) {
                     continue;
                 }
-                let depth = -a.signed_distance(b);
+                let depth = margin - a.signed_distance(b);
                 if depth > deepest.map_or(0.0, |(d, _)| d) {
-                    if let Some(p) = a.witness(b) {
+                    if let Some(p) = grow(a).witness(&grow(b)) {
                         deepest = Some((depth, p));
                     }
                 }

@@ -24,7 +24,10 @@ impl Frame {
     /// `self * other`.
     #[inline]
     pub fn compose(&self, other: &Frame) -> Frame {
-        Frame { rot: self.rot * other.rot, pos: self.rot * other.pos + self.pos }
+        Frame {
+            rot: self.rot * other.rot,
+            pos: self.rot * other.pos + self.pos,
+        }
     }
 
     /// Maps a point given in this frame to the parent frame.
@@ -36,7 +39,10 @@ impl Frame {
     #[inline]
     pub fn inverse(&self) -> Frame {
         let rt = self.rot.transpose();
-        Frame { rot: rt, pos: -(rt * self.pos) }
+        Frame {
+            rot: rt,
+            pos: -(rt * self.pos),
+        }
     }
 }
 

@@ -7,7 +7,7 @@
 use nalgebra::Vector3;
 
 use crate::collision::{sweeps_collide, ArmPose, Sweep};
-use crate::geometry::{Capsule, Obstacle};
+use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
 
 /// The default largest displacement (m) of any link point between two checked configurations
@@ -38,14 +38,27 @@ pub struct Contact {
 }
 
 /// Whether the motion stays clear of the obstacles and of the arm itself.
-pub fn motion_is_free<M: Model<D>, const D: usize>(m: &ArmMotion<'_, D>, obstacles: &[Obstacle], max_step: f64) -> bool {
+pub fn motion_is_free<M: Model<D>, const D: usize>(
+    m: &ArmMotion<'_, D>,
+    obstacles: &[Obstacle],
+    max_step: f64,
+) -> bool {
     !m.sweep::<M>(max_step).arm_collides(m.base, obstacles)
 }
 
 /// Whether two arms' simultaneous motions come too close (see
 /// [`crate::collision::sweeps_collide`]).
-pub fn motions_collide<M: Model<D>, const D: usize>(a: &ArmMotion<'_, D>, b: &ArmMotion<'_, D>, max_step: f64) -> bool {
-    let ends = |m: &ArmMotion<'_, D>| [ArmPose::new::<M, D>(m.base, m.from), ArmPose::new::<M, D>(m.base, m.to)];
+pub fn motions_collide<M: Model<D>, const D: usize>(
+    a: &ArmMotion<'_, D>,
+    b: &ArmMotion<'_, D>,
+    max_step: f64,
+) -> bool {
+    let ends = |m: &ArmMotion<'_, D>| {
+        [
+            ArmPose::new::<M, D>(m.base, m.from),
+            ArmPose::new::<M, D>(m.base, m.to),
+        ]
+    };
     motions_collide_posed::<M, D>(a, &ends(a), b, &ends(b), max_step)
 }
 
@@ -79,34 +92,33 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
     let margin = (sa.length() + sb.length()) / (2.0 * count as f64);
     (0..count).find_map(|i| {
         let s = (i as f64 + 0.5) / count as f64;
-        let (pa, pb) = (ArmPose::new::<M, D>(a.base, &sa.at(s)), ArmPose::new::<M, D>(b.base, &sb.at(s)));
+        let (pa, pb) = (
+            ArmPose::new::<M, D>(a.base, &sa.at(s)),
+            ArmPose::new::<M, D>(b.base, &sb.at(s)),
+        );
         pa.arm_hit(&pb, margin)?;
-        contact_point(&pa, &pb, margin).map(|point| Contact { point, margin })
+        pa.witness(&pb, margin).map(|p| Contact {
+            point: [p.x, p.y, p.z],
+            margin,
+        })
     })
 }
 
 /// Whether the arm comes within `margin` of `p` anywhere along its motion.
-pub fn motion_near_point<M: Model<D>, const D: usize>(m: &ArmMotion<'_, D>, p: &[f64; 3], margin: f64, max_step: f64) -> bool {
+pub fn motion_near_point<M: Model<D>, const D: usize>(
+    m: &ArmMotion<'_, D>,
+    p: &[f64; 3],
+    margin: f64,
+    max_step: f64,
+) -> bool {
     let sweep = m.sweep::<M>(max_step);
-    (0..sweep.count()).any(|i| near_point(&ArmPose::new::<M, D>(m.base, &sweep.config(i)), p, sweep.margin() + margin))
-}
-
-/// A point within `margin / 2` of both arms' volumes when they come closer than `margin`:
-/// the witness of the deepest capsule pair with both capsules inflated by `margin / 2`.
-pub fn contact_point(a: &ArmPose, b: &ArmPose, margin: f64) -> Option<[f64; 3]> {
-    let grow = |c: &Capsule| Capsule { radius: c.radius + 0.5 * margin, ..*c };
-    let mut deepest: Option<(f64, Vector3<f64>)> = None;
-    for ca in a.capsules() {
-        for cb in b.capsules() {
-            let depth = margin - ca.signed_distance(cb);
-            if depth > 0.0 && deepest.is_none_or(|(d, _)| depth > d) {
-                if let Some(p) = grow(ca).witness(&grow(cb)) {
-                    deepest = Some((depth, p));
-                }
-            }
-        }
-    }
-    deepest.map(|(_, p)| [p.x, p.y, p.z])
+    (0..sweep.count()).any(|i| {
+        near_point(
+            &ArmPose::new::<M, D>(m.base, &sweep.config(i)),
+            p,
+            sweep.margin() + margin,
+        )
+    })
 }
 
 /// Whether `p` is within `margin` of the arm's volume.

@@ -72,7 +72,10 @@ pub struct Solution<'a, const D: usize> {
 
 impl<'a, const D: usize> Solution<'a, D> {
     pub fn new(paths: &'a mut [[f64; D]]) -> Self {
-        Solution { assignment: [None; MAX_ROBOTS], paths }
+        Solution {
+            assignment: [None; MAX_ROBOTS],
+            paths,
+        }
     }
 
     /// Robot `i`'s path for a horizon of `h` steps.
@@ -98,7 +101,10 @@ pub trait Planner<M: Model<D>, const D: usize> {
 }
 
 /// Checks that `problem` fits the planners' assumptions and `out` can hold the answer.
-pub fn check_problem<const D: usize>(problem: &Problem<D>, out: &Solution<'_, D>) -> Result<usize, Status> {
+pub fn check_problem<const D: usize>(
+    problem: &Problem<D>,
+    out: &Solution<'_, D>,
+) -> Result<usize, Status> {
     let h = problem.horizon();
     if h == 0 {
         return Err(Status::InvalidProblem("no trajectory or empty trajectory"));
@@ -109,7 +115,9 @@ pub fn check_problem<const D: usize>(problem: &Problem<D>, out: &Solution<'_, D>
     if problem.trajectories.len() > problem.robots.len() {
         return Err(Status::InvalidProblem("more trajectories than robots"));
     }
-    if problem.trajectories.len() < problem.robots.len() && problem.robots.iter().any(|r| r.initial.is_none()) {
+    if problem.trajectories.len() < problem.robots.len()
+        && problem.robots.iter().any(|r| r.initial.is_none())
+    {
         // Some robot must hold, and any of them may be the one.
         return Err(Status::InvalidProblem(
             "fewer trajectories than robots: every robot needs an initial configuration",

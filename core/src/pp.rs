@@ -9,7 +9,9 @@
 use crate::model::Model;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
-use crate::search::{plan, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, Workspace};
+use crate::search::{
+    plan, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, Workspace,
+};
 
 /// Which Ω-A* the robots use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,8 +32,18 @@ pub struct Prioritized<'a, const D: usize> {
 
 impl<'a, const D: usize> Prioritized<'a, D> {
     /// `scratch` must hold at least H configurations.
-    pub fn new(variant: Variant, params: OmegaParams, ws: Workspace<'a, D>, scratch: &'a mut [[f64; D]]) -> Self {
-        Prioritized { variant, params, ws, scratch }
+    pub fn new(
+        variant: Variant,
+        params: OmegaParams,
+        ws: Workspace<'a, D>,
+        scratch: &'a mut [[f64; D]],
+    ) -> Self {
+        Prioritized {
+            variant,
+            params,
+            ws,
+            scratch,
+        }
     }
 }
 
@@ -60,7 +72,11 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
         }
         let n = problem.robots.len();
         let deadline = Until { clock, at: timeout };
-        let mut orders = Orders::new(n, problem.trajectories.len(), self.variant == Variant::SingleGoal);
+        let mut orders = Orders::new(
+            n,
+            problem.trajectories.len(),
+            self.variant == Variant::SingleGoal,
+        );
         loop {
             match self.attempt::<M>(problem, h, &orders, &deadline, out, stats) {
                 Ok(true) => return Status::Solved,
@@ -87,7 +103,11 @@ impl<const D: usize> Prioritized<'_, D> {
     ) -> Result<bool, Status> {
         let n = problem.robots.len();
         let ntraj = problem.trajectories.len();
-        let all = if ntraj >= 32 { u32::MAX } else { (1u32 << ntraj) - 1 };
+        let all = if ntraj >= 32 {
+            u32::MAX
+        } else {
+            (1u32 << ntraj) - 1
+        };
         let mut taken = 0u32;
         for (rank, &r) in orders.order[..n].iter().enumerate() {
             let r = r as usize;
@@ -105,7 +125,10 @@ impl<const D: usize> Prioritized<'_, D> {
             let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
             for &k in &orders.order[..rank] {
                 let k = k as usize;
-                let _ = others.push(OtherArm { base: problem.robots[k].base, path: &out.paths[k * h..(k + 1) * h] });
+                let _ = others.push(OtherArm {
+                    base: problem.robots[k].base,
+                    path: &out.paths[k * h..(k + 1) * h],
+                });
             }
             let query = Query {
                 robot: problem.robots[r],
@@ -120,7 +143,14 @@ impl<const D: usize> Prioritized<'_, D> {
             };
             let mut s = SearchStats::default();
             stats.low_level_calls += 1;
-            let res = plan::<M, D>(&query, &self.params, &mut self.ws, deadline, self.scratch, &mut s);
+            let res = plan::<M, D>(
+                &query,
+                &self.params,
+                &mut self.ws,
+                deadline,
+                self.scratch,
+                &mut s,
+            );
             drop(others);
             stats.expansions += s.expansions as u64;
             match res {
@@ -153,7 +183,13 @@ pub(crate) struct Orders {
 
 impl Orders {
     pub fn new(n: usize, t: usize, assignments: bool) -> Self {
-        Orders { order: identity(n), assign: identity(n), n, t, assignments }
+        Orders {
+            order: identity(n),
+            assign: identity(n),
+            n,
+            t,
+            assignments,
+        }
     }
 
     /// The trajectory robot `r` tracks under the current assignment, `None` when it holds.
@@ -192,7 +228,10 @@ pub(crate) fn next_permutation(a: &mut [u8]) -> bool {
     let Some(i) = (0..a.len() - 1).rev().find(|&i| a[i] < a[i + 1]) else {
         return false;
     };
-    let j = (i + 1..a.len()).rev().find(|&j| a[j] > a[i]).unwrap_or(i + 1);
+    let j = (i + 1..a.len())
+        .rev()
+        .find(|&j| a[j] > a[i])
+        .unwrap_or(i + 1);
     a.swap(i, j);
     a[i + 1..].reverse();
     true

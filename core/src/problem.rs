@@ -26,7 +26,10 @@ pub struct Tolerance {
 
 impl Default for Tolerance {
     fn default() -> Self {
-        Tolerance { position: 0.001, orientation: 0.01 }
+        Tolerance {
+            position: 0.001,
+            orientation: 0.01,
+        }
     }
 }
 

@@ -166,12 +166,24 @@ fn arm_hits_match_brute_force_and_witnesses_lie_in_both() {
         assert_eq!(a.arm_hit(&b, margin), brute);
         hits += usize::from(brute.is_some());
         let overlap = a.arm_hit(&b, 0.0).is_some();
-        match a.witness(&b) {
+        match a.witness(&b, 0.0) {
             Some(p) => assert!(
                 overlap && a.contains_point(&p) && b.contains_point(&p),
                 "{p}"
             ),
             None => assert!(!overlap),
+        }
+        // With a margin: a witness exactly when the arms come that close, within half the
+        // margin of both.
+        let near = |arm: &ArmPose, p: &omcbsa_core::nalgebra::Vector3<f64>| {
+            arm.capsules().iter().any(|c| {
+                let r = c.radius + 0.5 * margin + 1e-12;
+                c.segment.distance2_to_point(p) <= r * r
+            })
+        };
+        match a.witness(&b, margin) {
+            Some(p) => assert!(brute.is_some() && near(&a, &p) && near(&b, &p), "{p}"),
+            None => assert!(brute.is_none()),
         }
     }
     assert!(

@@ -9,16 +9,30 @@ use omcbsa_tests::{core_problem, elbow_swing_problem, facing_pair_problem};
 
 fn run(storage: &mut Storage, planner: &str, problem: &Problem<7>) -> Stats {
     let mut stats = Stats::default();
-    let (status, _) = storage.solve_core(planner, problem, &WallClock::start(), 60.0, &mut stats).expect("planner");
+    let (status, _) = storage
+        .solve_core(planner, problem, &WallClock::start(), 60.0, &mut stats)
+        .expect("planner");
     assert_eq!(status, Status::Solved);
     stats
 }
 
 fn bench(c: &mut Criterion) {
     let scenes = [
-        ("omega-astar/elbow_swing_42", "omega-astar", core_problem(&elbow_swing_problem(42).expect("scene").0)),
-        ("omcbsa/facing_pair_120", "omcbsa", core_problem(&facing_pair_problem(120).expect("scene"))),
-        ("pp/facing_pair_120", "pp", core_problem(&facing_pair_problem(120).expect("scene"))),
+        (
+            "omega-astar/elbow_swing_42",
+            "omega-astar",
+            core_problem(&elbow_swing_problem(42).expect("scene").0),
+        ),
+        (
+            "omcbsa/facing_pair_120",
+            "omcbsa",
+            core_problem(&facing_pair_problem(120).expect("scene")),
+        ),
+        (
+            "pp/facing_pair_120",
+            "pp",
+            core_problem(&facing_pair_problem(120).expect("scene")),
+        ),
     ];
     let mut group = c.benchmark_group("expansions");
     for (id, planner, problem) in &scenes {

@@ -46,7 +46,13 @@ pub fn trajectory_json(name: &str, base: &Frame, path: &[[f64; DOF]]) -> Value {
 }
 
 /// A problem file from its parts (obstacles as file-format JSON objects).
-pub fn problem_json(name: &str, dt: f64, robots: Vec<Value>, trajectories: Vec<Value>, obstacles: Vec<Value>) -> ProblemFile {
+pub fn problem_json(
+    name: &str,
+    dt: f64,
+    robots: Vec<Value>,
+    trajectories: Vec<Value>,
+    obstacles: Vec<Value>,
+) -> ProblemFile {
     let v = json!({
         "format": "omcbsa.problem.v1",
         "name": name,
@@ -91,17 +97,31 @@ pub fn smooth_path(q0: &[f64; DOF], amp: &[f64; DOF], h: usize) -> Vec<[f64; DOF
 /// Every solution a planner reports solved must validate: this asserts it.
 pub fn plan_and_validate(file: &ProblemFile, planner: &str, timeout: f64) -> SolutionFile {
     let sol = plan_file(file, planner, timeout).expect("problem plans");
-    assert!(!sol.message.contains("failed validation"), "{planner}: {}", sol.message);
+    assert!(
+        !sol.message.contains("failed validation"),
+        "{planner}: {}",
+        sol.message
+    );
     if sol.status == omcbsa::format::Status::Solved {
         let report = validate::<KinovaGen3, DOF>(file, &core_problem(file), &sol);
-        assert!(report.is_valid(), "{planner} reported an invalid solution: {}", report.summary());
+        assert!(
+            report.is_valid(),
+            "{planner} reported an invalid solution: {}",
+            report.summary()
+        );
     }
     sol
 }
 
 /// A random smooth joint path of `h` steps starting near `q0`, within position and velocity
 /// limits (`dt`), made of two sine waves per joint with random amplitude and phase.
-pub fn random_path(rng: &mut omcbsa_core::rng::Rng, q0: &[f64; DOF], spread: f64, h: usize, dt: f64) -> Vec<[f64; DOF]> {
+pub fn random_path(
+    rng: &mut omcbsa_core::rng::Rng,
+    q0: &[f64; DOF],
+    spread: f64,
+    h: usize,
+    dt: f64,
+) -> Vec<[f64; DOF]> {
     let amp: [f64; DOF] = std::array::from_fn(|_| rng.uniform(-spread, spread));
     let phase: [f64; DOF] = std::array::from_fn(|_| rng.uniform(0.0, std::f64::consts::PI));
     let vmax = KinovaGen3::VELOCITY;
@@ -111,7 +131,10 @@ pub fn random_path(rng: &mut omcbsa_core::rng::Rng, q0: &[f64; DOF], spread: f64
             std::array::from_fn(|i| {
                 // |d/dt| <= amp * pi / (h * dt): scaled to stay under 70 % of the limit.
                 let w = std::f64::consts::PI;
-                let a = amp[i].clamp(-0.7 * vmax[i] * (h as f64 - 1.0) * dt / w, 0.7 * vmax[i] * (h as f64 - 1.0) * dt / w);
+                let a = amp[i].clamp(
+                    -0.7 * vmax[i] * (h as f64 - 1.0) * dt / w,
+                    0.7 * vmax[i] * (h as f64 - 1.0) * dt / w,
+                );
                 let q = q0[i] + a * ((w * s + phase[i]).sin() - phase[i].sin());
                 q.clamp(KinovaGen3::LOWER[i] + 0.05, KinovaGen3::UPPER[i] - 0.05)
             })
@@ -121,16 +144,35 @@ pub fn random_path(rng: &mut omcbsa_core::rng::Rng, q0: &[f64; DOF], spread: f64
 
 /// Whether the witness paths are collision-free (steps and motions, obstacles, self, each
 /// other) and within velocity limits, by the core's own checks.
-pub fn witness_is_valid(bases: &[Frame], paths: &[Vec<[f64; DOF]>], obstacles: &[omcbsa_core::geometry::Obstacle], dt: f64) -> bool {
+pub fn witness_is_valid(
+    bases: &[Frame],
+    paths: &[Vec<[f64; DOF]>],
+    obstacles: &[omcbsa_core::geometry::Obstacle],
+    dt: f64,
+) -> bool {
     use omcbsa_core::search::{OtherArm, OthersMode, Validity};
     (0..bases.len()).all(|i| {
-        let others: Vec<OtherArm<'_, DOF>> =
-            (0..i).map(|k| OtherArm { base: bases[k], path: &paths[k] }).collect();
-        let v = Validity::<KinovaGen3, DOF>::new(bases[i], obstacles, &others, OthersMode::Avoid, &[], dt, omcbsa_core::motion::MOTION_STEP);
+        let others: Vec<OtherArm<'_, DOF>> = (0..i)
+            .map(|k| OtherArm {
+                base: bases[k],
+                path: &paths[k],
+            })
+            .collect();
+        let v = Validity::<KinovaGen3, DOF>::new(
+            bases[i],
+            obstacles,
+            &others,
+            OthersMode::Avoid,
+            &[],
+            dt,
+            omcbsa_core::motion::MOTION_STEP,
+        );
         let p = &paths[i];
         (0..p.len()).all(|t| {
             v.state(&p[t], t).is_some()
-                && (t + 1 == p.len() || (v.step_within_limits(&p[t], &p[t + 1]) && v.motion(&p[t], &p[t + 1], t).is_some()))
+                && (t + 1 == p.len()
+                    || (v.step_within_limits(&p[t], &p[t + 1])
+                        && v.motion(&p[t], &p[t + 1], t).is_some()))
         })
     })
 }
@@ -151,17 +193,39 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     let (_, j) = KinovaGen3::jacobian(&p0[0]);
     let n = *null_space_basis::<DOF>(&j).first()?;
     let shifted: [f64; DOF] = std::array::from_fn(|i| p0[0][i] + 0.8 * n[i]);
-    let free = Validity::<KinovaGen3, DOF>::new(base, &[], &[], OthersMode::Avoid, &[], 0.2, omcbsa_core::motion::MOTION_STEP);
+    let free = Validity::<KinovaGen3, DOF>::new(
+        base,
+        &[],
+        &[],
+        OthersMode::Avoid,
+        &[],
+        0.2,
+        omcbsa_core::motion::MOTION_STEP,
+    );
     let traj: omcbsa_core::problem::Trajectory = p0.iter().map(|q| KinovaGen3::fk(q)).collect();
-    let robot = Robot { base, tcp: Frame::IDENTITY, initial: None };
+    let robot = Robot {
+        base,
+        tcp: Frame::IDENTITY,
+        initial: None,
+    };
     let mut alt = vec![[0.0; DOF]; p0.len()];
-    omcbsa_core::tracking::track::<KinovaGen3, DOF>(&robot, &traj, &shifted, &free, &Default::default(), &mut alt)?;
+    omcbsa_core::tracking::track::<KinovaGen3, DOF>(
+        &robot,
+        &traj,
+        &shifted,
+        &free,
+        &Default::default(),
+        &mut alt,
+    )?;
     let mut f = [Frame::IDENTITY; 9];
     KinovaGen3::link_frames(&alt[8], &mut f);
     let elbow = f[4].pos;
     let ball = omcbsa_core::geometry::Obstacle {
         shape: omcbsa_core::geometry::Shape::Sphere { radius: 0.06 },
-        pose: Frame { rot: Frame::IDENTITY.rot, pos: elbow },
+        pose: Frame {
+            rot: Frame::IDENTITY.rot,
+            pos: elbow,
+        },
     };
     if !witness_is_valid(&[base], &[p0.clone()], &[ball], 0.2) {
         return None;
@@ -195,7 +259,10 @@ pub fn facing_pair_problem(seed: u64) -> Option<ProblemFile> {
         &format!("facing_pair_{seed}"),
         0.2,
         vec![robot_json("a", &b0, None), robot_json("b", &b1, None)],
-        vec![trajectory_json("h1", &b1, &p1), trajectory_json("h0", &b0, &p0)],
+        vec![
+            trajectory_json("h1", &b1, &p1),
+            trajectory_json("h0", &b0, &p0),
+        ],
         vec![],
     ))
 }
@@ -213,8 +280,14 @@ pub fn listed_order_wrong_problem() -> ProblemFile {
     problem_json(
         "listed_order_wrong",
         0.2,
-        vec![robot_json("left", &b0, None), robot_json("right", &b1, None)],
-        vec![trajectory_json("right_hand", &b1, &p1), trajectory_json("left_hand", &b0, &p0)],
+        vec![
+            robot_json("left", &b0, None),
+            robot_json("right", &b1, None),
+        ],
+        vec![
+            trajectory_json("right_hand", &b1, &p1),
+            trajectory_json("left_hand", &b0, &p0),
+        ],
         vec![],
     )
 }
@@ -230,8 +303,14 @@ pub fn blocked_hand_problem() -> ProblemFile {
     problem_json(
         "blocked_hand",
         0.2,
-        vec![robot_json("left", &b0, None), robot_json("right", &b1, None)],
-        vec![trajectory_json("blocked", &b0, &p0), trajectory_json("free", &b1, &p1)],
+        vec![
+            robot_json("left", &b0, None),
+            robot_json("right", &b1, None),
+        ],
+        vec![
+            trajectory_json("blocked", &b0, &p0),
+            trajectory_json("free", &b1, &p1),
+        ],
         vec![sphere("ball", [hand.x, hand.y, hand.z], 0.03)],
     )
 }

@@ -18,7 +18,10 @@ fn every_planner_solves_an_easy_two_arm_problem() {
         "easy_pair",
         0.2,
         vec![robot_json("a", &b0, None), robot_json("b", &b1, None)],
-        vec![trajectory_json("h1", &b1, &p1), trajectory_json("h0", &b0, &p0)],
+        vec![
+            trajectory_json("h1", &b1, &p1),
+            trajectory_json("h0", &b0, &p0),
+        ],
         vec![],
     );
     for planner in omcbsa::planners::PLANNERS {

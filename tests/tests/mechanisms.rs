@@ -10,7 +10,6 @@ use omcbsa_core::rng::Rng;
 use omcbsa_tests::*;
 use serde_json::json;
 
-
 const PLANNERS: [&str; 3] = ["omcbsa", "pp", "pp-single"];
 
 /// Two arms 1.4 m apart, each hand path close to one arm and out of the other's reach, listed
@@ -19,11 +18,24 @@ const PLANNERS: [&str; 3] = ["omcbsa", "pp", "pp-single"];
 fn finds_the_assignment_the_listed_order_gets_wrong() {
     let file = listed_order_wrong_problem();
     let problem = core_problem(&file);
-    let target = problem.robots[0].base.inverse().compose(&problem.trajectories[0][0]);
+    let target = problem.robots[0]
+        .base
+        .inverse()
+        .compose(&problem.trajectories[0][0]);
     let mut out = [[0.0; DOF]; 1];
-    let multi = MultiStart { attempts: 200, min_separation: 0.1 };
+    let multi = MultiStart {
+        attempts: 200,
+        min_separation: 0.1,
+    };
     assert!(
-        ik_multi_start::<KinovaGen3, DOF>(&target, &Default::default(), &multi, &mut Rng::new(1), &mut out).is_err(),
+        ik_multi_start::<KinovaGen3, DOF>(
+            &target,
+            &Default::default(),
+            &multi,
+            &mut Rng::new(1),
+            &mut out
+        )
+        .is_err(),
         "robot 0 should not reach trajectory 0"
     );
     for planner in PLANNERS {
@@ -44,7 +56,11 @@ fn arms_pass_each_other_by_null_space_motion() {
     for seed in [120, 137, 215] {
         let file = facing_pair_problem(seed).expect("witness is collision-free");
         let ik = plan_and_validate(&file, "ik-tracking", 5.0);
-        assert_eq!(ik.status, Status::NoSolution, "seed {seed}: IK tracking should fail");
+        assert_eq!(
+            ik.status,
+            Status::NoSolution,
+            "seed {seed}: IK tracking should fail"
+        );
         let sol = plan_and_validate(&file, "omcbsa", 5.0);
         assert_eq!(sol.status, Status::Solved, "seed {seed}: {}", sol.message);
 
@@ -53,14 +69,22 @@ fn arms_pass_each_other_by_null_space_motion() {
         storage.cbs_params.warm_start_seconds = 0.0;
         let outcome = storage.solve("omcbsa", &problem, 5.0).expect("planner");
         let cold = outcome.to_solution_file(&file, "omcbsa");
-        assert_eq!(cold.status, Status::Solved, "seed {seed} without warm start: {}", cold.message);
+        assert_eq!(
+            cold.status,
+            Status::Solved,
+            "seed {seed} without warm start: {}",
+            cold.message
+        );
         let report = validate::<KinovaGen3, DOF>(&file, &problem, &cold);
         assert!(report.is_valid(), "seed {seed}: {}", report.summary());
         if outcome.stats.conflicts_resolved > 0 {
             branched += 1;
         }
     }
-    assert!(branched == 3, "Ω-CBSA without warm start should have resolved conflicts on these scenes");
+    assert!(
+        branched == 3,
+        "Ω-CBSA without warm start should have resolved conflicts on these scenes"
+    );
 }
 
 /// No arm can track trajectory 0: its hand passes through a ball at step 5. The search
@@ -86,14 +110,21 @@ fn fewer_trajectories_than_arms() {
     ];
     let p0 = smooth_path(&HOME, &[0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 12);
     let p2 = smooth_path(&HOME, &[-0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 12);
-    let robots = (0..3).map(|i| robot_json(&format!("r{i}"), &bases[i], Some(&HOME))).collect();
+    let robots = (0..3)
+        .map(|i| robot_json(&format!("r{i}"), &bases[i], Some(&HOME)))
+        .collect();
     let file = problem_json(
         "three_arms_two_hands",
         0.2,
         robots,
-        vec![trajectory_json("h2", &bases[2], &p2), trajectory_json("h0", &bases[0], &p0)],
-        vec![json!({"name": "table", "shape": "box", "half_extents": [0.4, 1.4, 0.02],
-                    "pose": {"position": [0.6, 0.0, -0.03], "quat_xyzw": [0, 0, 0, 1]}})],
+        vec![
+            trajectory_json("h2", &bases[2], &p2),
+            trajectory_json("h0", &bases[0], &p0),
+        ],
+        vec![
+            json!({"name": "table", "shape": "box", "half_extents": [0.4, 1.4, 0.02],
+                    "pose": {"position": [0.6, 0.0, -0.03], "quat_xyzw": [0, 0, 0, 1]}}),
+        ],
     );
     for planner in PLANNERS {
         let sol = plan_and_validate(&file, planner, 5.0);
@@ -101,6 +132,11 @@ fn fewer_trajectories_than_arms() {
         let holders: Vec<usize> = (0..3).filter(|&i| sol.assignment[i].is_none()).collect();
         assert_eq!(holders.len(), 1, "{planner}: {:?}", sol.assignment);
         let paths = sol.joint_paths.as_ref().expect("solved has paths");
-        assert!(paths[holders[0]].iter().all(|q| q.as_slice() == HOME.as_slice()), "{planner}: the holder moved");
+        assert!(
+            paths[holders[0]]
+                .iter()
+                .all(|q| q.as_slice() == HOME.as_slice()),
+            "{planner}: the holder moved"
+        );
     }
 }

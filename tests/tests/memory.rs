@@ -4,8 +4,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use omcbsa::planners::{Capacities, Storage, WallClock};
 use omcbsa::planners::PLANNERS;
+use omcbsa::planners::{Capacities, Storage, WallClock};
 use omcbsa_core::planner::{Stats, Status};
 use omcbsa_tests::*;
 
@@ -74,26 +74,39 @@ fn planning_allocates_nothing_in_a_small_stack() {
         .stack_size(PLANNER_STACK)
         .spawn(move || {
             // The storage is allocated on the heap before the core is called.
-            let mut storage = Storage::new(Capacities { search_nodes: 1 << 14, composite_nodes: 1 << 12, ..Capacities::default() }, problem.horizon());
+            let mut storage = Storage::new(
+                Capacities {
+                    search_nodes: 1 << 14,
+                    composite_nodes: 1 << 12,
+                    ..Capacities::default()
+                },
+                problem.horizon(),
+            );
             // Cold start, so that Ω-CBSA branches on conflicts and replans under constraints.
             storage.cbs_params.warm_start_seconds = 0.0;
             let mut results = Vec::with_capacity(PLANNERS.len());
             for name in PLANNERS {
                 let clock = WallClock::start();
                 let mut stats = Stats::default();
-                let (r, n) = allocations(|| storage.solve_core(name, &problem, &clock, 5.0, &mut stats));
+                let (r, n) =
+                    allocations(|| storage.solve_core(name, &problem, &clock, 5.0, &mut stats));
                 let status = r.expect("known planner").0;
                 results.push((name, status, n, stats));
             }
             results
         })
         .expect("spawn");
-    let results = handle.join().expect("planning thread did not overflow its stack");
+    let results = handle
+        .join()
+        .expect("planning thread did not overflow its stack");
     for (name, status, n, stats) in &results {
         assert_eq!(*n, 0, "{name} allocated {n} times while planning");
         if *name == "omcbsa" {
             assert_eq!(*status, Status::Solved);
-            assert!(stats.conflicts_resolved > 0, "the scene should make Ω-CBSA branch: {stats:?}");
+            assert!(
+                stats.conflicts_resolved > 0,
+                "the scene should make Ω-CBSA branch: {stats:?}"
+            );
         }
     }
 }
@@ -108,8 +121,20 @@ fn storage_is_reusable() {
     let mut first = None;
     for _ in 0..3 {
         let mut stats = Stats::default();
-        let (status, _) = storage.solve_core("omega-astar", &problem, &WallClock::start(), 5.0, &mut stats).expect("planner");
+        let (status, _) = storage
+            .solve_core(
+                "omega-astar",
+                &problem,
+                &WallClock::start(),
+                5.0,
+                &mut stats,
+            )
+            .expect("planner");
         assert_eq!(status, Status::Solved);
-        assert_eq!(*first.get_or_insert(stats), stats, "the same input must give the same search");
+        assert_eq!(
+            *first.get_or_insert(stats),
+            stats,
+            "the same input must give the same search"
+        );
     }
 }

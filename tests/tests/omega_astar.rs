@@ -14,14 +14,32 @@ use omcbsa_tests::*;
 fn omega_astar_swings_the_elbow_where_ik_tracking_fails() {
     let mut checked = 0;
     for seed in [42, 54, 63] {
-        let Some((file, _)) = elbow_swing_problem(seed) else { continue };
+        let Some((file, _)) = elbow_swing_problem(seed) else {
+            continue;
+        };
         let problem = core_problem(&file);
         let robot = problem.robots[0];
-        let valid = Validity::<KinovaGen3, DOF>::new(robot.base, &problem.obstacles, &[], OthersMode::Avoid, &[], problem.dt, omcbsa_core::motion::MOTION_STEP);
+        let valid = Validity::<KinovaGen3, DOF>::new(
+            robot.base,
+            &problem.obstacles,
+            &[],
+            OthersMode::Avoid,
+            &[],
+            problem.dt,
+            omcbsa_core::motion::MOTION_STEP,
+        );
         let mut path = vec![[0.0; DOF]; problem.horizon()];
         let init = robot.initial.expect("the scene sets initial");
         assert!(
-            track::<KinovaGen3, DOF>(&robot, &problem.trajectories[0], &init, &valid, &Default::default(), &mut path).is_none(),
+            track::<KinovaGen3, DOF>(
+                &robot,
+                &problem.trajectories[0],
+                &init,
+                &valid,
+                &Default::default(),
+                &mut path
+            )
+            .is_none(),
             "seed {seed}: IK tracking from the first IK solution should hit the ball"
         );
         let sol = plan_and_validate(&file, "omega-astar", 5.0);

@@ -5,15 +5,17 @@
 //! detection: joint states almost never repeat, and the branching factor (up to `3^N` for
 //! 7-joint arms) is what makes this baseline scale poorly with the number of robots.
 
+use crate::collision::ArmPose;
 use crate::ik::{ik_multi_start, MultiStart};
 use crate::model::{Frame, Model};
 use crate::motion::{motions_collide, ArmMotion};
-use crate::collision::ArmPose;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
-use crate::search::{manifold_moves, Deadline, OmegaParams, OpenEntry, OpenList, OthersMode, Validity, MAX_MOVES};
+use crate::search::{
+    manifold_moves, Deadline, OmegaParams, OpenEntry, OpenList, OthersMode, Validity, MAX_MOVES,
+};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CompositeParams {
@@ -27,7 +29,11 @@ pub struct CompositeParams {
 
 impl Default for CompositeParams {
     fn default() -> Self {
-        CompositeParams { low: OmegaParams::default(), start_solutions: 2, max_starts: 16 }
+        CompositeParams {
+            low: OmegaParams::default(),
+            start_solutions: 2,
+            max_starts: 16,
+        }
     }
 }
 
@@ -44,7 +50,13 @@ pub struct CompositeNode<const D: usize> {
 
 impl<const D: usize> Default for CompositeNode<D> {
     fn default() -> Self {
-        CompositeNode { q: [[0.0; D]; MAX_ROBOTS], g: 0.0, parent: u32::MAX, t: 0, assign: [u8::MAX; MAX_ROBOTS] }
+        CompositeNode {
+            q: [[0.0; D]; MAX_ROBOTS],
+            g: 0.0,
+            parent: u32::MAX,
+            t: 0,
+            assign: [u8::MAX; MAX_ROBOTS],
+        }
     }
 }
 
@@ -55,8 +67,16 @@ pub struct CompositeAstar<'a, const D: usize> {
 }
 
 impl<'a, const D: usize> CompositeAstar<'a, D> {
-    pub fn new(params: CompositeParams, nodes: &'a mut [CompositeNode<D>], open: &'a mut [OpenEntry]) -> Self {
-        CompositeAstar { params, nodes, open }
+    pub fn new(
+        params: CompositeParams,
+        nodes: &'a mut [CompositeNode<D>],
+        open: &'a mut [OpenEntry],
+    ) -> Self {
+        CompositeAstar {
+            params,
+            nodes,
+            open,
+        }
     }
 }
 
@@ -132,12 +152,24 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
 
     fn validity(&self, r: usize) -> Validity<'_, M, D> {
         let robot = &self.pr.robots[r];
-        Validity::new(robot.base, &self.pr.obstacles, &[], OthersMode::Avoid, &[], self.pr.dt, self.p.low.motion_step)
+        Validity::new(
+            robot.base,
+            &self.pr.obstacles,
+            &[],
+            OthersMode::Avoid,
+            &[],
+            self.pr.dt,
+            self.p.low.motion_step,
+        )
     }
 
     fn target(&self, r: usize, j: usize, t: usize) -> Frame {
         let robot = &self.pr.robots[r];
-        robot.base.inverse().compose(&self.pr.trajectories[j][t]).compose(&robot.tcp.inverse())
+        robot
+            .base
+            .inverse()
+            .compose(&self.pr.trajectories[j][t])
+            .compose(&robot.tcp.inverse())
     }
 
     fn push(&mut self, node: CompositeNode<D>) -> Result<(), Status> {
@@ -148,7 +180,11 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
         self.nodes[self.used] = node;
         self.used += 1;
         let f = node.g + self.p.low.w_h * (self.h - 1 - node.t as usize) as f64;
-        if self.open.push(OpenEntry { f, t: node.t as u32, node: id }) {
+        if self.open.push(OpenEntry {
+            f,
+            t: node.t as u32,
+            node: id,
+        }) {
             Ok(())
         } else {
             Err(Status::OutOfMemory("composite A* open list"))
@@ -159,7 +195,10 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
     /// solutions (or `initial` for holding robots) in which no two robots collide.
     fn seed(&mut self) -> Result<(), Status> {
         let mut orders = Orders::new(self.n, self.pr.trajectories.len(), true);
-        let multi = MultiStart { attempts: self.p.low.start_attempts, min_separation: 0.1 };
+        let multi = MultiStart {
+            attempts: self.p.low.start_attempts,
+            min_separation: 0.1,
+        };
         loop {
             let mut sols = [[[0.0; D]; 4]; MAX_ROBOTS];
             let mut counts = [0usize; MAX_ROBOTS];
@@ -172,8 +211,14 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
                         let mut rng = Rng::new(self.p.low.seed ^ ((r as u64) << 32 | j as u64));
                         let want = self.p.start_solutions.clamp(1, 4);
                         let mut found = [[0.0; D]; 4];
-                        let k = ik_multi_start::<M, D>(&self.target(r, j, 0), &self.p.low.ik, &multi, &mut rng, &mut found[..want])
-                            .unwrap_or(0);
+                        let k = ik_multi_start::<M, D>(
+                            &self.target(r, j, 0),
+                            &self.p.low.ik,
+                            &multi,
+                            &mut rng,
+                            &mut found[..want],
+                        )
+                        .unwrap_or(0);
                         for q in &found[..k] {
                             if valid.state(q, 0).is_some() {
                                 sols[r][counts[r]] = *q;
@@ -182,7 +227,10 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
                         }
                     }
                     None => {
-                        if let Some(q) = self.pr.robots[r].initial.filter(|q| valid.state(q, 0).is_some()) {
+                        if let Some(q) = self.pr.robots[r]
+                            .initial
+                            .filter(|q| valid.state(q, 0).is_some())
+                        {
                             sols[r][0] = q;
                             counts[r] = 1;
                         }
@@ -200,7 +248,9 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
                         self.push(node)?;
                         starts += 1;
                     }
-                    if starts == self.p.max_starts || !next_digits(&mut digits[..self.n], &counts[..self.n]) {
+                    if starts == self.p.max_starts
+                        || !next_digits(&mut digits[..self.n], &counts[..self.n])
+                    {
                         break;
                     }
                 }
@@ -218,7 +268,9 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
         for i in 0..self.n {
             let a = ArmPose::new::<M, D>(&self.pr.robots[i].base, &q[i]);
             for k in i + 1..self.n {
-                if a.arm_hit(&ArmPose::new::<M, D>(&self.pr.robots[k].base, &q[k]), 0.0).is_some() {
+                if a.arm_hit(&ArmPose::new::<M, D>(&self.pr.robots[k].base, &q[k]), 0.0)
+                    .is_some()
+                {
                     return false;
                 }
             }
@@ -239,9 +291,17 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
             }
             let valid = self.validity(r);
             let mut cand = [[0.0; D]; MAX_MOVES];
-            let k = manifold_moves::<M, D>(&self.target(r, node.assign[r] as usize, t1), q, &self.p.low, &mut cand);
+            let k = manifold_moves::<M, D>(
+                &self.target(r, node.assign[r] as usize, t1),
+                q,
+                &self.p.low,
+                &mut cand,
+            );
             for c in &cand[..k] {
-                if valid.step_within_limits(q, c) && valid.state(c, t1).is_some() && valid.motion(q, c, node.t as usize).is_some() {
+                if valid.step_within_limits(q, c)
+                    && valid.state(c, t1).is_some()
+                    && valid.motion(q, c, node.t as usize).is_some()
+                {
                     moves[r][counts[r]] = *c;
                     counts[r] += 1;
                 }
@@ -258,7 +318,9 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
             let mut g = node.g;
             for r in 0..self.n {
                 child.q[r] = moves[r][digits[r]];
-                let d2: f64 = (0..D).map(|x| (child.q[r][x] - node.q[r][x]) * (child.q[r][x] - node.q[r][x])).sum();
+                let d2: f64 = (0..D)
+                    .map(|x| (child.q[r][x] - node.q[r][x]) * (child.q[r][x] - node.q[r][x]))
+                    .sum();
                 g += libm::sqrt(d2);
             }
             child.g = g;
@@ -273,9 +335,17 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
 
     fn motions_clear(&self, from: &[[f64; D]; MAX_ROBOTS], to: &[[f64; D]; MAX_ROBOTS]) -> bool {
         for i in 0..self.n {
-            let a = ArmMotion { base: &self.pr.robots[i].base, from: &from[i], to: &to[i] };
+            let a = ArmMotion {
+                base: &self.pr.robots[i].base,
+                from: &from[i],
+                to: &to[i],
+            };
             for k in i + 1..self.n {
-                let b = ArmMotion { base: &self.pr.robots[k].base, from: &from[k], to: &to[k] };
+                let b = ArmMotion {
+                    base: &self.pr.robots[k].base,
+                    from: &from[k],
+                    to: &to[k],
+                };
                 if motions_collide::<M, D>(&a, &b, self.p.low.motion_step) {
                     return false;
                 }

@@ -24,7 +24,12 @@ pub struct DescartesParams {
 
 impl Default for DescartesParams {
     fn default() -> Self {
-        DescartesParams { samples: 12, ik: IkParams::default(), motion_step: crate::motion::MOTION_STEP, seed: 0x5eed }
+        DescartesParams {
+            samples: 12,
+            ik: IkParams::default(),
+            motion_step: crate::motion::MOTION_STEP,
+            seed: 0x5eed,
+        }
     }
 }
 
@@ -70,7 +75,11 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
             return Status::InvalidProblem("Descartes samples per pose must be 1..=65535");
         }
         let need = k * h;
-        if self.st.layers.len() < need || self.st.cost.len() < need || self.st.parent.len() < need || self.st.width.len() < h {
+        if self.st.layers.len() < need
+            || self.st.cost.len() < need
+            || self.st.parent.len() < need
+            || self.st.width.len() < h
+        {
             return Status::OutOfMemory("Descartes roadmap storage");
         }
         let deadline = Until { clock, at: timeout };
@@ -107,7 +116,10 @@ impl<const D: usize> Descartes<'_, D> {
             let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
             for &o in &orders.order[..rank] {
                 let o = o as usize;
-                let _ = others.push(OtherArm { base: problem.robots[o].base, path: &out.paths[o * h..(o + 1) * h] });
+                let _ = others.push(OtherArm {
+                    base: problem.robots[o].base,
+                    path: &out.paths[o * h..(o + 1) * h],
+                });
             }
             let valid = Validity::<M, D>::new(
                 robot.base,
@@ -121,11 +133,21 @@ impl<const D: usize> Descartes<'_, D> {
             stats.low_level_calls += 1;
             let traj = orders.trajectory_of(r);
             let end = match traj {
-                Some(j) => self.roadmap::<M>(&robot, &problem.trajectories[j], &valid, (r, j), deadline, stats),
-                None => robot.initial.filter(|q| valid.hold(q, h).is_some()).map(|q| {
-                    self.st.layers[..h].iter_mut().for_each(|l| *l = q);
-                    usize::MAX
-                }),
+                Some(j) => self.roadmap::<M>(
+                    &robot,
+                    &problem.trajectories[j],
+                    &valid,
+                    (r, j),
+                    deadline,
+                    stats,
+                ),
+                None => robot
+                    .initial
+                    .filter(|q| valid.hold(q, h).is_some())
+                    .map(|q| {
+                        self.st.layers[..h].iter_mut().for_each(|l| *l = q);
+                        usize::MAX
+                    }),
             };
             drop(others);
             let Some(end) = end else { return false };
@@ -159,7 +181,11 @@ impl<const D: usize> Descartes<'_, D> {
             let mut width = 0usize;
             // Seeds: projections of the previous layer's samples (so layers can connect), then
             // random configurations; `initial` first on the first layer.
-            let prev = if t == 0 { 0 } else { self.st.width[t - 1] as usize };
+            let prev = if t == 0 {
+                0
+            } else {
+                self.st.width[t - 1] as usize
+            };
             let mut attempt = 0usize;
             while width < k && attempt < 3 * k {
                 let seed = if t == 0 && attempt == 0 && robot.initial.is_some() {
@@ -170,7 +196,9 @@ impl<const D: usize> Descartes<'_, D> {
                     rng.configuration(&M::LOWER, &M::UPPER)
                 };
                 attempt += 1;
-                let Ok(q) = ik::<M, D>(&goal, &seed, &self.params.ik) else { continue };
+                let Ok(q) = ik::<M, D>(&goal, &seed, &self.params.ik) else {
+                    continue;
+                };
                 if valid.state(&q, t).is_none() {
                     continue;
                 }
@@ -200,7 +228,9 @@ impl<const D: usize> Descartes<'_, D> {
                     if !valid.step_within_limits(&qa, &qb) {
                         continue;
                     }
-                    let d: f64 = (0..D).map(|x| (qb[x] - qa[x]) * (qb[x] - qa[x])).sum::<f64>();
+                    let d: f64 = (0..D)
+                        .map(|x| (qb[x] - qa[x]) * (qb[x] - qa[x]))
+                        .sum::<f64>();
                     let c = self.st.cost[ia] + libm::sqrt(d);
                     if c < self.st.cost[ib] && valid.motion(&qa, &qb, t - 1).is_some() {
                         self.st.cost[ib] = c;

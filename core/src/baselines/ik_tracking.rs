@@ -24,7 +24,12 @@ pub struct IkTrackingParams {
 
 impl Default for IkTrackingParams {
     fn default() -> Self {
-        IkTrackingParams { seeds: 10, ik: IkParams::default(), motion_step: crate::motion::MOTION_STEP, seed: 0x5eed }
+        IkTrackingParams {
+            seeds: 10,
+            ik: IkParams::default(),
+            motion_step: crate::motion::MOTION_STEP,
+            seed: 0x5eed,
+        }
     }
 }
 
@@ -82,7 +87,10 @@ impl IkTracking {
             let (done, rest) = out.paths.split_at_mut(r * h);
             let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
             for k in 0..r {
-                let _ = others.push(OtherArm { base: problem.robots[k].base, path: &done[k * h..(k + 1) * h] });
+                let _ = others.push(OtherArm {
+                    base: problem.robots[k].base,
+                    path: &done[k * h..(k + 1) * h],
+                });
             }
             let valid = Validity::<M, D>::new(
                 robot.base,
@@ -106,8 +114,15 @@ impl IkTracking {
                             (0, Some(init)) => init,
                             _ => rng.configuration(&M::LOWER, &M::UPPER),
                         };
-                        track::<M, D>(&robot, &problem.trajectories[j], &seed, &valid, &self.params.ik, path)
-                            .is_some()
+                        track::<M, D>(
+                            &robot,
+                            &problem.trajectories[j],
+                            &seed,
+                            &valid,
+                            &self.params.ik,
+                            path,
+                        )
+                        .is_some()
                     })
                 }
                 None => match robot.initial {

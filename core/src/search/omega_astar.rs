@@ -186,19 +186,25 @@ pub fn plan<M: Model<D>, const D: usize>(
 ) -> Result<Found, SearchError> {
     let h = query.trajectories.first().map_or(0, |t| t.len());
     if h == 0 {
-        return Err(SearchError::InvalidQuery("no trajectory or empty trajectory"));
+        return Err(SearchError::InvalidQuery(
+            "no trajectory or empty trajectory",
+        ));
     }
     if query.trajectories.iter().any(|t| t.len() != h) {
         return Err(SearchError::InvalidQuery("trajectories differ in length"));
     }
     if out.len() < h {
-        return Err(SearchError::InvalidQuery("output buffer shorter than the horizon"));
+        return Err(SearchError::InvalidQuery(
+            "output buffer shorter than the horizon",
+        ));
     }
     if query.trajectories.len() > 32 {
         return Err(SearchError::InvalidQuery("more than 32 trajectories"));
     }
     if query.hold && query.robot.initial.is_none() {
-        return Err(SearchError::InvalidQuery("hold requested without an initial configuration"));
+        return Err(SearchError::InvalidQuery(
+            "hold requested without an initial configuration",
+        ));
     }
     let ctx = Ctx::<M, D>::new(query, params, h);
     ws.reset();
@@ -215,7 +221,10 @@ pub fn plan<M: Model<D>, const D: usize>(
     }
     if query.hold {
         if let Some(c) = ctx.hold_path(out) {
-            return Ok(Found { trajectory: None, collisions: c });
+            return Ok(Found {
+                trajectory: None,
+                collisions: c,
+            });
         }
     }
     Err(SearchError::NoSolution)
@@ -241,12 +250,21 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             q.dt,
             p.motion_step,
         );
-        Ctx { q, p, h, base_inv: q.robot.base.inverse(), tcp_inv: q.robot.tcp.inverse(), valid }
+        Ctx {
+            q,
+            p,
+            h,
+            base_inv: q.robot.base.inverse(),
+            tcp_inv: q.robot.tcp.inverse(),
+            valid,
+        }
     }
 
     /// Pose `t` of trajectory `j` as a target for the model's tool frame in its base frame.
     fn target(&self, j: usize, t: usize) -> Frame {
-        self.base_inv.compose(&self.q.trajectories[j][t]).compose(&self.tcp_inv)
+        self.base_inv
+            .compose(&self.q.trajectories[j][t])
+            .compose(&self.tcp_inv)
     }
 
     fn f(&self, g: f64, t: usize, c: u16) -> f64 {
@@ -287,7 +305,11 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
     /// Puts IK solutions of the first pose of every allowed trajectory in OPEN: the one nearest
     /// `initial` (when given), then solutions from random seeds until `start_solutions`
     /// distinct valid states are in or `start_attempts` seeds were tried.
-    fn seed_open(&self, ws: &mut Workspace<'_, D>, stats: &mut SearchStats) -> Result<(), SearchError> {
+    fn seed_open(
+        &self,
+        ws: &mut Workspace<'_, D>,
+        stats: &mut SearchStats,
+    ) -> Result<(), SearchError> {
         for j in 0..self.q.trajectories.len() {
             if self.q.allowed & (1 << j) == 0 {
                 continue;
@@ -298,16 +320,29 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             // more constraint explores the same start states.
             let mut rng = Rng::new(self.p.seed ^ (j as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
             let before = ws.used();
-            let seeds = self.q.robot.initial.into_iter().chain(
-                (0..self.p.start_attempts).map(|_| rng.configuration(&M::LOWER, &M::UPPER)),
-            );
+            let seeds =
+                self.q.robot.initial.into_iter().chain(
+                    (0..self.p.start_attempts).map(|_| rng.configuration(&M::LOWER, &M::UPPER)),
+                );
             for seed in seeds {
                 if ws.used() - before >= self.p.start_solutions {
                     break;
                 }
-                let Ok(q) = ik::<M, D>(&target, &seed, &self.p.ik) else { continue };
-                let Some(c) = self.valid.state(&q, 0) else { continue };
-                let node = Node { q, g: g0, parent: u32::MAX, t: 0, c, j: j as u8, closed: false };
+                let Ok(q) = ik::<M, D>(&target, &seed, &self.p.ik) else {
+                    continue;
+                };
+                let Some(c) = self.valid.state(&q, 0) else {
+                    continue;
+                };
+                let node = Node {
+                    q,
+                    g: g0,
+                    parent: u32::MAX,
+                    t: 0,
+                    c,
+                    j: j as u8,
+                    closed: false,
+                };
                 self.add(ws, node, stats)?;
             }
         }
@@ -319,7 +354,12 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
     fn start_cost(&self, j: usize) -> f64 {
         match &self.q.robot.initial {
             Some(init) => {
-                let tool = self.q.robot.base.compose(&M::fk(init)).compose(&self.q.robot.tcp);
+                let tool = self
+                    .q
+                    .robot
+                    .base
+                    .compose(&M::fk(init))
+                    .compose(&self.q.robot.tcp);
                 (tool.pos - self.q.trajectories[j][0].pos).norm()
             }
             None => 0.0,
@@ -355,9 +395,13 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         if !self.valid.step_within_limits(&node.q, q) {
             return Ok(());
         }
-        let dist2: f64 = (0..D).map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i])).sum();
+        let dist2: f64 = (0..D)
+            .map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i]))
+            .sum();
         let t1 = node.t as usize + 1;
-        let Some((c_state, there)) = self.valid.state_posed(q, t1) else { return Ok(()) };
+        let Some((c_state, there)) = self.valid.state_posed(q, t1) else {
+            return Ok(());
+        };
         let ends = [*here, there];
         let Some(c_motion) = self.valid.motion_posed(&node.q, q, &ends, node.t as usize) else {
             return Ok(());
@@ -375,7 +419,12 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
     }
 
     /// Inserts a generated state, or improves the stored one in its cell.
-    fn add(&self, ws: &mut Workspace<'_, D>, node: Node<D>, stats: &mut SearchStats) -> Result<(), SearchError> {
+    fn add(
+        &self,
+        ws: &mut Workspace<'_, D>,
+        node: Node<D>,
+        stats: &mut SearchStats,
+    ) -> Result<(), SearchError> {
         let key = StateKey::new(&node.q, node.t, node.j, self.p.resolution);
         let index = match ws.find(&key) {
             Ok(existing) => {
@@ -391,7 +440,11 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         };
         stats.generated += 1;
         let f = self.f(node.g, node.t as usize, node.c);
-        if ws.open.push(OpenEntry { f, t: node.t as u32, node: index }) {
+        if ws.open.push(OpenEntry {
+            f,
+            t: node.t as u32,
+            node: index,
+        }) {
             Ok(())
         } else {
             Err(SearchError::OutOfMemory)
@@ -400,7 +453,10 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
 
     fn extract(&self, ws: &Workspace<'_, D>, mut i: u32, out: &mut [[f64; D]]) -> Found {
         let last = ws.node(i);
-        let found = Found { trajectory: Some(last.j), collisions: last.c as u32 };
+        let found = Found {
+            trajectory: Some(last.j),
+            collisions: last.c as u32,
+        };
         loop {
             let n = ws.node(i);
             out[n.t as usize] = n.q;
@@ -420,4 +476,3 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         Some(c)
     }
 }
-

@@ -80,7 +80,11 @@ impl<'a> OpenList<'a> {
                     break;
                 }
                 let r = l + 1;
-                let c = if r < self.len && self.items[r].before(&self.items[l]) { r } else { l };
+                let c = if r < self.len && self.items[r].before(&self.items[l]) {
+                    r
+                } else {
+                    l
+                };
                 if !self.items[c].before(&last) {
                     break;
                 }
@@ -103,10 +107,22 @@ mod tests {
         let mut open = OpenList::new(&mut buf);
         let fs = [5.0, 1.0, 3.0, 1.0, 9.0, 0.5, 7.0, 2.0];
         for (i, f) in fs.iter().enumerate() {
-            assert!(open.push(OpenEntry { f: *f, t: i as u32 % 3, node: i as u32 }));
+            assert!(open.push(OpenEntry {
+                f: *f,
+                t: i as u32 % 3,
+                node: i as u32
+            }));
         }
-        assert!(!open.push(OpenEntry { f: 0.0, t: 0, node: 99 }));
-        let mut last = OpenEntry { f: f64::NEG_INFINITY, t: u32::MAX, node: 0 };
+        assert!(!open.push(OpenEntry {
+            f: 0.0,
+            t: 0,
+            node: 99
+        }));
+        let mut last = OpenEntry {
+            f: f64::NEG_INFINITY,
+            t: u32::MAX,
+            node: 0,
+        };
         let mut n = 0;
         while let Some(e) = open.pop() {
             assert!(!e.before(&last), "{e:?} popped after {last:?}");

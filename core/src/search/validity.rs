@@ -4,10 +4,12 @@
 use core::cell::RefCell;
 
 use crate::collision::ArmPose;
-use crate::problem::MAX_ROBOTS;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
-use crate::motion::{motion_is_free, motion_near_point, motions_collide_posed, near_point, ArmMotion};
+use crate::motion::{
+    motion_is_free, motion_near_point, motions_collide_posed, near_point, ArmMotion,
+};
+use crate::problem::MAX_ROBOTS;
 
 use super::{OtherArm, OthersMode, PointConstraint};
 
@@ -120,18 +122,34 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see
     /// [`crate::motion`]). Returns the number of other robots met on the way.
     pub fn motion(&self, a: &[f64; D], b: &[f64; D], t: usize) -> Option<u16> {
-        let ends = [ArmPose::new::<M, D>(&self.base, a), ArmPose::new::<M, D>(&self.base, b)];
+        let ends = [
+            ArmPose::new::<M, D>(&self.base, a),
+            ArmPose::new::<M, D>(&self.base, b),
+        ];
         self.motion_posed(a, b, &ends, t)
     }
 
     /// [`Validity::motion`] for a caller that already placed the arm at `a` and `b`.
-    pub fn motion_posed(&self, a: &[f64; D], b: &[f64; D], ends: &[ArmPose; 2], t: usize) -> Option<u16> {
-        let me = ArmMotion { base: &self.base, from: a, to: b };
+    pub fn motion_posed(
+        &self,
+        a: &[f64; D],
+        b: &[f64; D],
+        ends: &[ArmPose; 2],
+        t: usize,
+    ) -> Option<u16> {
+        let me = ArmMotion {
+            base: &self.base,
+            from: a,
+            to: b,
+        };
         if !motion_is_free::<M, D>(&me, self.obstacles, self.motion_step) {
             return None;
         }
         for pc in self.points {
-            if pc.segment && pc.t as usize == t && motion_near_point::<M, D>(&me, &pc.p, pc.margin, self.motion_step) {
+            if pc.segment
+                && pc.t as usize == t
+                && motion_near_point::<M, D>(&me, &pc.p, pc.margin, self.motion_step)
+            {
                 return None;
             }
         }
@@ -140,7 +158,11 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         let cache = self.others_at.borrow();
         let mut c = 0u16;
         for (o, other) in self.others.iter().enumerate() {
-            let theirs = ArmMotion { base: &other.base, from: &other.path[t], to: &other.path[t + 1] };
+            let theirs = ArmMotion {
+                base: &other.base,
+                from: &other.path[t],
+                to: &other.path[t + 1],
+            };
             let their_ends = [cache[t % 2].1[o], cache[(t + 1) % 2].1[o]];
             if motions_collide_posed::<M, D>(&me, ends, &theirs, &their_ends, self.motion_step) {
                 if self.others_mode == OthersMode::Avoid {

@@ -29,7 +29,15 @@ pub struct Node<const D: usize> {
 
 impl<const D: usize> Default for Node<D> {
     fn default() -> Self {
-        Node { q: [0.0; D], g: 0.0, parent: u32::MAX, t: 0, c: 0, j: 0, closed: false }
+        Node {
+            q: [0.0; D],
+            g: 0.0,
+            parent: u32::MAX,
+            t: 0,
+            c: 0,
+            j: 0,
+            closed: false,
+        }
     }
 }
 
@@ -76,7 +84,13 @@ impl<'a, const D: usize> Workspace<'a, D> {
         // The buffers may come from an earlier workspace whose slots carry epochs this one
         // would take for its own: start from a clean table.
         table.iter_mut().for_each(|s| *s = Slot::default());
-        Ok(Workspace { nodes, used: 0, open: OpenList::new(open), table, epoch: 0 })
+        Ok(Workspace {
+            nodes,
+            used: 0,
+            open: OpenList::new(open),
+            table,
+            epoch: 0,
+        })
     }
 
     /// Node capacity.
@@ -136,7 +150,10 @@ impl<'a, const D: usize> Workspace<'a, D> {
         let i = self.used as u32;
         self.nodes[self.used] = node;
         self.used += 1;
-        self.table[slot] = Slot { epoch: self.epoch, node: i };
+        self.table[slot] = Slot {
+            epoch: self.epoch,
+            node: i,
+        };
         Some(i)
     }
 }
@@ -156,7 +173,12 @@ impl<const D: usize> StateKey<D> {
         for (c, v) in cells.iter_mut().zip(q) {
             *c = libm::round(v / resolution) as i32;
         }
-        StateKey { cells, t, j, resolution }
+        StateKey {
+            cells,
+            t,
+            j,
+            resolution,
+        }
     }
 
     /// A fixed (not randomly seeded) hash, so runs are repeatable.

@@ -34,7 +34,10 @@ pub struct Args {
 pub fn run(args: &Args) -> ExitCode {
     for p in &args.planners {
         if !PLANNERS.contains(&p.as_str()) {
-            return bad_input(format!("--planners: unknown planner {p:?} (known: {})", PLANNERS.join(", ")));
+            return bad_input(format!(
+                "--planners: unknown planner {p:?} (known: {})",
+                PLANNERS.join(", ")
+            ));
         }
     }
     let defaults = BenchOptions::default();
@@ -48,7 +51,10 @@ pub fn run(args: &Args) -> ExitCode {
     };
     match run_bench(&args.suite_dir, &opts) {
         Ok(report) => {
-            println!("{}", std::fs::read_to_string(&report.summary_path).unwrap_or_default());
+            println!(
+                "{}",
+                std::fs::read_to_string(&report.summary_path).unwrap_or_default()
+            );
             println!("results: {}", report.results_path.display());
             for p in &report.plots {
                 println!("plot: {}", p.display());
@@ -57,7 +63,10 @@ pub fn run(args: &Args) -> ExitCode {
                 eprintln!("plots not drawn: {e}");
             }
             if !report.summary.invalid.is_empty() {
-                eprintln!("error: {} reported successes failed validation", report.summary.invalid.len());
+                eprintln!(
+                    "error: {} reported successes failed validation",
+                    report.summary.invalid.len()
+                );
                 return ExitCode::from(1);
             }
             ExitCode::SUCCESS

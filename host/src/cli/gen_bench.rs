@@ -21,7 +21,10 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    let opts = GenOptions { seed: args.seed, per_family: args.per_family };
+    let opts = GenOptions {
+        seed: args.seed,
+        per_family: args.per_family,
+    };
     match gen_bench(&args.outdir, &opts) {
         Ok(r) => {
             println!(

@@ -2,9 +2,9 @@
 //! line answered), 1 a negative answer (not solved, invalid, some line failed), 2 bad input
 //! or usage (clap exits with 2 on usage errors too).
 
+pub mod bench;
 pub mod demo;
 pub mod execute;
-pub mod bench;
 pub mod fk;
 pub mod gen_bench;
 pub mod ik;
