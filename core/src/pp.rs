@@ -10,7 +10,7 @@ use crate::model::Model;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::{
-    plan, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, Workspace,
+    plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, Workspace,
 };
 
 /// Which Ω-A* the robots use.
@@ -78,6 +78,10 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             self.variant == Variant::SingleGoal,
         );
         loop {
+            // Attempts that fail at once never reach Ω-A*'s own deadline checks.
+            if deadline.expired() {
+                return Status::Timeout;
+            }
             match self.attempt::<M>(problem, h, &orders, &deadline, out, stats) {
                 Ok(true) => return Status::Solved,
                 Ok(false) => {}
