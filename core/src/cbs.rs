@@ -13,7 +13,7 @@
 //! `Status::OutOfMemory` naming it.
 
 use crate::collision::ArmPose;
-use crate::model::Model;
+use crate::model::{Frame, Model};
 use crate::motion::{motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::pp::Orders;
@@ -594,16 +594,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             }
             if t + 1 < self.h {
                 let next = place(t + 1);
-                let ma = ArmMotion {
-                    base: bi,
-                    from: &pi[t],
-                    to: &pi[t + 1],
-                };
-                let mb = ArmMotion {
-                    base: bk,
-                    from: &pk[t],
-                    to: &pk[t + 1],
-                };
+                let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
                 let (ea, eb) = ([now[0], next[0]], [now[1], next[1]]);
                 if motions_collide_posed::<M, D>(&ma, &ea, &mb, &eb, self.params.low.motion_step) {
                     c = c.saturating_add(1);
@@ -648,16 +639,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                             margin: 0.0,
                         })
                     } else if t + 1 < self.h {
-                        let ma = ArmMotion {
-                            base: bi,
-                            from: &pi[t],
-                            to: &pi[t + 1],
-                        };
-                        let mb = ArmMotion {
-                            base: bk,
-                            from: &pk[t],
-                            to: &pk[t + 1],
-                        };
+                        let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
                         motions_contact::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| {
                             PointConstraint {
                                 t: t as u16,
@@ -683,6 +665,19 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             out.assignment[i] = (node.assignment[i] != HOLD).then_some(node.assignment[i]);
             out.paths[i * self.h..(i + 1) * self.h].copy_from_slice(self.slot(node.slots[i]));
         }
+    }
+}
+
+/// A robot's motion from step `t` to `t + 1` of `path`.
+fn step_motion<'a, const D: usize>(
+    base: &'a Frame,
+    path: &'a [[f64; D]],
+    t: usize,
+) -> ArmMotion<'a, D> {
+    ArmMotion {
+        base,
+        from: &path[t],
+        to: &path[t + 1],
     }
 }
 
