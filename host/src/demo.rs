@@ -27,8 +27,8 @@ use serde_json::Map;
 
 use crate::execute::CheckedSolution;
 use crate::format::{
-    Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec, TrajectorySpec,
-    PROBLEM_FORMAT, SOLUTION_FORMAT,
+    joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
+    TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::pose::from_frame;
 
@@ -158,12 +158,7 @@ pub fn box_flip() -> Result<Demo, String> {
         assignment: (0..ROBOTS.len())
             .map(|k| ORDER.iter().position(|&o| o == k))
             .collect(),
-        joint_paths: Some(
-            paths
-                .iter()
-                .map(|p| p.iter().map(|q| q.to_vec()).collect())
-                .collect(),
-        ),
+        joint_paths: Some(joint_paths_value(&paths)),
         stats: Map::new(),
     };
     let checked = CheckedSolution::new(problem, witness).map_err(|e| e.to_string())?;

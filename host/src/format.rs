@@ -182,3 +182,11 @@ pub struct SolutionFile {
     #[serde(default)]
     pub stats: Map<String, Value>,
 }
+
+/// Fixed-size joint paths (`paths[i][t]`) as the file writes them.
+pub fn joint_paths_value<const D: usize>(paths: &[Vec<[f64; D]>]) -> Vec<Vec<Vec<f64>>> {
+    paths
+        .iter()
+        .map(|p| p.iter().map(|q| q.to_vec()).collect())
+        .collect()
+}

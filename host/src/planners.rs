@@ -4,7 +4,9 @@
 use std::time::Instant;
 
 use crate::error::InputError;
-use crate::format::{ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT};
+use crate::format::{
+    joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
+};
 use crate::load;
 use crate::models::ModelKind;
 use crate::validate::validate;
@@ -303,12 +305,8 @@ impl Outcome {
             } else {
                 Vec::new()
             },
-            joint_paths: (status == FileStatus::Solved).then(|| {
-                self.joint_paths
-                    .iter()
-                    .map(|p| p.iter().map(|q| q.to_vec()).collect())
-                    .collect()
-            }),
+            joint_paths: (status == FileStatus::Solved)
+                .then(|| joint_paths_value(&self.joint_paths)),
             stats,
         }
     }

@@ -9,7 +9,7 @@ use omcbsa::demo::{box_flip, Demo, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::SolutionFile;
 use omcbsa_hw::transport::mock::MockTransport;
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, PlanValidator, Transport};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, PlanValidator};
 
 fn demo() -> Demo {
     box_flip().unwrap_or_else(|e| panic!("{e}"))
@@ -82,15 +82,7 @@ fn the_executor_gate_sends_nothing_for_an_invalid_solution() {
     let checked = CheckedSolution::new(demo.problem, broken(&demo.witness)).unwrap();
     assert!(!checked.report().is_valid());
     let plan = checked.plan(&ROBOTS).unwrap();
-    let mut devices = Vec::new();
-    let buses: Vec<(String, Box<dyn Transport>)> = ROBOTS
-        .iter()
-        .map(|r| {
-            let (host, device) = MockTransport::pair(r);
-            devices.push(device);
-            (r.to_string(), Box::new(host) as Box<dyn Transport>)
-        })
-        .collect();
+    let (buses, devices) = MockTransport::buses(&ROBOTS);
     let exec = Executor::new(
         plan,
         JointLimits::kinova_gen3(),

@@ -111,15 +111,7 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
 #[test]
 fn in_process_arm_that_never_answers_receives_only_the_first_sdo() {
     let plan = three_arm_plan(3);
-    let mut devices = Vec::new();
-    let buses: Vec<(String, Box<dyn Transport>)> = ARMS[..]
-        .iter()
-        .map(|n| {
-            let (host, dev) = MockTransport::pair(n);
-            devices.push(dev);
-            (n.to_string(), Box::new(host) as Box<dyn Transport>)
-        })
-        .collect();
+    let (buses, devices) = MockTransport::buses(&ARMS);
     let exec = Executor::new(
         plan,
         JointLimits::kinova_gen3(),

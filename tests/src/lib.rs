@@ -79,6 +79,29 @@ pub fn cuboid(name: &str, c: [f64; 3], half: [f64; 3]) -> Value {
     json!({"name": name, "shape": "box", "half_extents": half, "pose": {"position": c, "quat_xyzw": [0, 0, 0, 1]}})
 }
 
+/// Two arms on `bases`, each drawing one hand trajectory with its witness path; the
+/// trajectories are listed in the reverse order (trajectory 0 is robot 1's).
+pub fn swapped_pair_problem(
+    name: &str,
+    bases: [Frame; 2],
+    paths: [&[[f64; DOF]]; 2],
+    obstacles: Vec<Value>,
+) -> ProblemFile {
+    problem_json(
+        name,
+        0.2,
+        vec![
+            robot_json("a", &bases[0], None),
+            robot_json("b", &bases[1], None),
+        ],
+        vec![
+            trajectory_json("h1", &bases[1], paths[1]),
+            trajectory_json("h0", &bases[0], paths[0]),
+        ],
+        obstacles,
+    )
+}
+
 /// A smooth joint path: `q0 + amp * sin(pi * t / (H - 1))` per joint.
 pub fn smooth_path(q0: &[f64; DOF], amp: &[f64; DOF], h: usize) -> Vec<[f64; DOF]> {
     (0..h)
@@ -255,14 +278,10 @@ pub fn facing_pair_problem(seed: u64) -> Option<ProblemFile> {
     if !witness_is_valid(&[b0, b1], &[p0.clone(), p1.clone()], &[], 0.2) {
         return None;
     }
-    Some(problem_json(
+    Some(swapped_pair_problem(
         &format!("facing_pair_{seed}"),
-        0.2,
-        vec![robot_json("a", &b0, None), robot_json("b", &b1, None)],
-        vec![
-            trajectory_json("h1", &b1, &p1),
-            trajectory_json("h0", &b0, &p0),
-        ],
+        [b0, b1],
+        [&p0, &p1],
         vec![],
     ))
 }
@@ -277,19 +296,7 @@ pub fn listed_order_wrong_problem() -> ProblemFile {
     let b1 = frame([0.0, 0.7, 0.0], [0.0, 0.0, 0.0]);
     let p0 = smooth_path(&HOME, &[0.4, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
     let p1 = smooth_path(&HOME, &[-0.4, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
-    problem_json(
-        "listed_order_wrong",
-        0.2,
-        vec![
-            robot_json("left", &b0, None),
-            robot_json("right", &b1, None),
-        ],
-        vec![
-            trajectory_json("right_hand", &b1, &p1),
-            trajectory_json("left_hand", &b0, &p0),
-        ],
-        vec![],
-    )
+    swapped_pair_problem("listed_order_wrong", [b0, b1], [&p0, &p1], vec![])
 }
 
 /// Two arms, two hands; no arm can track trajectory 0, whose hand passes through a ball at

@@ -14,16 +14,7 @@ fn every_planner_solves_an_easy_two_arm_problem() {
     let b1 = frame([0.0, 0.45, 0.0], [0.0, 0.0, 0.0]);
     let p0 = smooth_path(&HOME, &[0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 20);
     let p1 = smooth_path(&HOME, &[-0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 20);
-    let file = problem_json(
-        "easy_pair",
-        0.2,
-        vec![robot_json("a", &b0, None), robot_json("b", &b1, None)],
-        vec![
-            trajectory_json("h1", &b1, &p1),
-            trajectory_json("h0", &b0, &p0),
-        ],
-        vec![],
-    );
+    let file = swapped_pair_problem("easy_pair", [b0, b1], [&p0, &p1], vec![]);
     for planner in omcbsa::planners::PLANNERS {
         let sol = plan_and_validate(&file, planner, 5.0);
         assert_eq!(sol.status, Status::Solved, "{planner}: {}", sol.message);

@@ -3,8 +3,8 @@
 #![allow(dead_code)] // Each test file uses a different part of this module.
 
 use omcbsa::format::{
-    Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec, TrajectorySpec,
-    PROBLEM_FORMAT, SOLUTION_FORMAT,
+    joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
+    TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use omcbsa::pose;
 use omcbsa_core::model::{KinovaGen3, Model};
@@ -75,12 +75,7 @@ pub fn solution(assignment: Vec<Option<usize>>, paths: Vec<Vec<Q>>) -> SolutionF
         message: String::new(),
         planning_time_s: 0.0,
         assignment,
-        joint_paths: Some(
-            paths
-                .iter()
-                .map(|p| p.iter().map(|q| q.to_vec()).collect())
-                .collect(),
-        ),
+        joint_paths: Some(joint_paths_value(&paths)),
         stats: Map::new(),
     }
 }

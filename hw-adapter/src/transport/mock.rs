@@ -32,6 +32,20 @@ impl MockTransport {
         )
     }
 
+    /// One mock bus per arm: the host ends, named after the arms (for an executor), and the
+    /// device ends, in the same order (for the test to read or answer).
+    pub fn buses(arms: &[&str]) -> (Vec<(String, Box<dyn Transport>)>, Vec<MockTransport>) {
+        arms.iter()
+            .map(|name| {
+                let (host, device) = Self::pair(name);
+                (
+                    (name.to_string(), Box::new(host) as Box<dyn Transport>),
+                    device,
+                )
+            })
+            .unzip()
+    }
+
     /// Every frame received so far, without waiting.
     pub fn drain(&mut self) -> Vec<CanFrame> {
         self.rx.try_iter().collect()
