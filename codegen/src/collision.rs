@@ -41,6 +41,8 @@ pub struct Geometry {
     pub self_pairs: Vec<(u8, u8)>,
     /// Per actuated joint; see [`reach`].
     pub reach: Vec<f64>,
+    /// Per capsule, per actuated joint; see [`capsule_reach`].
+    pub capsule_reach: Vec<Vec<f64>>,
 }
 
 /// `file` is `(name for messages, JSON text)`; without one the model has no capsules.
@@ -51,10 +53,12 @@ pub fn geometry(chain: &Chain, model: &str, file: Option<(&str, &str)>) -> Resul
     };
     let self_pairs = self_pairs(chain, &capsules, &disabled);
     let reach = reach(chain, &capsules);
+    let capsule_reach = capsule_reach(chain, &capsules);
     Ok(Geometry {
         capsules,
         self_pairs,
         reach,
+        capsule_reach,
     })
 }
 
@@ -169,16 +173,8 @@ fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
     // farthest[l]: farthest point of link l's capsules from the link's origin (0: its origin)
     let mut farthest = vec![0.0f64; chain.links.len()];
     for c in capsules {
-        let far = norm(c.a).max(norm(c.b)) + c.radius;
-        farthest[c.link] = farthest[c.link].max(far);
+        farthest[c.link] = farthest[c.link].max(capsule_extent(c));
     }
-    let offset = |joint: &crate::chain::Joint| {
-        let extension = match joint.motion {
-            Motion::Prismatic { .. } => joint.lower.abs().max(joint.upper.abs()),
-            _ => 0.0,
-        };
-        norm(joint.origin.pos) + extension
-    };
     let mut reach = Vec::new();
     for (j, joint) in chain.joints.iter().enumerate() {
         match joint.motion {
@@ -189,7 +185,7 @@ fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
                 let mut path = 0.0;
                 let mut bound = farthest[j + 1];
                 for (k, next) in chain.joints.iter().enumerate().skip(j + 1) {
-                    path += offset(next);
+                    path += joint_offset(next);
                     bound = bound.max(path + farthest[k + 1]);
                 }
                 reach.push(bound);
@@ -197,6 +193,49 @@ fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
         }
     }
     reach
+}
+
+/// For each capsule and actuated joint, the same bound as [`reach`] for that capsule's points
+/// alone: 0 for a joint downstream of the capsule's link (it does not move it), else the
+/// offsets from the joint to the capsule's link plus the capsule's extent. Proximal capsules
+/// get far smaller bounds than the whole arm's, so their motions are checked with far
+/// smaller margins.
+fn capsule_reach(chain: &Chain, capsules: &[Capsule]) -> Vec<Vec<f64>> {
+    capsules
+        .iter()
+        .map(|c| {
+            let mut row = Vec::new();
+            for (j, joint) in chain.joints.iter().enumerate() {
+                let upstream = j < c.link;
+                match joint.motion {
+                    Motion::Fixed => {}
+                    _ if !upstream => row.push(0.0),
+                    Motion::Prismatic { .. } => row.push(1.0),
+                    Motion::Revolute { .. } => {
+                        // joint j's origin is the origin of link j + 1; joint k leads to k + 1
+                        let path: f64 = chain.joints[j + 1..c.link].iter().map(joint_offset).sum();
+                        row.push(path + capsule_extent(c));
+                    }
+                }
+            }
+            row
+        })
+        .collect()
+}
+
+/// Farthest point of a capsule from its link's origin.
+fn capsule_extent(c: &Capsule) -> f64 {
+    norm(c.a).max(norm(c.b)) + c.radius
+}
+
+/// How far a joint's child origin can be from its parent's origin: the fixed offset plus, for
+/// a prismatic joint, its largest extension.
+fn joint_offset(joint: &crate::chain::Joint) -> f64 {
+    let extension = match joint.motion {
+        Motion::Prismatic { .. } => joint.lower.abs().max(joint.upper.abs()),
+        _ => 0.0,
+    };
+    norm(joint.origin.pos) + extension
 }
 
 #[cfg(test)]

@@ -368,6 +368,14 @@ pub fn model(
         "    const REACH: [f64; {d}] = [{}];",
         list(&geometry.reach, |&r| limit(r))
     );
+    let _ = writeln!(
+        w,
+        "    const CAPSULE_REACH: &'static [[f64; {d}]] = &[{}];",
+        list(&geometry.capsule_reach, |row| format!(
+            "[{}]",
+            list(row, |&r| limit(r))
+        ))
+    );
     let _ = writeln!(w);
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(

@@ -16,12 +16,11 @@ use crate::collision::ArmPose;
 use crate::model::{Frame, Model};
 use crate::motion::{motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
-use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{
     plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
-    SearchError, SearchStats, Validity, Workspace,
+    SearchError, SearchStats, StartCache, StartIk, Validity, Workspace,
 };
 use crate::tracking::track;
 
@@ -70,6 +69,8 @@ pub struct CtNode {
     /// Geometric conflicts (steps and motions) of each pair `i < k`.
     pairs: [[u16; MAX_ROBOTS]; MAX_ROBOTS],
     conflicts: u32,
+    /// Constraints on the branch (0 at the root).
+    depth: u32,
 }
 
 impl Default for CtNode {
@@ -82,6 +83,7 @@ impl Default for CtNode {
             assignment: [HOLD; MAX_ROBOTS],
             pairs: [[0; MAX_ROBOTS]; MAX_ROBOTS],
             conflicts: 0,
+            depth: 0,
         }
     }
 }
@@ -96,6 +98,9 @@ pub struct CbsStorage<'a, const D: usize> {
     pub scratch: &'a mut [[f64; D]],
     /// The constraints of the robot being replanned.
     pub points: &'a mut [PointConstraint],
+    /// Start-seed IK answers (see [`StartCache`]): `robots * start_entries(trajectories)`
+    /// entries remember them all; fewer, none.
+    pub starts: &'a mut [StartIk<D>],
 }
 
 /// The Ω-CBSA planner.
@@ -146,6 +151,12 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
             used_slots: 0,
             scratch: &mut *st.scratch,
             points: &mut *st.points,
+            starts: StartCache::new(
+                &mut *st.starts,
+                problem.robots.len(),
+                problem.trajectories.len(),
+                &self.params.low,
+            ),
             h,
             n: problem.robots.len(),
             deadline: Until { clock, at: timeout },
@@ -167,6 +178,7 @@ struct Run<'r, 's, M, const D: usize> {
     used_slots: usize,
     scratch: &'r mut [[f64; D]],
     points: &'r mut [PointConstraint],
+    starts: StartCache<'r, D>,
     h: usize,
     n: usize,
     deadline: Until<'r>,
@@ -227,9 +239,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         self.nodes[self.used_nodes] = node;
         self.used_nodes += 1;
         self.stats.ct_nodes += 1;
+        // Among nodes with as few conflicts, the deepest first: it is the closest to a
+        // solution along its branch, and diving finds one sooner than widening.
         if self.open.push(OpenEntry {
             f: node.conflicts as f64,
-            t: 0,
+            t: node.depth,
             node: id,
         }) {
             Ok(())
@@ -265,41 +279,47 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         }
     }
 
-    /// The root. Warm start (within `warm_start_seconds`): priority orders in turn; in each,
-    /// every robot is placed by repeated IK tracking or, failing that, by Ω-A*, avoiding the
-    /// robots placed before it; the first order that places every robot gives a root with no
-    /// conflicts. Otherwise robots in index order by Ω-A* with collisions counted. Only the
-    /// root is built this way: every child replans by Ω-A* under its constraints, so
-    /// completeness is kept.
+    /// The root: robots in index order, each placed by repeated IK tracking (the warm start:
+    /// a few seeds per trajectory no earlier robot took, clear of the earlier robots, within
+    /// `warm_start_seconds`) or, failing that, by Ω-A* with its collisions with the earlier
+    /// robots counted. Only the root is built this way: every child replans by Ω-A* under its
+    /// constraints, so completeness is kept.
     fn root(&mut self, clock: &dyn Clock) -> Result<CtNode, Status> {
         let warm = Until {
             clock,
             at: self.params.warm_start_seconds.min(self.deadline.at),
         };
-        if self.params.warm_start_seconds > 0.0 {
-            let mut orders = Orders::new(self.n, self.pr.trajectories.len(), false);
-            loop {
-                let mark = self.used_slots;
-                if let Some(node) = self.root_in_order(&orders.order, &warm)? {
-                    self.stats.warm_start_solved = node.conflicts == 0;
-                    return Ok(node);
-                }
-                self.used_slots = mark;
-                if warm.expired() || !orders.advance() {
-                    break;
-                }
-            }
-        }
         let mut node = CtNode::default();
+        let mut taken = 0u32;
         for i in 0..self.n {
-            node.assignment[i] =
-                self.low_level(i, &node, self.all_trajectories(), 0, (1u32 << i) - 1)?;
+            let placed = (1u32 << i) - 1;
+            let left = self.all_trajectories() & !taken;
+            let tracked = if self.params.warm_start_seconds > 0.0 && left != 0 {
+                self.warm_track(i, &node, placed, left, &warm)
+            } else {
+                None
+            };
+            node.assignment[i] = match tracked {
+                Some(j) => j,
+                // A trajectory left free first; if the robot can track none of them, any
+                // (the assignment conflict is then the tree's to resolve).
+                None => match self.low_level(i, &node, left, 0, placed) {
+                    Err(Status::NoSolution) if left != self.all_trajectories() => {
+                        self.low_level(i, &node, self.all_trajectories(), 0, placed)?
+                    }
+                    r => r?,
+                },
+            };
+            if node.assignment[i] != HOLD {
+                taken |= 1 << node.assignment[i];
+            }
             node.slots[i] = self.keep_scratch()?;
         }
         if self.too_many_holders(&node) {
             return Err(Status::NoSolution);
         }
         self.finish(&mut node);
+        self.stats.warm_start_solved = node.conflicts == 0;
         Ok(node)
     }
 
@@ -311,52 +331,6 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             }
         }
         node.conflicts = self.count(node);
-    }
-
-    /// One warm-start pass in priority `order`; `None` when some robot cannot be placed.
-    fn root_in_order(
-        &mut self,
-        order: &[u8; MAX_ROBOTS],
-        warm: &Until<'_>,
-    ) -> Result<Option<CtNode>, Status> {
-        let mut node = CtNode::default();
-        let (mut placed, mut taken) = (0u32, 0u32);
-        for (rank, &r) in order[..self.n].iter().enumerate() {
-            let r = r as usize;
-            let left = self.all_trajectories() & !taken;
-            // Hold only if the robots still to place can cover what is left without it.
-            let hold = self.can_hold() && (self.n - rank) as u32 > left.count_ones();
-            let assigned = match self.warm_track(r, &node, placed, left, warm) {
-                Some(j) => j,
-                None => match self.low_level_in(
-                    r,
-                    &node,
-                    left,
-                    0,
-                    placed,
-                    OthersMode::Avoid,
-                    hold,
-                    Some(warm),
-                ) {
-                    Ok(j) => j,
-                    Err(Status::NoSolution | Status::Timeout) if !self.deadline.expired() => {
-                        return Ok(None)
-                    }
-                    Err(s) => return Err(s),
-                },
-            };
-            if assigned != HOLD {
-                taken |= 1 << assigned;
-            }
-            node.assignment[r] = assigned;
-            node.slots[r] = self.keep_scratch()?;
-            placed |= 1 << r;
-        }
-        if self.too_many_holders(&node) {
-            return Ok(None);
-        }
-        self.finish(&mut node);
-        Ok(Some(node))
     }
 
     /// Tries IK tracking of each trajectory in `left` from a few seeds, avoiding the robots in
@@ -472,6 +446,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             others_mode: mode,
             points: &self.points[..npoints],
             dt: self.pr.dt,
+            starts: self.starts.robot(i),
         };
         let mut s = SearchStats::default();
         self.stats.low_level_calls += 1;
@@ -536,6 +511,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         };
         let mut child = *parent;
         child.parent = id;
+        child.depth = parent.depth + 1;
         child.robot = robot as u8;
         child.constraint = constraint;
         child.slots[robot] = self.keep_scratch()?;
@@ -595,8 +571,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             if t + 1 < self.h {
                 let next = place(t + 1);
                 let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
-                let (ea, eb) = ([now[0], next[0]], [now[1], next[1]]);
-                if motions_collide_posed::<M, D>(&ma, &ea, &mb, &eb, self.params.low.motion_step) {
+                let (ea, eb) = ([&now[0], &next[0]], [&now[1], &next[1]]);
+                if motions_collide_posed::<M, D>(&ma, ea, &mb, eb, self.params.low.motion_step) {
                     c = c.saturating_add(1);
                 }
                 now = next;

@@ -47,7 +47,7 @@ use crate::model::{Frame, Model};
 ///
 /// ArmPose::new::<TooMany, 1>(&Frame::IDENTITY, &[0.0]);
 /// ```
-pub const MAX_ARM_CAPSULES: usize = 24;
+pub const MAX_ARM_CAPSULES: usize = 16;
 /// Most link frames one arm model may have (a model with more does not compile).
 pub const MAX_LINK_FRAMES: usize = 16;
 /// Most configurations a [`Sweep`] checks; beyond that its margin grows instead.
@@ -232,22 +232,27 @@ impl ArmPose {
 
 /// A straight joint-space motion of model `M` from `q0` to `q1`, split into `count` equal
 /// pieces. Moving joint `j` by `dq` moves no link point by more than `REACH[j] * |dq|`, so
-/// along the whole motion no point moves more than `length = sum_j REACH[j] |q1_j - q0_j|`,
-/// and over a piece of `k` of the `count` pieces no point is farther than
-/// `length * k / (2 count)` from where it is at the piece's middle. Each link then stays
-/// inside its capsules at that middle configuration inflated by that much: if that check is
-/// clear, so is the whole piece, ends included.
+/// along the whole motion no point moves more than `length = sum_j REACH[j] |q1_j - q0_j|`
+/// (points on the base link do not move at all), and over a piece of `k` of the `count`
+/// pieces no point is farther than `length * k / (2 count)` from where it is at the piece's
+/// middle. Each link then stays inside its capsules at that middle configuration inflated by
+/// that much: if that check is clear, so is the whole piece, ends included.
 ///
-/// [`Sweep::arm_collides`] and [`sweeps_collide`] use this from the top down: one check of
-/// the whole motion, then of its halves where that fails, down to single pieces (inflated by
-/// [`Sweep::margin`]), so that a motion far from everything costs one check, and one near
-/// something costs at most about twice the `count` checks of a uniform pass. A motion is
-/// reported as colliding only when a single-piece check fails.
+/// The checks work pair by pair (a capsule and an obstacle, or two capsules). First at the
+/// two ends of the motion: clearance falls by at most the distance the pair's points travel
+/// towards each other, from either end, so a pair whose clearances at the ends add up to more
+/// than that cannot meet on the way and is dropped with no further placing of the arm. The
+/// pairs left are checked from the top down: once for the whole motion at its middle, then
+/// on the halves where that fails, down to single pieces (inflated by [`Sweep::margin`]); a
+/// pair that clears a check is not looked at again inside it. A motion is reported as
+/// colliding only when a single-piece check fails.
 #[derive(Debug)]
 pub struct Sweep<M: Model<D>, const D: usize> {
     q0: [f64; D],
     dq: [f64; D],
     length: f64,
+    /// Per capsule, bound on how far its points travel (from `Model::CAPSULE_REACH`).
+    travel: [f64; MAX_ARM_CAPSULES],
     count: usize,
     model: PhantomData<M>,
 }
@@ -261,6 +266,39 @@ impl<M: Model<D>, const D: usize> Clone for Sweep<M, D> {
 
 impl<M: Model<D>, const D: usize> Copy for Sweep<M, D> {}
 
+/// Capsule pairs still in question: bit `j` of row `i` stands for capsule `i` of one arm and
+/// capsule `j` of the other (or of the same arm).
+type Pairs = [u32; MAX_ARM_CAPSULES];
+
+/// What one arm's motion may still hit: capsules that may meet an obstacle, and self pairs.
+#[derive(Clone, Copy)]
+struct Suspects {
+    obstacles: u32,
+    pairs: Pairs,
+}
+
+impl Suspects {
+    const NONE: Suspects = Suspects {
+        obstacles: 0,
+        pairs: [0; MAX_ARM_CAPSULES],
+    };
+
+    fn any(&self) -> bool {
+        self.obstacles != 0 || self.pairs.iter().any(|&r| r != 0)
+    }
+}
+
+/// The indices of the set bits of `m`, lowest first.
+fn bits(mut m: u32) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            i
+        })
+    })
+}
+
 impl<M: Model<D>, const D: usize> Sweep<M, D> {
     /// Pieces short enough that no link point moves more than `max_disp` over one (so
     /// `margin <= max_disp / 2`), unless that takes more than [`MAX_SWEEP_CHECKS`] pieces.
@@ -269,6 +307,14 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
     pub fn new(q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
         let dq = core::array::from_fn(|j| q1[j] - q0[j]);
         let length = (0..D).map(|j| M::REACH[j] * libm::fabs(dq[j])).sum::<f64>();
+        let mut travel = [0.0; MAX_ARM_CAPSULES];
+        for (i, (t, c)) in travel.iter_mut().zip(M::CAPSULES).enumerate() {
+            *t = match M::CAPSULE_REACH.get(i) {
+                Some(reach) => (0..D).map(|j| reach[j] * libm::fabs(dq[j])).sum::<f64>(),
+                None if c.link == 0 => 0.0,
+                None => length,
+            };
+        }
         let pieces = if max_disp > 0.0 {
             libm::ceil(length / max_disp)
         } else {
@@ -278,6 +324,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             q0: *q0,
             dq,
             length,
+            travel,
             count: 1,
             model: PhantomData,
         }
@@ -324,50 +371,183 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
         core::array::from_fn(|j| self.q0[j] + self.dq[j] * s)
     }
 
-    /// Whether the arm may hit an obstacle or itself anywhere along the motion. Two links
-    /// of one arm may each be off by the margin, so self pairs are checked at twice it.
+    /// The arm at both ends of the motion.
+    pub fn ends(&self, base: &Frame) -> [ArmPose; 2] {
+        [
+            ArmPose::new::<M, D>(base, &self.q0),
+            ArmPose::new::<M, D>(base, &self.at(1.0)),
+        ]
+    }
+
+    /// Bound on how far the points of capsule `i` travel over the motion.
+    fn travel(&self, i: usize) -> f64 {
+        self.travel[i]
+    }
+
+    /// Whether the arm may hit an obstacle or itself anywhere along the motion.
     pub fn arm_collides(&self, base: &Frame, obstacles: &[Obstacle]) -> bool {
-        bisect(0, self.count, self.count, &|s, half_width| {
+        let [e0, e1] = self.ends(base);
+        self.arm_collides_posed(base, obstacles, [&e0, &e1])
+    }
+
+    /// [`Sweep::arm_collides`] for a caller that already placed the arm at both ends.
+    pub fn arm_collides_posed(
+        &self,
+        base: &Frame,
+        obstacles: &[Obstacle],
+        ends: [&ArmPose; 2],
+    ) -> bool {
+        let [e0, e1] = ends;
+        let mut suspects = Suspects::NONE;
+        let moving = e0.moving_aabb.union(&e1.moving_aabb);
+        for o in obstacles {
+            let ob = o.aabb();
+            if !ob.near(&moving, self.length) {
+                continue;
+            }
+            for i in (0..e0.len).filter(|&i| e0.on_base & (1 << i) == 0) {
+                let t = self.travel(i);
+                if suspects.obstacles & (1 << i) != 0
+                    || ob.distance(&e0.boxes[i]) + ob.distance(&e1.boxes[i]) > t
+                    || o.distance_to_capsule(&e0.capsules[i])
+                        + o.distance_to_capsule(&e1.capsules[i])
+                        > t
+                {
+                    continue;
+                }
+                suspects.obstacles |= 1 << i;
+            }
+        }
+        for &(a, b) in e0.self_pairs {
+            let (a, b) = (usize::from(a), usize::from(b));
+            let t = self.travel(a) + self.travel(b);
+            if e0.boxes[a].distance(&e0.boxes[b]) + e1.boxes[a].distance(&e1.boxes[b]) > t
+                || e0.capsules[a].signed_distance(&e0.capsules[b])
+                    + e1.capsules[a].signed_distance(&e1.capsules[b])
+                    > t
+            {
+                continue;
+            }
+            suspects.pairs[a] |= 1 << b;
+        }
+        if !suspects.any() {
+            return false;
+        }
+        bisect(0, self.count, self.count, suspects, &|s, w, sus: &Suspects| {
             let arm = ArmPose::new::<M, D>(base, &self.at(s));
-            let margin = self.length * half_width;
-            arm.obstacle_hit(obstacles, margin).is_some() || arm.self_hit(2.0 * margin).is_some()
+            let mut left = Suspects::NONE;
+            for i in bits(sus.obstacles) {
+                let m = self.travel(i) * w;
+                let (c, cb) = (&arm.capsules[i], &arm.boxes[i]);
+                if obstacles
+                    .iter()
+                    .any(|o| o.aabb().near(cb, m) && o.hits_capsule(c, m))
+                {
+                    left.obstacles |= 1 << i;
+                }
+            }
+            for (a, &row) in sus.pairs.iter().enumerate() {
+                for b in bits(row) {
+                    let m = (self.travel(a) + self.travel(b)) * w;
+                    if arm.boxes[a].near(&arm.boxes[b], m)
+                        && arm.capsules[a].hits(&arm.capsules[b], m)
+                    {
+                        left.pairs[a] |= 1 << b;
+                    }
+                }
+            }
+            left.any().then_some(left)
         })
     }
 }
 
 /// Whether two arms moving at the same time (each along its sweep, over the same time span)
-/// may collide: both are checked at the same instants, with the sum of their margins, down
-/// to the finer of their pieces.
+/// may collide: both are checked at the same instants, each capsule pair with the sum of its
+/// two capsules' margins, down to the finer of their pieces.
 pub fn sweeps_collide<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usize>(
     a: &Sweep<A, DA>,
     base_a: &Frame,
     b: &Sweep<B, DB>,
     base_b: &Frame,
 ) -> bool {
+    let [a0, a1] = a.ends(base_a);
+    let [b0, b1] = b.ends(base_b);
+    sweeps_collide_posed(a, base_a, [&a0, &a1], b, base_b, [&b0, &b1])
+}
+
+/// [`sweeps_collide`] for a caller that already placed both arms at both ends.
+pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usize>(
+    a: &Sweep<A, DA>,
+    base_a: &Frame,
+    a_ends: [&ArmPose; 2],
+    b: &Sweep<B, DB>,
+    base_b: &Frame,
+    b_ends: [&ArmPose; 2],
+) -> bool {
+    let ([a0, a1], [b0, b1]) = (a_ends, b_ends);
+    let b_box = b0.aabb.union(&b1.aabb);
+    let mut pairs: Pairs = [0; MAX_ARM_CAPSULES];
+    for i in 0..a0.len {
+        let ti = a.travel(i);
+        if !a0.boxes[i].union(&a1.boxes[i]).near(&b_box, ti + b.length) {
+            continue;
+        }
+        for j in 0..b0.len {
+            let t = ti + b.travel(j);
+            if a0.boxes[i].distance(&b0.boxes[j]) + a1.boxes[i].distance(&b1.boxes[j]) > t
+                || a0.capsules[i].signed_distance(&b0.capsules[j])
+                    + a1.capsules[i].signed_distance(&b1.capsules[j])
+                    > t
+            {
+                continue;
+            }
+            pairs[i] |= 1 << j;
+        }
+    }
+    if pairs.iter().all(|&r| r == 0) {
+        return false;
+    }
     let count = a.count.max(b.count);
-    bisect(0, count, count, &|s, half_width| {
+    bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
         let arm_a = ArmPose::new::<A, DA>(base_a, &a.at(s));
         let arm_b = ArmPose::new::<B, DB>(base_b, &b.at(s));
-        arm_a
-            .arm_hit(&arm_b, (a.length + b.length) * half_width)
-            .is_some()
+        let mut left: Pairs = [0; MAX_ARM_CAPSULES];
+        for (i, &row) in pairs.iter().enumerate() {
+            for j in bits(row) {
+                let m = (a.travel(i) + b.travel(j)) * w;
+                if arm_a.boxes[i].near(&arm_b.boxes[j], m)
+                    && arm_a.capsules[i].hits(&arm_b.capsules[j], m)
+                {
+                    left[i] |= 1 << j;
+                }
+            }
+        }
+        left.iter().any(|&r| r != 0).then_some(left)
     })
 }
 
-/// Whether `hit(s, w)` holds for a single piece after checking pieces `first..end` of `count`
-/// as a whole at their middle `s`, with `w` half their width (a fraction of the motion), and
-/// then halves of the ones that fail. Recursion depth is at most `log2(MAX_SWEEP_CHECKS) + 1`.
-fn bisect(first: usize, end: usize, count: usize, hit: &impl Fn(f64, f64) -> bool) -> bool {
+/// Whether some suspect still fails on a single piece: checks pieces `first..end` of `count`
+/// as a whole at their middle `s`, with `w` half their width (a fraction of the motion), by
+/// `hit(s, w, suspects)`, which returns the suspects that fail there (`None`: all clear); then
+/// the halves, for those alone. Recursion depth is at most `log2(MAX_SWEEP_CHECKS) + 1`.
+fn bisect<S: Copy>(
+    first: usize,
+    end: usize,
+    count: usize,
+    suspects: S,
+    hit: &impl Fn(f64, f64, &S) -> Option<S>,
+) -> bool {
     let n = count as f64;
-    if !hit(
+    let Some(left) = hit(
         (first + end) as f64 / (2.0 * n),
         (end - first) as f64 / (2.0 * n),
-    ) {
+        &suspects,
+    ) else {
         return false;
-    }
+    };
     if end - first == 1 {
         return true;
     }
     let mid = (first + end) / 2;
-    bisect(first, mid, count, hit) || bisect(mid, end, count, hit)
+    bisect(first, mid, count, left, hit) || bisect(mid, end, count, left, hit)
 }

@@ -85,6 +85,9 @@ pub trait Model<const D: usize>: 'static {
     /// joint, 1) to any point of a collision primitive downstream of it. Moving joint `j` by
     /// `dq` moves no point of the arm by more than `REACH[j] * |dq|`.
     const REACH: [f64; D];
+    /// Per capsule (in the order of [`Model::CAPSULES`]), the same bound for that capsule's
+    /// points alone: 0 for joints downstream of its link. Empty: [`Model::REACH`] stands in.
+    const CAPSULE_REACH: &'static [[f64; D]] = &[];
 
     /// Pose of the tool frame in the base frame.
     fn fk(q: &[f64; D]) -> Frame;

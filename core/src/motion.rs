@@ -6,7 +6,7 @@
 
 use nalgebra::Vector3;
 
-use crate::collision::{sweeps_collide, ArmPose, Sweep};
+use crate::collision::{sweeps_collide_posed, ArmPose, Sweep};
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
 
@@ -46,6 +46,17 @@ pub fn motion_is_free<M: Model<D>, const D: usize>(
     !m.sweep::<M>(max_step).arm_collides(m.base, obstacles)
 }
 
+/// [`motion_is_free`] for a caller that already placed the arm at both ends of the step.
+pub fn motion_is_free_posed<M: Model<D>, const D: usize>(
+    m: &ArmMotion<'_, D>,
+    ends: [&ArmPose; 2],
+    obstacles: &[Obstacle],
+    max_step: f64,
+) -> bool {
+    !m.sweep::<M>(max_step)
+        .arm_collides_posed(m.base, obstacles, ends)
+}
+
 /// Whether two arms' simultaneous motions come too close (see
 /// [`crate::collision::sweeps_collide`]).
 pub fn motions_collide<M: Model<D>, const D: usize>(
@@ -59,25 +70,26 @@ pub fn motions_collide<M: Model<D>, const D: usize>(
             ArmPose::new::<M, D>(m.base, m.to),
         ]
     };
-    motions_collide_posed::<M, D>(a, &ends(a), b, &ends(b), max_step)
+    let ([a0, a1], [b0, b1]) = (ends(a), ends(b));
+    motions_collide_posed::<M, D>(a, [&a0, &a1], b, [&b0, &b1], max_step)
 }
 
 /// [`motions_collide`] for callers that already placed both arms at both ends of the step.
 pub fn motions_collide_posed<M: Model<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
-    a_ends: &[ArmPose; 2],
+    a_ends: [&ArmPose; 2],
     b: &ArmMotion<'_, D>,
-    b_ends: &[ArmPose; 2],
+    b_ends: [&ArmPose; 2],
     max_step: f64,
 ) -> bool {
     let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
     // Cheap rejection: during the step every point of an arm stays within half its sweep
     // length of where it is at one end or the other.
-    let boxed = |e: &[ArmPose; 2]| e[0].aabb().union(e[1].aabb());
+    let boxed = |e: [&ArmPose; 2]| e[0].aabb().union(e[1].aabb());
     if !boxed(a_ends).near(&boxed(b_ends), 0.5 * (sa.length() + sb.length())) {
         return false;
     }
-    sweeps_collide(&sa, a.base, &sb, b.base)
+    sweeps_collide_posed(&sa, a.base, a_ends, &sb, b.base, b_ends)
 }
 
 /// Where two arms' simultaneous motions first come too close: the same pieces and margins as
@@ -104,14 +116,33 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
     })
 }
 
-/// Whether the arm comes within `margin` of `p` anywhere along its motion.
+/// Whether the arm comes within `margin` of `p` anywhere along its motion, checked on the
+/// sweep's pieces unless the ends alone rule it out: the arm's points travel at most the
+/// sweep's length, so if `p`'s clearances from the arm at the two ends add up to more than
+/// that plus `2 margin`, no configuration between them comes within `margin` of it.
 pub fn motion_near_point<M: Model<D>, const D: usize>(
     m: &ArmMotion<'_, D>,
     p: &[f64; 3],
     margin: f64,
     max_step: f64,
 ) -> bool {
+    let [a, b] = m.sweep::<M>(max_step).ends(m.base);
+    motion_near_point_posed::<M, D>(m, [&a, &b], p, margin, max_step)
+}
+
+/// [`motion_near_point`] for a caller that already placed the arm at both ends of the step.
+pub fn motion_near_point_posed<M: Model<D>, const D: usize>(
+    m: &ArmMotion<'_, D>,
+    ends: [&ArmPose; 2],
+    p: &[f64; 3],
+    margin: f64,
+    max_step: f64,
+) -> bool {
     let sweep = m.sweep::<M>(max_step);
+    let clearance = |arm: &ArmPose| point_clearance(arm, p);
+    if clearance(ends[0]) + clearance(ends[1]) > sweep.length() + 2.0 * margin {
+        return false;
+    }
     (0..sweep.count()).any(|i| {
         near_point(
             &ArmPose::new::<M, D>(m.base, &sweep.config(i)),
@@ -119,6 +150,15 @@ pub fn motion_near_point<M: Model<D>, const D: usize>(
             sweep.margin() + margin,
         )
     })
+}
+
+/// Distance from `p` to the arm's volume (negative inside it).
+fn point_clearance(arm: &ArmPose, p: &[f64; 3]) -> f64 {
+    let p = Vector3::new(p[0], p[1], p[2]);
+    arm.capsules()
+        .iter()
+        .map(|c| libm::sqrt(c.segment.distance2_to_point(&p)) - c.radius)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Whether `p` is within `margin` of the arm's volume.

@@ -10,7 +10,8 @@ use crate::model::Model;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::{
-    plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, Workspace,
+    plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats,
+    StartCache, StartIk, Workspace,
 };
 
 /// Which Ω-A* the robots use.
@@ -28,21 +29,25 @@ pub struct Prioritized<'a, const D: usize> {
     pub params: OmegaParams,
     ws: Workspace<'a, D>,
     scratch: &'a mut [[f64; D]],
+    starts: &'a mut [StartIk<D>],
 }
 
 impl<'a, const D: usize> Prioritized<'a, D> {
-    /// `scratch` must hold at least H configurations.
+    /// `scratch` must hold at least H configurations; `starts` remembers start-seed IK
+    /// answers across priority orders (see [`StartCache`]; too short, it remembers none).
     pub fn new(
         variant: Variant,
         params: OmegaParams,
         ws: Workspace<'a, D>,
         scratch: &'a mut [[f64; D]],
+        starts: &'a mut [StartIk<D>],
     ) -> Self {
         Prioritized {
             variant,
             params,
             ws,
             scratch,
+            starts,
         }
     }
 }
@@ -72,8 +77,28 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
         }
         let n = problem.robots.len();
         let deadline = Until { clock, at: timeout };
+        // Taken out for the run, so the cache and the search workspace can be borrowed apart.
+        let buf = core::mem::take(&mut self.starts);
+        let starts = StartCache::new(&mut *buf, n, problem.trajectories.len(), &self.params);
+        let status = self.orders::<M>(problem, h, &starts, &deadline, out, stats);
+        self.starts = buf;
+        status
+    }
+}
+
+impl<const D: usize> Prioritized<'_, D> {
+    /// Tries assignments and priority orders until one works or time or orders run out.
+    fn orders<M: Model<D>>(
+        &mut self,
+        problem: &Problem<D>,
+        h: usize,
+        starts: &StartCache<'_, D>,
+        deadline: &Until<'_>,
+        out: &mut Solution<'_, D>,
+        stats: &mut Stats,
+    ) -> Status {
         let mut orders = Orders::new(
-            n,
+            problem.robots.len(),
             problem.trajectories.len(),
             self.variant == Variant::SingleGoal,
         );
@@ -82,7 +107,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             if deadline.expired() {
                 return Status::Timeout;
             }
-            match self.attempt::<M>(problem, h, &orders, &deadline, out, stats) {
+            match self.attempt::<M>(problem, h, &orders, starts, deadline, out, stats) {
                 Ok(true) => return Status::Solved,
                 Ok(false) => {}
                 Err(s) => return s,
@@ -92,15 +117,15 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             }
         }
     }
-}
 
-impl<const D: usize> Prioritized<'_, D> {
     /// Plans the robots in `order`; `Ok(false)` when one of them finds no path.
+    #[allow(clippy::too_many_arguments)]
     fn attempt<M: Model<D>>(
         &mut self,
         problem: &Problem<D>,
         h: usize,
         orders: &Orders,
+        starts: &StartCache<'_, D>,
         deadline: &Until<'_>,
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
@@ -144,6 +169,7 @@ impl<const D: usize> Prioritized<'_, D> {
                 others_mode: OthersMode::Avoid,
                 points: &[],
                 dt: problem.dt,
+                starts: starts.robot(r),
             };
             let mut s = SearchStats::default();
             stats.low_level_calls += 1;

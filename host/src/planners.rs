@@ -19,7 +19,9 @@ use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
 use omcbsa_core::pp::{Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
-use omcbsa_core::search::{Node, OmegaParams, OpenEntry, PointConstraint, Slot, Workspace};
+use omcbsa_core::search::{
+    start_entries, Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
+};
 
 /// Planner names, as the command line and the benchmark spell them.
 pub const PLANNERS: [&str; 6] = [
@@ -99,6 +101,7 @@ pub struct Storage {
     paths: Vec<[f64; DOF]>,
     scratch: Vec<[f64; DOF]>,
     points: Vec<PointConstraint>,
+    starts: Vec<StartIk<DOF>>,
     composite: Vec<CompositeNode<DOF>>,
     cost: Vec<f64>,
     parent: Vec<u16>,
@@ -128,6 +131,10 @@ impl Storage {
                     margin: 0.0
                 };
                 caps.constraints
+            ],
+            starts: vec![
+                StartIk::Unknown;
+                MAX_ROBOTS * start_entries(MAX_ROBOTS, &OmegaParams::default())
             ],
             composite: vec![CompositeNode::default(); caps.composite_nodes],
             cost: vec![0.0; k],
@@ -195,6 +202,7 @@ impl Storage {
                     paths: &mut self.paths,
                     scratch: &mut self.scratch,
                     points: &mut self.points,
+                    starts: &mut self.starts,
                 };
                 let mut p = OmegaCbsa::new(self.cbs_params, ws, st);
                 Planner::<KinovaGen3, DOF>::solve(
@@ -212,7 +220,7 @@ impl Storage {
                 } else {
                     Variant::MultiGoal
                 };
-                let mut p = Prioritized::new(v, omega, ws, &mut self.scratch);
+                let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
                 Planner::<KinovaGen3, DOF>::solve(
                     &mut p, problem, clock, timeout_s, &mut out, stats,
                 )

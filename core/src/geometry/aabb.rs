@@ -40,6 +40,15 @@ impl Aabb {
         (0..3).all(|i| self.min[i] < other.max[i] + margin && other.min[i] < self.max[i] + margin)
     }
 
+    /// Distance between the boxes (0 when they overlap): a lower bound on the distance
+    /// between any two shapes inside them.
+    #[inline]
+    pub fn distance(&self, other: &Aabb) -> f64 {
+        let gap = |i: usize| (other.min[i] - self.max[i]).max(self.min[i] - other.max[i]).max(0.0);
+        let (x, y, z) = (gap(0), gap(1), gap(2));
+        libm::sqrt(x * x + y * y + z * z)
+    }
+
     #[inline]
     pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
         (0..3).all(|i| self.min[i] <= p[i] && p[i] <= self.max[i])

@@ -9,6 +9,8 @@
 //! onto the pose. `f = g + w_h (H - 1 - t) + w_c c` with `g` the joint-space path length and `c`
 //! the collisions with the other robots' given paths.
 
+use core::cell::Cell;
+
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::ik::{ik, IkParams};
@@ -87,6 +89,58 @@ pub struct PointConstraint {
     pub margin: f64,
 }
 
+/// What IK gave for one start seed, remembered across the searches of one planning run (see
+/// [`Query::starts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum StartIk<const D: usize> {
+    #[default]
+    Unknown,
+    Failed,
+    Solved([f64; D]),
+}
+
+/// How many [`StartIk`] entries one robot needs: one per trajectory and start seed.
+pub fn start_entries(trajectories: usize, p: &OmegaParams) -> usize {
+    trajectories * (p.start_attempts as usize + 1)
+}
+
+/// The start-seed IK answers of every robot of one planning run, in caller storage.
+#[derive(Clone, Copy)]
+pub struct StartCache<'a, const D: usize> {
+    cells: &'a [Cell<StartIk<D>>],
+    per_robot: usize,
+}
+
+impl<'a, const D: usize> StartCache<'a, D> {
+    /// Forgets every answer in `buf` and lays it out for `robots` robots. A `buf` too short
+    /// for all of them remembers nothing: searches then run IK for every seed, as without it.
+    pub fn new(
+        buf: &'a mut [StartIk<D>],
+        robots: usize,
+        trajectories: usize,
+        p: &OmegaParams,
+    ) -> Self {
+        let per_robot = start_entries(trajectories, p);
+        let used = if per_robot * robots <= buf.len() {
+            per_robot * robots
+        } else {
+            0
+        };
+        buf[..used].iter_mut().for_each(|e| *e = StartIk::Unknown);
+        StartCache {
+            cells: Cell::from_mut(&mut buf[..used]).as_slice_of_cells(),
+            per_robot,
+        }
+    }
+
+    /// Robot `i`'s entries, for [`Query::starts`].
+    pub fn robot(&self, i: usize) -> &'a [Cell<StartIk<D>>] {
+        self.cells
+            .get(i * self.per_robot..(i + 1) * self.per_robot)
+            .unwrap_or(&[])
+    }
+}
+
 /// One low-level planning request.
 #[derive(Clone, Copy)]
 pub struct Query<'a, const D: usize> {
@@ -103,6 +157,12 @@ pub struct Query<'a, const D: usize> {
     pub others_mode: OthersMode,
     pub points: &'a [PointConstraint],
     pub dt: f64,
+    /// This robot's start-seed IK answers, kept across its searches in one planning run: a
+    /// trajectory's seeds are the same in every search, so a replan (under one more
+    /// constraint, or another priority order) skips the random-seed IK, the costliest part of
+    /// a short search. [`start_entries`] of them, all `Unknown` when the run starts; empty to
+    /// remember nothing.
+    pub starts: &'a [Cell<StartIk<D>>],
 }
 
 /// Counters of one search.
@@ -288,9 +348,26 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                     return Err(SearchError::Timeout);
                 }
             }
-            let node = *ws.node(entry.node);
-            if node.closed {
+            let mut node = *ws.node(entry.node);
+            // An entry is stale once its node was closed, replaced or re-queued.
+            if node.closed || entry.f != self.f(node.g, node.t as usize, node.c) {
                 continue;
+            }
+            if !node.checked {
+                // Lazy edge evaluation: the motion from the parent is checked only for the
+                // states popped, which with w_h = 10 are a small share of those generated.
+                let Some(c) = self.motion_from_parent(ws, &node) else {
+                    let dead = ws.node_mut(entry.node);
+                    (dead.closed, dead.dead) = (true, true);
+                    continue;
+                };
+                node.c = node.c.saturating_add(c);
+                node.checked = true;
+                *ws.node_mut(entry.node) = node;
+                if c > 0 {
+                    self.queue(ws, entry.node, &node)?;
+                    continue;
+                }
             }
             if node.t as usize == self.h - 1 {
                 return Ok(self.extract(ws, entry.node, out));
@@ -300,6 +377,19 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             self.expand(ws, entry.node, &node, stats)?;
         }
         Err(SearchError::NoSolution)
+    }
+
+    /// Checks the motion from `node`'s parent to it: the collisions with the other robots on
+    /// the way, or `None` when it is not allowed.
+    fn motion_from_parent(&self, ws: &Workspace<'_, D>, node: &Node<D>) -> Option<u16> {
+        let parent = ws.node(node.parent);
+        let base = &self.q.robot.base;
+        let ends = [
+            ArmPose::new::<M, D>(base, &parent.q),
+            ArmPose::new::<M, D>(base, &node.q),
+        ];
+        self.valid
+            .motion_posed(&parent.q, &node.q, [&ends[0], &ends[1]], parent.t as usize)
     }
 
     /// Puts IK solutions of the first pose of every allowed trajectory in OPEN: the one nearest
@@ -324,11 +414,25 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 self.q.robot.initial.into_iter().chain(
                     (0..self.p.start_attempts).map(|_| rng.configuration(&M::LOWER, &M::UPPER)),
                 );
-            for seed in seeds {
+            let stride = self.p.start_attempts as usize + 1;
+            for (k, seed) in seeds.enumerate() {
                 if ws.used() - before >= self.p.start_solutions {
                     break;
                 }
-                let Ok(q) = ik::<M, D>(&target, &seed, &self.p.ik) else {
+                let solve = || ik::<M, D>(&target, &seed, &self.p.ik).ok();
+                let answer = match self.q.starts.get(j * stride + k) {
+                    None => solve(),
+                    Some(cell) => match cell.get() {
+                        StartIk::Solved(q) => Some(q),
+                        StartIk::Failed => None,
+                        StartIk::Unknown => {
+                            let q = solve();
+                            cell.set(q.map_or(StartIk::Failed, StartIk::Solved));
+                            q
+                        }
+                    },
+                };
+                let Some(q) = answer else {
                     continue;
                 };
                 let Some(c) = self.valid.state(&q, 0) else {
@@ -342,6 +446,8 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                     c,
                     j: j as u8,
                     closed: false,
+                    checked: true,
+                    dead: false,
                 };
                 self.add(ws, node, stats)?;
             }
@@ -376,49 +482,33 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let target = self.target(node.j as usize, node.t as usize + 1);
         let mut moves = [[0.0; D]; MAX_MOVES];
         let n = manifold_moves::<M, D>(&target, &node.q, self.p, &mut moves);
-        let here = ArmPose::new::<M, D>(&self.q.robot.base, &node.q);
+        let t1 = node.t as usize + 1;
         for q in &moves[..n] {
-            self.try_successor(ws, index, node, &here, q, stats)?;
+            if !self.valid.step_within_limits(&node.q, q) {
+                continue;
+            }
+            let Some(c_state) = self.valid.state(q, t1) else {
+                continue;
+            };
+            let dist2: f64 = (0..D).map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i])).sum();
+            let child = Node {
+                q: *q,
+                g: node.g + libm::sqrt(dist2),
+                parent: index,
+                t: t1 as u16,
+                c: node.c.saturating_add(c_state),
+                j: node.j,
+                closed: false,
+                checked: false,
+                dead: false,
+            };
+            self.add(ws, child, stats)?;
         }
         Ok(())
     }
 
-    fn try_successor(
-        &self,
-        ws: &mut Workspace<'_, D>,
-        parent: u32,
-        node: &Node<D>,
-        here: &ArmPose,
-        q: &[f64; D],
-        stats: &mut SearchStats,
-    ) -> Result<(), SearchError> {
-        if !self.valid.step_within_limits(&node.q, q) {
-            return Ok(());
-        }
-        let dist2: f64 = (0..D)
-            .map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i]))
-            .sum();
-        let t1 = node.t as usize + 1;
-        let Some((c_state, there)) = self.valid.state_posed(q, t1) else {
-            return Ok(());
-        };
-        let ends = [*here, there];
-        let Some(c_motion) = self.valid.motion_posed(&node.q, q, &ends, node.t as usize) else {
-            return Ok(());
-        };
-        let child = Node {
-            q: *q,
-            g: node.g + libm::sqrt(dist2),
-            parent,
-            t: t1 as u16,
-            c: node.c.saturating_add(c_state).saturating_add(c_motion),
-            j: node.j,
-            closed: false,
-        };
-        self.add(ws, child, stats)
-    }
-
-    /// Inserts a generated state, or improves the stored one in its cell.
+    /// Inserts a generated state, or improves the stored one in its cell (or takes the cell
+    /// of a state whose motion failed).
     fn add(
         &self,
         ws: &mut Workspace<'_, D>,
@@ -430,7 +520,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             Ok(existing) => {
                 let old = ws.node_mut(existing);
                 let better = (node.g, node.c) < (old.g, old.c);
-                if old.closed || !better {
+                if !old.dead && (old.closed || !better) {
                     return Ok(());
                 }
                 *old = node;
@@ -439,6 +529,16 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             Err(slot) => ws.insert(slot, node).ok_or(SearchError::OutOfMemory)?,
         };
         stats.generated += 1;
+        self.queue(ws, index, &node)
+    }
+
+    /// Puts node `index` in OPEN at its current `f`.
+    fn queue(
+        &self,
+        ws: &mut Workspace<'_, D>,
+        index: u32,
+        node: &Node<D>,
+    ) -> Result<(), SearchError> {
         let f = self.f(node.g, node.t as usize, node.c);
         if ws.open.push(OpenEntry {
             f,

@@ -7,7 +7,7 @@ use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
 use crate::motion::{
-    motion_is_free, motion_near_point, motions_collide_posed, near_point, ArmMotion,
+    motion_is_free_posed, motion_near_point_posed, motions_collide_posed, near_point, ArmMotion,
 };
 use crate::problem::MAX_ROBOTS;
 
@@ -126,7 +126,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
             ArmPose::new::<M, D>(&self.base, a),
             ArmPose::new::<M, D>(&self.base, b),
         ];
-        self.motion_posed(a, b, &ends, t)
+        self.motion_posed(a, b, [&ends[0], &ends[1]], t)
     }
 
     /// [`Validity::motion`] for a caller that already placed the arm at `a` and `b`.
@@ -134,7 +134,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         &self,
         a: &[f64; D],
         b: &[f64; D],
-        ends: &[ArmPose; 2],
+        ends: [&ArmPose; 2],
         t: usize,
     ) -> Option<u16> {
         let me = ArmMotion {
@@ -142,13 +142,13 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
             from: a,
             to: b,
         };
-        if !motion_is_free::<M, D>(&me, self.obstacles, self.motion_step) {
+        if !motion_is_free_posed::<M, D>(&me, ends, self.obstacles, self.motion_step) {
             return None;
         }
         for pc in self.points {
             if pc.segment
                 && pc.t as usize == t
-                && motion_near_point::<M, D>(&me, &pc.p, pc.margin, self.motion_step)
+                && motion_near_point_posed::<M, D>(&me, ends, &pc.p, pc.margin, self.motion_step)
             {
                 return None;
             }
@@ -163,8 +163,8 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 from: &other.path[t],
                 to: &other.path[t + 1],
             };
-            let their_ends = [cache[t % 2].1[o], cache[(t + 1) % 2].1[o]];
-            if motions_collide_posed::<M, D>(&me, ends, &theirs, &their_ends, self.motion_step) {
+            let their_ends = [&cache[t % 2].1[o], &cache[(t + 1) % 2].1[o]];
+            if motions_collide_posed::<M, D>(&me, ends, &theirs, their_ends, self.motion_step) {
                 if self.others_mode == OthersMode::Avoid {
                     return None;
                 }

@@ -25,6 +25,11 @@ pub struct Node<const D: usize> {
     /// Trajectory index.
     pub j: u8,
     pub closed: bool,
+    /// Whether the motion from the parent has been checked (and counted in `c`): Ω-A* checks
+    /// it only when the state is popped.
+    pub checked: bool,
+    /// The motion from the parent failed its check: the state is gone and its cell free.
+    pub dead: bool,
 }
 
 impl<const D: usize> Default for Node<D> {
@@ -37,6 +42,8 @@ impl<const D: usize> Default for Node<D> {
             c: 0,
             j: 0,
             closed: false,
+            checked: false,
+            dead: false,
         }
     }
 }
