@@ -2,15 +2,17 @@
 //!
 //! A constraint tree (CT) whose nodes hold per-robot constraints, the paths multi-goal Ω-A*
 //! found under them, and how many conflicts those paths have. The node with the fewest
-//! conflicts is expanded first. Assignment conflicts (two robots on one trajectory) are
-//! resolved first, by forbidding the trajectory to one robot or the other; then the earliest
-//! geometric conflict, by forbidding one robot or the other to occupy a witness point inside
-//! both. Each child replans only the constrained robot.
+//! conflicts is expanded first (the deepest among equals). Assignment conflicts (two robots on
+//! one trajectory) are resolved first, by forbidding the trajectory to one robot or the other;
+//! then the earliest geometric conflict, by forbidding one robot or the other to occupy a
+//! witness point inside both. Each child replans only the constrained robot. A tree that uses
+//! its budget of Ω-A* expansions without ending is dropped for a new one from another root,
+//! with twice the budget ([`CbsParams::restart_expansions`]).
 //!
-//! Memory: CT nodes, the OPEN list of the CT, the paths and the constraint scratch all live in
-//! caller storage ([`CbsStorage`]); one path costs `H * D * 8` bytes and one node
-//! `size_of::<CtNode>()` (about 200 bytes). A full pool ends planning with
-//! `Status::OutOfMemory` naming it.
+//! Memory: CT nodes, the OPEN list of the CT, the paths, the constraint scratch and the
+//! start-seed IK answers all live in caller storage ([`CbsStorage`]); one path costs
+//! `H * D * 8` bytes and one node `size_of::<CtNode>()` (about 240 bytes). A restart reuses
+//! the pools from the start. A full pool ends planning with `Status::OutOfMemory` naming it.
 
 use crate::collision::ArmPose;
 use crate::model::{Frame, Model};
@@ -31,10 +33,15 @@ const HOLD: u8 = u8::MAX;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CbsParams {
     pub low: OmegaParams,
-    /// Time cap of the root's warm start by repeated IK tracking, seconds (0 turns it off).
+    /// Time cap of each root's warm start by repeated IK tracking, seconds (0 turns it off).
     pub warm_start_seconds: f64,
     /// Random first-pose seeds per robot and trajectory in the warm start.
     pub warm_start_seeds: u32,
+    /// Ω-A* expansions the first constraint tree may take before the search restarts from a
+    /// new root (robots placed in another order, other warm-start seeds); each restart gets
+    /// twice the budget of the one before, so some tree always gets as long as it needs and
+    /// completeness is kept. 0: one tree, no restarts.
+    pub restart_expansions: u64,
 }
 
 impl Default for CbsParams {
@@ -43,6 +50,7 @@ impl Default for CbsParams {
             low: OmegaParams::default(),
             warm_start_seconds: 0.5,
             warm_start_seeds: 4,
+            restart_expansions: 8000,
         }
     }
 }
@@ -190,27 +198,62 @@ struct Run<'r, 's, M, const D: usize> {
 type Branches = [(usize, Constraint); 2];
 
 impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
+    /// Constraint trees in turn, each with twice the expansion budget of the one before, until
+    /// one ends. Run times of tree search are heavy-tailed (most problems take a few
+    /// milliseconds, a few take seconds from one root and milliseconds from another), which
+    /// restarts cut; the budgets count expansions, not time, so the answer is deterministic.
     fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
-        let root = match self.root(clock) {
+        let mut budget = self.params.restart_expansions;
+        for restart in 0u32.. {
+            let limit = match budget {
+                0 => u64::MAX,
+                b => self.stats.expansions.saturating_add(b),
+            };
+            match self.tree(clock, out, restart, limit) {
+                Some(status) => return status,
+                None => {
+                    budget = budget.saturating_mul(2);
+                    self.used_nodes = 0;
+                    self.used_slots = 0;
+                    self.open.clear();
+                }
+            }
+        }
+        Status::Timeout
+    }
+
+    /// One constraint tree from the root of restart `restart`; `None` when it used its budget
+    /// (Ω-A* expansions up to `limit`) without ending.
+    fn tree(
+        &mut self,
+        clock: &dyn Clock,
+        out: &mut Solution<'_, D>,
+        restart: u32,
+        limit: u64,
+    ) -> Option<Status> {
+        let root = match self.root(clock, restart) {
             Ok(r) => r,
-            Err(s) => return s,
+            Err(s) => return Some(s),
         };
         if let Err(s) = self.push(root) {
-            return s;
+            return Some(s);
         }
         loop {
             if self.deadline.expired() {
-                return Status::Timeout;
+                return Some(Status::Timeout);
+            }
+            if self.stats.expansions >= limit {
+                return None;
             }
             let Some(entry) = self.open.pop() else {
-                return Status::NoSolution;
+                return Some(Status::NoSolution);
             };
             let node = self.nodes[entry.node as usize];
             let branches = match self.first_conflict(&node) {
                 Some(b) => b,
                 None if node.conflicts == 0 => {
                     self.write_solution(&node, out);
-                    return Status::Solved;
+                    return Some(Status::Solved);
                 }
                 // Counted conflicts but no witness: never report it as solved.
                 None => continue,
@@ -220,11 +263,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 match self.child(entry.node, &node, robot, constraint) {
                     Ok(Some(child)) => {
                         if let Err(s) = self.push(child) {
-                            return s;
+                            return Some(s);
                         }
                     }
                     Ok(None) => {}
-                    Err(s) => return s,
+                    Err(s) => return Some(s),
                 }
             }
         }
@@ -279,41 +322,56 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         }
     }
 
-    /// The root: robots in index order, each placed by repeated IK tracking (the warm start:
-    /// a few seeds per trajectory no earlier robot took, clear of the earlier robots, within
-    /// `warm_start_seconds`) or, failing that, by Ω-A* with its collisions with the earlier
-    /// robots counted. Only the root is built this way: every child replans by Ω-A* under its
-    /// constraints, so completeness is kept.
-    fn root(&mut self, clock: &dyn Clock) -> Result<CtNode, Status> {
+    /// The root: robots in turn (in index order, then in a shuffled order on each restart),
+    /// each placed by repeated IK tracking (the warm start: a few seeds per trajectory no
+    /// earlier robot took, clear of the earlier robots, within `warm_start_seconds`) or,
+    /// failing that, by Ω-A* with its collisions with the earlier robots counted. Only the root
+    /// is built this way: every child replans by Ω-A* under its constraints, so completeness
+    /// is kept.
+    fn root(&mut self, clock: &dyn Clock, restart: u32) -> Result<CtNode, Status> {
+        // The cap counts from this root on: the tracking itself is a few milliseconds of
+        // bounded work, so in practice the cap never cuts it and the root (hence the answer)
+        // does not depend on how busy the machine is.
         let warm = Until {
             clock,
-            at: self.params.warm_start_seconds.min(self.deadline.at),
+            at: (clock.seconds() + self.params.warm_start_seconds).min(self.deadline.at),
         };
+        let mut order: [usize; MAX_ROBOTS] = core::array::from_fn(|i| i);
+        if restart > 0 {
+            let mut rng = Rng::new(self.params.low.seed ^ u64::from(restart).rotate_left(40));
+            for i in (1..self.n).rev() {
+                order.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+            }
+        }
         let mut node = CtNode::default();
-        let mut taken = 0u32;
-        for i in 0..self.n {
-            let placed = (1u32 << i) - 1;
+        let (mut taken, mut placed) = (0u32, 0u32);
+        for &i in &order[..self.n] {
             let left = self.all_trajectories() & !taken;
             let tracked = if self.params.warm_start_seconds > 0.0 && left != 0 {
-                self.warm_track(i, &node, placed, left, &warm)
+                self.warm_track(i, &node, placed, left, restart, &warm)
             } else {
                 None
             };
             node.assignment[i] = match tracked {
                 Some(j) => j,
-                // A trajectory left free first; if the robot can track none of them, any
-                // (the assignment conflict is then the tree's to resolve).
-                None => match self.low_level(i, &node, left, 0, placed) {
-                    Err(Status::NoSolution) if left != self.all_trajectories() => {
-                        self.low_level(i, &node, self.all_trajectories(), 0, placed)?
+                // A trajectory left free first; if the robot can track none of them, any,
+                // holding only if it can track none at all (the tree prunes on holders, so a
+                // holder must be one that cannot track anything under its constraints).
+                None => {
+                    let mode = OthersMode::Count;
+                    match self.low_level_in(i, &node, left, 0, placed, mode, false, None) {
+                        Err(Status::NoSolution) => {
+                            self.low_level(i, &node, self.all_trajectories(), 0, placed)?
+                        }
+                        r => r?,
                     }
-                    r => r?,
-                },
+                }
             };
             if node.assignment[i] != HOLD {
                 taken |= 1 << node.assignment[i];
             }
             node.slots[i] = self.keep_scratch()?;
+            placed |= 1 << i;
         }
         if self.too_many_holders(&node) {
             return Err(Status::NoSolution);
@@ -341,6 +399,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         node: &CtNode,
         placed: u32,
         left: u32,
+        restart: u32,
         warm: &Until<'_>,
     ) -> Option<u8> {
         let robot = self.pr.robots[i];
@@ -364,7 +423,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             if left & (1 << j) == 0 {
                 continue;
             }
-            let mut rng = Rng::new(self.params.low.seed ^ ((i as u64) << 32 | j as u64));
+            let key = (i as u64) << 32 | j as u64 | u64::from(restart) << 48;
+            let mut rng = Rng::new(self.params.low.seed ^ key);
             for attempt in 0..self.params.warm_start_seeds {
                 if warm.expired() {
                     return None;

@@ -433,31 +433,37 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
         if !suspects.any() {
             return false;
         }
-        bisect(0, self.count, self.count, suspects, &|s, w, sus: &Suspects| {
-            let arm = ArmPose::new::<M, D>(base, &self.at(s));
-            let mut left = Suspects::NONE;
-            for i in bits(sus.obstacles) {
-                let m = self.travel(i) * w;
-                let (c, cb) = (&arm.capsules[i], &arm.boxes[i]);
-                if obstacles
-                    .iter()
-                    .any(|o| o.aabb().near(cb, m) && o.hits_capsule(c, m))
-                {
-                    left.obstacles |= 1 << i;
-                }
-            }
-            for (a, &row) in sus.pairs.iter().enumerate() {
-                for b in bits(row) {
-                    let m = (self.travel(a) + self.travel(b)) * w;
-                    if arm.boxes[a].near(&arm.boxes[b], m)
-                        && arm.capsules[a].hits(&arm.capsules[b], m)
+        bisect(
+            0,
+            self.count,
+            self.count,
+            suspects,
+            &|s, w, sus: &Suspects| {
+                let arm = ArmPose::new::<M, D>(base, &self.at(s));
+                let mut left = Suspects::NONE;
+                for i in bits(sus.obstacles) {
+                    let m = self.travel(i) * w;
+                    let (c, cb) = (&arm.capsules[i], &arm.boxes[i]);
+                    if obstacles
+                        .iter()
+                        .any(|o| o.aabb().near(cb, m) && o.hits_capsule(c, m))
                     {
-                        left.pairs[a] |= 1 << b;
+                        left.obstacles |= 1 << i;
                     }
                 }
-            }
-            left.any().then_some(left)
-        })
+                for (a, &row) in sus.pairs.iter().enumerate() {
+                    for b in bits(row) {
+                        let m = (self.travel(a) + self.travel(b)) * w;
+                        if arm.boxes[a].near(&arm.boxes[b], m)
+                            && arm.capsules[a].hits(&arm.capsules[b], m)
+                        {
+                            left.pairs[a] |= 1 << b;
+                        }
+                    }
+                }
+                left.any().then_some(left)
+            },
+        )
     }
 }
 
@@ -487,7 +493,7 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
     let ([a0, a1], [b0, b1]) = (a_ends, b_ends);
     let b_box = b0.aabb.union(&b1.aabb);
     let mut pairs: Pairs = [0; MAX_ARM_CAPSULES];
-    for i in 0..a0.len {
+    for (i, row) in pairs.iter_mut().enumerate().take(a0.len) {
         let ti = a.travel(i);
         if !a0.boxes[i].union(&a1.boxes[i]).near(&b_box, ti + b.length) {
             continue;
@@ -501,7 +507,7 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
             {
                 continue;
             }
-            pairs[i] |= 1 << j;
+            *row |= 1 << j;
         }
     }
     if pairs.iter().all(|&r| r == 0) {

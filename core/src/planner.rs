@@ -57,7 +57,8 @@ pub struct Stats {
     pub ct_nodes: u32,
     /// Conflicts branched on (Ω-CBSA).
     pub conflicts_resolved: u32,
-    /// Whether the warm start (repeated IK tracking) alone solved the problem.
+    /// Whether the root of Ω-CBSA's last constraint tree (warm-started by repeated IK
+    /// tracking) had no conflicts.
     pub warm_start_solved: bool,
 }
 
@@ -126,6 +127,8 @@ pub fn check_problem<const D: usize>(
     if out.paths.len() < problem.robots.len() * h {
         return Err(Status::OutOfMemory("solution path buffer"));
     }
+    // Negated so that NaN is refused too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(problem.dt > 0.0) {
         return Err(Status::InvalidProblem("dt must be positive"));
     }

@@ -10,8 +10,8 @@ use crate::model::Model;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::{
-    plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats,
-    StartCache, StartIk, Workspace,
+    plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, StartCache,
+    StartIk, Workspace,
 };
 
 /// Which Ω-A* the robots use.

@@ -265,10 +265,11 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
     }
 
     fn robots_clear(&self, q: &[[f64; D]; MAX_ROBOTS]) -> bool {
-        for i in 0..self.n {
-            let a = ArmPose::new::<M, D>(&self.pr.robots[i].base, &q[i]);
-            for k in i + 1..self.n {
-                if a.arm_hit(&ArmPose::new::<M, D>(&self.pr.robots[k].base, &q[k]), 0.0)
+        let robots = &self.pr.robots[..self.n];
+        for (i, (ri, qi)) in robots.iter().zip(q).enumerate() {
+            let a = ArmPose::new::<M, D>(&ri.base, qi);
+            for (rk, qk) in robots.iter().zip(q).skip(i + 1) {
+                if a.arm_hit(&ArmPose::new::<M, D>(&rk.base, qk), 0.0)
                     .is_some()
                 {
                     return false;

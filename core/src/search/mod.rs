@@ -7,8 +7,8 @@ mod validity;
 mod workspace;
 
 pub use omega_astar::{
-    manifold_moves, plan, start_entries, Found, OmegaParams, OtherArm, OthersMode,
-    PointConstraint, Query, SearchError, SearchStats, StartCache, StartIk, MAX_MOVES,
+    manifold_moves, plan, start_entries, Found, OmegaParams, OtherArm, OthersMode, PointConstraint,
+    Query, SearchError, SearchStats, StartCache, StartIk, MAX_MOVES,
 };
 pub use open::{OpenEntry, OpenList};
 pub use validity::Validity;

@@ -339,6 +339,9 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         stats: &mut SearchStats,
     ) -> Result<Found, SearchError> {
         self.seed_open(ws, stats)?;
+        // The arm at the last parent whose child was checked: greedy search pops the children
+        // of one parent in a row.
+        let mut parent_pose: Option<(u32, ArmPose)> = None;
         let mut since_check = 0;
         while let Some(entry) = ws.open.pop() {
             since_check += 1;
@@ -356,7 +359,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             if !node.checked {
                 // Lazy edge evaluation: the motion from the parent is checked only for the
                 // states popped, which with w_h = 10 are a small share of those generated.
-                let Some(c) = self.motion_from_parent(ws, &node) else {
+                let Some(c) = self.motion_from_parent(ws, &node, &mut parent_pose) else {
                     let dead = ws.node_mut(entry.node);
                     (dead.closed, dead.dead) = (true, true);
                     continue;
@@ -380,16 +383,22 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
     }
 
     /// Checks the motion from `node`'s parent to it: the collisions with the other robots on
-    /// the way, or `None` when it is not allowed.
-    fn motion_from_parent(&self, ws: &Workspace<'_, D>, node: &Node<D>) -> Option<u16> {
+    /// the way, or `None` when it is not allowed. `parent_pose` keeps the parent's arm.
+    fn motion_from_parent(
+        &self,
+        ws: &Workspace<'_, D>,
+        node: &Node<D>,
+        parent_pose: &mut Option<(u32, ArmPose)>,
+    ) -> Option<u16> {
         let parent = ws.node(node.parent);
         let base = &self.q.robot.base;
-        let ends = [
-            ArmPose::new::<M, D>(base, &parent.q),
-            ArmPose::new::<M, D>(base, &node.q),
-        ];
+        if parent_pose.as_ref().is_none_or(|(i, _)| *i != node.parent) {
+            *parent_pose = Some((node.parent, ArmPose::new::<M, D>(base, &parent.q)));
+        }
+        let from = &parent_pose.as_ref()?.1;
+        let to = ArmPose::new::<M, D>(base, &node.q);
         self.valid
-            .motion_posed(&parent.q, &node.q, [&ends[0], &ends[1]], parent.t as usize)
+            .motion_posed(&parent.q, &node.q, [from, &to], parent.t as usize)
     }
 
     /// Puts IK solutions of the first pose of every allowed trajectory in OPEN: the one nearest
@@ -490,7 +499,9 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             let Some(c_state) = self.valid.state(q, t1) else {
                 continue;
             };
-            let dist2: f64 = (0..D).map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i])).sum();
+            let dist2: f64 = (0..D)
+                .map(|i| (q[i] - node.q[i]) * (q[i] - node.q[i]))
+                .sum();
             let child = Node {
                 q: *q,
                 g: node.g + libm::sqrt(dist2),

@@ -85,15 +85,10 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     /// Checks a configuration at step `t`: joint limits, obstacles, self-collision, point
     /// constraints, and the other robots (forbidden or counted). Returns the collision count.
     pub fn state(&self, q: &[f64; D], t: usize) -> Option<u16> {
-        self.state_posed(q, t).map(|(c, _)| c)
-    }
-
-    /// [`Validity::state`], also returning the arm placed at `q`.
-    pub fn state_posed(&self, q: &[f64; D], t: usize) -> Option<(u16, ArmPose)> {
-        for i in 0..D {
-            if !(q[i] >= M::LOWER[i] && q[i] <= M::UPPER[i]) {
-                return None;
-            }
+        // Written so that NaN is refused too.
+        let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
+        if !q.iter().zip(M::LOWER.iter().zip(&M::UPPER)).all(within) {
+            return None;
         }
         let pose = ArmPose::new::<M, D>(&self.base, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
@@ -104,7 +99,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 return None;
             }
         }
-        let c = self.with_others_at(t, |theirs| {
+        self.with_others_at(t, |theirs| {
             let mut c = 0u16;
             for other in theirs {
                 if pose.arm_hit(other, 0.0).is_some() {
@@ -115,8 +110,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
                 }
             }
             Some(c)
-        })?;
-        Some((c, pose))
+        })
     }
 
     /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see

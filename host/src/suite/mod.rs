@@ -48,9 +48,9 @@ pub const INDEX_FORMAT: &str = "omcbsa.suite.v1";
 /// Where witnesses are written, under the suite directory.
 pub const WITNESS_DIR: &str = "witnesses";
 /// Samples of a task family tried before a problem is emitted without a witness.
-pub const TASK_SAMPLES: u64 = 6;
+pub const TASK_SAMPLES: u64 = 10;
 /// Samples with a witness tried before one that IK tracking solves is kept.
-pub const HARD_SAMPLES: usize = 6;
+pub const HARD_SAMPLES: usize = 10;
 /// Samples of the random family tried before generation gives up (its problems always come
 /// from a witness).
 const RANDOM_SAMPLES: u64 = 64;
