@@ -36,7 +36,11 @@ pub struct OmegaParams {
     pub start_solutions: usize,
     /// Most random IK seeds tried per trajectory to find them.
     pub start_attempts: u32,
-    /// Grid size (rad) of the duplicate detection on `q`.
+    /// Grid size (rad) of the duplicate detection on `q`: two states of one step and
+    /// trajectory in the same cell are one state. The paper leaves it open; on the benchmark
+    /// suite 0.6 rad (three null-space steps) kept Ω-CBSA's success rate and cut its mean time
+    /// 3x against 0.1 rad, whose finer lattice makes the searches that must fail (children
+    /// with no path under their constraints) far longer; 0.8 began to lose problems.
     pub resolution: f64,
     /// Largest displacement (m) of any point of the arm between two checked configurations
     /// of a motion; the checks inflate the links by half of it, so they are conservative.
@@ -54,7 +58,7 @@ impl Default for OmegaParams {
             w_c: 0.1,
             start_solutions: 16,
             start_attempts: 96,
-            resolution: 0.1,
+            resolution: 0.6,
             motion_step: crate::motion::MOTION_STEP,
             ik: IkParams::default(),
             seed: 0x5eed,
