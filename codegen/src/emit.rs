@@ -1,16 +1,20 @@
 //! Rust source for one model: constants and the unrolled `fk`, `link_frames` and `jacobian`.
 //!
-//! All three walk the chain with the same [`step`]: `child = parent * origin * motion(q)`, with
-//! `origin` a literal transform computed here. `fk` and `jacobian` walk a folded chain in which
-//! each run of fixed joints is merged into the next joint's origin (or into one trailing tool
-//! transform); `link_frames` walks every joint so it can report every link.
+//! Each step of the chain is a local transform `origin * motion(q)` whose entries are linear
+//! in `(1, cos q, sin q)` (revolute) or `(1, q)` (prismatic), with coefficients computed here
+//! ([`Local`]); the product of two steps is computed from those coefficients too. The sines
+//! and cosines of all joints come first, from one call, independent of each other. `fk` and
+//! `jacobian` walk a folded chain in which each run of fixed joints is merged into the next
+//! joint's origin; `fk` also merges trailing fixed joints into the last joint and multiplies
+//! the steps as a balanced tree of pairs, which halves the longest chain of dependent
+//! products. `link_frames` walks every joint so it can report every link.
 
 use std::fmt::Write;
 
 use crate::chain::{Chain, Motion};
 use crate::collision::Geometry;
 use crate::sym::{lit, Emitter, Sym};
-use crate::transform::{Transform, Vec3};
+use crate::transform::{Mat3, Transform, Vec3};
 
 #[derive(Clone, Copy)]
 struct Step {
@@ -68,14 +72,6 @@ struct SymFrame {
 }
 
 impl SymFrame {
-    fn identity() -> SymFrame {
-        let rot = std::array::from_fn(|i| std::array::from_fn(|j| Sym::Lit(f64::from(i == j))));
-        SymFrame {
-            rot,
-            pos: std::array::from_fn(|_| Sym::ZERO),
-        }
-    }
-
     fn code(&self) -> String {
         let rot: Vec<String> = self.rot.iter().flatten().map(Sym::code).collect();
         let pos: Vec<String> = self.pos.iter().map(Sym::code).collect();
@@ -87,120 +83,299 @@ impl SymFrame {
     }
 }
 
-/// `frame.rot * v`, each component bound to `{name}{i}`.
-fn rotate(e: &mut Emitter, name: &str, frame: &SymFrame, v: &[Sym; 3]) -> [Sym; 3] {
+/// `rot * v` for a literal `v`, each component bound to `{name}{i}`.
+fn rotate(e: &mut Emitter, name: &str, rot: &[[Sym; 3]; 3], v: Vec3) -> [Sym; 3] {
     std::array::from_fn(|i| {
-        let terms: Vec<(&Sym, &Sym)> = (0..3).map(|k| (&frame.rot[i][k], &v[k])).collect();
+        let v = v.map(Sym::Lit);
+        let terms: Vec<(&Sym, &Sym)> = (0..3).map(|k| (&rot[i][k], &v[k])).collect();
         e.sum_of_products(&format!("{name}{i}"), &terms)
     })
 }
 
-/// `a.rot * b`, entries bound to `{name}{i}{j}`.
-fn rot_product(e: &mut Emitter, name: &str, a: &SymFrame, b: &[[Sym; 3]; 3]) -> [[Sym; 3]; 3] {
-    std::array::from_fn(|i| {
+/// `a * b`, entries bound to `r{t}_{i}{j}` and `p{t}_{i}`.
+fn compose(e: &mut Emitter, t: &str, a: &SymFrame, b: &SymFrame) -> SymFrame {
+    let rot = std::array::from_fn(|i| {
         std::array::from_fn(|j| {
-            let terms: Vec<(&Sym, &Sym)> = (0..3).map(|k| (&a.rot[i][k], &b[k][j])).collect();
-            e.sum_of_products(&format!("{name}{i}{j}"), &terms)
+            let terms: Vec<(&Sym, &Sym)> = (0..3).map(|k| (&a.rot[i][k], &b.rot[k][j])).collect();
+            e.sum_of_products(&format!("r{t}_{i}{j}"), &terms)
         })
-    })
-}
-
-fn lits(v: Vec3) -> [Sym; 3] {
-    v.map(Sym::Lit)
-}
-
-/// A joint's axis (unit, base frame) and origin, as the Jacobian needs them.
-struct JointAxis {
-    axis: [Sym; 3],
-    origin: [Sym; 3],
-    prismatic: bool,
-}
-
-/// Emits `child = parent * step.origin * motion(q[var])` with names tagged `t`; with
-/// `want_axis` also returns the joint's axis and origin in the base frame.
-fn step(
-    e: &mut Emitter,
-    t: &str,
-    parent: &SymFrame,
-    step: &Step,
-    want_axis: bool,
-) -> (SymFrame, Option<JointAxis>) {
-    // The joint frame: parent * origin.
-    let origin_rot = step.origin.rot.map(|row| row.map(Sym::Lit));
-    let rot = rot_product(e, &format!("r{t}_"), parent, &origin_rot);
-    let offset = lits(step.origin.pos);
-    let pos: [Sym; 3] = std::array::from_fn(|i| {
-        let mut terms: Vec<(&Sym, &Sym)> =
-            (0..3).map(|k| (&parent.rot[i][k], &offset[k])).collect();
-        terms.push((&Sym::ONE, &parent.pos[i]));
+    });
+    let pos = std::array::from_fn(|i| {
+        let mut terms: Vec<(&Sym, &Sym)> = (0..3).map(|k| (&a.rot[i][k], &b.pos[k])).collect();
+        terms.push((&Sym::ONE, &a.pos[i]));
         e.sum_of_products(&format!("p{t}_{i}"), &terms)
     });
-    let joint = SymFrame { rot, pos };
-    let (Some(var), axis) = (step.var, step.motion) else {
-        return (joint, None);
-    };
-    let (axis, prismatic) = match axis {
-        Motion::Revolute { axis } => (axis, false),
-        Motion::Prismatic { axis } => (axis, true),
-        Motion::Fixed => return (joint, None),
-    };
-    let world_axis = |e: &mut Emitter| rotate(e, &format!("w{t}_"), &joint, &lits(axis));
-    let (child, axis_base) = if prismatic {
-        let w = world_axis(e);
-        let q = Sym::var(format!("q[{var}]"));
-        let pos = std::array::from_fn(|i| {
-            e.sum_of_products(
-                &format!("q{t}_{i}"),
-                &[(&Sym::ONE, &joint.pos[i]), (&w[i], &q)],
-            )
-        });
-        (
-            SymFrame {
-                rot: joint.rot.clone(),
-                pos,
-            },
-            Some(w),
-        )
-    } else {
-        // Rodrigues: R = a aᵀ + c (I - a aᵀ) + s [a]ₓ, with literal coefficients, so an axis
-        // along a coordinate axis leaves a sparse matrix and a cheap product.
-        e.line(&format!("let (s{t}, c{t}) = ::libm::sincos(q[{var}]);"));
-        let (s, c) = (Sym::var(format!("s{t}")), Sym::var(format!("c{t}")));
-        let cross = [
-            [0.0, -axis[2], axis[1]],
-            [axis[2], 0.0, -axis[0]],
-            [-axis[1], axis[0], 0.0],
-        ];
-        let m: [[Sym; 3]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                let aa = axis[i] * axis[j];
-                let delta = f64::from(i == j);
-                e.sum_of_products(
-                    &format!("m{t}_{i}{j}"),
-                    &[
-                        (&Sym::Lit(aa), &Sym::ONE),
-                        (&Sym::Lit(delta - aa), &c),
-                        (&Sym::Lit(cross[i][j]), &s),
+    SymFrame { rot, pos }
+}
+
+fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+/// A transform whose entries are linear in a basis with coefficients known here: entry `x`
+/// stands for `Σ x[k] * basis[k]`, and `basis[0]` is 1. A step's own transform
+/// `origin * motion(q)` is one, with basis `(1, c, s)` (revolute) or `(1, q)` (prismatic).
+#[derive(Clone)]
+struct Local {
+    basis: Vec<Sym>,
+    rot: [[Vec<f64>; 3]; 3],
+    pos: [Vec<f64>; 3],
+}
+
+/// Per entry of a product `a * b`, per element of `b`'s basis, a vector over `a`'s basis.
+struct Grouped {
+    rot: [[Vec<Vec<f64>>; 3]; 3],
+    pos: [Vec<Vec<f64>>; 3],
+}
+
+impl Local {
+    fn literal(t: &Transform) -> Local {
+        Local {
+            basis: vec![Sym::ONE],
+            rot: t.rot.map(|row| row.map(|r| vec![r])),
+            pos: t.pos.map(|p| vec![p]),
+        }
+    }
+
+    /// The step's transform; the joint's sine and cosine are `s{var}` and `c{var}` (see
+    /// [`sincos`]).
+    fn of(step: &Step) -> Local {
+        let o = &step.origin;
+        match (step.motion, step.var) {
+            (Motion::Revolute { axis: a }, Some(var)) => {
+                // Rodrigues: R = a aᵀ + c (I - a aᵀ) + s [a]ₓ.
+                let aat: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| a[i] * a[j]));
+                let rest =
+                    std::array::from_fn(|i| std::array::from_fn(|j| f64::from(i == j) - aat[i][j]));
+                let cross = [[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]];
+                let parts = [aat, rest, cross].map(|m| mat_mul(&o.rot, &m));
+                Local {
+                    basis: vec![
+                        Sym::ONE,
+                        Sym::var(format!("c{var}")),
+                        Sym::var(format!("s{var}")),
                     ],
-                )
+                    rot: std::array::from_fn(|i| {
+                        std::array::from_fn(|j| parts.iter().map(|m| m[i][j]).collect())
+                    }),
+                    pos: o.pos.map(|p| vec![p, 0.0, 0.0]),
+                }
+            }
+            (Motion::Prismatic { axis }, Some(var)) => {
+                let along = o.rotate(axis);
+                Local {
+                    basis: vec![Sym::ONE, Sym::var(format!("q[{var}]"))],
+                    rot: o.rot.map(|row| row.map(|r| vec![r, 0.0])),
+                    pos: std::array::from_fn(|i| vec![o.pos[i], along[i]]),
+                }
+            }
+            _ => Local::literal(o),
+        }
+    }
+
+    fn is_literal(&self) -> bool {
+        self.basis.len() == 1
+    }
+
+    fn grouped(&self, b: &Local) -> Grouped {
+        let n = self.basis.len();
+        let group = |terms: &[(&Vec<f64>, f64)]| -> Vec<f64> {
+            (0..n)
+                .map(|m| terms.iter().map(|(x, w)| x[m] * w).sum())
+                .collect()
+        };
+        Grouped {
+            rot: std::array::from_fn(|i| {
+                std::array::from_fn(|col| {
+                    (0..b.basis.len())
+                        .map(|j| {
+                            let terms: Vec<_> = (0..3)
+                                .map(|k| (&self.rot[i][k], b.rot[k][col][j]))
+                                .collect();
+                            group(&terms)
+                        })
+                        .collect()
+                })
+            }),
+            pos: std::array::from_fn(|i| {
+                (0..b.basis.len())
+                    .map(|j| {
+                        let mut terms: Vec<_> =
+                            (0..3).map(|k| (&self.rot[i][k], b.pos[k][j])).collect();
+                        if j == 0 {
+                            terms.push((&self.pos[i], 1.0));
+                        }
+                        group(&terms)
+                    })
+                    .collect()
+            }),
+        }
+    }
+
+    /// `self * b` when at most one of them varies, so that it is a local too.
+    fn compose(&self, b: &Local) -> Option<Local> {
+        let g = self.grouped(b);
+        if b.is_literal() {
+            Some(Local {
+                basis: self.basis.clone(),
+                rot: g.rot.map(|row| row.map(|mut groups| groups.remove(0))),
+                pos: g.pos.map(|mut groups| groups.remove(0)),
             })
-        });
-        let rot = rot_product(e, &format!("k{t}_"), &joint, &m);
-        let w = want_axis.then(|| world_axis(e));
-        (
-            SymFrame {
-                rot,
-                pos: joint.pos.clone(),
-            },
-            w,
-        )
-    };
-    let joint_axis = axis_base.filter(|_| want_axis).map(|axis| JointAxis {
-        axis,
-        origin: joint.pos.clone(),
-        prismatic,
-    });
-    (child, joint_axis)
+        } else if self.is_literal() {
+            let flat = |groups: Vec<Vec<f64>>| groups.into_iter().map(|v| v[0]).collect();
+            Some(Local {
+                basis: b.basis.clone(),
+                rot: g.rot.map(|row| row.map(flat)),
+                pos: g.pos.map(flat),
+            })
+        } else {
+            None
+        }
+    }
+
+    /// `Σ coefs[k] * basis[k]`, bound to `name`. Coefficients below `2^-53` are left out:
+    /// rounding noise in a URDF's angles leaves many (Kinova's `rpy="1.5708 2.1343E-17
+    /// -1.1102E-16"`), each costing a product, and each changes the unit-scale sum it is part
+    /// of by less than that sum's own rounding.
+    fn entry(&self, e: &mut Emitter, name: &str, coefs: &[f64]) -> Sym {
+        let coefs: Vec<Sym> = coefs
+            .iter()
+            .map(|&c| Sym::Lit(if c.abs() < f64::EPSILON / 2.0 { 0.0 } else { c }))
+            .collect();
+        let terms: Vec<(&Sym, &Sym)> = coefs.iter().zip(&self.basis).collect();
+        e.sum_of_products(name, &terms)
+    }
+
+    /// `rot * v` for a literal `v`, each component bound to `{name}{i}`.
+    fn rotate(&self, e: &mut Emitter, name: &str, v: Vec3) -> [Sym; 3] {
+        std::array::from_fn(|i| {
+            let coefs: Vec<f64> = (0..self.basis.len())
+                .map(|m| (0..3).map(|k| self.rot[i][k][m] * v[k]).sum())
+                .collect();
+            self.entry(e, &format!("{name}{i}"), &coefs)
+        })
+    }
+
+    /// Entries bound to `m{t}_{i}{j}` and `o{t}_{i}`.
+    fn emit(&self, e: &mut Emitter, t: &str) -> SymFrame {
+        SymFrame {
+            rot: std::array::from_fn(|i| {
+                std::array::from_fn(|j| self.entry(e, &format!("m{t}_{i}{j}"), &self.rot[i][j]))
+            }),
+            pos: self.emit_pos(e, t),
+        }
+    }
+
+    fn emit_pos(&self, e: &mut Emitter, t: &str) -> [Sym; 3] {
+        std::array::from_fn(|i| self.entry(e, &format!("o{t}_{i}"), &self.pos[i]))
+    }
+
+    /// `self * b`, each entry `Σ_j b.basis[j] * g_j` where every `g_j` is linear in `self`'s
+    /// basis with known coefficients. Cheaper than emitting both and multiplying: `self`
+    /// times each of `b`'s (constant) columns costs one product per basis element instead of
+    /// three, and the columns a rotation shares are computed once. Entries bound to
+    /// `r{t}_{i}{j}` and `p{t}_{i}`, the groups to `g{t}_...`.
+    fn emit_product(&self, e: &mut Emitter, t: &str, b: &Local) -> SymFrame {
+        let g = self.grouped(b);
+        let entry = |e: &mut Emitter, kind: &str, index: String, groups: &[Vec<f64>]| {
+            let parts: Vec<Sym> = groups
+                .iter()
+                .enumerate()
+                .map(|(j, coefs)| self.entry(e, &format!("g{t}_{kind}{index}_{j}"), coefs))
+                .collect();
+            let terms: Vec<(&Sym, &Sym)> = b.basis.iter().zip(&parts).collect();
+            e.sum_of_products(&format!("{kind}{t}_{index}"), &terms)
+        };
+        SymFrame {
+            rot: std::array::from_fn(|i| {
+                std::array::from_fn(|j| entry(e, "r", format!("{i}{j}"), &g.rot[i][j]))
+            }),
+            pos: std::array::from_fn(|i| entry(e, "p", i.to_string(), &g.pos[i])),
+        }
+    }
+}
+
+/// `s{var}` and `c{var}` for every revolute step, from one call ahead of everything else:
+/// they are independent, so they overlap each other and the first products.
+fn sincos(e: &mut Emitter, steps: &[Step]) {
+    let vars: Vec<usize> = steps
+        .iter()
+        .filter_map(|s| match (s.motion, s.var) {
+            (Motion::Revolute { .. }, Some(var)) => Some(var),
+            _ => None,
+        })
+        .collect();
+    if !vars.is_empty() {
+        e.line(&format!(
+            "let ([{}], [{}]) = crate::trig::sincos([{}]);",
+            list(&vars, |v| format!("s{v}")),
+            list(&vars, |v| format!("c{v}")),
+            list(&vars, |v| format!("q[{v}]"))
+        ));
+    }
+}
+
+/// A frame along a chain: a local while at most one joint has moved it, then emitted.
+enum Frame {
+    Local(Local),
+    Emitted(SymFrame),
+}
+
+impl Frame {
+    /// `self * local`, products tagged `t`.
+    fn then(&self, e: &mut Emitter, t: &str, local: &Local) -> Frame {
+        match self {
+            Frame::Local(a) => a
+                .compose(local)
+                .map_or_else(|| Frame::Emitted(a.emit_product(e, t, local)), Frame::Local),
+            Frame::Emitted(a) => {
+                let b = local.emit(e, t);
+                Frame::Emitted(compose(e, t, a, &b))
+            }
+        }
+    }
+
+    fn emit(&self, e: &mut Emitter, t: &str) -> SymFrame {
+        match self {
+            Frame::Local(l) => l.emit(e, t),
+            Frame::Emitted(f) => f.clone(),
+        }
+    }
+
+    fn pos(&self, e: &mut Emitter, t: &str) -> [Sym; 3] {
+        match self {
+            Frame::Local(l) => l.emit_pos(e, t),
+            Frame::Emitted(f) => f.pos.clone(),
+        }
+    }
+
+    /// `rot * v` for a literal `v`, each component bound to `{name}{i}`.
+    fn rotate(&self, e: &mut Emitter, name: &str, v: Vec3) -> [Sym; 3] {
+        match self {
+            Frame::Local(l) => l.rotate(e, name, v),
+            Frame::Emitted(f) => rotate(e, name, &f.rot, v),
+        }
+    }
+}
+
+/// The product of `locals`, which start at step `first`: adjacent pairs multiplied as
+/// [`Local::emit_product`], the pairs as a balanced tree. Products tagged `{first}_{end}`.
+fn product(e: &mut Emitter, locals: &[Local], first: usize) -> SymFrame {
+    let tag = format!("{first}_{}", first + locals.len());
+    match locals {
+        [l] => l.emit(e, &first.to_string()),
+        [a, b] => match a.compose(b) {
+            Some(l) => l.emit(e, &tag),
+            None => a.emit_product(e, &tag, b),
+        },
+        _ => {
+            // An even split keeps pairs together.
+            let half = locals.len().div_ceil(4) * 2;
+            let a = product(e, &locals[..half], first);
+            let b = product(e, &locals[half..], first + half);
+            compose(e, &tag, &a, &b)
+        }
+    }
 }
 
 fn limit(v: f64) -> String {
@@ -217,43 +392,79 @@ fn list<T>(items: impl IntoIterator<Item = T>, f: impl Fn(T) -> String) -> Strin
 
 fn fk_body(chain: &Chain) -> String {
     let mut e = Emitter::default();
-    let mut frame = SymFrame::identity();
-    for (i, s) in folded_steps(chain).iter().enumerate() {
-        frame = step(&mut e, &i.to_string(), &frame, s, false).0;
+    let mut steps = folded_steps(chain);
+    sincos(&mut e, &steps);
+    let tool = match steps.last() {
+        Some(s) if s.var.is_none() => steps.pop(),
+        _ => None,
+    };
+    let mut locals: Vec<Local> = steps.iter().map(Local::of).collect();
+    if let (Some(tool), Some(last)) = (tool, locals.last_mut()) {
+        *last = last
+            .compose(&Local::literal(&tool.origin))
+            .expect("a literal factor keeps a local");
     }
+    let frame = product(&mut e, &locals, 0);
     e.line(&frame.code());
     e.code
 }
 
 fn link_frames_body(chain: &Chain) -> String {
     let mut e = Emitter::default();
+    let steps = all_steps(chain);
     e.line(&format!(
         "debug_assert!(out.len() >= {});",
         chain.links.len()
     ));
+    sincos(&mut e, &steps);
     e.line("if let Some(slot) = out.get_mut(0) { *slot = crate::model::Frame::IDENTITY; }");
-    let mut frame = SymFrame::identity();
-    for (i, s) in all_steps(chain).iter().enumerate() {
-        frame = step(&mut e, &i.to_string(), &frame, s, false).0;
+    let mut frame = Frame::Local(Local::literal(&Transform::IDENTITY));
+    let mut code = String::new();
+    for (i, s) in steps.iter().enumerate() {
+        let t = i.to_string();
+        frame = frame.then(&mut e, &t, &Local::of(s));
+        code = frame.emit(&mut e, &t).code();
         e.line(&format!(
-            "if let Some(slot) = out.get_mut({}) {{ *slot = {}; }}",
-            i + 1,
-            frame.code()
+            "if let Some(slot) = out.get_mut({}) {{ *slot = {code}; }}",
+            i + 1
         ));
     }
-    e.line(&frame.code());
+    e.line(&code);
     e.code
+}
+
+/// A joint's axis (unit, base frame) and origin, as the Jacobian needs them.
+struct JointAxis {
+    axis: [Sym; 3],
+    origin: [Sym; 3],
+    prismatic: bool,
 }
 
 fn jacobian_body(chain: &Chain, dof: usize) -> String {
     let mut e = Emitter::default();
-    let mut frame = SymFrame::identity();
+    let steps = folded_steps(chain);
+    sincos(&mut e, &steps);
+    let mut frame = Frame::Local(Local::literal(&Transform::IDENTITY));
     let mut axes = Vec::new();
-    for (i, s) in folded_steps(chain).iter().enumerate() {
-        let (next, axis) = step(&mut e, &i.to_string(), &frame, s, true);
+    for (i, s) in steps.iter().enumerate() {
+        let t = i.to_string();
+        let next = frame.then(&mut e, &t, &Local::of(s));
+        let moving = match s.motion {
+            Motion::Revolute { axis } => Some((axis, false)),
+            Motion::Prismatic { axis } => Some((axis, true)),
+            Motion::Fixed => None,
+        };
+        if let Some((axis, prismatic)) = moving {
+            axes.push(JointAxis {
+                axis: frame.rotate(&mut e, &format!("w{i}_"), s.origin.rotate(axis)),
+                // The motion leaves a revolute joint's origin where it is.
+                origin: next.pos(&mut e, &t),
+                prismatic,
+            });
+        }
         frame = next;
-        axes.extend(axis);
     }
+    let frame = frame.emit(&mut e, "tool");
     let tool = frame.pos.clone();
     let mut columns = Vec::new();
     for (j, a) in axes.iter().enumerate() {
@@ -396,4 +607,31 @@ pub fn model(
     );
     let _ = writeln!(w, "}}");
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coefficients_below_rounding_vanish() {
+        // Kinova-style noise in the origin: the joint is a plain rotation about z.
+        let step = Step {
+            origin: Transform::from_xyz_rpy([0.0; 3], [2e-17, -1e-16, 5e-33]),
+            motion: Motion::Revolute {
+                axis: [0.0, 0.0, 1.0],
+            },
+            var: Some(0),
+        };
+        let mut e = Emitter::default();
+        let frame = Local::of(&step).emit(&mut e, "0");
+        assert!(e.code.is_empty(), "{}", e.code);
+        let (c, s) = (Sym::var("c0"), Sym::var("s0"));
+        let expected = [
+            [c.clone(), s.neg(), Sym::ZERO],
+            [s, c, Sym::ZERO],
+            [Sym::ZERO, Sym::ZERO, Sym::ONE],
+        ];
+        assert_eq!(frame.rot, expected);
+    }
 }

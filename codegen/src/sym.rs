@@ -1,8 +1,10 @@
 //! Straight-line code emission over scalars that are either literals known at generation time
 //! or named run-time variables. Products with a literal 0 vanish and products with ±1 become
 //! plain (negated) variables, so known structure (a rotation about a coordinate axis, an
-//! identity origin, a zero offset) costs nothing at run time without special-casing it.
+//! identity origin, a zero offset) costs nothing at run time without special-casing it. A sum
+//! already bound, or its negation, is reused rather than computed again.
 
+use std::collections::HashMap;
 use std::fmt::Write;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -52,6 +54,8 @@ pub fn lit(v: f64) -> String {
 #[derive(Default)]
 pub struct Emitter {
     pub code: String,
+    /// Right-hand side of every binding -> its variable.
+    bound: HashMap<String, Sym>,
 }
 
 impl Emitter {
@@ -96,20 +100,15 @@ impl Emitter {
             }
             _ => {}
         }
-        let mut expr = String::new();
-        if constant != 0.0 {
-            expr.push_str(&lit(constant));
+        let expr = sum_code(constant, &parts, false);
+        if let Some(v) = self.bound.get(&expr) {
+            return v.clone();
         }
-        for (i, (negative, text, _)) in parts.iter().enumerate() {
-            let op = match (expr.is_empty() && i == 0, negative) {
-                (true, false) => "",
-                (true, true) => "-",
-                (false, false) => " + ",
-                (false, true) => " - ",
-            };
-            let _ = write!(expr, "{op}{text}");
+        if let Some(v) = self.bound.get(&sum_code(constant, &parts, true)) {
+            return v.neg();
         }
         self.line(&format!("let {name} = {expr};"));
+        self.bound.insert(expr, Sym::var(name));
         Sym::var(name)
     }
 
@@ -117,6 +116,25 @@ impl Emitter {
     pub fn sub(&mut self, name: &str, a: &Sym, b: &Sym) -> Sym {
         self.sum_of_products(name, &[(&Sym::ONE, a), (&Sym::Lit(-1.0), b)])
     }
+}
+
+/// `constant ± part ± ...`, every sign flipped if `negate`.
+fn sum_code(constant: f64, parts: &[(bool, String, bool)], negate: bool) -> String {
+    let mut expr = String::new();
+    let constant = if negate { -constant } else { constant };
+    if constant != 0.0 {
+        expr.push_str(&lit(constant));
+    }
+    for (i, (negative, text, _)) in parts.iter().enumerate() {
+        let op = match (expr.is_empty() && i == 0, *negative != negate) {
+            (true, false) => "",
+            (true, true) => "-",
+            (false, false) => " + ",
+            (false, true) => " - ",
+        };
+        let _ = write!(expr, "{op}{text}");
+    }
+    expr
 }
 
 #[cfg(test)]
@@ -148,6 +166,22 @@ mod tests {
         );
         assert_eq!(s, Sym::var("d"));
         assert_eq!(e.code.trim(), "let d = 1.0 - 0.5 * x - x * y;");
+    }
+
+    #[test]
+    fn a_bound_sum_or_its_negation_is_reused() {
+        let mut e = Emitter::default();
+        let (x, y) = (Sym::var("x"), Sym::var("y"));
+        let two = Sym::Lit(2.0);
+        let a = e.sum_of_products("a", &[(&two, &x), (&Sym::ONE, &y)]);
+        assert_eq!(e.sum_of_products("b", &[(&two, &x), (&Sym::ONE, &y)]), a);
+        let minus_two = Sym::Lit(-2.0);
+        let minus_y = y.neg();
+        assert_eq!(
+            e.sum_of_products("c", &[(&minus_two, &x), (&Sym::ONE, &minus_y)]),
+            a.neg()
+        );
+        assert_eq!(e.code.trim(), "let a = 2.0 * x + y;");
     }
 
     #[test]

@@ -11,7 +11,6 @@ pub struct Transform {
 }
 
 impl Transform {
-    #[cfg(test)]
     pub const IDENTITY: Transform = Transform {
         rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         pos: [0.0; 3],

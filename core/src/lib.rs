@@ -29,5 +29,6 @@ pub mod problem;
 pub mod rng;
 pub mod search;
 pub mod tracking;
+mod trig;
 
 pub use nalgebra;
