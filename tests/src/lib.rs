@@ -225,7 +225,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
         0.2,
         omcbsa_core::motion::MOTION_STEP,
     );
-    let traj: omcbsa_core::problem::Trajectory = p0.iter().map(|q| KinovaGen3::fk(q)).collect();
+    let traj: omcbsa_core::problem::Trajectory = p0.iter().map(KinovaGen3::fk).collect();
     let robot = Robot {
         base,
         tcp: Frame::IDENTITY,
@@ -250,7 +250,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
             pos: elbow,
         },
     };
-    if !witness_is_valid(&[base], &[p0.clone()], &[ball], 0.2) {
+    if !witness_is_valid(&[base], std::slice::from_ref(&p0), &[ball], 0.2) {
         return None;
     }
     let file = problem_json(
@@ -286,7 +286,9 @@ pub fn facing_pair_problem(seed: u64) -> Option<ProblemFile> {
     ))
 }
 
-/// The Gen3's usual "home" configuration, hand forward.
+/// The Gen3's usual "home" configuration, hand forward (Kinova's figures as published, so
+/// 3.14 and 1.57 are not π and π/2).
+#[allow(clippy::approx_constant)]
 pub const HOME: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
 
 /// Two arms 1.4 m apart, each hand path close to one arm and out of the other's reach, listed
