@@ -174,10 +174,32 @@ impl ArmPose {
         self.self_pairs
             .iter()
             .map(|&(a, b)| (usize::from(a), usize::from(b)))
-            .find(|&(a, b)| {
-                self.boxes[a].near(&self.boxes[b], margin)
-                    && self.capsules[a].hits(&self.capsules[b], margin)
-            })
+            .find(|&(a, b)| self.pair_hits(a, self, b, margin))
+    }
+
+    /// Whether capsule `i` of this arm and capsule `j` of `other` (this arm too, for a self
+    /// pair) come closer than `margin`: their boxes first, then the capsules.
+    #[inline]
+    fn pair_hits(&self, i: usize, other: &ArmPose, j: usize, margin: f64) -> bool {
+        self.boxes[i].near(&other.boxes[j], margin)
+            && self.capsules[i].hits(&other.capsules[j], margin)
+    }
+
+    /// Whether capsule `i` of the arm at `ends` and capsule `j` of `other` (the same arm, for
+    /// a self pair) stay apart over a motion on which their points travel `travel` towards
+    /// each other in all: clearance falls by at most that from either end, so clearances at
+    /// the ends adding up to more rule contact out. Boxes first (a lower bound on the
+    /// distance), then the capsules.
+    fn pair_stays_clear(
+        ends: [&ArmPose; 2],
+        i: usize,
+        other: [&ArmPose; 2],
+        j: usize,
+        travel: f64,
+    ) -> bool {
+        let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
+        let clearance = |k: usize| ends[k].capsules[i].signed_distance(&other[k].capsules[j]);
+        gap(0) + gap(1) > travel || clearance(0) + clearance(1) > travel
     }
 
     /// The first pair of capsules (this arm's, the other's), base links included, closer
@@ -190,10 +212,7 @@ impl ArmPose {
             .filter(|&i| self.boxes[i].near(&other.aabb, margin))
             .find_map(|i| {
                 (0..other.len)
-                    .find(|&j| {
-                        self.boxes[i].near(&other.boxes[j], margin)
-                            && self.capsules[i].hits(&other.capsules[j], margin)
-                    })
+                    .find(|&j| self.pair_hits(i, other, j, margin))
                     .map(|j| (i, j))
             })
     }
@@ -421,14 +440,9 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
         for &(a, b) in e0.self_pairs {
             let (a, b) = (usize::from(a), usize::from(b));
             let t = self.travel(a) + self.travel(b);
-            if e0.boxes[a].distance(&e0.boxes[b]) + e1.boxes[a].distance(&e1.boxes[b]) > t
-                || e0.capsules[a].signed_distance(&e0.capsules[b])
-                    + e1.capsules[a].signed_distance(&e1.capsules[b])
-                    > t
-            {
-                continue;
+            if !ArmPose::pair_stays_clear(ends, a, ends, b, t) {
+                suspects.pairs[a] |= 1 << b;
             }
-            suspects.pairs[a] |= 1 << b;
         }
         if !suspects.any() {
             return false;
@@ -454,9 +468,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
                 for (a, &row) in sus.pairs.iter().enumerate() {
                     for b in bits(row) {
                         let m = (self.travel(a) + self.travel(b)) * w;
-                        if arm.boxes[a].near(&arm.boxes[b], m)
-                            && arm.capsules[a].hits(&arm.capsules[b], m)
-                        {
+                        if arm.pair_hits(a, &arm, b, m) {
                             left.pairs[a] |= 1 << b;
                         }
                     }
@@ -499,15 +511,9 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
             continue;
         }
         for j in 0..b0.len {
-            let t = ti + b.travel(j);
-            if a0.boxes[i].distance(&b0.boxes[j]) + a1.boxes[i].distance(&b1.boxes[j]) > t
-                || a0.capsules[i].signed_distance(&b0.capsules[j])
-                    + a1.capsules[i].signed_distance(&b1.capsules[j])
-                    > t
-            {
-                continue;
+            if !ArmPose::pair_stays_clear(a_ends, i, b_ends, j, ti + b.travel(j)) {
+                *row |= 1 << j;
             }
-            *row |= 1 << j;
         }
     }
     if pairs.iter().all(|&r| r == 0) {
@@ -521,9 +527,7 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
         for (i, &row) in pairs.iter().enumerate() {
             for j in bits(row) {
                 let m = (a.travel(i) + b.travel(j)) * w;
-                if arm_a.boxes[i].near(&arm_b.boxes[j], m)
-                    && arm_a.capsules[i].hits(&arm_b.capsules[j], m)
-                {
+                if arm_a.pair_hits(i, &arm_b, j, m) {
                     left[i] |= 1 << j;
                 }
             }
