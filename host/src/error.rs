@@ -10,11 +10,19 @@ pub struct FieldError {
     pub message: String,
 }
 
+/// Longest message or path kept whole. Messages may quote the input (serde quotes an unknown
+/// field or variant in full), and one line must not grow with it: a 50 MB name would make a
+/// 50 MB message.
+pub const MAX_MESSAGE_CHARS: usize = 300;
+
+/// Names quoted in messages are cut to this many characters.
+pub const MAX_NAME_CHARS: usize = 40;
+
 impl FieldError {
     pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
         FieldError {
-            path: path.into(),
-            message: message.into(),
+            path: clipped(path.into(), MAX_MESSAGE_CHARS),
+            message: clipped(message.into(), MAX_MESSAGE_CHARS),
         }
     }
 
@@ -41,6 +49,28 @@ impl fmt::Display for FieldError {
         } else {
             write!(f, "{}: {}", self.path, self.message)
         }
+    }
+}
+
+/// `text` if it has at most `max` characters, else its start and end around a note of how
+/// much was left out.
+pub fn clipped(text: String, max: usize) -> String {
+    let chars = text.chars().count();
+    if chars <= max {
+        return text;
+    }
+    let keep = max / 2;
+    let head: String = text.chars().take(keep).collect();
+    let tail: String = text.chars().skip(chars - keep).collect();
+    format!("{head} …[{} characters cut]… {tail}", chars - 2 * keep)
+}
+
+/// A name from the input, quoted as `Debug` does, and cut after [`MAX_NAME_CHARS`]
+/// characters: `"left"`, `"aaaa…" (50000000 bytes)`.
+pub fn quoted(name: &str) -> String {
+    match name.char_indices().nth(MAX_NAME_CHARS) {
+        None => format!("{name:?}"),
+        Some((cut, _)) => format!("{:?} ({} bytes)", format!("{}…", &name[..cut]), name.len()),
     }
 }
 

@@ -4,7 +4,7 @@
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_hw::{ArmPlan, Plan, PlanValidator, JOINTS};
 
-use crate::error::InputError;
+use crate::error::{quoted, InputError};
 use crate::format::{ProblemFile, SolutionFile};
 use crate::load;
 use crate::models::ModelKind;
@@ -58,10 +58,10 @@ impl CheckedSolution {
         let robots = &self.problem.robots;
         let unknown: Vec<String> = (arms.iter())
             .filter(|a| !robots.iter().any(|r| r.name == **a))
-            .map(|a| format!("{a:?}"))
+            .map(|a| quoted(a))
             .collect();
         if !unknown.is_empty() {
-            let known: Vec<String> = robots.iter().map(|r| format!("{:?}", r.name)).collect();
+            let known: Vec<String> = robots.iter().map(|r| quoted(&r.name)).collect();
             return Err(format!(
                 "unknown arm name {}: the problem's robots are {}",
                 unknown.join(", "),
@@ -69,7 +69,7 @@ impl CheckedSolution {
             ));
         }
         if let Some((_, a)) = (arms.iter().enumerate()).find(|(i, a)| arms[..*i].contains(a)) {
-            return Err(format!("arm {a:?} is given twice"));
+            return Err(format!("arm {} is given twice", quoted(a)));
         }
         let paths = self.paths()?;
         let arms = (robots.iter().zip(paths))
@@ -123,15 +123,17 @@ impl PlanValidator for CheckedSolution {
         for arm in &plan.arms {
             let i = (self.problem.robots.iter())
                 .position(|r| r.name == arm.name)
-                .ok_or_else(|| format!("arm {:?} is not a robot of the problem", arm.name))?;
+                .ok_or_else(|| {
+                    format!("arm {} is not a robot of the problem", quoted(&arm.name))
+                })?;
             let same = paths.get(i).is_some_and(|p| {
                 p.len() == arm.joint_path.len()
                     && p.iter().zip(&arm.joint_path).all(|(a, b)| a == b)
             });
             if !same {
                 return Err(format!(
-                    "arm {:?}: the joint path is not the solution's path for robot {i}",
-                    arm.name
+                    "arm {}: the joint path is not the solution's path for robot {i}",
+                    quoted(&arm.name)
                 ));
             }
         }
@@ -140,9 +142,9 @@ impl PlanValidator for CheckedSolution {
             let moves = path.windows(2).any(|w| w[0] != w[1]);
             if moves && !plan.arms.iter().any(|a| a.name == r.name) {
                 return Err(format!(
-                    "robot {:?} moves in the solution but has no arm: every robot that moves \
+                    "robot {} moves in the solution but has no arm: every robot that moves \
                      needs one",
-                    r.name
+                    quoted(&r.name)
                 ));
             }
         }

@@ -17,6 +17,11 @@ pub const PROBLEM_FORMAT: &str = "omcbsa.problem.v1";
 /// The `format` string of a solution file.
 pub const SOLUTION_FORMAT: &str = "omcbsa.solution.v1";
 
+/// The largest joint value (rad, either sign) a file may hold, for any joint; a joint's own
+/// limits may be narrower. It is the range the CAN bus encodes (`omcbsa_hw`'s i32 counts of
+/// 1e-7 rad, ±214.7 rad), so that a solution that validates is one that can execute.
+pub const MAX_JOINT_VALUE: f64 = omcbsa_hw::cia402::MAX_POSITION_RAD;
+
 /// A rigid pose in the world frame: position in metres, unit quaternion in ROS order.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

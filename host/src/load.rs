@@ -6,6 +6,8 @@
 //! the core's capacities is refused with the capacity's name, never truncated. Rules that
 //! need a problem and a solution together are the validator's ([`crate::validate`]).
 
+use std::collections::hash_map::{Entry, HashMap};
+use std::io::Read;
 use std::path::Path;
 
 use omcbsa_core::geometry::{Obstacle, Shape};
@@ -14,20 +16,66 @@ use omcbsa_core::problem::{
     Problem, Robot, Tolerance, Trajectory, MAX_OBSTACLES, MAX_ROBOTS, MAX_STEPS,
 };
 use serde::de::DeserializeOwned;
-use serde_json::Value;
+use serde_json::error::Category;
+use serde_json::value::RawValue;
 
-use crate::error::{Errors, InputError};
+use crate::error::{quoted, Errors, InputError};
 use crate::format::{
-    ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, PROBLEM_FORMAT,
-    SOLUTION_FORMAT,
+    ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, MAX_JOINT_VALUE,
+    PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::models::ModelKind;
 use crate::pose::{self, short};
 
-/// Reads a whole file, with an error naming it.
+/// Default cap on the size of a problem or solution file (64 MiB): far beyond any problem the
+/// core's capacities admit, small enough that reading (`omcbsa plan /dev/zero`) ends with an
+/// error instead of exhausting memory. `--max-input-mib` raises it.
+pub const DEFAULT_MAX_INPUT_BYTES: u64 = 64 << 20;
+
+/// Reads a whole file of at most [`DEFAULT_MAX_INPUT_BYTES`] as text ([`decode_text`]).
 pub fn read_text(path: &Path) -> Result<String, InputError> {
-    std::fs::read_to_string(path)
-        .map_err(|e| InputError::one("", format!("cannot read {}: {e}", path.display())))
+    read_text_within(path, DEFAULT_MAX_INPUT_BYTES)
+}
+
+/// Reads a whole file of at most `max_bytes` as text ([`decode_text`]).
+pub fn read_text_within(path: &Path, max_bytes: u64) -> Result<String, InputError> {
+    let cannot =
+        |e: std::io::Error| InputError::one("", format!("cannot read {}: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    // `take` bounds the read even where the size is unknown (a pipe, /dev/zero).
+    let mut bytes = Vec::new();
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(InputError::one(
+            "",
+            format!(
+                "larger than the input limit of {max_bytes} bytes (refused, not truncated; \
+                 --max-input-mib raises the limit)"
+            ),
+        ));
+    }
+    decode_text(bytes)
+}
+
+/// File bytes as text: UTF-8, with a leading byte order mark (which some editors write)
+/// accepted and dropped.
+pub fn decode_text(mut bytes: Vec<u8>) -> Result<String, InputError> {
+    const BOM: &[u8] = "\u{feff}".as_bytes();
+    if bytes.starts_with(BOM) {
+        bytes.drain(..BOM.len());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let e = e.utf8_error();
+        InputError::one(
+            "",
+            format!(
+                "not UTF-8 text: invalid byte at offset {} (files must be UTF-8 JSON)",
+                e.valid_up_to()
+            ),
+        )
+    })
 }
 
 /// Parses a problem file (JSON syntax, `format`, field names and types). The values are
@@ -43,18 +91,31 @@ pub fn parse_solution(text: &str) -> Result<SolutionFile, InputError> {
     Ok(file)
 }
 
-/// JSON text -> value (syntax errors carry line and column) -> `format` check -> typed value
-/// (errors carry the field path). Checking `format` first means a file of another format is
-/// reported as such, not as a list of unexpected fields.
+/// JSON text -> `format` check -> typed value (errors carry the field path). Checking
+/// `format` first means a file of another format is reported as such, not as a list of
+/// unexpected fields. Neither pass builds a generic JSON tree: a tree costs up to 16 times
+/// the text's size, the typed value about as much as the text.
 fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError> {
-    let value: Value = serde_json::from_str(text)
-        .map_err(|e| InputError::one("", format!("not valid JSON: {e}")))?;
-    match value.get("format") {
-        Some(Value::String(f)) if f == format => {}
-        Some(other) => {
+    /// Only `format`, borrowed unparsed; every other field is skipped.
+    #[derive(serde::Deserialize)]
+    #[serde(rename = "JSON object")]
+    struct Probe<'a> {
+        #[serde(borrow, default)]
+        format: Option<&'a RawValue>,
+    }
+    let probe: Probe = serde_json::from_str(text).map_err(|e| match e.classify() {
+        Category::Data => InputError::one("", format!("not a {format} document: {e}")),
+        _ => InputError::one("", format!("not valid JSON: {e}")),
+    })?;
+    match probe
+        .format
+        .map(|raw| (raw, serde_json::from_str::<String>(raw.get())))
+    {
+        Some((_, Ok(f))) if f == format => {}
+        Some((raw, _)) => {
             return Err(InputError::one(
                 "format",
-                format!("expected {format:?}, got {other}"),
+                format!("expected {format:?}, got {}", raw.get()),
             ))
         }
         None => {
@@ -64,7 +125,8 @@ fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError>
             ))
         }
     }
-    serde_path_to_error::deserialize(value).map_err(|e| {
+    let mut json = serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(&mut json).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { String::new() } else { path };
         InputError::one(path, e.into_inner().to_string())
@@ -141,6 +203,7 @@ pub fn problem<M: Model<D>, const D: usize>(file: &ProblemFile) -> Result<Proble
     let robots: Vec<_> = (file.robots.iter().enumerate())
         .map(|(i, r)| robot::<M, D>(i, r, all_need_initial, &mut errors))
         .collect();
+    check_robot_names(&file.robots, &mut errors);
 
     let horizon = file.trajectories.first().map_or(0, |t| t.poses.len());
     let trajectories: Vec<_> = (file.trajectories.iter().enumerate())
@@ -191,6 +254,44 @@ pub fn problem<M: Model<D>, const D: usize>(file: &ProblemFile) -> Result<Proble
     }
 }
 
+/// Robot names address the arms (`execute --arm NAME=BUS`): each must be unique, non-empty
+/// and free of `=`.
+fn check_robot_names(robots: &[RobotSpec], errors: &mut Errors) {
+    let mut first_of: HashMap<&str, usize> = HashMap::with_capacity(robots.len());
+    for (i, robot) in robots.iter().enumerate() {
+        let path = format!("robots[{i}].name");
+        let name = robot.name.as_str();
+        if name.is_empty() {
+            errors.push(
+                path,
+                "empty: a robot needs a name (execute's --arm NAME=BUS uses it)",
+            );
+        } else if name.contains('=') {
+            errors.push(
+                path,
+                format!(
+                    "{} contains '=', so execute's --arm NAME=BUS cannot name it",
+                    quoted(name)
+                ),
+            );
+        } else {
+            match first_of.entry(name) {
+                Entry::Vacant(slot) => {
+                    slot.insert(i);
+                }
+                Entry::Occupied(first) => errors.push(
+                    path,
+                    format!(
+                        "{} is also the name of robots[{}]: robot names must be unique",
+                        quoted(name),
+                        first.get()
+                    ),
+                ),
+            }
+        }
+    }
+}
+
 fn robot<M: Model<D>, const D: usize>(
     i: usize,
     spec: &RobotSpec,
@@ -222,7 +323,16 @@ fn robot<M: Model<D>, const D: usize>(
     })
 }
 
-/// Checks a configuration of model `M` (length, finite values, joint limits).
+/// The values joint `j` of model `M` may take in a file: its limits, within
+/// ±[`MAX_JOINT_VALUE`] (which bounds the continuous joints).
+pub fn joint_range<M: Model<D>, const D: usize>(j: usize) -> (f64, f64) {
+    (
+        M::LOWER[j].max(-MAX_JOINT_VALUE),
+        M::UPPER[j].min(MAX_JOINT_VALUE),
+    )
+}
+
+/// Checks a configuration of model `M` (length, finite values, [`joint_range`]).
 pub fn joint_values<M: Model<D>, const D: usize>(
     q: &[f64],
     path: &str,
@@ -241,20 +351,21 @@ pub fn joint_values<M: Model<D>, const D: usize>(
     };
     let mut ok = true;
     for (j, &v) in q.iter().enumerate() {
+        let (lower, upper) = joint_range::<M, D>(j);
         if !v.is_finite() {
             errors.push(
                 format!("{path}[{j}]"),
                 format!("{v} is not a finite number"),
             );
             ok = false;
-        } else if v < M::LOWER[j] || v > M::UPPER[j] {
+        } else if v < lower || v > upper {
             errors.push(
                 format!("{path}[{j}]"),
                 format!(
                     "{} is outside the limits [{}, {}] of joint {}",
                     short(v),
-                    short(M::LOWER[j]),
-                    short(M::UPPER[j]),
+                    short(lower),
+                    short(upper),
                     M::JOINT_NAMES[j]
                 ),
             );

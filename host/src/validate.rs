@@ -10,7 +10,9 @@ use omcbsa_core::nalgebra::Vector3;
 use omcbsa_core::problem::Problem;
 use serde::Serialize;
 
+use crate::error::quoted;
 use crate::format::{ProblemFile, SolutionFile, Status};
+use crate::load::joint_range;
 use crate::pose::short;
 
 /// How far a holding robot may be from `initial`, per joint (only float noise).
@@ -131,8 +133,9 @@ pub fn validate<M: Model<D>, const D: usize>(
             None,
             None,
             format!(
-                "the solution is for problem {:?}, not {:?}",
-                solution.problem, file.name
+                "the solution is for problem {}, not {}",
+                quoted(&solution.problem),
+                quoted(&file.name)
             ),
         );
     }
@@ -187,8 +190,8 @@ fn check_assignment(file: &ProblemFile, solution: &SolutionFile, report: &mut Re
                     Some(i),
                     None,
                     format!(
-                        "trajectory {j} ({:?}) is also assigned to robot {k}",
-                        file.trajectories[j].name
+                        "trajectory {j} ({}) is also assigned to robot {k}",
+                        quoted(&file.trajectories[j].name)
                     ),
                 ),
                 None => tracker[j] = Some(i),
@@ -210,8 +213,8 @@ fn check_assignment(file: &ProblemFile, solution: &SolutionFile, report: &mut Re
                 None,
                 None,
                 format!(
-                    "trajectory {j} ({:?}) is tracked by no robot",
-                    file.trajectories[j].name
+                    "trajectory {j} ({}) is tracked by no robot",
+                    quoted(&file.trajectories[j].name)
                 ),
             );
         }
@@ -281,12 +284,14 @@ fn joint_paths<M: Model<D>, const D: usize>(
     (report.violations.len() == before).then_some(out)
 }
 
-/// Rule 1.
+/// Rule 1, with the range of [`joint_range`] (joint limits, and the bus's range for the
+/// continuous joints).
 fn check_limits<M: Model<D>, const D: usize>(paths: &[Vec<[f64; D]>], report: &mut Report) {
     for (i, path) in paths.iter().enumerate() {
         for (t, q) in path.iter().enumerate() {
             for (j, &v) in q.iter().enumerate() {
-                if !(M::LOWER[j] <= v && v <= M::UPPER[j]) {
+                let (lower, upper) = joint_range::<M, D>(j);
+                if !(lower <= v && v <= upper) {
                     report.add(
                         Rule::JointLimits,
                         Some(i),
@@ -295,8 +300,8 @@ fn check_limits<M: Model<D>, const D: usize>(paths: &[Vec<[f64; D]>], report: &m
                             "joint {} = {} is outside its limits [{}, {}]",
                             M::JOINT_NAMES[j],
                             short(v),
-                            short(M::LOWER[j]),
-                            short(M::UPPER[j])
+                            short(lower),
+                            short(upper)
                         ),
                     );
                 }
@@ -321,7 +326,7 @@ fn check_tracking<M: Model<D>, const D: usize>(
                 let Some(trajectory) = problem.trajectories.get(j) else {
                     continue;
                 };
-                let name = &file.trajectories[j].name;
+                let name = quoted(&file.trajectories[j].name);
                 for (t, (q, target)) in path.iter().zip(trajectory).enumerate() {
                     let tcp = robot.base.compose(&M::fk(q)).compose(&robot.tcp);
                     let dp = (tcp.pos - target.pos).norm();
@@ -332,7 +337,7 @@ fn check_tracking<M: Model<D>, const D: usize>(
                             Some(i),
                             Some(t),
                             format!(
-                                "the TCP is {} m from pose {t} of trajectory {j} ({name:?}); \
+                                "the TCP is {} m from pose {t} of trajectory {j} ({name}); \
                                  tolerance {} m",
                                 short(dp),
                                 short(tol.position)
@@ -346,7 +351,7 @@ fn check_tracking<M: Model<D>, const D: usize>(
                             Some(t),
                             format!(
                                 "the TCP is rotated {} rad from pose {t} of trajectory {j} \
-                                 ({name:?}); tolerance {} rad",
+                                 ({name}); tolerance {} rad",
                                 short(angle),
                                 short(tol.orientation)
                             ),
@@ -468,9 +473,9 @@ impl Contact {
             Contact::Obstacle {
                 capsule, obstacle, ..
             } => format!(
-                "link {} hits obstacle {obstacle} ({:?})",
+                "link {} hits obstacle {obstacle} ({})",
                 link(capsule),
-                file.obstacles[obstacle].name
+                quoted(&file.obstacles[obstacle].name)
             ),
             Contact::Robot {
                 capsule,
@@ -478,10 +483,10 @@ impl Contact {
                 other_capsule,
                 ..
             } => format!(
-                "link {} hits link {} of robot {other} ({:?})",
+                "link {} hits link {} of robot {other} ({})",
                 link(capsule),
                 link(other_capsule),
-                file.robots[other].name
+                quoted(&file.robots[other].name)
             ),
             Contact::SelfLinks {
                 capsule,

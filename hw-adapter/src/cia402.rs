@@ -11,6 +11,11 @@ use crate::canopen::{rpdo1_cob_id, tpdo1_cob_id, SdoValue};
 
 pub const COUNTS_PER_RAD: f64 = 1e7;
 
+/// The largest joint value (rad, either sign) the bus encodes: `i32::MAX` counts. Problem and
+/// solution files are held to the same range (the host's loader and validator use this
+/// constant), so that a solution that validates is one the bus can carry.
+pub const MAX_POSITION_RAD: f64 = i32::MAX as f64 / COUNTS_PER_RAD;
+
 pub const CONTROLWORD: u16 = 0x6040;
 pub const STATUSWORD: u16 = 0x6041;
 pub const MODES_OF_OPERATION: u16 = 0x6060;
@@ -42,10 +47,10 @@ pub fn operation_enabled(statusword: u16) -> bool {
     statusword & SW_STATE_MASK == SW_OPERATION_ENABLED
 }
 
-/// `rad` as bus counts; `None` outside the i32 range.
+/// `rad` as bus counts; `None` outside ±[`MAX_POSITION_RAD`] (and for NaN).
 pub fn rad_to_counts(rad: f64) -> Option<i32> {
-    let c = (rad * COUNTS_PER_RAD).round();
-    (c.is_finite() && c >= f64::from(i32::MIN) && c <= f64::from(i32::MAX)).then_some(c as i32)
+    // Within the range the product is at most an ulp beyond `i32::MAX`, which rounds back.
+    (rad.abs() <= MAX_POSITION_RAD).then(|| (rad * COUNTS_PER_RAD).round() as i32)
 }
 
 pub fn counts_to_rad(counts: i32) -> f64 {
@@ -127,6 +132,9 @@ mod tests {
             0.123_456_8
         );
         assert_eq!(rad_to_counts(300.0), None);
+        assert_eq!(rad_to_counts(MAX_POSITION_RAD), Some(i32::MAX));
+        assert_eq!(rad_to_counts(-MAX_POSITION_RAD), Some(-i32::MAX));
+        assert_eq!(rad_to_counts(MAX_POSITION_RAD * (1.0 + f64::EPSILON)), None);
         assert_eq!(rad_to_counts(f64::NAN), None);
     }
 

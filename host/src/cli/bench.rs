@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use omcbsa::bench::{run_bench, BenchOptions};
 use omcbsa::planners::PLANNERS;
 
-use super::bad_input;
+use super::{bad_input, note, positive_seconds, print};
 
 /// Runs every planner on every problem of SUITE_DIR (made by gen-bench), re-validating every
 /// reported success, and writes results.csv (resumable), summary.md and plots.
@@ -18,11 +18,11 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_values_t = PLANNERS.map(String::from))]
     planners: Vec<String>,
     /// Per run, seconds.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
-    /// Runs at a time (default: one per core).
-    #[arg(long)]
-    jobs: Option<usize>,
+    /// Runs at a time, 1 to 1024 (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=1024))]
+    jobs: Option<u16>,
     /// A subset that finishes in under two minutes.
     #[arg(long)]
     quick: bool,
@@ -44,29 +44,34 @@ pub fn run(args: &Args) -> ExitCode {
     let opts = BenchOptions {
         planners: args.planners.clone(),
         timeout_s: args.timeout,
-        jobs: args.jobs.unwrap_or(defaults.jobs).max(1),
+        jobs: args.jobs.map_or(defaults.jobs, usize::from),
         quick: args.quick,
         out: args.out.clone(),
         progress: true,
     };
     match run_bench(&args.suite_dir, &opts) {
         Ok(report) => {
-            println!(
-                "{}",
-                std::fs::read_to_string(&report.summary_path).unwrap_or_default()
+            let mut lines = vec![
+                std::fs::read_to_string(&report.summary_path).unwrap_or_default(),
+                format!("results: {}", report.results_path.display()),
+            ];
+            lines.extend(
+                report
+                    .plots
+                    .iter()
+                    .map(|p| format!("plot: {}", p.display())),
             );
-            println!("results: {}", report.results_path.display());
-            for p in &report.plots {
-                println!("plot: {}", p.display());
+            if let Err(code) = print(lines.join("\n")) {
+                return code;
             }
             if let Some(e) = &report.plot_error {
-                eprintln!("plots not drawn: {e}");
+                note(format_args!("plots not drawn: {e}"));
             }
             if !report.summary.invalid.is_empty() {
-                eprintln!(
+                note(format_args!(
                     "error: {} reported successes failed validation",
                     report.summary.invalid.len()
-                );
+                ));
                 return ExitCode::from(1);
             }
             ExitCode::SUCCESS

@@ -13,7 +13,7 @@ use omcbsa_hw::record::TOLERANCE;
 use serde::Serialize;
 
 use super::execute::{failure, progress_printer};
-use super::{bad_input, negative};
+use super::{bad_input, negative, note, positive_seconds, print};
 
 /// The README's main command: three Kinova Gen3 arms around a box, hands on three of its faces
 /// while it flips. Plans it with Ω-CBSA, validates the plan, writes problem.json and
@@ -26,99 +26,80 @@ pub struct Args {
     #[arg(long, default_value = "demo-out")]
     out: PathBuf,
     /// Planning time limit, seconds.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    if !(args.timeout > 0.0 && args.timeout.is_finite()) {
-        return bad_input(format!(
-            "--timeout: must be a positive number of seconds, got {}",
-            args.timeout
-        ));
-    }
-    println!("demo: 3 Kinova Gen3 arms around a box, hands on three faces while it flips");
-    let demo = match box_flip() {
-        Ok(d) => d,
-        Err(e) => return failed(e),
-    };
-    let problem = demo.problem;
-    println!(
+    demo(args).unwrap_or_else(|code| code)
+}
+
+fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
+    print("demo: 3 Kinova Gen3 arms around a box, hands on three faces while it flips")?;
+    let problem = box_flip().map_err(failed)?.problem;
+    print(format_args!(
         "problem {:?}: {} robots, {} trajectories of {STEPS} poses every {DT} s",
         problem.name,
         problem.robots.len(),
         problem.trajectories.len()
-    );
-    let solution = match plan_file(&problem, "omcbsa", args.timeout) {
-        Ok(s) => s,
-        Err(InputOrPlanError::Input(e)) => return failed(e),
-        Err(InputOrPlanError::Plan(e)) => return failed(e),
-    };
-    println!(
+    ))?;
+    let solution = plan_file(&problem, "omcbsa", args.timeout).map_err(|e| match e {
+        InputOrPlanError::Input(e) => failed(e),
+        InputOrPlanError::Plan(e) => failed(e),
+    })?;
+    print(format_args!(
         "planned with Ω-CBSA in {:.1} ms: {}",
         solution.planning_time_s * 1e3,
         solution.status.as_str()
-    );
+    ))?;
     if solution.status != Status::Solved {
-        return failed(format!("not solved: {}", solution.message));
+        return Err(failed(format!("not solved: {}", solution.message)));
     }
-    let checked = match CheckedSolution::new(problem, solution) {
-        Ok(c) => c,
-        Err(e) => return failed(e),
-    };
-    println!("validated: {}", checked.report().summary());
+    let checked = CheckedSolution::new(problem, solution).map_err(failed)?;
+    print(format_args!("validated: {}", checked.report().summary()))?;
     if !checked.report().is_valid() {
-        return negative();
+        return Err(negative());
     }
-    if let Err(e) = write_files(&args.out, &checked) {
-        return bad_input(e);
-    }
-    let python = match ensure_venv() {
-        Ok(p) => p,
-        Err(e) => return bad_input(e),
-    };
-    let plan = match checked.plan(&ROBOTS) {
-        Ok(p) => p,
-        Err(e) => return failed(e),
-    };
-    println!(
+    write_files(&args.out, &checked)?;
+    let python = ensure_venv().map_err(bad_input)?;
+    let plan = checked.plan(&ROBOTS).map_err(failed)?;
+    print(format_args!(
         "starting {} mock arms, each at its first configuration",
         plan.arms.len()
-    );
+    ))?;
     let names = ROBOTS.map(String::from).to_vec();
-    let report = match run_on_mock_arms(&python, plan, &checked, &args.out, progress_printer(names))
-    {
-        Ok(r) => r,
-        Err(MockRunError::Exec(e)) => return failure(e),
-        Err(e @ MockRunError::Mocks(_)) => return bad_input(e),
-        Err(e @ MockRunError::Record { .. }) => return failed(e),
-    };
-    println!("{report}");
-    summary(&checked, &report);
-    ExitCode::SUCCESS
+    let report = run_on_mock_arms(&python, plan, &checked, &args.out, progress_printer(names))
+        .map_err(|e| match e {
+            MockRunError::Exec(e) => failure(e),
+            e @ MockRunError::Mocks(_) => bad_input(e),
+            e @ MockRunError::Record { .. } => failed(e),
+        })?;
+    print(&report)?;
+    summary(&checked, &report)?;
+    Ok(ExitCode::SUCCESS)
 }
 
 fn failed(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
+    note(format_args!("error: {e}"));
     negative()
 }
 
-fn write_files(out: &Path, checked: &CheckedSolution) -> Result<(), String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+fn write_files(out: &Path, checked: &CheckedSolution) -> Result<(), ExitCode> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| bad_input(format!("cannot create {}: {e}", out.display())))?;
     write_json(&out.join("problem.json"), checked.problem())?;
     write_json(&out.join("solution.json"), checked.solution())
 }
 
-fn write_json(path: &Path, value: &impl Serialize) -> Result<(), String> {
+fn write_json(path: &Path, value: &impl Serialize) -> Result<(), ExitCode> {
     let text = serde_json::to_string_pretty(value)
-        .map_err(|e| format!("cannot encode {}: {e}", path.display()))?;
+        .map_err(|e| bad_input(format!("cannot encode {}: {e}", path.display())))?;
     std::fs::write(path, text + "\n")
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    println!("wrote {}", path.display());
-    Ok(())
+        .map_err(|e| bad_input(format!("cannot write {}: {e}", path.display())))?;
+    print(format_args!("wrote {}", path.display()))
 }
 
-fn summary(checked: &CheckedSolution, report: &omcbsa_hw::Report) {
+fn summary(checked: &CheckedSolution, report: &omcbsa_hw::Report) -> Result<(), ExitCode> {
     let (problem, solution) = (checked.problem(), checked.solution());
     let assignment: Vec<String> = (problem.robots.iter().zip(&solution.assignment))
         .map(|(r, a)| match a.and_then(|j| problem.trajectories.get(j)) {
@@ -131,22 +112,25 @@ fn summary(checked: &CheckedSolution, report: &omcbsa_hw::Report) {
         .iter()
         .map(|a| a.max_following_error)
         .fold(0.0, f64::max);
-    println!("summary");
-    println!(
-        "  planning time         {:.1} ms (Ω-CBSA)",
-        solution.planning_time_s * 1e3
-    );
-    println!("  assignment            {}", assignment.join(", "));
-    println!(
-        "  cycles streamed       {} per arm at {:.0} Hz ({:.2} s), {} frames",
-        report.cycles,
-        1.0 / report.period.as_secs_f64(),
-        report.cycles as f64 * report.period.as_secs_f64(),
-        report.frames_sent
-    );
-    println!("  max following error   {max_error:.2e} rad");
-    println!(
-        "  mock arms' records    every command as planned (within {TOLERANCE:.0e} rad), none \
-         beyond a joint limit"
-    );
+    let lines = [
+        "summary".to_string(),
+        format!(
+            "  planning time         {:.1} ms (Ω-CBSA)",
+            solution.planning_time_s * 1e3
+        ),
+        format!("  assignment            {}", assignment.join(", ")),
+        format!(
+            "  cycles streamed       {} per arm at {:.0} Hz ({:.2} s), {} frames",
+            report.cycles,
+            1.0 / report.period.as_secs_f64(),
+            report.cycles as f64 * report.period.as_secs_f64(),
+            report.frames_sent
+        ),
+        format!("  max following error   {max_error:.2e} rad"),
+        format!(
+            "  mock arms' records    every command as planned (within {TOLERANCE:.0e} rad), \
+             none beyond a joint limit"
+        ),
+    ];
+    print(lines.join("\n"))
 }

@@ -9,10 +9,10 @@ use omcbsa::error::InputError;
 use omcbsa::execute::CheckedSolution;
 use omcbsa::load;
 use omcbsa_hw::executor::Progress;
-use omcbsa_hw::transport::{self, ArmBuses};
+use omcbsa_hw::transport::{self, ArmBuses, BusSpec};
 use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
 
-use super::{bad_input, negative};
+use super::{bad_input, negative, note, print};
 
 /// Streams a solution to the arms, one CAN bus per arm, at the control rate: refuses to start
 /// unless the solution validates against the problem. Exit code 0 done, 1 stopped by a fault
@@ -41,9 +41,11 @@ pub struct Args {
 
 fn parse_arm(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
-        Some((name, bus)) if !name.is_empty() && !bus.is_empty() => {
-            Ok((name.to_string(), bus.to_string()))
-        }
+        // The bus is checked here, so that a dry run accepts only buses a live run could open.
+        Some((name, bus)) if !name.is_empty() && !bus.is_empty() => match BusSpec::parse(bus) {
+            Ok(_) => Ok((name.to_string(), bus.to_string())),
+            Err(e) => Err(e.to_string()),
+        },
         _ => Err(format!(
             "expected NAME=BUS (e.g. left=slcan:/dev/ttyACM0), got {s:?}"
         )),
@@ -117,7 +119,7 @@ fn stream(
     let report = Executor::new(plan, JointLimits::kinova_gen3(), buses, config)
         .and_then(|e| e.on_progress(progress_printer(names)).run(checked))
         .map_err(failure)?;
-    println!("{report}");
+    print(&report)?;
     Ok(report)
 }
 
@@ -126,7 +128,7 @@ fn stream(
 pub fn failure(e: ExecError) -> ExitCode {
     match e {
         ExecError::Fault(report) => {
-            eprintln!("error: stopped by a fault\n{report}");
+            note(format_args!("error: stopped by a fault\n{report}"));
             negative()
         }
         e => bad_input(e),
@@ -146,11 +148,11 @@ pub fn progress_printer(names: Vec<String>) -> impl Fn(Progress) + Send + Sync {
         let tenth = done * 10 / p.cycles.max(1);
         if tenth > *printed {
             *printed = tenth;
-            eprintln!(
+            note(format_args!(
                 "streaming: {:3}% ({done}/{} cycles on every arm)",
                 tenth * 10,
                 p.cycles
-            );
+            ));
         }
     }
 }

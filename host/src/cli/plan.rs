@@ -7,11 +7,11 @@ use omcbsa::format::Status;
 use omcbsa::load;
 use omcbsa::planners::{plan_file, InputOrPlanError, PLANNERS};
 
-use super::{bad_input, negative};
+use super::{bad_input, negative, note, positive_seconds, print, InputLimit};
 
 /// Plans a problem: which robot tracks which trajectory and every robot's joint path.
 /// Exit code 0 solved, 1 not solved (no_solution, timeout, out_of_memory), 2 bad input or
-/// usage.
+/// usage, or an output that cannot be written.
 #[derive(clap::Args)]
 pub struct Args {
     /// Problem file (omcbsa.problem.v1).
@@ -24,47 +24,48 @@ pub struct Args {
     #[arg(long, default_value = "omcbsa")]
     planner: String,
     /// Planning time limit, seconds.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
+    #[command(flatten)]
+    limit: InputLimit,
 }
 
 pub fn run(args: &Args) -> ExitCode {
+    plan(args).unwrap_or_else(|code| code)
+}
+
+fn plan(args: &Args) -> Result<ExitCode, ExitCode> {
     if !PLANNERS.contains(&args.planner.as_str()) && args.planner != "omega-astar" {
-        return bad_input(format!(
+        return Err(bad_input(format!(
             "--planner: unknown planner {:?} (known: omega-astar, {})",
             args.planner,
             PLANNERS.join(", ")
-        ));
-    }
-    if !(args.timeout > 0.0 && args.timeout.is_finite()) {
-        return bad_input(format!(
-            "--timeout: must be a positive number of seconds, got {}",
-            args.timeout
-        ));
+        )));
     }
     let path = args.problem.display();
-    let file = match load::read_text(&args.problem).and_then(|t| load::parse_problem(&t)) {
-        Ok(f) => f,
-        Err(e) => return bad_input(format!("{path}: {e}")),
-    };
-    let solution = match plan_file(&file, &args.planner, args.timeout) {
-        Ok(s) => s,
-        Err(InputOrPlanError::Input(e)) => return bad_input(format!("{path}: {e}")),
-        Err(InputOrPlanError::Plan(e)) => return bad_input(e),
-    };
-    let text = match serde_json::to_string_pretty(&solution) {
-        Ok(t) => t,
-        Err(e) => return bad_input(format!("cannot encode the solution: {e}")),
-    };
-    match &args.output {
-        Some(out) => {
-            if let Err(e) = std::fs::write(out, text + "\n") {
-                return bad_input(format!("cannot write {}: {e}", out.display()));
-            }
-        }
-        None => println!("{text}"),
+    let file = load::read_text_within(&args.problem, args.limit.bytes())
+        .and_then(|t| load::parse_problem(&t))
+        .map_err(|e| bad_input(format!("{path}: {e}")))?;
+    // A usage error, not a property of the problem: the planner plans one robot.
+    if args.planner == "omega-astar" && file.robots.len() != 1 {
+        return Err(bad_input(format!(
+            "--planner omega-astar plans one robot, but {path} has {}; use omcbsa, pp or \
+             pp-single for several",
+            file.robots.len()
+        )));
     }
-    eprintln!(
+    let solution = plan_file(&file, &args.planner, args.timeout).map_err(|e| match e {
+        InputOrPlanError::Input(e) => bad_input(format!("{path}: {e}")),
+        InputOrPlanError::Plan(e) => bad_input(e),
+    })?;
+    let text = serde_json::to_string_pretty(&solution)
+        .map_err(|e| bad_input(format!("cannot encode the solution: {e}")))?;
+    match &args.output {
+        Some(out) => std::fs::write(out, text + "\n")
+            .map_err(|e| bad_input(format!("cannot write {}: {e}", out.display())))?,
+        None => print(text)?,
+    }
+    note(format_args!(
         "{}: {} in {:.1} ms{}",
         args.planner,
         solution.status.as_str(),
@@ -74,10 +75,10 @@ pub fn run(args: &Args) -> ExitCode {
         } else {
             format!(" ({})", solution.message)
         }
-    );
-    if solution.status == Status::Solved {
+    ));
+    Ok(if solution.status == Status::Solved {
         ExitCode::SUCCESS
     } else {
         negative()
-    }
+    })
 }

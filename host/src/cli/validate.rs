@@ -9,11 +9,11 @@ use omcbsa::models::ModelKind;
 use omcbsa::validate::{validate, Report};
 use omcbsa_core::model::{KinovaGen3, Model};
 
-use super::{bad_input, negative};
+use super::{bad_input, negative, print, InputLimit};
 
 /// Checks a solution against its problem: the five rules of docs/FORMATS.md with the
 /// project's collision model. Prints `valid`, or every violation with its rule, robot and
-/// step. Exit code 0 valid, 1 invalid, 2 bad input.
+/// step. Exit code 0 valid, 1 invalid, 2 bad input or an output that cannot be written.
 #[derive(clap::Args)]
 pub struct Args {
     /// Problem file (omcbsa.problem.v1).
@@ -23,6 +23,8 @@ pub struct Args {
     /// Print the report as JSON: {"valid": bool, "summary": "...", "violations": [...]}.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    limit: InputLimit,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -30,20 +32,22 @@ pub fn run(args: &Args) -> ExitCode {
         Ok(report) => report,
         Err(message) => return bad_input(message),
     };
-    if args.json {
-        let value = serde_json::json!({
+    let text = if args.json {
+        serde_json::json!({
             "valid": report.is_valid(),
             "summary": report.summary(),
             "violations": report.violations,
-        });
-        println!("{value}");
+        })
+        .to_string()
     } else {
-        println!("{}", report.summary());
+        let mut lines = vec![report.summary()];
         if report.violations.len() > 1 {
-            for v in &report.violations {
-                println!("  {v}");
-            }
+            lines.extend(report.violations.iter().map(|v| format!("  {v}")));
         }
+        lines.join("\n")
+    };
+    if let Err(code) = print(text) {
+        return code;
     }
     if report.is_valid() {
         ExitCode::SUCCESS
@@ -53,7 +57,9 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 fn check(args: &Args) -> Result<Report, String> {
-    let read = |path: &Path| load::read_text(path).map_err(|e| in_file(path, e));
+    let read = |path: &Path| {
+        load::read_text_within(path, args.limit.bytes()).map_err(|e| in_file(path, e))
+    };
     let file = load::parse_problem(&read(&args.problem)?).map_err(|e| in_file(&args.problem, e))?;
     let solution =
         load::parse_solution(&read(&args.solution)?).map_err(|e| in_file(&args.solution, e))?;
