@@ -79,7 +79,7 @@ pub fn counts_to_rad(counts: i32) -> f64 {
 }
 
 /// PDO mapping entry: object index, sub-index, length in bits.
-fn mapping(index: u16, sub: u8, bits: u8) -> SdoValue {
+pub fn mapping(index: u16, sub: u8, bits: u8) -> SdoValue {
     SdoValue::U32((u32::from(index) << 16) | (u32::from(sub) << 8) | u32::from(bits))
 }
 
