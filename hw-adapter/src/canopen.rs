@@ -73,6 +73,11 @@ pub enum SdoValue {
 }
 
 impl SdoValue {
+    /// Size on the bus, bytes.
+    pub fn size(self) -> usize {
+        self.bytes().1
+    }
+
     fn bytes(self) -> ([u8; 4], usize) {
         match self {
             SdoValue::U8(v) => ([v, 0, 0, 0], 1),

@@ -26,9 +26,9 @@ pub const SOFTWARE_POSITION_LIMIT: u16 = 0x607D;
 pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
 pub const HEARTBEAT_PRODUCER_TIME: u16 = 0x1017;
 const RPDO1_COMM: u16 = 0x1400;
-const RPDO1_MAPPING: u16 = 0x1600;
+pub const RPDO1_MAPPING: u16 = 0x1600;
 const TPDO1_COMM: u16 = 0x1800;
-const TPDO1_MAPPING: u16 = 0x1A00;
+pub const TPDO1_MAPPING: u16 = 0x1A00;
 
 pub const MODE_CSP: u8 = 8;
 
