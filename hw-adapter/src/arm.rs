@@ -1,8 +1,12 @@
-//! One arm on its own bus: seven CiA 402 drives, joint k at node k+1. Start-up (SDO config, NMT
-//! start, enable), one control cycle (RPDO per joint, then SYNC), feedback bookkeeping (TPDO,
-//! heartbeat, EMCY), and the stop sequences.
+//! One arm on its own bus: seven CiA 402 drives, joint k at node k+1. Start-up ([`setup`]: SDO
+//! configuration and read-back, NMT start, enable), one control cycle (RPDO per joint, then
+//! SYNC), feedback bookkeeping (TPDO, heartbeat, EMCY), and the stop sequences.
 
-use crate::canopen::{self, Emcy, Message, NmtCommand, SdoReply, SdoValue};
+mod setup;
+
+pub use setup::SetupOverride;
+
+use crate::canopen::{self, Emcy, Message, NmtCommand, SdoReply};
 use crate::cia402::{self, counts_to_rad};
 use crate::executor::{ExecConfig, Fault};
 use crate::frame::CanFrame;
@@ -21,8 +25,10 @@ pub fn node_id(j: usize) -> u8 {
 struct NodeState {
     /// Last heartbeat: when, and the NMT state it reported.
     heartbeat: Option<(Instant, u8)>,
-    /// Last TPDO1: when, position actual (counts), statusword.
-    tpdo: Option<(Instant, i32, u16)>,
+    /// Last TPDO1: position actual (counts), statusword.
+    tpdo: Option<(i32, u16)>,
+    /// The first SYNC sent since the last TPDO1: the drive owes an answer since then.
+    unanswered_sync: Option<Instant>,
     emcy: Option<Emcy>,
 }
 
@@ -78,6 +84,12 @@ impl ArmBus {
 
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
+        if frame.id() == canopen::SYNC_ID {
+            let now = Instant::now();
+            for n in &mut self.nodes {
+                n.unanswered_sync.get_or_insert(now);
+            }
+        }
         self.log.push(LogEntry {
             t: self.clock.elapsed().as_secs_f64(),
             arm: self.name.clone(),
@@ -105,8 +117,9 @@ impl ArmBus {
                 }
             }
             Message::Tpdo1 { node: n, data } => {
-                if let (Some(j), Some((pos, sw))) = (node(n), cia402::parse_tpdo1(data.data())) {
-                    self.nodes[j].tpdo = Some((now, pos, sw));
+                if let (Some(j), Some(feedback)) = (node(n), cia402::parse_tpdo1(data.data())) {
+                    self.nodes[j].tpdo = Some(feedback);
+                    self.nodes[j].unanswered_sync = None;
                 }
             }
             // Error code 0 is "error reset / no error".
@@ -118,124 +131,6 @@ impl ArmBus {
             Message::SdoResponse { node: n, reply } => self.sdo_reply = Some((n, reply)),
             Message::Emcy(_) | Message::Other => {}
         }
-    }
-
-    /// SDO expedited download, waiting for the node's confirmation.
-    fn sdo_write(
-        &mut self,
-        node: u8,
-        index: u16,
-        sub: u8,
-        value: SdoValue,
-        timeout: Duration,
-    ) -> Result<(), String> {
-        let what = format!("SDO write node {node} {index:#06x}:{sub:02x} = {value:?}");
-        self.sdo_reply = None;
-        self.send(&canopen::sdo_download(node, index, sub, value), what)
-            .map_err(|e| e.to_string())?;
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some((n, reply)) = self.sdo_reply.take() {
-                if n == node {
-                    return match reply {
-                        SdoReply::DownloadAck { index: i, sub: s } if i == index && s == sub => Ok(()),
-                        SdoReply::Abort { code, .. } => Err(format!(
-                            "node {node} refused SDO write {index:#06x}:{sub:02x} (abort code {code:#010x})"
-                        )),
-                        other => Err(format!(
-                            "node {node} gave an unexpected answer to SDO write {index:#06x}:{sub:02x}: {other:?}"
-                        )),
-                    };
-                }
-            }
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return Err(format!(
-                    "node {node} did not answer SDO write {index:#06x}:{sub:02x} within {timeout:?}"
-                ));
-            }
-            if let Some(f) = self.transport.recv(left).map_err(|e| e.to_string())? {
-                self.handle(&f);
-            }
-        }
-    }
-
-    /// Configures and enables all drives, then checks that each reports "operation enabled" at
-    /// the plan's start position. Sends no motion command.
-    pub fn start_up(&mut self, cfg: &ExecConfig, start: &Command) -> Result<(), String> {
-        for j in 0..JOINTS {
-            let node = node_id(j);
-            for (index, sub, value) in cia402::startup_config(node, cfg.heartbeat_ms) {
-                self.sdo_write(node, index, sub, value, cfg.sdo_timeout)?;
-            }
-        }
-        for j in 0..JOINTS {
-            let node = node_id(j);
-            self.send(
-                &canopen::nmt(NmtCommand::Start, node),
-                format!("NMT start node {node}"),
-            )
-            .map_err(|e| e.to_string())?;
-        }
-        for j in 0..JOINTS {
-            let node = node_id(j);
-            for cw in cia402::ENABLE_SEQUENCE {
-                self.sdo_write(
-                    node,
-                    cia402::CONTROLWORD,
-                    0,
-                    SdoValue::U16(cw),
-                    cfg.sdo_timeout,
-                )?;
-            }
-        }
-        // SYNC until every drive has answered with a TPDO and an operational heartbeat.
-        let deadline = Instant::now() + cfg.startup_timeout;
-        let ready = |n: &NodeState| {
-            matches!(n.heartbeat, Some((_, canopen::NMT_STATE_OPERATIONAL)))
-                && n.tpdo
-                    .is_some_and(|(_, _, sw)| cia402::operation_enabled(sw))
-        };
-        while !self.nodes.iter().all(ready) {
-            if let Some(j) = self.nodes.iter().position(|n| n.emcy.is_some()) {
-                return Err(format!(
-                    "node {} sent EMCY during start-up: {:?}",
-                    node_id(j),
-                    self.nodes[j].emcy
-                ));
-            }
-            if Instant::now() >= deadline {
-                let j = self.nodes.iter().position(|n| !ready(n)).unwrap_or(0);
-                let n = self.nodes[j];
-                return Err(format!(
-                    "node {} not ready within {:?} (heartbeat state: {}, statusword: {})",
-                    node_id(j),
-                    cfg.startup_timeout,
-                    n.heartbeat
-                        .map_or("none", |(_, s)| canopen::nmt_state_name(s)),
-                    n.tpdo
-                        .map_or("none".to_string(), |(_, _, sw)| format!("{sw:#06x}"))
-                ));
-            }
-            self.send(&canopen::sync(), "SYNC (start-up)".into())
-                .map_err(|e| e.to_string())?;
-            std::thread::sleep(cfg.period);
-            self.poll().map_err(|e| e.to_string())?;
-        }
-        for (j, n) in self.nodes.iter().enumerate() {
-            let actual = n.tpdo.map_or(0, |(_, p, _)| p);
-            let diff = counts_to_rad(actual - start[j]);
-            if diff.abs() > cfg.start_tolerance {
-                return Err(format!(
-                    "joint {} is at {:.6} rad but the plan starts at {:.6} rad (tolerance {} rad)",
-                    j + 1,
-                    counts_to_rad(actual),
-                    counts_to_rad(start[j]),
-                    cfg.start_tolerance
-                ));
-            }
-        }
-        Ok(())
     }
 
     /// The first fault visible in the feedback, given the last target sent (`target`); also
@@ -277,17 +172,20 @@ impl ArmBus {
                     })
                 }
             }
-            let Some((t, pos, sw)) = n.tpdo else {
+            let Some((pos, sw)) = n.tpdo else {
                 return Err(Fault::FeedbackLost {
                     node,
                     silent_for: Duration::MAX,
                 });
             };
-            if now.duration_since(t) > cfg.feedback_timeout {
-                return Err(Fault::FeedbackLost {
-                    node,
-                    silent_for: now.duration_since(t),
-                });
+            // Measured from the SYNC it answers: waiting with no SYNC sent is no silence.
+            if let Some(t) = n.unanswered_sync {
+                if now.duration_since(t) > cfg.feedback_timeout {
+                    return Err(Fault::FeedbackLost {
+                        node,
+                        silent_for: now.duration_since(t),
+                    });
+                }
             }
             if sw & cia402::SW_FAULT != 0 || !cia402::operation_enabled(sw) {
                 return Err(Fault::DriveState {

@@ -1,4 +1,5 @@
-//! CANopen CiA 301 framing: NMT, SYNC, SDO expedited download, PDO, heartbeat and EMCY.
+//! CANopen CiA 301 framing: NMT, SYNC, SDO expedited download and upload (with the abort codes),
+//! PDO, heartbeat and EMCY.
 //! Predefined connection set: the COB-ID of each service is its function code plus the node id.
 
 use crate::frame::CanFrame;
@@ -66,19 +67,38 @@ pub fn tpdo1_cob_id(node: u8) -> u32 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SdoValue {
     U8(u8),
+    I8(i8),
     U16(u16),
     U32(u32),
 }
 
 impl SdoValue {
+    /// Size on the bus, bytes.
+    pub fn size(self) -> usize {
+        self.bytes().1
+    }
+
     fn bytes(self) -> ([u8; 4], usize) {
         match self {
             SdoValue::U8(v) => ([v, 0, 0, 0], 1),
+            SdoValue::I8(v) => ([v.to_le_bytes()[0], 0, 0, 0], 1),
             SdoValue::U16(v) => {
                 let b = v.to_le_bytes();
                 ([b[0], b[1], 0, 0], 2)
             }
             SdoValue::U32(v) => (v.to_le_bytes(), 4),
+        }
+    }
+}
+
+/// As written in messages: the value and its type, mapping entries and COB-IDs in hex.
+impl std::fmt::Display for SdoValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SdoValue::U8(v) => write!(f, "{v} (u8)"),
+            SdoValue::I8(v) => write!(f, "{v} (i8)"),
+            SdoValue::U16(v) => write!(f, "{v} (u16)"),
+            SdoValue::U32(v) => write!(f, "{v:#010x} (u32)"),
         }
     }
 }
@@ -92,6 +112,52 @@ pub fn sdo_download(node: u8, index: u16, sub: u8, value: SdoValue) -> CanFrame 
         SDO_REQUEST_BASE + u16::from(node),
         &[cmd, i[0], i[1], sub, bytes[0], bytes[1], bytes[2], bytes[3]],
     )
+}
+
+/// SDO initiate upload request (client command specifier 2): read `index:sub`.
+pub fn sdo_upload(node: u8, index: u16, sub: u8) -> CanFrame {
+    let i = index.to_le_bytes();
+    frame(
+        SDO_REQUEST_BASE + u16::from(node),
+        &[0x40, i[0], i[1], sub, 0, 0, 0, 0],
+    )
+}
+
+/// The meaning of an SDO abort code (CiA 301, table of SDO abort codes).
+pub fn sdo_abort_text(code: u32) -> &'static str {
+    match code {
+        0x0503_0000 => "toggle bit not alternated",
+        0x0504_0000 => "SDO protocol timed out",
+        0x0504_0001 => "client/server command specifier not valid or unknown",
+        0x0504_0005 => "out of memory",
+        0x0601_0000 => "unsupported access to an object",
+        0x0601_0001 => "attempt to read a write only object",
+        0x0601_0002 => "attempt to write a read only object",
+        0x0602_0000 => "object does not exist in the object dictionary",
+        0x0604_0041 => "object cannot be mapped to the PDO",
+        0x0604_0042 => {
+            "the number and length of the objects to be mapped would exceed the PDO length"
+        }
+        0x0604_0043 => "general parameter incompatibility",
+        0x0604_0047 => "general internal incompatibility in the device",
+        0x0606_0000 => "access failed due to a hardware error",
+        0x0607_0010 => "data type does not match, length of service parameter does not match",
+        0x0607_0012 => "data type does not match, length of service parameter too high",
+        0x0607_0013 => "data type does not match, length of service parameter too low",
+        0x0609_0011 => "sub-index does not exist",
+        0x0609_0030 => "invalid value for parameter",
+        0x0609_0031 => "value of parameter written too high",
+        0x0609_0032 => "value of parameter written too low",
+        0x0609_0036 => "maximum value is less than minimum value",
+        0x060A_0023 => "resource not available",
+        0x0800_0000 => "general error",
+        0x0800_0020 => "data cannot be transferred or stored to the application",
+        0x0800_0021 => "data cannot be transferred or stored because of local control",
+        0x0800_0022 => "data cannot be transferred or stored because of the present device state",
+        0x0800_0023 => "no object dictionary is present",
+        0x0800_0024 => "no data available",
+        _ => "unknown abort code",
+    }
 }
 
 /// What a node said, decoded from a frame on the bus.
@@ -123,9 +189,25 @@ pub struct Emcy {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SdoReply {
-    DownloadAck { index: u16, sub: u8 },
-    Abort { index: u16, sub: u8, code: u32 },
-    Unexpected { command: u8 },
+    DownloadAck {
+        index: u16,
+        sub: u8,
+    },
+    /// Expedited upload: the first `len` bytes of `data` (little endian).
+    Upload {
+        index: u16,
+        sub: u8,
+        data: [u8; 4],
+        len: u8,
+    },
+    Abort {
+        index: u16,
+        sub: u8,
+        code: u32,
+    },
+    Unexpected {
+        command: u8,
+    },
 }
 
 pub fn decode(f: &CanFrame) -> Message {
@@ -151,6 +233,13 @@ pub fn decode(f: &CanFrame) -> Message {
             let sub = d[3];
             let reply = match d[0] {
                 0x60 => SdoReply::DownloadAck { index, sub },
+                // server command specifier 2, expedited, size indicated: n = unused bytes
+                c if c & 0xF3 == 0x43 => SdoReply::Upload {
+                    index,
+                    sub,
+                    data: [d[4], d[5], d[6], d[7]],
+                    len: 4 - ((c >> 2) & 0x03),
+                },
                 0x80 => SdoReply::Abort {
                     index,
                     sub,
@@ -177,6 +266,47 @@ mod tests {
         assert_eq!(f.data(), &[0x2B, 0x17, 0x10, 0, 100, 0, 0, 0]);
         let f = sdo_download(7, 0x1600, 1, SdoValue::U32(0x607A_0020));
         assert_eq!(f.data(), &[0x23, 0x00, 0x16, 1, 0x20, 0, 0x7A, 0x60]);
+        let f = sdo_download(2, 0x60C2, 2, SdoValue::I8(-3));
+        assert_eq!(f.data(), &[0x2F, 0xC2, 0x60, 2, 0xFD, 0, 0, 0]);
+    }
+
+    #[test]
+    fn sdo_upload_and_its_answers() {
+        let f = sdo_upload(4, 0x6064, 0);
+        assert_eq!(f.id(), 0x604);
+        assert_eq!(f.data(), &[0x40, 0x64, 0x60, 0, 0, 0, 0, 0]);
+        let answer = |d: &[u8]| decode(&CanFrame::new(0x584, d).unwrap());
+        assert_eq!(
+            answer(&[0x4F, 0x61, 0x60, 0, 8, 0, 0, 0]),
+            Message::SdoResponse {
+                node: 4,
+                reply: SdoReply::Upload {
+                    index: 0x6061,
+                    sub: 0,
+                    data: [8, 0, 0, 0],
+                    len: 1
+                }
+            }
+        );
+        assert!(matches!(
+            answer(&[0x43, 0x64, 0x60, 0, 1, 2, 3, 4]),
+            Message::SdoResponse {
+                reply: SdoReply::Upload { len: 4, .. },
+                ..
+            }
+        ));
+        // a segmented upload (e = 0) is not expedited
+        assert!(matches!(
+            answer(&[0x41, 0x08, 0x10, 0, 20, 0, 0, 0]),
+            Message::SdoResponse {
+                reply: SdoReply::Unexpected { command: 0x41 },
+                ..
+            }
+        ));
+        assert_eq!(
+            sdo_abort_text(0x0601_0002),
+            "attempt to write a read only object"
+        );
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //! its effect on a second difference at 500 Hz (≤ 2 counts / T² = 0.05 rad/s²) inside the
 //! margin the executor keeps below the acceleration limits.
 
-use crate::canopen::{rpdo1_cob_id, tpdo1_cob_id, SdoValue};
+use crate::canopen::{rpdo1_cob_id, tpdo1_cob_id, SdoValue, SYNC_ID};
+use std::time::Duration;
 
 pub const COUNTS_PER_RAD: f64 = 1e7;
 
@@ -16,18 +17,43 @@ pub const COUNTS_PER_RAD: f64 = 1e7;
 /// constant), so that a solution that validates is one the bus can carry.
 pub const MAX_POSITION_RAD: f64 = i32::MAX as f64 / COUNTS_PER_RAD;
 
+pub const DEVICE_TYPE: u16 = 0x1000;
+pub const COB_ID_SYNC: u16 = 0x1005;
 pub const CONTROLWORD: u16 = 0x6040;
 pub const STATUSWORD: u16 = 0x6041;
 pub const MODES_OF_OPERATION: u16 = 0x6060;
+pub const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 pub const POSITION_ACTUAL: u16 = 0x6064;
 pub const TARGET_POSITION: u16 = 0x607A;
+/// Software position limit: sub 1 minimum, sub 2 maximum (counts).
+pub const SOFTWARE_POSITION_LIMIT: u16 = 0x607D;
+/// Interpolation time period: sub 1 value, sub 2 index (the period is value * 10^index s).
+pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
 pub const HEARTBEAT_PRODUCER_TIME: u16 = 0x1017;
 const RPDO1_COMM: u16 = 0x1400;
-const RPDO1_MAPPING: u16 = 0x1600;
+pub const RPDO1_MAPPING: u16 = 0x1600;
 const TPDO1_COMM: u16 = 0x1800;
-const TPDO1_MAPPING: u16 = 0x1A00;
+pub const TPDO1_MAPPING: u16 = 0x1A00;
 
 pub const MODE_CSP: u8 = 8;
+
+/// The device profile number in the low 16 bits of the device type (0x1000).
+const DEVICE_PROFILE_402: u32 = 402;
+
+pub fn is_cia402_device(device_type: u32) -> bool {
+    device_type & 0xFFFF == DEVICE_PROFILE_402
+}
+
+/// `period` as the interpolation time period (0x60C2): value and index with
+/// `period = value * 10^index s`, index from -6 (µs) to 0; `None` if it cannot be written so.
+pub fn interpolation_time_period(period: Duration) -> Option<(u8, i8)> {
+    let nanos = period.as_nanos();
+    (-6i8..=0).rev().find_map(|index| {
+        let unit = 10u128.pow((9 + i32::from(index)).unsigned_abs());
+        let value = u8::try_from(nanos / unit).ok()?;
+        (nanos % unit == 0 && value > 0).then_some((value, index))
+    })
+}
 
 /// Controlword commands of the CiA 402 state machine.
 pub const CW_SHUTDOWN: u16 = 0x0006;
@@ -58,7 +84,7 @@ pub fn counts_to_rad(counts: i32) -> f64 {
 }
 
 /// PDO mapping entry: object index, sub-index, length in bits.
-fn mapping(index: u16, sub: u8, bits: u8) -> SdoValue {
+pub fn mapping(index: u16, sub: u8, bits: u8) -> SdoValue {
     SdoValue::U32((u32::from(index) << 16) | (u32::from(sub) << 8) | u32::from(bits))
 }
 
@@ -86,10 +112,14 @@ pub fn parse_tpdo1(data: &[u8]) -> Option<(i32, u16)> {
 }
 
 /// The SDO writes that configure one drive for CSP streaming, in order (CiA 301 §7.5.2.35
-/// procedure for changing a PDO mapping: invalidate, clear, map, set count, validate).
-pub fn startup_config(node: u8, heartbeat_ms: u16) -> Vec<(u16, u8, SdoValue)> {
+/// procedure for changing a PDO mapping: invalidate, clear, map, set count, validate);
+/// `period` is the interpolation time period ([`interpolation_time_period`]).
+pub fn startup_config(node: u8, heartbeat_ms: u16, period: (u8, i8)) -> Vec<(u16, u8, SdoValue)> {
     vec![
         (MODES_OF_OPERATION, 0, SdoValue::U8(MODE_CSP)),
+        (COB_ID_SYNC, 0, SdoValue::U32(u32::from(SYNC_ID))),
+        (INTERPOLATION_TIME_PERIOD, 1, SdoValue::U8(period.0)),
+        (INTERPOLATION_TIME_PERIOD, 2, SdoValue::I8(period.1)),
         (
             RPDO1_COMM,
             1,
@@ -146,6 +176,20 @@ mod tests {
         assert_eq!(parse_tpdo1(&[1, 0, 0]), None);
         assert!(operation_enabled(0x0637));
         assert!(!operation_enabled(0x0008));
+    }
+
+    #[test]
+    fn interpolation_period_in_powers_of_ten() {
+        let p = |us| interpolation_time_period(Duration::from_micros(us));
+        assert_eq!(p(2000), Some((2, -3)));
+        assert_eq!(p(500), Some((5, -4)));
+        assert_eq!(p(250), Some((25, -5)));
+        assert_eq!(p(255), Some((255, -6)));
+        assert_eq!(p(1_000_000), Some((1, 0)));
+        assert_eq!(p(1001), None);
+        assert_eq!(interpolation_time_period(Duration::ZERO), None);
+        assert!(is_cia402_device(0x0002_0192));
+        assert!(!is_cia402_device(0x0000_0191));
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The executor: validates, interpolates, starts every arm together (one thread per bus),
 //! streams, watches the feedback, and on any fault quick-stops every arm.
 
-use crate::arm::{cycle_frames, ArmBus};
+use crate::arm::{cycle_frames, ArmBus, SetupOverride};
 use crate::cia402;
 use crate::interpolate::{check_command, interpolate, Command, Trajectory};
 use crate::log::{write_jsonl, LogEntry};
@@ -48,6 +48,9 @@ pub struct ExecConfig {
     pub send_timeout: Duration,
     /// Cycles holding the final position, feedback still watched, before the drives are disabled.
     pub settle_cycles: usize,
+    /// Tests only: one start-up SDO write changed on purpose ([`SetupOverride`]).
+    #[doc(hidden)]
+    pub setup_override: Option<SetupOverride>,
 }
 
 impl Default for ExecConfig {
@@ -65,6 +68,7 @@ impl Default for ExecConfig {
             start_tolerance: 1e-3,
             send_timeout: Duration::from_millis(2),
             settle_cycles: 50,
+            setup_override: None,
         }
     }
 }
@@ -489,19 +493,14 @@ fn stream_arm(
 ) -> ArmEnd {
     // The trajectory always has a first command (plans have at least one waypoint).
     let (first, last) = (cmds[0], cmds[cmds.len() - 1]);
-    let startup = bus.start_up(cfg, &first);
-    if startup.is_err() {
-        shared.startup_failed.store(true, Ordering::SeqCst);
+    // No drive of any arm is enabled unless every arm's drives are configured.
+    let configured = bus.configure(cfg, cmds, &shared.startup_failed);
+    if let Some(end) = startup_phase_end(bus, configured, shared) {
+        return end;
     }
-    shared.barrier.wait();
-    if let Err(e) = startup {
-        return ArmEnd::StartupFailed(e);
-    }
-    if shared.startup_failed.load(Ordering::SeqCst) {
-        return match bus.abort() {
-            Ok(()) => ArmEnd::Aborted,
-            Err(e) => ArmEnd::StartupFailed(format!("while aborting: {e}")),
-        };
+    let enabled = bus.enable(cfg);
+    if let Some(end) = startup_phase_end(bus, enabled, shared) {
+        return end;
     }
     // Every arm streams on the same schedule from a common start time.
     let t0 = *shared
@@ -587,6 +586,27 @@ fn stream_arm(
                 error: Some(e),
             })
         }
+    }
+}
+
+/// Waits for every arm to finish a start-up phase with `result`; the arm's end if this arm or
+/// another failed (an arm that did not fail stops its nodes).
+fn startup_phase_end(
+    bus: &mut ArmBus,
+    result: Result<(), String>,
+    shared: &Shared,
+) -> Option<ArmEnd> {
+    if result.is_err() {
+        shared.startup_failed.store(true, Ordering::SeqCst);
+    }
+    shared.barrier.wait();
+    match result {
+        Err(e) => Some(ArmEnd::StartupFailed(e)),
+        Ok(()) if shared.startup_failed.load(Ordering::SeqCst) => Some(match bus.abort() {
+            Ok(()) => ArmEnd::Aborted,
+            Err(e) => ArmEnd::StartupFailed(format!("while aborting: {e}")),
+        }),
+        Ok(()) => None,
     }
 }
 

@@ -58,20 +58,22 @@ pub fn ensure_venv() -> Result<PathBuf, String> {
 pub struct MockArmOptions {
     /// Joint positions at power-on, rad.
     pub initial: [f64; crate::JOINTS],
-    /// Control period the mock assumes for its own limit checks, s.
-    pub period: f64,
     /// Where the mock writes every command it receives (JSON lines), at exit.
     pub record: Option<PathBuf>,
+    /// Where the mock writes every frame on its bus, both directions (candump log).
+    pub bus_log: Option<PathBuf>,
     /// Further flags, e.g. fault injection: `["--emcy-at-sync", "100"]`.
     pub extra_args: Vec<String>,
 }
 
-/// Executor settings for the mocks: feedback deadlines generous enough for three Python
-/// processes sharing a busy 2-core machine.
+/// Executor settings for the mocks: feedback and send deadlines generous enough for three
+/// Python processes sharing a busy 2-core machine (a mock that falls behind leaves its pty's
+/// buffer full for a while).
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
         feedback_timeout: Duration::from_millis(250),
         heartbeat_timeout: Duration::from_millis(500),
+        send_timeout: Duration::from_millis(20),
         ..ExecConfig::default()
     }
 }
@@ -97,10 +99,12 @@ impl MockArm {
         let mut cmd = Command::new(python);
         // `--flag=value`: a negative first position would otherwise read as a flag.
         cmd.arg(script)
-            .arg(format!("--initial={}", initial.join(",")))
-            .arg(format!("--period={}", opts.period));
+            .arg(format!("--initial={}", initial.join(",")));
         if let Some(r) = &opts.record {
             cmd.arg("--record").arg(r);
+        }
+        if let Some(l) = &opts.bus_log {
+            cmd.arg("--bus-log").arg(l);
         }
         cmd.args(&opts.extra_args)
             .stdin(Stdio::null())
@@ -167,8 +171,14 @@ impl Drop for MockArm {
     }
 }
 
+/// The bus log written next to a mock's record: the same path with the extension `log`.
+pub fn bus_log_path(record: &Path) -> PathBuf {
+    record.with_extension("log")
+}
+
 /// Starts one mock arm per arm of `plan`, each at its arm's first waypoint, recording to
-/// `record(name)`, with the further flags `extra[i]` for arm i.
+/// `record(name)` and logging its bus next to it ([`bus_log_path`]), with the further flags
+/// `extra[i]` for arm i.
 pub fn spawn_for_plan(
     python: &Path,
     plan: &Plan,
@@ -178,15 +188,17 @@ pub fn spawn_for_plan(
     (plan.arms.iter().enumerate())
         .map(|(i, arm)| {
             let path = record(&arm.name);
+            let log = bus_log_path(&path);
             // A stale record from an earlier run must not pass for this run's.
             let _ = std::fs::remove_file(&path);
+            let _ = std::fs::remove_file(&log);
             let opts = MockArmOptions {
                 initial: *arm
                     .joint_path
                     .first()
                     .ok_or_else(|| format!("arm {:?} has an empty joint path", arm.name))?,
-                period: 0.002,
                 record: Some(path),
+                bus_log: Some(log),
                 extra_args: extra.get(i).cloned().unwrap_or_default(),
             };
             MockArm::spawn(python, &script_path(), &arm.name, &opts)

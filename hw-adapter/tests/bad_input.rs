@@ -85,7 +85,7 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
     let text = e.to_string();
     assert!(matches!(e, ExecError::Startup(_)), "{text}");
     assert!(
-        text.contains("arm \"right\": node 1 did not answer SDO write 0x6060:00"),
+        text.contains("arm \"right\": node 1 did not answer SDO read 0x1000:00"),
         "{text}"
     );
     assert!(text.contains("no motion command was sent"), "{text}");
@@ -123,7 +123,7 @@ fn in_process_arm_that_never_answers_receives_only_the_first_sdo() {
     for n in ARMS {
         assert!(
             e.contains(&format!(
-                "arm {n:?}: node 1 did not answer SDO write 0x6060:00"
+                "arm {n:?}: node 1 did not answer SDO read 0x1000:00"
             )),
             "{e}"
         );
