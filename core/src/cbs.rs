@@ -19,7 +19,9 @@ use crate::model::{Frame, Model};
 use crate::motion::{motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
+use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::rng::Rng;
+use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
 use crate::search::{
     plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
     SearchError, SearchStats, StartCache, StartIk, Validity, Workspace,
@@ -106,8 +108,8 @@ pub struct CbsStorage<'a, const D: usize> {
     pub scratch: &'a mut [[f64; D]],
     /// The constraints of the robot being replanned.
     pub points: &'a mut [PointConstraint],
-    /// Start-seed IK answers (see [`StartCache`]): `robots * start_entries(trajectories)`
-    /// entries remember them all; fewer, none.
+    /// Start-seed IK answers (see [`StartCache`]): the more entries, the more seeds are
+    /// remembered.
     pub starts: &'a mut [StartIk<D>],
 }
 
@@ -148,9 +150,15 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
             return Status::OutOfMemory("CBS path pool");
         }
         let st = &mut self.st;
+        if unreachable_trajectory::<M, D>(problem).is_some() {
+            stats.reason = Some(UNREACHABLE);
+            return Status::NoSolution;
+        }
         let mut run = Run::<M, D> {
             pr: problem,
             params: &self.params,
+            low: self.params.low,
+            incomplete: false,
             ws: &mut self.ws,
             nodes: &mut *st.nodes,
             used_nodes: 0,
@@ -178,6 +186,11 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
 struct Run<'r, 's, M, const D: usize> {
     pr: &'r Problem<D>,
     params: &'r CbsParams,
+    /// Ω-A*'s settings at the current refinement level.
+    low: OmegaParams,
+    /// A low-level search of this level ran out of memory: the level's exhaustion proves
+    /// nothing.
+    incomplete: bool,
     ws: &'r mut Workspace<'s, D>,
     nodes: &'r mut [CtNode],
     used_nodes: usize,
@@ -202,24 +215,37 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// one ends. Run times of tree search are heavy-tailed (most problems take a few
     /// milliseconds, a few take seconds from one root and milliseconds from another), which
     /// restarts cut; the budgets count expansions, not time, so the answer is deterministic.
+    /// A tree that ends with its OPEN list empty has exhausted the search space at this
+    /// refinement level: planning goes on at the next, finer one ([`crate::search::refine`]).
     fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
-        let mut budget = self.params.restart_expansions;
-        for restart in 0u32.. {
-            let limit = match budget {
-                0 => u64::MAX,
-                b => self.stats.expansions.saturating_add(b),
-            };
-            match self.tree(clock, out, restart, limit) {
-                Some(status) => return status,
-                None => {
-                    budget = budget.saturating_mul(2);
-                    self.used_nodes = 0;
-                    self.used_slots = 0;
-                    self.open.clear();
+        let mut restart = 0u32;
+        for level in 0..LEVELS {
+            self.stats.level = level;
+            self.low = level_params(&self.params.low, level);
+            self.incomplete = false;
+            let mut budget = self.params.restart_expansions;
+            loop {
+                let limit = match budget {
+                    0 => u64::MAX,
+                    b => self.stats.expansions.saturating_add(b),
+                };
+                let ended = self.tree(clock, out, restart, limit);
+                restart += 1;
+                self.used_nodes = 0;
+                self.used_slots = 0;
+                self.open.clear();
+                match ended {
+                    None => budget = budget.saturating_mul(2),
+                    Some(Status::NoSolution) => break,
+                    Some(status) => return status,
                 }
             }
         }
-        Status::Timeout
+        if self.incomplete {
+            return Status::OutOfMemory("Ω-A* workspace");
+        }
+        self.stats.reason = Some(EXHAUSTED);
+        Status::NoSolution
     }
 
     /// One constraint tree from the root of restart `restart`; `None` when it used its budget
@@ -338,7 +364,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         };
         let mut order: [usize; MAX_ROBOTS] = core::array::from_fn(|i| i);
         if restart > 0 {
-            let mut rng = Rng::new(self.params.low.seed ^ u64::from(restart).rotate_left(40));
+            let mut rng = Rng::new(self.low.seed ^ u64::from(restart).rotate_left(40));
             for i in (1..self.n).rev() {
                 order.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
             }
@@ -417,14 +443,14 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             OthersMode::Avoid,
             &[],
             self.pr.dt,
-            self.params.low.motion_step,
+            self.low.motion_step,
         );
         for j in 0..self.pr.trajectories.len() {
             if left & (1 << j) == 0 {
                 continue;
             }
             let key = (i as u64) << 32 | j as u64 | u64::from(restart) << 48;
-            let mut rng = Rng::new(self.params.low.seed ^ key);
+            let mut rng = Rng::new(self.low.seed ^ key);
             for attempt in 0..self.params.warm_start_seeds {
                 if warm.expired() {
                     return None;
@@ -434,15 +460,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     _ => rng.configuration(&M::LOWER, &M::UPPER),
                 };
                 let traj = &self.pr.trajectories[j];
-                if track::<M, D>(
-                    &robot,
-                    traj,
-                    &seed,
-                    &valid,
-                    &self.params.low.ik,
-                    self.scratch,
-                )
-                .is_some()
+                if track::<M, D>(&robot, traj, &seed, &valid, &self.low.ik, self.scratch).is_some()
                 {
                     return Some(j as u8);
                 }
@@ -514,14 +532,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             Some(u) => u,
             None => &self.deadline,
         };
-        let r = plan::<M, D>(
-            &query,
-            &self.params.low,
-            self.ws,
-            deadline,
-            self.scratch,
-            &mut s,
-        );
+        let r = plan::<M, D>(&query, &self.low, self.ws, deadline, self.scratch, &mut s);
         self.stats.expansions += s.expansions as u64;
         match r {
             Ok(found) => Ok(found.trajectory.unwrap_or(HOLD)),
@@ -567,6 +578,12 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let assigned = match self.low_level(robot, parent, allowed, npoints, u32::MAX) {
             Ok(j) => j,
             Err(Status::NoSolution) => return Ok(None),
+            // The finer levels' grids can outgrow the workspace: this child is lost, and the
+            // level's exhaustion no longer proves anything.
+            Err(Status::OutOfMemory(_)) => {
+                self.incomplete = true;
+                return Ok(None);
+            }
             Err(s) => return Err(s),
         };
         let mut child = *parent;
@@ -632,7 +649,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 let next = place(t + 1);
                 let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
                 let (ea, eb) = ([&now[0], &next[0]], [&now[1], &next[1]]);
-                if motions_collide_posed::<M, D>(&ma, ea, &mb, eb, self.params.low.motion_step) {
+                if motions_collide_posed::<M, D>(&ma, ea, &mb, eb, self.low.motion_step) {
                     c = c.saturating_add(1);
                 }
                 now = next;
@@ -676,7 +693,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                         })
                     } else if t + 1 < self.h {
                         let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
-                        motions_contact::<M, D>(&ma, &mb, self.params.low.motion_step).map(|c| {
+                        motions_contact::<M, D>(&ma, &mb, self.low.motion_step).map(|c| {
                             PointConstraint {
                                 t: t as u16,
                                 segment: true,

@@ -15,6 +15,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod assign;
 pub mod baselines;
 pub mod cbs;
 pub mod collision;
@@ -26,6 +27,7 @@ pub mod motion;
 pub mod planner;
 pub mod pp;
 pub mod problem;
+pub mod reach;
 pub mod rng;
 pub mod search;
 pub mod tracking;

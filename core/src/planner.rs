@@ -60,6 +60,18 @@ pub struct Stats {
     /// Whether the root of Ω-CBSA's last constraint tree (warm-started by repeated IK
     /// tracking) had no conflicts.
     pub warm_start_solved: bool,
+    /// The refinement level the answer came from (see [`crate::search::refine`]): the one
+    /// that solved, or the last one searched.
+    pub level: u8,
+    /// Why the planner ended without a plan, when it ended by proof (`NoSolution`).
+    pub reason: Option<&'static str>,
+    /// Ω-CBSA: conflicts branched on with constraints that are not mutually disjunctive (no
+    /// instant with the two arms overlapping was found within the sweep's tolerance), so the
+    /// completeness guarantee does not cover that branching.
+    pub inexact_branches: u32,
+    /// Ω-CBSA: constraint-tree nodes with counted conflicts and no conflict to branch on,
+    /// left unexpanded (reported here, never reported as solved).
+    pub unbranched_nodes: u32,
 }
 
 /// Where a planner writes its answer. `paths` holds robot `i`'s configuration at step `t` at

@@ -3,16 +3,29 @@
 //!
 //! Robots plan one after another; each treats the paths of the robots before it as moving
 //! obstacles it must avoid. Prioritised planning is incomplete, so both planners try priority
-//! orders (and, for the single-goal variant, assignments) in lexicographic order until one
-//! works, the orders run out (`NoSolution`) or time does (`Timeout`).
+//! orders until one works. OM-PP-A*_single first searches every (robot, trajectory) pair alone
+//! ([`crate::assign`]) and tries only assignments of pairs that work alone, cheapest first, in
+//! rounds: round `r` visits the `2^r` cheapest assignments with `2^r` times
+//! [`ASSIGNMENT_BUDGET`] Ω-A* expansions each for their priority orders, so no assignment can
+//! take the whole time and the cheap ones get the most. OM-PP-A* keeps trajectories a robot
+//! cannot track alone out of its goals. When every order (and assignment) fails at one
+//! resolution, both go on at a finer one ([`crate::search::refine`]); `NoSolution` only when the
+//! finest is exhausted too, or a trajectory is out of every robot's reach.
 
+use crate::assign::{Choice, Pair, PairTable, HOLD};
 use crate::model::Model;
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
+use crate::reach::{unreachable_trajectory, UNREACHABLE};
+use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
 use crate::search::{
     plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, StartCache,
     StartIk, Workspace,
 };
+
+/// Ω-A* expansions the priority orders of one assignment get in the first round (doubled each
+/// round): a few attempts of a 6-arm problem.
+pub const ASSIGNMENT_BUDGET: u64 = 4000;
 
 /// Which Ω-A* the robots use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,130 +88,335 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
         if self.scratch.len() < h {
             return Status::OutOfMemory("prioritised planning scratch path");
         }
+        if unreachable_trajectory::<M, D>(problem).is_some() {
+            stats.reason = Some(UNREACHABLE);
+            return Status::NoSolution;
+        }
         let n = problem.robots.len();
-        let deadline = Until { clock, at: timeout };
         // Taken out for the run, so the cache and the search workspace can be borrowed apart.
         let buf = core::mem::take(&mut self.starts);
-        let starts = StartCache::new(&mut *buf, n, problem.trajectories.len(), &self.params);
-        let status = self.orders::<M>(problem, h, &starts, &deadline, out, stats);
+        let mut run = Run::<M, D> {
+            pr: problem,
+            h,
+            starts: StartCache::new(&mut *buf, n, problem.trajectories.len(), &self.params),
+            deadline: Until { clock, at: timeout },
+            ws: &mut self.ws,
+            scratch: &mut *self.scratch,
+            params: self.params,
+            pairs: PairTable::new(n, problem.trajectories.len()),
+            incomplete: false,
+            _m: core::marker::PhantomData,
+        };
+        let status = run.levels(self.variant, &self.params, out, stats);
         self.starts = buf;
         status
     }
 }
 
-impl<const D: usize> Prioritized<'_, D> {
-    /// Tries assignments and priority orders until one works or time or orders run out.
-    fn orders<M: Model<D>>(
+/// One planning run.
+struct Run<'r, 's, M, const D: usize> {
+    pr: &'r Problem<D>,
+    h: usize,
+    starts: StartCache<'r, D>,
+    deadline: Until<'r>,
+    ws: &'r mut Workspace<'s, D>,
+    scratch: &'r mut [[f64; D]],
+    /// This level's Ω-A* settings.
+    params: OmegaParams,
+    pairs: PairTable,
+    /// A search at this level ran out of memory: its exhaustion proves nothing.
+    incomplete: bool,
+    _m: core::marker::PhantomData<M>,
+}
+
+/// How the priority orders of one assignment ended.
+enum Tried {
+    Solved,
+    /// Every order failed.
+    Exhausted,
+    /// The budget ran out first.
+    OverBudget,
+}
+
+impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
+    /// Refinement levels in turn until one plans, the deadline passes or the finest is
+    /// exhausted.
+    fn levels(
         &mut self,
-        problem: &Problem<D>,
-        h: usize,
-        starts: &StartCache<'_, D>,
-        deadline: &Until<'_>,
+        variant: Variant,
+        base: &OmegaParams,
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
-        let mut orders = Orders::new(
-            problem.robots.len(),
-            problem.trajectories.len(),
-            self.variant == Variant::SingleGoal,
-        );
+        for level in 0..LEVELS {
+            stats.level = level;
+            self.params = level_params(base, level);
+            self.incomplete = false;
+            self.pairs.forget_failures();
+            let status = match variant {
+                Variant::SingleGoal => self.assignments(out, stats),
+                Variant::MultiGoal => self.orders(None, u64::MAX, out, stats).map(|t| match t {
+                    Tried::Solved => Status::Solved,
+                    _ => Status::NoSolution,
+                }),
+            };
+            match status {
+                Ok(Status::NoSolution) => {}
+                Ok(s) | Err(s) => return s,
+            }
+        }
+        if self.incomplete {
+            return Status::OutOfMemory("Ω-A* workspace");
+        }
+        stats.reason = Some(EXHAUSTED);
+        Status::NoSolution
+    }
+
+    /// Searches every pair not yet known at this level alone (and every robot holding, when
+    /// some must).
+    fn fill_pairs(&mut self, stats: &mut Stats) -> Result<(), Status> {
+        let (n, t) = (self.pr.robots.len(), self.pr.trajectories.len());
+        for r in 0..n {
+            let columns = (0..t).chain((t < n).then_some(HOLD));
+            for c in columns {
+                if self.pairs.get(r, c) != Pair::Unknown {
+                    continue;
+                }
+                let (allowed, hold) = if c == HOLD {
+                    (0, true)
+                } else {
+                    (1u32 << c, false)
+                };
+                let found = self.search(r, allowed, hold, &[], stats)?;
+                let pair = match found {
+                    Some(_) => Pair::Feasible(path_length(&self.scratch[..self.h])),
+                    None => Pair::Infeasible,
+                };
+                self.pairs.set(r, c, pair);
+            }
+        }
+        Ok(())
+    }
+
+    /// OM-PP-A*_single at this level: assignments cheapest first, in rounds of doubling width
+    /// and budget, until one plans or a round leaves none cut short (this level exhausted).
+    fn assignments(
+        &mut self,
+        out: &mut Solution<'_, D>,
+        stats: &mut Stats,
+    ) -> Result<Status, Status> {
+        self.fill_pairs(stats)?;
+        if self.pairs.orphan().is_some() {
+            return Ok(Status::NoSolution);
+        }
+        for round in 0u32.. {
+            let budget = ASSIGNMENT_BUDGET.saturating_mul(1 << round.min(40));
+            let width = 1u64 << round.min(40);
+            let (mut after, mut visited, mut cut) = (None, 0u64, false);
+            while visited < width {
+                let Some(choice) = self.pairs.next(after.as_ref()) else {
+                    break;
+                };
+                match self.orders(Some(&choice), budget, out, stats)? {
+                    Tried::Solved => return Ok(Status::Solved),
+                    Tried::Exhausted => {}
+                    Tried::OverBudget => cut = true,
+                }
+                visited += 1;
+                after = Some(choice);
+            }
+            let more = self.pairs.next(after.as_ref()).is_some();
+            if !more && !cut {
+                return Ok(Status::NoSolution);
+            }
+        }
+        Ok(Status::NoSolution)
+    }
+
+    /// Priority orders for one assignment (`None`: multi-goal) until one plans, all fail, or
+    /// `budget` expansions are spent. Robots that hold come first (they cannot give way), then
+    /// the others by decreasing single-arm cost (the hardest first), then every other order.
+    fn orders(
+        &mut self,
+        choice: Option<&Choice>,
+        budget: u64,
+        out: &mut Solution<'_, D>,
+        stats: &mut Stats,
+    ) -> Result<Tried, Status> {
+        let n = self.pr.robots.len();
+        let t = self.pr.trajectories.len();
+        let mut base = identity(n);
+        if let Some(c) = choice {
+            let key = |r: u8| match c.trajectory_of(usize::from(r), t) {
+                None => f64::INFINITY,
+                Some(j) => match self.pairs.get(usize::from(r), j) {
+                    Pair::Feasible(x) => x,
+                    _ => 0.0,
+                },
+            };
+            // Stable insertion sort, decreasing key.
+            for i in 1..n {
+                let mut k = i;
+                while k > 0 && key(base[k - 1]) < key(base[k]) {
+                    base.swap(k - 1, k);
+                    k -= 1;
+                }
+            }
+        }
+        let start = stats.expansions;
+        let mut perm = identity(n);
         loop {
-            // Attempts that fail at once never reach Ω-A*'s own deadline checks.
-            if deadline.expired() {
-                return Status::Timeout;
+            if self.deadline.expired() {
+                return Err(Status::Timeout);
             }
-            match self.attempt::<M>(problem, h, &orders, starts, deadline, out, stats) {
-                Ok(true) => return Status::Solved,
-                Ok(false) => {}
-                Err(s) => return s,
+            let order: [u8; MAX_ROBOTS] =
+                core::array::from_fn(|i| if i < n { base[usize::from(perm[i])] } else { 0 });
+            if self.attempt(&order[..n], choice, out, stats)? {
+                return Ok(Tried::Solved);
             }
-            if !orders.advance() {
-                return Status::NoSolution;
+            if choice.is_none() {
+                // Multi-goal learns what each robot can track alone only once it needs to.
+                self.fill_pairs(stats)?;
+                if self.pairs.orphan().is_some() {
+                    return Ok(Tried::Exhausted);
+                }
+            }
+            if !next_permutation(&mut perm[..n]) {
+                return Ok(Tried::Exhausted);
+            }
+            if stats.expansions - start >= budget {
+                return Ok(Tried::OverBudget);
             }
         }
     }
 
     /// Plans the robots in `order`; `Ok(false)` when one of them finds no path.
-    #[allow(clippy::too_many_arguments)]
-    fn attempt<M: Model<D>>(
+    fn attempt(
         &mut self,
-        problem: &Problem<D>,
-        h: usize,
-        orders: &Orders,
-        starts: &StartCache<'_, D>,
-        deadline: &Until<'_>,
+        order: &[u8],
+        choice: Option<&Choice>,
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Result<bool, Status> {
-        let n = problem.robots.len();
-        let ntraj = problem.trajectories.len();
+        let (n, h) = (self.pr.robots.len(), self.h);
+        let ntraj = self.pr.trajectories.len();
         let all = if ntraj >= 32 {
             u32::MAX
         } else {
             (1u32 << ntraj) - 1
         };
         let mut taken = 0u32;
-        for (rank, &r) in orders.order[..n].iter().enumerate() {
-            let r = r as usize;
-            let (allowed, hold) = match self.variant {
-                Variant::MultiGoal => {
+        for (rank, &r) in order.iter().enumerate() {
+            let r = usize::from(r);
+            let (allowed, hold) = match choice {
+                None => {
                     let left = all & !taken;
-                    // Hold only if the robots still to plan can cover what is left without it.
-                    (left, (n - rank) as u32 > left.count_ones())
+                    // Hold only if the robots still to plan can cover what is left without it;
+                    // a trajectory the robot cannot track alone is no goal for it, except at
+                    // a level whose pairs are not all known.
+                    let mask = if self.incomplete {
+                        all
+                    } else {
+                        self.feasible_or_all(r)
+                    };
+                    (left & mask, (n - rank) as u32 > left.count_ones())
                 }
-                Variant::SingleGoal => match orders.trajectory_of(r) {
+                Some(c) => match c.trajectory_of(r, ntraj) {
                     Some(j) => (1u32 << j, false),
                     None => (0, true),
                 },
             };
             let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
-            for &k in &orders.order[..rank] {
-                let k = k as usize;
+            for &k in &order[..rank] {
+                let k = usize::from(k);
                 let _ = others.push(OtherArm {
-                    base: problem.robots[k].base,
+                    base: self.pr.robots[k].base,
                     path: &out.paths[k * h..(k + 1) * h],
                 });
             }
-            let query = Query {
-                robot: problem.robots[r],
-                trajectories: &problem.trajectories,
-                allowed,
-                hold,
-                obstacles: &problem.obstacles,
-                others: &others,
-                others_mode: OthersMode::Avoid,
-                points: &[],
-                dt: problem.dt,
-                starts: starts.robot(r),
-            };
-            let mut s = SearchStats::default();
-            stats.low_level_calls += 1;
-            let res = plan::<M, D>(
-                &query,
-                &self.params,
-                &mut self.ws,
-                deadline,
-                self.scratch,
-                &mut s,
-            );
+            let found = self.search(r, allowed, hold, &others, stats)?;
             drop(others);
-            stats.expansions += s.expansions as u64;
-            match res {
-                Ok(found) => {
-                    out.paths[r * h..(r + 1) * h].copy_from_slice(&self.scratch[..h]);
-                    out.assignment[r] = found.trajectory;
-                    if let Some(j) = found.trajectory {
-                        taken |= 1 << j;
-                    }
-                }
-                Err(SearchError::NoSolution) => return Ok(false),
-                Err(SearchError::Timeout) => return Err(Status::Timeout),
-                Err(SearchError::OutOfMemory) => return Err(Status::OutOfMemory("Ω-A* workspace")),
-                Err(SearchError::InvalidQuery(m)) => return Err(Status::InvalidProblem(m)),
+            let Some(trajectory) = found else {
+                return Ok(false);
+            };
+            out.paths[r * h..(r + 1) * h].copy_from_slice(&self.scratch[..h]);
+            out.assignment[r] = trajectory;
+            if let Some(j) = trajectory {
+                taken |= 1 << j;
             }
         }
         Ok(taken == all)
     }
+
+    /// The trajectories robot `r` can track alone, once known (multi-goal fills the table
+    /// only when its first attempt fails); all of them before.
+    fn feasible_or_all(&self, r: usize) -> u32 {
+        let known = (0..self.pr.trajectories.len()).all(|j| self.pairs.get(r, j) != Pair::Unknown);
+        if known {
+            self.pairs.feasible(r)
+        } else {
+            u32::MAX
+        }
+    }
+
+    /// One Ω-A* search for robot `r` avoiding `others`, the path left in scratch: the
+    /// trajectory taken (`None` holding), `Ok(None)` when there is no path. Running out of
+    /// memory counts as no path but marks the level incomplete.
+    fn search(
+        &mut self,
+        r: usize,
+        allowed: u32,
+        hold: bool,
+        others: &[OtherArm<'_, D>],
+        stats: &mut Stats,
+    ) -> Result<Option<Option<u8>>, Status> {
+        let query = Query {
+            robot: self.pr.robots[r],
+            trajectories: &self.pr.trajectories,
+            allowed,
+            hold,
+            obstacles: &self.pr.obstacles,
+            others,
+            others_mode: OthersMode::Avoid,
+            points: &[],
+            dt: self.pr.dt,
+            starts: self.starts.robot(r),
+        };
+        let mut s = SearchStats::default();
+        stats.low_level_calls += 1;
+        let res = plan::<M, D>(
+            &query,
+            &self.params,
+            self.ws,
+            &self.deadline,
+            self.scratch,
+            &mut s,
+        );
+        stats.expansions += u64::from(s.expansions);
+        match res {
+            Ok(found) => Ok(Some(found.trajectory)),
+            Err(SearchError::NoSolution) => Ok(None),
+            Err(SearchError::OutOfMemory) => {
+                self.incomplete = true;
+                Ok(None)
+            }
+            Err(SearchError::Timeout) => Err(Status::Timeout),
+            Err(SearchError::InvalidQuery(m)) => Err(Status::InvalidProblem(m)),
+        }
+    }
+}
+
+/// Joint-space length of a path.
+fn path_length<const D: usize>(path: &[[f64; D]]) -> f64 {
+    path.windows(2)
+        .map(|w| {
+            libm::sqrt(
+                (0..D)
+                    .map(|i| (w[1][i] - w[0][i]) * (w[1][i] - w[0][i]))
+                    .sum(),
+            )
+        })
+        .sum()
 }
 
 /// Assignments (outer loop, only when `assignments`) and priority orders (inner loop), both in

@@ -20,7 +20,7 @@ use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
 use omcbsa_core::pp::{Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 use omcbsa_core::search::{
-    start_entries, Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
+    Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
 };
 
 /// Planner names, as the command line and the benchmark spell them.
@@ -60,6 +60,11 @@ impl Default for Capacities {
         }
     }
 }
+
+/// Start-seed IK answers kept per run (64 bytes each, 4 MiB): all of level 0's seeds for
+/// every problem the core accepts, and the first few thousand of the finer refinement levels'
+/// for problems with fewer robots and trajectories.
+pub const START_CACHE_ENTRIES: usize = 1 << 16;
 
 /// What a planning run produced.
 #[derive(Clone, Debug)]
@@ -132,10 +137,7 @@ impl Storage {
                 };
                 caps.constraints
             ],
-            starts: vec![
-                StartIk::Unknown;
-                MAX_ROBOTS * start_entries(MAX_ROBOTS, &OmegaParams::default())
-            ],
+            starts: vec![StartIk::Unknown; START_CACHE_ENTRIES],
             composite: vec![CompositeNode::default(); caps.composite_nodes],
             cost: vec![0.0; k],
             parent: vec![0; k],
@@ -285,7 +287,10 @@ impl Outcome {
             Status::Solved => (FileStatus::Solved, String::new()),
             Status::NoSolution => (
                 FileStatus::NoSolution,
-                "the search space was exhausted".to_string(),
+                self.stats
+                    .reason
+                    .unwrap_or("the search space was exhausted")
+                    .to_string(),
             ),
             Status::Timeout => (
                 FileStatus::Timeout,
@@ -301,6 +306,12 @@ impl Outcome {
         stats.insert("ct_nodes".into(), s.ct_nodes.into());
         stats.insert("conflicts_resolved".into(), s.conflicts_resolved.into());
         stats.insert("warm_start_solved".into(), s.warm_start_solved.into());
+        stats.insert("level".into(), s.level.into());
+        if let Some(reason) = s.reason {
+            stats.insert("reason".into(), reason.into());
+        }
+        stats.insert("inexact_branches".into(), s.inexact_branches.into());
+        stats.insert("unbranched_nodes".into(), s.unbranched_nodes.into());
         SolutionFile {
             format: SOLUTION_FORMAT.to_string(),
             problem: file.name.clone(),

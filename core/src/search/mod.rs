@@ -3,12 +3,13 @@
 
 mod omega_astar;
 pub(crate) mod open;
+pub mod refine;
 mod validity;
 mod workspace;
 
 pub use omega_astar::{
-    manifold_moves, plan, start_entries, Found, OmegaParams, OtherArm, OthersMode, PointConstraint,
-    Query, SearchError, SearchStats, StartCache, StartIk, MAX_MOVES,
+    manifold_moves, plan, Found, OmegaParams, OtherArm, OthersMode, PointConstraint, Query,
+    SearchError, SearchStats, StartCache, StartIk, MAX_MOVES,
 };
 pub use open::{OpenEntry, OpenList};
 pub use validity::Validity;

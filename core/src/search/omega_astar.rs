@@ -103,11 +103,6 @@ pub enum StartIk<const D: usize> {
     Solved([f64; D]),
 }
 
-/// How many [`StartIk`] entries one robot needs: one per trajectory and start seed.
-pub fn start_entries(trajectories: usize, p: &OmegaParams) -> usize {
-    trajectories * (p.start_attempts as usize + 1)
-}
-
 /// The start-seed IK answers of every robot of one planning run, in caller storage.
 #[derive(Clone, Copy)]
 pub struct StartCache<'a, const D: usize> {
@@ -116,20 +111,19 @@ pub struct StartCache<'a, const D: usize> {
 }
 
 impl<'a, const D: usize> StartCache<'a, D> {
-    /// Forgets every answer in `buf` and lays it out for `robots` robots. A `buf` too short
-    /// for all of them remembers nothing: searches then run IK for every seed, as without it.
+    /// Forgets every answer in `buf` and lays it out for `robots` robots: as many of each
+    /// trajectory's first seeds as fit, up to all those of the finest refinement level of `p`
+    /// ([`super::refine`]). Later seeds are solved by IK in every search that reaches them.
     pub fn new(
         buf: &'a mut [StartIk<D>],
         robots: usize,
         trajectories: usize,
         p: &OmegaParams,
     ) -> Self {
-        let per_robot = start_entries(trajectories, p);
-        let used = if per_robot * robots <= buf.len() {
-            per_robot * robots
-        } else {
-            0
-        };
+        let finest = super::refine::level_params(p, super::refine::LEVELS - 1);
+        let fit = buf.len() / (robots * trajectories).max(1);
+        let per_robot = trajectories * fit.min(finest.start_attempts as usize + 1);
+        let used = per_robot * robots;
         buf[..used].iter_mut().for_each(|e| *e = StartIk::Unknown);
         StartCache {
             cells: Cell::from_mut(&mut buf[..used]).as_slice_of_cells(),
@@ -164,8 +158,8 @@ pub struct Query<'a, const D: usize> {
     /// This robot's start-seed IK answers, kept across its searches in one planning run: a
     /// trajectory's seeds are the same in every search, so a replan (under one more
     /// constraint, or another priority order) skips the random-seed IK, the costliest part of
-    /// a short search. [`start_entries`] of them, all `Unknown` when the run starts; empty to
-    /// remember nothing.
+    /// a short search. The same number for every trajectory (the first seeds of each), all
+    /// `Unknown` when the run starts; empty to remember nothing.
     pub starts: &'a [Cell<StartIk<D>>],
 }
 
@@ -427,13 +421,16 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 self.q.robot.initial.into_iter().chain(
                     (0..self.p.start_attempts).map(|_| rng.configuration(&M::LOWER, &M::UPPER)),
                 );
-            let stride = self.p.start_attempts as usize + 1;
+            // The cache holds the first seeds of each trajectory (a finer refinement level
+            // draws more, the first ones the same).
+            let stride = self.q.starts.len() / self.q.trajectories.len();
             for (k, seed) in seeds.enumerate() {
                 if ws.used() - before >= self.p.start_solutions {
                     break;
                 }
                 let solve = || ik::<M, D>(&target, &seed, &self.p.ik).ok();
-                let answer = match self.q.starts.get(j * stride + k) {
+                let cached = (k < stride).then(|| self.q.starts.get(j * stride + k));
+                let answer = match cached.flatten() {
                     None => solve(),
                     Some(cell) => match cell.get() {
                         StartIk::Solved(q) => Some(q),
