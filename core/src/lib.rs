@@ -28,6 +28,7 @@ pub mod pp;
 pub mod problem;
 pub mod rng;
 pub mod search;
+pub mod tool;
 pub mod tracking;
 mod trig;
 

@@ -156,6 +156,7 @@ impl<const D: usize> Prioritized<'_, D> {
                 let k = k as usize;
                 let _ = others.push(OtherArm {
                     base: problem.robots[k].base,
+                    tool: problem.robots[k].tool,
                     path: &out.paths[k * h..(k + 1) * h],
                 });
             }
