@@ -43,6 +43,11 @@ pub struct Geometry {
     pub reach: Vec<f64>,
     /// Per capsule, per actuated joint; see [`capsule_reach`].
     pub capsule_reach: Vec<Vec<f64>>,
+    /// Indices into `capsules` that a tool on the tool frame is checked against; see
+    /// [`tool_self_capsules`].
+    pub tool_self_capsules: Vec<u8>,
+    /// Per actuated joint; see [`tool_reach`].
+    pub tool_reach: Vec<f64>,
 }
 
 /// `file` is `(name for messages, JSON text)`; without one the model has no capsules.
@@ -54,11 +59,15 @@ pub fn geometry(chain: &Chain, model: &str, file: Option<(&str, &str)>) -> Resul
     let self_pairs = self_pairs(chain, &capsules, &disabled);
     let reach = reach(chain, &capsules);
     let capsule_reach = capsule_reach(chain, &capsules);
+    let tool_self_capsules = tool_self_capsules(chain, &capsules);
+    let tool_reach = tool_reach(chain);
     Ok(Geometry {
         capsules,
         self_pairs,
         reach,
         capsule_reach,
+        tool_self_capsules,
+        tool_reach,
     })
 }
 
@@ -221,6 +230,37 @@ fn capsule_reach(chain: &Chain, capsules: &[Capsule]) -> Vec<Vec<f64>> {
             row
         })
         .collect()
+}
+
+/// The capsules a tool (rigid on the tool frame, the chain's last link) may hit: those on
+/// bodies neither the tool frame's nor adjacent to it. The SRDF's disabled pairs are not
+/// applied: they were judged for the bare arm, and a tool reaches where the flange did not.
+fn tool_self_capsules(chain: &Chain, capsules: &[Capsule]) -> Vec<u8> {
+    let body = bodies(chain);
+    let tool = body[body.len() - 1];
+    (capsules.iter().enumerate())
+        .filter(|(_, c)| body[c.link].abs_diff(tool) >= 2)
+        // capsules.len() <= 255 was checked
+        .map(|(i, _)| i as u8)
+        .collect()
+}
+
+/// For each actuated joint, the bound of [`capsule_reach`] for the tool frame's origin: the
+/// offsets from the joint to the chain's last link (1 for a prismatic joint). A tool point at
+/// distance `r` from that origin is bounded by this plus `r` (the core adds it per tool).
+fn tool_reach(chain: &Chain) -> Vec<f64> {
+    let mut row = Vec::new();
+    for (j, joint) in chain.joints.iter().enumerate() {
+        match joint.motion {
+            Motion::Fixed => {}
+            Motion::Prismatic { .. } => row.push(1.0),
+            Motion::Revolute { .. } => {
+                // joint j's origin is the origin of link j + 1
+                row.push(chain.joints[j + 1..].iter().map(joint_offset).sum());
+            }
+        }
+    }
+    row
 }
 
 /// Farthest point of a capsule from its link's origin.

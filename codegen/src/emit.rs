@@ -587,6 +587,16 @@ pub fn model(
             list(row, |&r| limit(r))
         ))
     );
+    let _ = writeln!(
+        w,
+        "    const TOOL_SELF_CAPSULES: &'static [u8] = &[{}];",
+        list(&geometry.tool_self_capsules, |i| i.to_string())
+    );
+    let _ = writeln!(
+        w,
+        "    const TOOL_REACH: [f64; {d}] = [{}];",
+        list(&geometry.tool_reach, |&r| limit(r))
+    );
     let _ = writeln!(w);
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(

@@ -15,10 +15,10 @@
 //! the pools from the start. A full pool ends planning with `Status::OutOfMemory` naming it.
 
 use crate::collision::ArmPose;
-use crate::model::{Frame, Model};
+use crate::model::Model;
 use crate::motion::{motions_collide_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
-use crate::problem::{Problem, MAX_ROBOTS};
+use crate::problem::{Problem, Robot, MAX_ROBOTS};
 use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::rng::Rng;
 use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
@@ -433,11 +433,13 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         for k in (0..self.n).filter(|k| placed & (1 << k) != 0) {
             let _ = others.push(OtherArm {
                 base: self.pr.robots[k].base,
+                tool: self.pr.robots[k].tool,
                 path: slot_of(self.paths, node.slots[k], self.h),
             });
         }
         let valid = Validity::<M, D>::new(
             robot.base,
+            robot.tool,
             &self.pr.obstacles,
             &others,
             OthersMode::Avoid,
@@ -511,6 +513,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         for k in (0..self.n).filter(|&k| k != i && others_set & (1 << k) != 0) {
             let _ = others.push(OtherArm {
                 base: self.pr.robots[k].base,
+                tool: self.pr.robots[k].tool,
                 path: slot_of(self.paths, node.slots[k], self.h),
             });
         }
@@ -632,12 +635,12 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// which they meet, exactly as Ω-A* counts them. Each arm is placed once per step.
     fn pair_conflicts(&self, node: &CtNode, i: usize, k: usize) -> u16 {
         let mut c = 0u16;
-        let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
+        let (ri, rk) = (&self.pr.robots[i], &self.pr.robots[k]);
         let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
         let place = |t: usize| {
             [
-                ArmPose::new::<M, D>(bi, &pi[t]),
-                ArmPose::new::<M, D>(bk, &pk[t]),
+                ArmPose::new::<M, D>(&ri.base, &ri.tool, &pi[t]),
+                ArmPose::new::<M, D>(&rk.base, &rk.tool, &pk[t]),
             ]
         };
         let mut now = place(0);
@@ -647,7 +650,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             }
             if t + 1 < self.h {
                 let next = place(t + 1);
-                let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
+                let (ma, mb) = (step_motion(ri, pi, t), step_motion(rk, pk, t));
                 let (ea, eb) = ([&now[0], &next[0]], [&now[1], &next[1]]);
                 if motions_collide_posed::<M, D>(&ma, ea, &mb, eb, self.low.motion_step) {
                     c = c.saturating_add(1);
@@ -678,11 +681,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     if node.pairs[i][k] == 0 {
                         continue;
                     }
-                    let (bi, bk) = (&self.pr.robots[i].base, &self.pr.robots[k].base);
+                    let (ri, rk) = (&self.pr.robots[i], &self.pr.robots[k]);
                     let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
                     let (a, b) = (
-                        ArmPose::new::<M, D>(bi, &pi[t]),
-                        ArmPose::new::<M, D>(bk, &pk[t]),
+                        ArmPose::new::<M, D>(&ri.base, &ri.tool, &pi[t]),
+                        ArmPose::new::<M, D>(&rk.base, &rk.tool, &pk[t]),
                     );
                     let hit = if a.arm_hit(&b, 0.0).is_some() {
                         a.witness(&b, 0.0).map(|p| PointConstraint {
@@ -692,7 +695,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                             margin: 0.0,
                         })
                     } else if t + 1 < self.h {
-                        let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
+                        let (ma, mb) = (step_motion(ri, pi, t), step_motion(rk, pk, t));
                         motions_contact::<M, D>(&ma, &mb, self.low.motion_step).map(|c| {
                             PointConstraint {
                                 t: t as u16,
@@ -723,12 +726,13 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
 
 /// A robot's motion from step `t` to `t + 1` of `path`.
 fn step_motion<'a, const D: usize>(
-    base: &'a Frame,
+    robot: &'a Robot<D>,
     path: &'a [[f64; D]],
     t: usize,
 ) -> ArmMotion<'a, D> {
     ArmMotion {
-        base,
+        base: &robot.base,
+        tool: &robot.tool,
         from: &path[t],
         to: &path[t + 1],
     }

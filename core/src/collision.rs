@@ -1,6 +1,6 @@
-//! Arm-level collision checks on link capsules: against obstacles, other arms and the arm's
-//! own links, at one configuration ([`ArmPose`]) or along a straight joint-space motion
-//! ([`Sweep`]).
+//! Arm-level collision checks on link capsules and the capsules of the arm's tool
+//! ([`Tool`]): against obstacles, other arms and the arm's own links, at one configuration
+//! ([`ArmPose`]) or along a straight joint-space motion ([`Sweep`]).
 //!
 //! Every check tests bounding boxes first (the whole arm's, then each capsule's) and runs the
 //! exact capsule query only on what is left. Checks return the first thing hit (an obstacle
@@ -12,6 +12,7 @@ use nalgebra::Vector3;
 
 use crate::geometry::{Aabb, Capsule, Obstacle};
 use crate::model::{Frame, Model};
+use crate::tool::{Tool, MAX_TOOL_CAPSULES};
 
 /// Most collision capsules one arm model may have. A model with more is refused when
 /// [`ArmPose::new`] is compiled for it, never truncated:
@@ -45,16 +46,18 @@ use crate::model::{Frame, Model};
 ///     }
 /// }
 ///
-/// ArmPose::new::<TooMany, 1>(&Frame::IDENTITY, &[0.0]);
+/// ArmPose::new::<TooMany, 1>(&Frame::IDENTITY, &omcbsa_core::tool::Tool::NONE, &[0.0]);
 /// ```
 pub const MAX_ARM_CAPSULES: usize = 16;
+/// Most capsules of one arm with its tool.
+pub const MAX_POSE_CAPSULES: usize = MAX_ARM_CAPSULES + MAX_TOOL_CAPSULES;
 /// Most link frames one arm model may have (a model with more does not compile).
 pub const MAX_LINK_FRAMES: usize = 16;
 /// Most configurations a [`Sweep`] checks; beyond that its margin grows instead.
 pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
 
-// Base-link capsules are kept as a bit set.
-const _: () = assert!(MAX_ARM_CAPSULES <= u32::BITS as usize);
+// Base-link capsules and capsule pairs are kept as bit sets.
+const _: () = assert!(MAX_POSE_CAPSULES <= u32::BITS as usize);
 
 /// Fails compilation (through [`ArmPose::new`]) for a model an `ArmPose` cannot hold, or
 /// whose capsule and pair indices point nowhere, so that indexing with them cannot fail.
@@ -85,19 +88,32 @@ const fn check_model<M: Model<D>, const D: usize>() {
         );
         i += 1;
     }
+    let mut i = 0;
+    while i < M::TOOL_SELF_CAPSULES.len() {
+        assert!(
+            (M::TOOL_SELF_CAPSULES[i] as usize) < M::CAPSULES.len(),
+            "tool self capsule names no capsule"
+        );
+        i += 1;
+    }
 }
 
-/// An arm's collision capsules in the world at one configuration.
+/// An arm's collision capsules in the world at one configuration: the model's link capsules,
+/// then its tool's.
 #[derive(Clone, Copy, Debug)]
 pub struct ArmPose {
-    /// In the order of `Model::CAPSULES`; the first `len` are used.
-    capsules: [Capsule; MAX_ARM_CAPSULES],
-    boxes: [Aabb; MAX_ARM_CAPSULES],
+    /// In the order of `Model::CAPSULES`, then the tool's; the first `len` are used.
+    capsules: [Capsule; MAX_POSE_CAPSULES],
+    boxes: [Aabb; MAX_POSE_CAPSULES],
     len: usize,
+    /// How many of them are link capsules (the rest are the tool's).
+    links: usize,
     /// Bit `i` set: capsule `i` is on the base link, which is mounted and so never checked
     /// against obstacles.
     on_base: u32,
     self_pairs: &'static [(u8, u8)],
+    /// Link capsules every tool capsule is checked against (`Model::TOOL_SELF_CAPSULES`).
+    tool_self: &'static [u8],
     /// Around all capsules, and around those off the base link.
     aabb: Aabb,
     moving_aabb: Aabb,
@@ -110,33 +126,49 @@ impl ArmPose {
             Vector3::new(0.0, 0.0, 0.0),
             Vector3::new(0.0, 0.0, 0.0),
             0.0,
-        ); MAX_ARM_CAPSULES],
-        boxes: [Aabb::EMPTY; MAX_ARM_CAPSULES],
+        ); MAX_POSE_CAPSULES],
+        boxes: [Aabb::EMPTY; MAX_POSE_CAPSULES],
         len: 0,
+        links: 0,
         on_base: 0,
         self_pairs: &[],
+        tool_self: &[],
         aabb: Aabb::EMPTY,
         moving_aabb: Aabb::EMPTY,
     };
 
-    /// The capsules of model `M` at configuration `q`, its base frame at `base` in the world.
-    pub fn new<M: Model<D>, const D: usize>(base: &Frame, q: &[f64; D]) -> ArmPose {
+    /// The capsules of model `M` at configuration `q`, its base frame at `base` in the world,
+    /// carrying `tool`.
+    pub fn new<M: Model<D>, const D: usize>(base: &Frame, tool: &Tool, q: &[f64; D]) -> ArmPose {
         const { check_model::<M, D>() };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
-        M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]);
+        let flange = base.compose(&M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]));
+        let links = M::CAPSULES.len();
         let mut pose = ArmPose {
-            len: M::CAPSULES.len(),
+            len: links + tool.capsules().len(),
+            links,
             self_pairs: M::SELF_PAIRS,
+            tool_self: M::TOOL_SELF_CAPSULES,
             ..ArmPose::EMPTY
         };
-        for (i, c) in M::CAPSULES.iter().enumerate() {
-            let link = base.compose(&frames[usize::from(c.link)]);
-            let capsule = Capsule::new(link.apply(&c.a.into()), link.apply(&c.b.into()), c.radius);
+        let placed = M::CAPSULES
+            .iter()
+            .map(|c| {
+                (
+                    base.compose(&frames[usize::from(c.link)]),
+                    c.a,
+                    c.b,
+                    c.radius,
+                )
+            })
+            .chain((tool.capsules().iter()).map(|c| (flange, c.a, c.b, c.radius)));
+        for (i, (frame, a, b, radius)) in placed.enumerate() {
+            let capsule = Capsule::new(frame.apply(&a.into()), frame.apply(&b.into()), radius);
             let aabb = capsule.aabb();
             pose.capsules[i] = capsule;
             pose.boxes[i] = aabb;
             pose.aabb = pose.aabb.union(&aabb);
-            if c.link == 0 {
+            if i < links && M::CAPSULES[i].link == 0 {
                 pose.on_base |= 1 << i;
             } else {
                 pose.moving_aabb = pose.moving_aabb.union(&aabb);
@@ -145,9 +177,28 @@ impl ArmPose {
         pose
     }
 
-    /// The world capsules, in the order of `Model::CAPSULES`.
+    /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
     pub fn capsules(&self) -> &[Capsule] {
         &self.capsules[..self.len]
+    }
+
+    /// Which tool capsule capsule `i` is (`None`: a link capsule).
+    pub fn tool_capsule(&self, i: usize) -> Option<usize> {
+        (self.links..self.len).contains(&i).then(|| i - self.links)
+    }
+
+    /// Whether capsule `i` is on the base link (mounted, never checked against obstacles).
+    pub fn on_base(&self, i: usize) -> bool {
+        self.on_base & (1 << i) != 0
+    }
+
+    /// The self-collision pairs (capsule indices): the model's link pairs, then each tool
+    /// capsule with each link capsule it may hit.
+    fn self_pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let links = self.self_pairs.iter().map(|&(a, b)| (a.into(), b.into()));
+        let tool = (self.links..self.len)
+            .flat_map(|t| self.tool_self.iter().map(move |&c| (t, usize::from(c))));
+        links.chain(tool)
     }
 
     /// Bounding box of the whole arm.
@@ -162,18 +213,17 @@ impl ArmPose {
             let ob = o.aabb();
             ob.near(&self.moving_aabb, margin)
                 && (0..self.len).any(|i| {
-                    self.on_base & (1 << i) == 0
+                    !self.on_base(i)
                         && self.boxes[i].near(&ob, margin)
                         && o.hits_capsule(&self.capsules[i], margin)
                 })
         })
     }
 
-    /// The first of the model's self-collision pairs (capsule indices) closer than `margin`.
+    /// The first of the self-collision pairs (capsule indices; a tool capsule comes first in
+    /// its pairs) closer than `margin`.
     pub fn self_hit(&self, margin: f64) -> Option<(usize, usize)> {
-        self.self_pairs
-            .iter()
-            .map(|&(a, b)| (usize::from(a), usize::from(b)))
+        self.self_pairs()
             .find(|&(a, b)| self.pair_hits(a, self, b, margin))
     }
 
@@ -270,9 +320,11 @@ pub struct Sweep<M: Model<D>, const D: usize> {
     q0: [f64; D],
     dq: [f64; D],
     length: f64,
-    /// Per capsule, bound on how far its points travel (from `Model::CAPSULE_REACH`).
-    travel: [f64; MAX_ARM_CAPSULES],
+    /// Per capsule (link capsules, then the tool's), bound on how far its points travel
+    /// (from `Model::CAPSULE_REACH` and [`Tool::reach`]).
+    travel: [f64; MAX_POSE_CAPSULES],
     count: usize,
+    tool: Tool,
     model: PhantomData<M>,
 }
 
@@ -287,7 +339,7 @@ impl<M: Model<D>, const D: usize> Copy for Sweep<M, D> {}
 
 /// Capsule pairs still in question: bit `j` of row `i` stands for capsule `i` of one arm and
 /// capsule `j` of the other (or of the same arm).
-type Pairs = [u32; MAX_ARM_CAPSULES];
+type Pairs = [u32; MAX_POSE_CAPSULES];
 
 /// What one arm's motion may still hit: capsules that may meet an obstacle, and self pairs.
 #[derive(Clone, Copy)]
@@ -299,7 +351,7 @@ struct Suspects {
 impl Suspects {
     const NONE: Suspects = Suspects {
         obstacles: 0,
-        pairs: [0; MAX_ARM_CAPSULES],
+        pairs: [0; MAX_POSE_CAPSULES],
     };
 
     fn any(&self) -> bool {
@@ -319,20 +371,30 @@ fn bits(mut m: u32) -> impl Iterator<Item = usize> {
 }
 
 impl<M: Model<D>, const D: usize> Sweep<M, D> {
-    /// Pieces short enough that no link point moves more than `max_disp` over one (so
-    /// `margin <= max_disp / 2`), unless that takes more than [`MAX_SWEEP_CHECKS`] pieces.
-    /// Any count is conservative, only the margin changes: beyond the cap, or for a
-    /// `max_disp` that is not positive, the margin grows.
-    pub fn new(q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
-        let dq = core::array::from_fn(|j| q1[j] - q0[j]);
-        let length = (0..D).map(|j| M::REACH[j] * libm::fabs(dq[j])).sum::<f64>();
-        let mut travel = [0.0; MAX_ARM_CAPSULES];
+    /// The motion of the arm carrying `tool`, in pieces short enough that no point of it
+    /// moves more than `max_disp` over one (so `margin <= max_disp / 2`), unless that takes
+    /// more than [`MAX_SWEEP_CHECKS`] pieces. Any count is conservative, only the margin
+    /// changes: beyond the cap, or for a `max_disp` that is not positive, the margin grows.
+    pub fn new(tool: &Tool, q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
+        let dq: [f64; D] = core::array::from_fn(|j| q1[j] - q0[j]);
+        let moved = |reach: &[f64; D]| (0..D).map(|j| reach[j] * libm::fabs(dq[j])).sum::<f64>();
+        let arm_length = moved(&M::REACH);
+        let mut travel = [0.0; MAX_POSE_CAPSULES];
         for (i, (t, c)) in travel.iter_mut().zip(M::CAPSULES).enumerate() {
             *t = match M::CAPSULE_REACH.get(i) {
-                Some(reach) => (0..D).map(|j| reach[j] * libm::fabs(dq[j])).sum::<f64>(),
+                Some(reach) => moved(reach),
                 None if c.link == 0 => 0.0,
-                None => length,
+                None => arm_length,
             };
+        }
+        let links = M::CAPSULES.len();
+        let mut length = arm_length;
+        for (i, t) in travel[links..links + tool.capsules().len()]
+            .iter_mut()
+            .enumerate()
+        {
+            *t = moved(&tool.reach::<M, D>(i));
+            length = length.max(*t);
         }
         let pieces = if max_disp > 0.0 {
             libm::ceil(length / max_disp)
@@ -345,6 +407,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             length,
             travel,
             count: 1,
+            tool: *tool,
             model: PhantomData,
         }
         // `as` saturates; NaN (from a NaN input) gives 0 and so one piece.
@@ -365,7 +428,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
         self.count
     }
 
-    /// Bound on how far any link point travels over the whole motion.
+    /// Bound on how far any point of the arm or its tool travels over the whole motion.
     pub fn length(&self) -> f64 {
         self.length
     }
@@ -382,7 +445,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
 
     /// The arm at the middle of piece `i`.
     pub fn arm(&self, base: &Frame, i: usize) -> ArmPose {
-        ArmPose::new::<M, D>(base, &self.config(i))
+        ArmPose::new::<M, D>(base, &self.tool, &self.config(i))
     }
 
     /// The configuration a fraction `s` (`0..=1`) of the way.
@@ -393,8 +456,8 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
     /// The arm at both ends of the motion.
     pub fn ends(&self, base: &Frame) -> [ArmPose; 2] {
         [
-            ArmPose::new::<M, D>(base, &self.q0),
-            ArmPose::new::<M, D>(base, &self.at(1.0)),
+            ArmPose::new::<M, D>(base, &self.tool, &self.q0),
+            ArmPose::new::<M, D>(base, &self.tool, &self.at(1.0)),
         ]
     }
 
@@ -424,7 +487,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             if !ob.near(&moving, self.length) {
                 continue;
             }
-            for i in (0..e0.len).filter(|&i| e0.on_base & (1 << i) == 0) {
+            for i in (0..e0.len).filter(|&i| !e0.on_base(i)) {
                 let t = self.travel(i);
                 if suspects.obstacles & (1 << i) != 0
                     || ob.distance(&e0.boxes[i]) + ob.distance(&e1.boxes[i]) > t
@@ -437,8 +500,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
                 suspects.obstacles |= 1 << i;
             }
         }
-        for &(a, b) in e0.self_pairs {
-            let (a, b) = (usize::from(a), usize::from(b));
+        for (a, b) in e0.self_pairs() {
             let t = self.travel(a) + self.travel(b);
             if !ArmPose::pair_stays_clear(ends, a, ends, b, t) {
                 suspects.pairs[a] |= 1 << b;
@@ -453,7 +515,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             self.count,
             suspects,
             &|s, w, sus: &Suspects| {
-                let arm = ArmPose::new::<M, D>(base, &self.at(s));
+                let arm = ArmPose::new::<M, D>(base, &self.tool, &self.at(s));
                 let mut left = Suspects::NONE;
                 for i in bits(sus.obstacles) {
                     let m = self.travel(i) * w;
@@ -504,7 +566,7 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
 ) -> bool {
     let ([a0, a1], [b0, b1]) = (a_ends, b_ends);
     let b_box = b0.aabb.union(&b1.aabb);
-    let mut pairs: Pairs = [0; MAX_ARM_CAPSULES];
+    let mut pairs: Pairs = [0; MAX_POSE_CAPSULES];
     for (i, row) in pairs.iter_mut().enumerate().take(a0.len) {
         let ti = a.travel(i);
         if !a0.boxes[i].union(&a1.boxes[i]).near(&b_box, ti + b.length) {
@@ -521,9 +583,9 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
     }
     let count = a.count.max(b.count);
     bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
-        let arm_a = ArmPose::new::<A, DA>(base_a, &a.at(s));
-        let arm_b = ArmPose::new::<B, DB>(base_b, &b.at(s));
-        let mut left: Pairs = [0; MAX_ARM_CAPSULES];
+        let arm_a = ArmPose::new::<A, DA>(base_a, &a.tool, &a.at(s));
+        let arm_b = ArmPose::new::<B, DB>(base_b, &b.tool, &b.at(s));
+        let mut left: Pairs = [0; MAX_POSE_CAPSULES];
         for (i, &row) in pairs.iter().enumerate() {
             for j in bits(row) {
                 let m = (a.travel(i) + b.travel(j)) * w;

@@ -30,6 +30,7 @@ pub mod problem;
 pub mod reach;
 pub mod rng;
 pub mod search;
+pub mod tool;
 pub mod tracking;
 mod trig;
 

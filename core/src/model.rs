@@ -88,6 +88,14 @@ pub trait Model<const D: usize>: 'static {
     /// Per capsule (in the order of [`Model::CAPSULES`]), the same bound for that capsule's
     /// points alone: 0 for joints downstream of its link. Empty: [`Model::REACH`] stands in.
     const CAPSULE_REACH: &'static [[f64; D]] = &[];
+    /// Indices into [`Model::CAPSULES`] that a tool (capsules rigid on the tool frame, see
+    /// [`crate::tool::Tool`]) is checked against for self-collision: those on links neither
+    /// carrying the tool frame nor adjacent to it.
+    const TOOL_SELF_CAPSULES: &'static [u8] = &[];
+    /// For each joint, an upper bound on the distance from its axis to the tool frame's origin
+    /// ([`Model::REACH`] bounds it too): a tool point `r` from that origin moves at most
+    /// `(TOOL_REACH[j] + r) * |dq|` when joint `j` moves by `dq`.
+    const TOOL_REACH: [f64; D] = Self::REACH;
 
     /// Pose of the tool frame in the base frame.
     fn fk(q: &[f64; D]) -> Frame;

@@ -9,6 +9,7 @@ use nalgebra::Vector3;
 use crate::collision::{sweeps_collide_posed, ArmPose, Sweep};
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
+use crate::tool::Tool;
 
 /// The default largest displacement (m) of any link point between two checked configurations
 /// of a motion. The checks inflate the links by half of it, so a smaller step rejects fewer
@@ -20,13 +21,14 @@ pub const MOTION_STEP: f64 = 0.01;
 #[derive(Clone, Copy, Debug)]
 pub struct ArmMotion<'a, const D: usize> {
     pub base: &'a Frame,
+    pub tool: &'a Tool,
     pub from: &'a [f64; D],
     pub to: &'a [f64; D],
 }
 
 impl<'a, const D: usize> ArmMotion<'a, D> {
     pub fn sweep<M: Model<D>>(&self, max_step: f64) -> Sweep<M, D> {
-        Sweep::new(self.from, self.to, max_step)
+        Sweep::new(self.tool, self.from, self.to, max_step)
     }
 }
 
@@ -66,8 +68,8 @@ pub fn motions_collide<M: Model<D>, const D: usize>(
 ) -> bool {
     let ends = |m: &ArmMotion<'_, D>| {
         [
-            ArmPose::new::<M, D>(m.base, m.from),
-            ArmPose::new::<M, D>(m.base, m.to),
+            ArmPose::new::<M, D>(m.base, m.tool, m.from),
+            ArmPose::new::<M, D>(m.base, m.tool, m.to),
         ]
     };
     let ([a0, a1], [b0, b1]) = (ends(a), ends(b));
@@ -105,8 +107,8 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
     (0..count).find_map(|i| {
         let s = (i as f64 + 0.5) / count as f64;
         let (pa, pb) = (
-            ArmPose::new::<M, D>(a.base, &sa.at(s)),
-            ArmPose::new::<M, D>(b.base, &sb.at(s)),
+            ArmPose::new::<M, D>(a.base, a.tool, &sa.at(s)),
+            ArmPose::new::<M, D>(b.base, b.tool, &sb.at(s)),
         );
         pa.arm_hit(&pb, margin)?;
         pa.witness(&pb, margin).map(|p| Contact {
@@ -143,13 +145,7 @@ pub fn motion_near_point_posed<M: Model<D>, const D: usize>(
     if clearance(ends[0]) + clearance(ends[1]) > sweep.length() + 2.0 * margin {
         return false;
     }
-    (0..sweep.count()).any(|i| {
-        near_point(
-            &ArmPose::new::<M, D>(m.base, &sweep.config(i)),
-            p,
-            sweep.margin() + margin,
-        )
-    })
+    (0..sweep.count()).any(|i| near_point(&sweep.arm(m.base, i), p, sweep.margin() + margin))
 }
 
 /// Distance from `p` to the arm's volume (negative inside it).

@@ -331,6 +331,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 let k = usize::from(k);
                 let _ = others.push(OtherArm {
                     base: self.pr.robots[k].base,
+                    tool: self.pr.robots[k].tool,
                     path: &out.paths[k * h..(k + 1) * h],
                 });
             }

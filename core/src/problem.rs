@@ -7,6 +7,7 @@ use heapless::Vec;
 
 use crate::geometry::Obstacle;
 use crate::model::Frame;
+use crate::tool::Tool;
 
 /// Most robots in one problem.
 pub const MAX_ROBOTS: usize = 8;
@@ -42,6 +43,8 @@ pub struct Robot<const D: usize> {
     pub tcp: Frame,
     /// Current configuration, if given (required for robots without a trajectory).
     pub initial: Option<[f64; D]>,
+    /// Collision shape of what the flange carries ([`Tool::NONE`]: nothing).
+    pub tool: Tool,
 }
 
 /// One hand trajectory: where a tool centre point must be at each step, in the world frame.

@@ -28,7 +28,7 @@ use serde_json::Map;
 use crate::execute::CheckedSolution;
 use crate::format::{
     joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
-    TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
+    ToolCapsuleSpec, ToolSpec, TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::pose::from_frame;
 
@@ -75,6 +75,23 @@ fn base(k: usize) -> Frame {
 
 fn tcp() -> Frame {
     frame(Matrix3::identity(), Vector3::new(0.0, 0.0, TCP_LENGTH))
+}
+
+/// A two-finger gripper's collision shape in Kinova's tool frame (z out of the flange): a
+/// palm 9 cm across and fingers reaching the tool centre point.
+pub fn gripper() -> ToolSpec {
+    let along = |z0: f64, z1: f64, radius: f64| ToolCapsuleSpec {
+        a: [0.0, 0.0, z0],
+        b: [0.0, 0.0, z1],
+        radius,
+    };
+    ToolSpec {
+        name: "gripper".to_string(),
+        capsules: vec![
+            along(0.01, 0.06, 0.045),
+            along(0.06, TCP_LENGTH - 0.03, 0.03),
+        ],
+    }
 }
 
 /// Hand `k` on its face of the box flipped by `s` (0 at rest, 1 fully flipped): at the face's
@@ -129,6 +146,7 @@ pub fn box_flip() -> Result<Demo, String> {
             base: from_frame(&base(k)),
             initial: None,
             tcp: Some(from_frame(&tcp())),
+            tool: Some(gripper()),
         })
         .collect();
     let trajectories = (ORDER.iter().enumerate())

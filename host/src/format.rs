@@ -65,6 +65,27 @@ pub struct RobotSpec {
     pub initial: Option<Vec<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tcp: Option<Pose>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<ToolSpec>,
+}
+
+/// The collision shape of what a robot carries: capsules in the model's tool frame (the
+/// frame `tcp` is given in).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    /// Named in validation messages.
+    pub name: String,
+    pub capsules: Vec<ToolCapsuleSpec>,
+}
+
+/// Points within `radius` (metres) of the segment `a`-`b` (tool frame, metres).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolCapsuleSpec {
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    pub radius: f64,
 }
 
 /// One trajectory of tool centre point poses.

@@ -15,13 +15,15 @@ use omcbsa_core::model::{Frame, Model};
 use omcbsa_core::problem::{
     Problem, Robot, Tolerance, Trajectory, MAX_OBSTACLES, MAX_ROBOTS, MAX_STEPS,
 };
+use omcbsa_core::tool::{Tool, ToolCapsule, ToolError, MAX_TOOL_CAPSULES};
 use serde::de::DeserializeOwned;
 use serde_json::error::Category;
 use serde_json::value::RawValue;
 
 use crate::error::{quoted, Errors, InputError};
 use crate::format::{
-    ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, MAX_JOINT_VALUE,
+    ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToolSpec,
+    MAX_JOINT_VALUE,
     PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::models::ModelKind;
@@ -316,10 +318,15 @@ fn robot<M: Model<D>, const D: usize>(
         }
         None => Some(None),
     };
+    let tool = match &spec.tool {
+        Some(t) => tool(t, &format!("{path}.tool"), errors),
+        None => Some(Tool::NONE),
+    };
     Some(Robot {
         base: base?,
         tcp: tcp?,
         initial: initial?,
+        tool: tool?,
     })
 }
 
@@ -330,6 +337,43 @@ pub fn joint_range<M: Model<D>, const D: usize>(j: usize) -> (f64, f64) {
         M::LOWER[j].max(-MAX_JOINT_VALUE),
         M::UPPER[j].min(MAX_JOINT_VALUE),
     )
+}
+
+/// Checks a tool's capsules (finite points, radii > 0, at most [`MAX_TOOL_CAPSULES`]).
+fn tool(spec: &ToolSpec, path: &str, errors: &mut Errors) -> Option<Tool> {
+    let capsules: Vec<ToolCapsule> = (spec.capsules.iter())
+        .map(|c| ToolCapsule {
+            a: c.a,
+            b: c.b,
+            radius: c.radius,
+        })
+        .collect();
+    match Tool::new(&capsules) {
+        Ok(tool) => Some(tool),
+        Err(ToolError::TooMany) => {
+            errors.push(
+                format!("{path}.capsules"),
+                format!(
+                    "{} entries exceed the capacity MAX_TOOL_CAPSULES = {MAX_TOOL_CAPSULES} of this build (refused, not truncated)",
+                    capsules.len()
+                ),
+            );
+            None
+        }
+        Err(ToolError::BadCapsule(_)) => {
+            // Every bad capsule is named, not only the first.
+            for (k, c) in capsules.iter().enumerate() {
+                let at = format!("{path}.capsules[{k}]");
+                for (field, p) in [("a", c.a), ("b", c.b)] {
+                    if let Err(e) = pose::finite(&p) {
+                        errors.add(e.within(&format!("{at}.{field}")));
+                    }
+                }
+                positive(c.radius, &format!("{at}.radius"), errors);
+            }
+            None
+        }
+    }
 }
 
 /// Checks a configuration of model `M` (length, finite values, [`joint_range`]).

@@ -432,7 +432,8 @@ fn check_velocity<M: Model<D>, const D: usize>(
     }
 }
 
-/// What a robot's links hit, by capsule index (into `Model::CAPSULES`).
+/// What a robot's links and tool hit, by capsule index (into `Model::CAPSULES`, then into the
+/// robot's tool capsules).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Contact {
     Obstacle {
@@ -463,40 +464,50 @@ impl Contact {
     }
 
     fn describe<M: Model<D>, const D: usize>(&self, file: &ProblemFile) -> String {
-        let link = |capsule: usize| {
-            let link = M::CAPSULES
-                .get(capsule)
-                .map_or(usize::MAX, |c| usize::from(c.link));
-            M::LINK_NAMES.get(link).copied().unwrap_or("?")
+        // `link forearm_link`, or `tool "gripper" (capsule 1)` past the link capsules.
+        let part = |robot: usize, capsule: usize| {
+            if let Some(c) = M::CAPSULES.get(capsule) {
+                let link = M::LINK_NAMES.get(usize::from(c.link));
+                return format!("link {}", link.copied().unwrap_or("?"));
+            }
+            let k = capsule - M::CAPSULES.len();
+            match file.robots[robot].tool.as_ref() {
+                Some(tool) if k < tool.capsules.len() => {
+                    format!("tool {} (capsule {k})", quoted(&tool.name))
+                }
+                _ => "a link".to_string(),
+            }
         };
         match *self {
             Contact::Obstacle {
-                capsule, obstacle, ..
+                robot,
+                capsule,
+                obstacle,
             } => format!(
-                "link {} hits obstacle {obstacle} ({})",
-                link(capsule),
+                "{} hits obstacle {obstacle} ({})",
+                part(robot, capsule),
                 quoted(&file.obstacles[obstacle].name)
             ),
             Contact::Robot {
+                robot,
                 capsule,
                 other,
                 other_capsule,
-                ..
             } => format!(
-                "link {} hits link {} of robot {other} ({})",
-                link(capsule),
-                link(other_capsule),
+                "{} hits {} of robot {other} ({})",
+                part(robot, capsule),
+                part(other, other_capsule),
                 quoted(&file.robots[other].name)
             ),
             Contact::SelfLinks {
+                robot,
                 capsule,
                 other_capsule,
-                ..
             } => {
                 format!(
-                    "link {} hits its own link {}",
-                    link(capsule),
-                    link(other_capsule)
+                    "{} hits its own {}",
+                    part(robot, capsule),
+                    part(robot, other_capsule)
                 )
             }
         }
@@ -513,7 +524,7 @@ fn check_collisions<M: Model<D>, const D: usize>(
     let horizon = problem.horizon();
     let arms_at = |configurations: &mut dyn Iterator<Item = [f64; D]>| -> Vec<ArmPose> {
         (problem.robots.iter().zip(configurations))
-            .map(|(robot, q)| ArmPose::new::<M, D>(&robot.base, &q))
+            .map(|(robot, q)| ArmPose::new::<M, D>(&robot.base, &robot.tool, &q))
             .collect()
     };
     let mut step_collides = vec![false; horizon];
@@ -536,9 +547,8 @@ fn check_collisions<M: Model<D>, const D: usize>(
         }
         // All robots move together, checked at the same instants: as many as the robot whose
         // points move farthest needs.
-        let sweeps: Vec<Sweep<M, D>> = paths
-            .iter()
-            .map(|p| Sweep::new(&p[t], &p[t + 1], MOTION_CHECK_SPACING))
+        let sweeps: Vec<Sweep<M, D>> = (paths.iter().zip(&problem.robots))
+            .map(|(p, r)| Sweep::new(&r.tool, &p[t], &p[t + 1], MOTION_CHECK_SPACING))
             .collect();
         let count = sweeps.iter().map(|s| s.count()).max().unwrap_or(1);
         let sweeps: Vec<_> = sweeps.into_iter().map(|s| s.with_count(count)).collect();
@@ -571,8 +581,8 @@ fn contacts<M: Model<D>, const D: usize>(problem: &Problem<D>, arms: &[ArmPose])
         while let Some(k) = arm.obstacle_hit(&obstacles[from..], 0.0) {
             let obstacle = from + k;
             // `obstacle_hit` names the obstacle; the link is found for the message.
-            let capsule = (M::CAPSULES.iter().zip(arm.capsules()))
-                .position(|(c, w)| c.link != 0 && obstacles[obstacle].hits_capsule(w, 0.0))
+            let capsule = (arm.capsules().iter().enumerate())
+                .position(|(i, w)| !arm.on_base(i) && obstacles[obstacle].hits_capsule(w, 0.0))
                 .unwrap_or(usize::MAX);
             found.push(Contact::Obstacle {
                 robot,

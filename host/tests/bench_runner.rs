@@ -30,6 +30,7 @@ fn problem(name: &str, h: usize) -> ProblemFile {
             base: Pose::IDENTITY,
             initial: None,
             tcp: None,
+            tool: None,
         }],
         trajectories: vec![TrajectorySpec {
             name: "hand".to_string(),

@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use omcbsa::format::{ObstacleSpec, ProblemFile, ShapeKind, SolutionFile, Status};
+use omcbsa::format::{ObstacleSpec, Pose, ProblemFile, ShapeKind, SolutionFile, Status};
 use omcbsa::load;
 use omcbsa::validate::{validate, Report, Rule};
 use omcbsa_core::model::KinovaGen3;
@@ -362,5 +362,60 @@ fn a_solution_must_be_solved_and_name_its_problem() {
     assert_eq!(
         report.summary(),
         "invalid: solution: status is timeout, not solved"
+    );
+}
+
+/// Two arms facing each other, their tool frames mirrored about the plane `x = mid` and
+/// pointing at each other so that the tips of 12 cm grippers meet on it: valid for bare
+/// flanges, a collision of the two tools with grippers on.
+#[test]
+fn rule_4_grippers_passing_through_each_other() {
+    use omcbsa::demo::gripper;
+    use omcbsa_core::model::Model;
+    let path = vec![Q0, Q0];
+    let tool = KinovaGen3::fk(&Q0);
+    let z = tool.rot.column(2);
+    assert!(z.x > 0.2, "Q0's tool points forward: {z:?}");
+    // Tips (12 cm along z) meet at x = mid.
+    let mid = tool.pos.x + 0.12 * z.x;
+    let (b0, b1) = (
+        at([0.0, 0.0, 0.0]),
+        Pose {
+            position: [2.0 * mid, 0.0, 0.0],
+            quat_xyzw: [0.0, 0.0, 1.0, 0.0],
+        },
+    );
+    let mut p = problem(
+        vec![robot("a", b0, None), robot("b", b1, None)],
+        vec![
+            trajectory_of("ha", &b0, &path),
+            trajectory_of("hb", &b1, &path),
+        ],
+        0.1,
+    );
+    let s = solution(vec![Some(0), Some(1)], vec![path.clone(), path]);
+    let bare = check(&p, &s);
+    assert!(bare.is_valid(), "without tools: {}", bare.summary());
+    for r in &mut p.robots {
+        r.tool = Some(gripper());
+    }
+    let report = check(&p, &s);
+    only(
+        &report,
+        Rule::Collision,
+        Some(0),
+        Some(0),
+        "of robot 1 (\"b\")",
+    );
+    let detail = &report.violations[0].detail;
+    assert!(
+        detail.starts_with("tool \"gripper\" (capsule ")
+            && detail.contains(" hits tool \"gripper\" (capsule "),
+        "{detail}"
+    );
+    assert!(
+        report.summary().starts_with("invalid: rule 4 (collision)"),
+        "{}",
+        report.summary()
     );
 }

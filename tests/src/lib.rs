@@ -9,6 +9,7 @@ use omcbsa::validate::validate;
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::nalgebra::{Rotation3, Vector3};
 use omcbsa_core::problem::Problem;
+use omcbsa_core::tool::Tool;
 use serde_json::{json, Value};
 
 /// A pose as the file format writes it.
@@ -178,11 +179,13 @@ pub fn witness_is_valid(
         let others: Vec<OtherArm<'_, DOF>> = (0..i)
             .map(|k| OtherArm {
                 base: bases[k],
+                tool: Tool::NONE,
                 path: &paths[k],
             })
             .collect();
         let v = Validity::<KinovaGen3, DOF>::new(
             bases[i],
+            Tool::NONE,
             obstacles,
             &others,
             OthersMode::Avoid,
@@ -218,6 +221,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     let shifted: [f64; DOF] = std::array::from_fn(|i| p0[0][i] + 0.8 * n[i]);
     let free = Validity::<KinovaGen3, DOF>::new(
         base,
+        Tool::NONE,
         &[],
         &[],
         OthersMode::Avoid,
@@ -230,6 +234,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
         base,
         tcp: Frame::IDENTITY,
         initial: None,
+        tool: Tool::NONE,
     };
     let mut alt = vec![[0.0; DOF]; p0.len()];
     omcbsa_core::tracking::track::<KinovaGen3, DOF>(

@@ -21,6 +21,7 @@ fn omega_astar_swings_the_elbow_where_ik_tracking_fails() {
         let robot = problem.robots[0];
         let valid = Validity::<KinovaGen3, DOF>::new(
             robot.base,
+            robot.tool,
             &problem.obstacles,
             &[],
             OthersMode::Avoid,

@@ -13,6 +13,8 @@ use super::FitError;
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     pub vertices: Vec<Vector3<f64>>,
+    /// Indices into `vertices`, for measuring distances to the surface.
+    pub triangles: Vec<[usize; 3]>,
 }
 
 impl Mesh {
@@ -37,7 +39,11 @@ impl Mesh {
                 path.display()
             )));
         }
-        Ok(Mesh { vertices })
+        let triangles = stl.faces.iter().map(|f| f.vertices).collect();
+        Ok(Mesh {
+            vertices,
+            triangles,
+        })
     }
 
     /// The mesh scaled per axis, then moved by `pose`.
@@ -52,7 +58,10 @@ impl Mesh {
 
     /// Adds `other`'s vertices to this mesh.
     pub fn append(&mut self, other: Mesh) {
+        let offset = self.vertices.len();
         self.vertices.extend(other.vertices);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + offset)));
     }
 
     /// Extent of the axis-aligned bounding box.
@@ -136,6 +145,7 @@ mod tests {
     fn tetrahedron() -> Mesh {
         Mesh {
             vertices: vec![Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::z()],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
         }
     }
 

@@ -154,6 +154,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
         let robot = &self.pr.robots[r];
         Validity::new(
             robot.base,
+            robot.tool,
             &self.pr.obstacles,
             &[],
             OthersMode::Avoid,
@@ -267,9 +268,9 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
     fn robots_clear(&self, q: &[[f64; D]; MAX_ROBOTS]) -> bool {
         let robots = &self.pr.robots[..self.n];
         for (i, (ri, qi)) in robots.iter().zip(q).enumerate() {
-            let a = ArmPose::new::<M, D>(&ri.base, qi);
+            let a = ArmPose::new::<M, D>(&ri.base, &ri.tool, qi);
             for (rk, qk) in robots.iter().zip(q).skip(i + 1) {
-                if a.arm_hit(&ArmPose::new::<M, D>(&rk.base, qk), 0.0)
+                if a.arm_hit(&ArmPose::new::<M, D>(&rk.base, &rk.tool, qk), 0.0)
                     .is_some()
                 {
                     return false;
@@ -338,12 +339,14 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
         for i in 0..self.n {
             let a = ArmMotion {
                 base: &self.pr.robots[i].base,
+                tool: &self.pr.robots[i].tool,
                 from: &from[i],
                 to: &to[i],
             };
             for k in i + 1..self.n {
                 let b = ArmMotion {
                     base: &self.pr.robots[k].base,
+                    tool: &self.pr.robots[k].tool,
                     from: &from[k],
                     to: &to[k],
                 };

@@ -118,11 +118,13 @@ impl<const D: usize> Descartes<'_, D> {
                 let o = o as usize;
                 let _ = others.push(OtherArm {
                     base: problem.robots[o].base,
+                    tool: problem.robots[o].tool,
                     path: &out.paths[o * h..(o + 1) * h],
                 });
             }
             let valid = Validity::<M, D>::new(
                 robot.base,
+                robot.tool,
                 &problem.obstacles,
                 &others,
                 OthersMode::Avoid,

@@ -89,11 +89,13 @@ impl IkTracking {
             for k in 0..r {
                 let _ = others.push(OtherArm {
                     base: problem.robots[k].base,
+                    tool: problem.robots[k].tool,
                     path: &done[k * h..(k + 1) * h],
                 });
             }
             let valid = Validity::<M, D>::new(
                 robot.base,
+                robot.tool,
                 &problem.obstacles,
                 &others,
                 OthersMode::Avoid,

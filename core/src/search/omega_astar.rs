@@ -18,6 +18,7 @@ use crate::kinematics::null_space_basis;
 use crate::model::{Frame, Model};
 use crate::problem::{Robot, Trajectory};
 use crate::rng::Rng;
+use crate::tool::Tool;
 
 use super::validity::Validity;
 use super::workspace::{Node, StateKey, Workspace};
@@ -70,6 +71,7 @@ impl Default for OmegaParams {
 #[derive(Clone, Copy, Debug)]
 pub struct OtherArm<'a, const D: usize> {
     pub base: Frame,
+    pub tool: Tool,
     /// One configuration per step.
     pub path: &'a [[f64; D]],
 }
@@ -301,6 +303,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
     fn new(q: &'q Query<'a, D>, p: &'q OmegaParams, h: usize) -> Self {
         let valid = Validity::new(
             q.robot.base,
+            q.robot.tool,
             q.obstacles,
             q.others,
             q.others_mode,
@@ -389,12 +392,12 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         parent_pose: &mut Option<(u32, ArmPose)>,
     ) -> Option<u16> {
         let parent = ws.node(node.parent);
-        let base = &self.q.robot.base;
+        let (base, tool) = (&self.q.robot.base, &self.q.robot.tool);
         if parent_pose.as_ref().is_none_or(|(i, _)| *i != node.parent) {
-            *parent_pose = Some((node.parent, ArmPose::new::<M, D>(base, &parent.q)));
+            *parent_pose = Some((node.parent, ArmPose::new::<M, D>(base, tool, &parent.q)));
         }
         let from = &parent_pose.as_ref()?.1;
-        let to = ArmPose::new::<M, D>(base, &node.q);
+        let to = ArmPose::new::<M, D>(base, tool, &node.q);
         self.valid
             .motion_posed(&parent.q, &node.q, [from, &to], parent.t as usize)
     }

@@ -10,12 +10,14 @@ use crate::motion::{
     motion_is_free_posed, motion_near_point_posed, motions_collide_posed, near_point, ArmMotion,
 };
 use crate::problem::MAX_ROBOTS;
+use crate::tool::Tool;
 
 use super::{OtherArm, OthersMode, PointConstraint};
 
 /// Everything that constrains one robot's states and motions.
 pub struct Validity<'q, M, const D: usize> {
     pub base: Frame,
+    pub tool: Tool,
     pub obstacles: &'q [Obstacle],
     pub others: &'q [OtherArm<'q, D>],
     pub others_mode: OthersMode,
@@ -32,8 +34,10 @@ pub struct Validity<'q, M, const D: usize> {
 }
 
 impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         base: Frame,
+        tool: Tool,
         obstacles: &'q [Obstacle],
         others: &'q [OtherArm<'q, D>],
         others_mode: OthersMode,
@@ -47,6 +51,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         }
         Validity {
             base,
+            tool,
             obstacles,
             others,
             others_mode,
@@ -64,7 +69,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         let (at, poses) = &mut cache[t % 2];
         if *at != t {
             for (p, other) in poses.iter_mut().zip(self.others) {
-                *p = ArmPose::new::<M, D>(&other.base, &other.path[t]);
+                *p = ArmPose::new::<M, D>(&other.base, &other.tool, &other.path[t]);
             }
             *at = t;
         }
@@ -90,7 +95,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         if !q.iter().zip(M::LOWER.iter().zip(&M::UPPER)).all(within) {
             return None;
         }
-        let pose = ArmPose::new::<M, D>(&self.base, q);
+        let pose = ArmPose::new::<M, D>(&self.base, &self.tool, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
             return None;
         }
@@ -117,8 +122,8 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     /// [`crate::motion`]). Returns the number of other robots met on the way.
     pub fn motion(&self, a: &[f64; D], b: &[f64; D], t: usize) -> Option<u16> {
         let ends = [
-            ArmPose::new::<M, D>(&self.base, a),
-            ArmPose::new::<M, D>(&self.base, b),
+            ArmPose::new::<M, D>(&self.base, &self.tool, a),
+            ArmPose::new::<M, D>(&self.base, &self.tool, b),
         ];
         self.motion_posed(a, b, [&ends[0], &ends[1]], t)
     }
@@ -133,6 +138,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     ) -> Option<u16> {
         let me = ArmMotion {
             base: &self.base,
+            tool: &self.tool,
             from: a,
             to: b,
         };
@@ -154,6 +160,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         for (o, other) in self.others.iter().enumerate() {
             let theirs = ArmMotion {
                 base: &other.base,
+                tool: &other.tool,
                 from: &other.path[t],
                 to: &other.path[t + 1],
             };

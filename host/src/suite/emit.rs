@@ -191,6 +191,7 @@ fn files(
                 q.iter().map(|&x| round(x)).collect()
             }),
             tcp: Some(rounded(&tcp())),
+            tool: None,
         })
         .collect();
     let trajectories = (listed.iter().enumerate())

@@ -13,6 +13,7 @@ use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Model};
 use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion, MOTION_STEP};
 use omcbsa_core::rng::Rng;
+use omcbsa_core::tool::Tool;
 
 use super::family::Hand;
 use super::frames::{at, V3};
@@ -100,8 +101,9 @@ impl<'a> Witness<'a> {
             for (t, q) in path.iter().enumerate() {
                 let prev = &path[t.saturating_sub(1)];
                 let mid: Q = std::array::from_fn(|j| 0.5 * (prev[j] + q[j]));
-                poses.push(ArmPose::new::<Gen3, 7>(base, &mid));
-                poses.push(ArmPose::new::<Gen3, 7>(base, q));
+                // The suite's arms carry no tool.
+                poses.push(ArmPose::new::<Gen3, 7>(base, &Tool::NONE, &mid));
+                poses.push(ArmPose::new::<Gen3, 7>(base, &Tool::NONE, q));
             }
         }
         Witness {
@@ -126,6 +128,7 @@ impl<'a> Witness<'a> {
             (0..path.len()).all(|t| {
                 let m = ArmMotion {
                     base,
+                    tool: &Tool::NONE,
                     from: &path[t.saturating_sub(1)],
                     to: &path[t],
                 };
@@ -183,6 +186,7 @@ fn path_is_free(base: &Frame, path: &[Q], obstacles: &[Obstacle]) -> bool {
     (0..path.len()).all(|t| {
         let m = ArmMotion {
             base,
+            tool: &Tool::NONE,
             from: &path[t.saturating_sub(1)],
             to: &path[t],
         };

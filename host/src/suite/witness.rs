@@ -12,6 +12,7 @@ use omcbsa_core::kinematics::null_space_basis;
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::motion::{motion_is_free, motions_collide, ArmMotion};
 use omcbsa_core::rng::Rng;
+use omcbsa_core::tool::Tool;
 
 use super::family::Hand;
 use super::frames::{aligned, rot, v3, V3};
@@ -66,11 +67,19 @@ impl Scene<'_> {
     /// The motion of an arm at `base` from `from` to `to` over step `t - 1 -> t` (standing
     /// still at step 0), against the obstacles, itself and `placed`.
     fn motion_ok(&self, base: &Frame, from: &Q, to: &Q, t: usize, placed: &[Placed]) -> bool {
-        let m = ArmMotion { base, from, to };
+        // The suite's arms carry no tool.
+        let tool = &Tool::NONE;
+        let m = ArmMotion {
+            base,
+            tool,
+            from,
+            to,
+        };
         motion_is_free::<Gen3, 7>(&m, self.obstacles, MOTION_STEP)
             && placed.iter().all(|o| {
                 let other = ArmMotion {
                     base: &o.base,
+                    tool,
                     from: &o.path[t.saturating_sub(1)],
                     to: &o.path[t],
                 };

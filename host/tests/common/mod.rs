@@ -38,6 +38,7 @@ pub fn robot(name: &str, base: Pose, initial: Option<Q>) -> RobotSpec {
         base,
         initial: initial.map(|q| q.to_vec()),
         tcp: None,
+        tool: None,
     }
 }
 
