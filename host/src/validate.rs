@@ -69,6 +69,10 @@ pub struct Violation {
     pub step: Option<usize>,
     /// What failed, naming joints, links, obstacles and trajectories.
     pub detail: String,
+    /// For a collision, the links in contact as `(robot, link)` with `link` an index into
+    /// `Model::LINK_NAMES` (so a viewer can mark them); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<(usize, usize)>,
 }
 
 impl fmt::Display for Violation {
@@ -113,6 +117,22 @@ impl Report {
             robot,
             step,
             detail,
+            links: Vec::new(),
+        });
+    }
+
+    fn add_contact<M: Model<D>, const D: usize>(
+        &mut self,
+        contact: &Contact,
+        step: usize,
+        detail: String,
+    ) {
+        self.violations.push(Violation {
+            rule: Rule::Collision,
+            robot: Some(contact.robot()),
+            step: Some(step),
+            detail,
+            links: contact.links::<M, D>(),
         });
     }
 }
@@ -457,12 +477,42 @@ impl Contact {
         }
     }
 
+    /// The link a capsule index is on (`usize::MAX` for none).
+    fn link_of<M: Model<D>, const D: usize>(capsule: usize) -> usize {
+        M::CAPSULES
+            .get(capsule)
+            .map_or(usize::MAX, |c| usize::from(c.link))
+    }
+
+    /// `(robot, link)` of every link in contact (an obstacle is not a link).
+    fn links<M: Model<D>, const D: usize>(&self) -> Vec<(usize, usize)> {
+        let link = Self::link_of::<M, D>;
+        let links = match *self {
+            Contact::Obstacle { robot, capsule, .. } => vec![(robot, link(capsule))],
+            Contact::Robot {
+                robot,
+                capsule,
+                other,
+                other_capsule,
+            } => vec![(robot, link(capsule)), (other, link(other_capsule))],
+            Contact::SelfLinks {
+                robot,
+                capsule,
+                other_capsule,
+            } => vec![(robot, link(capsule)), (robot, link(other_capsule))],
+        };
+        links
+            .into_iter()
+            .filter(|&(_, l)| l < M::LINK_NAMES.len())
+            .collect()
+    }
+
     fn describe<M: Model<D>, const D: usize>(&self, file: &ProblemFile) -> String {
         let link = |capsule: usize| {
-            let link = M::CAPSULES
-                .get(capsule)
-                .map_or(usize::MAX, |c| usize::from(c.link));
-            M::LINK_NAMES.get(link).copied().unwrap_or("?")
+            M::LINK_NAMES
+                .get(Self::link_of::<M, D>(capsule))
+                .copied()
+                .unwrap_or("?")
         };
         match *self {
             Contact::Obstacle {
@@ -516,12 +566,7 @@ fn check_collisions<M: Model<D>, const D: usize>(
         let contacts = contacts::<M, D>(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
         *collides = !contacts.is_empty();
         for c in contacts {
-            report.add(
-                Rule::Collision,
-                Some(c.robot()),
-                Some(t),
-                c.describe::<M, D>(file),
-            );
+            report.add_contact::<M, D>(&c, t, c.describe::<M, D>(file));
         }
     }
     for t in 0..horizon.saturating_sub(1) {
@@ -547,7 +592,7 @@ fn check_collisions<M: Model<D>, const D: usize>(
                     100.0 * (k as f64 + 0.5) / count as f64,
                     c.describe::<M, D>(file)
                 );
-                report.add(Rule::Collision, Some(c.robot()), Some(t), detail);
+                report.add_contact::<M, D>(c, t, detail);
             }
             if !contacts.is_empty() {
                 break;
