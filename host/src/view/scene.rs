@@ -69,7 +69,7 @@ pub struct RobotView<'a> {
     /// Whether the frames follow the solution's joint path (else they hold one configuration:
     /// `initial`, or all joints at 0 without one).
     pub planned: bool,
-    /// `frames[t][link]` in the world.
+    /// `frames[t][link]` in the world; a single entry when not `planned`.
     pub frames: Vec<Vec<FrameData>>,
 }
 
@@ -151,7 +151,7 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
             };
             let frames = match &paths {
                 Some(paths) => paths[i].iter().map(at).collect(),
-                None => vec![at(&robot.initial.unwrap_or([0.0; D])); steps.max(1)],
+                None => vec![at(&robot.initial.unwrap_or([0.0; D]))],
             };
             RobotView {
                 name: &spec.name,
