@@ -15,3 +15,4 @@ pub mod planners;
 pub mod pose;
 pub mod suite;
 pub mod validate;
+pub mod view;

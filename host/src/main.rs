@@ -27,6 +27,7 @@ enum Command {
     Ik(cli::ik::Args),
     Plan(cli::plan::Args),
     Validate(cli::validate::Args),
+    View(cli::view::Args),
 }
 
 fn main() -> ExitCode {
@@ -39,5 +40,6 @@ fn main() -> ExitCode {
         Command::Ik(args) => cli::ik::run(&args),
         Command::Plan(args) => cli::plan::run(&args),
         Command::Validate(args) => cli::validate::run(&args),
+        Command::View(args) => cli::view::run(&args),
     }
 }

@@ -71,6 +71,10 @@ pub struct Violation {
     pub step: Option<usize>,
     /// What failed, naming joints, links, obstacles and trajectories.
     pub detail: String,
+    /// For a collision, the links in contact as `(robot, link)` with `link` an index into
+    /// `Model::LINK_NAMES` (so a viewer can mark them); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<(usize, usize)>,
 }
 
 impl fmt::Display for Violation {
@@ -115,6 +119,22 @@ impl Report {
             robot,
             step,
             detail,
+            links: Vec::new(),
+        });
+    }
+
+    fn add_contact<M: Model<D>, const D: usize>(
+        &mut self,
+        contact: &Contact,
+        step: usize,
+        detail: String,
+    ) {
+        self.violations.push(Violation {
+            rule: Rule::Collision,
+            robot: Some(contact.robot()),
+            step: Some(step),
+            detail,
+            links: contact.links::<M, D>(),
         });
     }
 }
@@ -463,6 +483,36 @@ impl Contact {
         }
     }
 
+    /// The link a capsule index is on (`usize::MAX` for none).
+    fn link_of<M: Model<D>, const D: usize>(capsule: usize) -> usize {
+        M::CAPSULES
+            .get(capsule)
+            .map_or(usize::MAX, |c| usize::from(c.link))
+    }
+
+    /// `(robot, link)` of every link in contact (an obstacle is not a link).
+    fn links<M: Model<D>, const D: usize>(&self) -> Vec<(usize, usize)> {
+        let link = Self::link_of::<M, D>;
+        let links = match *self {
+            Contact::Obstacle { robot, capsule, .. } => vec![(robot, link(capsule))],
+            Contact::Robot {
+                robot,
+                capsule,
+                other,
+                other_capsule,
+            } => vec![(robot, link(capsule)), (other, link(other_capsule))],
+            Contact::SelfLinks {
+                robot,
+                capsule,
+                other_capsule,
+            } => vec![(robot, link(capsule)), (robot, link(other_capsule))],
+        };
+        links
+            .into_iter()
+            .filter(|&(_, l)| l < M::LINK_NAMES.len())
+            .collect()
+    }
+
     fn describe<M: Model<D>, const D: usize>(&self, file: &ProblemFile) -> String {
         // `link forearm_link`, or `tool "gripper" (capsule 1)` past the link capsules.
         let part = |robot: usize, capsule: usize| {
@@ -532,12 +582,7 @@ fn check_collisions<M: Model<D>, const D: usize>(
         let contacts = contacts::<M, D>(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
         *collides = !contacts.is_empty();
         for c in contacts {
-            report.add(
-                Rule::Collision,
-                Some(c.robot()),
-                Some(t),
-                c.describe::<M, D>(file),
-            );
+            report.add_contact::<M, D>(&c, t, c.describe::<M, D>(file));
         }
     }
     for t in 0..horizon.saturating_sub(1) {
@@ -562,7 +607,7 @@ fn check_collisions<M: Model<D>, const D: usize>(
                     100.0 * (k as f64 + 0.5) / count as f64,
                     c.describe::<M, D>(file)
                 );
-                report.add(Rule::Collision, Some(c.robot()), Some(t), detail);
+                report.add_contact::<M, D>(c, t, detail);
             }
             if !contacts.is_empty() {
                 break;

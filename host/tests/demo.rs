@@ -73,4 +73,12 @@ fn omcbsa_demo_plans_streams_and_summarises() {
     for r in ROBOTS {
         assert!(out.path().join(format!("mock-{r}.jsonl")).exists(), "{r}");
     }
+    // The 3D view beside the solution (tests/view_browser.rs opens such a page in Chromium).
+    let page = out.path().join("plan.html");
+    assert!(
+        stdout.contains(&format!("wrote {}", page.display())),
+        "{stdout}"
+    );
+    let size = std::fs::metadata(&page).unwrap().len();
+    assert!(size < 5_000_000, "plan.html is {size} bytes");
 }

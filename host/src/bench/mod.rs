@@ -10,6 +10,7 @@
 //! anyone can bench their own planner on the suite.
 
 mod plots;
+mod quality;
 mod results;
 mod summary;
 
@@ -25,12 +26,14 @@ use rayon::prelude::*;
 
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::problem::Problem;
+use omcbsa_hw::JointLimits;
 
 use crate::format::{ProblemFile, SolutionFile, Status};
 use crate::planners::{Capacities, Storage};
 use crate::suite::{self, SuiteEntry};
 use crate::{load, validate};
 
+pub use quality::{path_quality, PathQuality};
 pub use results::Row;
 pub use summary::{Cell, Summary};
 
@@ -358,6 +361,12 @@ fn run_one(
         time_s: 0.0,
         wall_s: 0.0,
         expansions: None,
+        path_length_rad: None,
+        max_speed_frac: None,
+        max_accel_frac: None,
+        min_arm_clearance_m: None,
+        min_obstacle_clearance_m: None,
+        path_cost: None,
         message: String::new(),
     };
     let path = suite_dir.join(&entry.file);
@@ -397,7 +406,28 @@ fn run_one(
         row.success = report.is_valid();
         if !report.is_valid() {
             row.message = report.summary();
+        } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
+            let accel = JointLimits::kinova_gen3().map(|l| l.acceleration);
+            row.set_quality(&path_quality::<KinovaGen3, 7>(
+                &problem,
+                &solution.assignment,
+                &paths,
+                &accel,
+            ));
         }
     }
     row
+}
+
+/// A valid solution's joint paths as configurations (`None` if one has the wrong length,
+/// which validation has ruled out).
+fn config_paths(paths: &[Vec<Vec<f64>>]) -> Option<Vec<Vec<[f64; 7]>>> {
+    paths
+        .iter()
+        .map(|p| {
+            p.iter()
+                .map(|q| <[f64; 7]>::try_from(q.as_slice()).ok())
+                .collect()
+        })
+        .collect()
 }

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::quality::PathQuality;
 use super::Error;
 
 /// One run.
@@ -34,11 +35,29 @@ pub struct Row {
     pub wall_s: f64,
     /// Search node expansions, when the planner reports them.
     pub expansions: Option<u64>,
+    /// Path quality of a successful run's plan (see [`super::quality::PathQuality`]); empty
+    /// for the other runs, and for figures that do not apply.
+    pub path_length_rad: Option<f64>,
+    pub max_speed_frac: Option<f64>,
+    pub max_accel_frac: Option<f64>,
+    pub min_arm_clearance_m: Option<f64>,
+    pub min_obstacle_clearance_m: Option<f64>,
+    pub path_cost: Option<f64>,
     /// Why a run failed, or what the validator found wrong with a "success".
     pub message: String,
 }
 
 impl Row {
+    /// Sets the path-quality columns.
+    pub fn set_quality(&mut self, q: &PathQuality) {
+        self.path_length_rad = Some(q.path_length_rad);
+        self.max_speed_frac = Some(q.max_speed_frac);
+        self.max_accel_frac = q.max_accel_frac;
+        self.min_arm_clearance_m = q.min_arm_clearance_m;
+        self.min_obstacle_clearance_m = q.min_obstacle_clearance_m;
+        self.path_cost = Some(q.path_cost);
+    }
+
     pub fn key(&self) -> (&str, &str) {
         (&self.problem, &self.planner)
     }
@@ -63,6 +82,12 @@ fn header() -> Result<String, Error> {
         time_s: 0.0,
         wall_s: 0.0,
         expansions: None,
+        path_length_rad: None,
+        max_speed_frac: None,
+        max_accel_frac: None,
+        min_arm_clearance_m: None,
+        min_obstacle_clearance_m: None,
+        path_cost: None,
         message: String::new(),
     };
     w.serialize(&dummy).map_err(|e| Error::Csv {

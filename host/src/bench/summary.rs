@@ -1,10 +1,46 @@
-//! Aggregates of the runs: success rate and planning times per planner and number of arms,
-//! as a markdown table.
+//! Aggregates of the runs: success rate, planning times (median, mean, standard deviation,
+//! extremes) and path quality per planner and number of arms, as markdown tables.
 
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
+use super::quality::PathQuality;
 use super::results::Row;
+
+/// Mean, sample standard deviation (n - 1; 0 for one value), smallest and largest of some
+/// values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spread {
+    pub n: usize,
+    pub mean: f64,
+    pub std_dev: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Spread {
+    /// `None` for no values.
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Spread> {
+        let values: Vec<f64> = values.into_iter().collect();
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let square_sum: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
+        Some(Spread {
+            n,
+            mean,
+            std_dev: if n > 1 {
+                (square_sum / (n - 1) as f64).sqrt()
+            } else {
+                0.0
+            },
+            min: values.iter().copied().fold(f64::INFINITY, f64::min),
+            max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        })
+    }
+}
 
 /// One planner over one group of problems (one arm count, or all).
 #[derive(Clone, Debug, PartialEq)]
@@ -16,6 +52,8 @@ pub struct Cell {
     pub solvable_successes: usize,
     /// Planning times of the successful runs, seconds, sorted.
     pub times: Vec<f64>,
+    /// Path quality of the successful runs that have it.
+    pub quality: Vec<PathQuality>,
 }
 
 impl Cell {
@@ -33,7 +71,22 @@ impl Cell {
             solvable_runs: solvable.len(),
             solvable_successes: solvable.iter().filter(|r| r.success).count(),
             times,
+            quality: rows
+                .iter()
+                .filter(|r| r.success)
+                .filter_map(|r| quality(r))
+                .collect(),
         }
+    }
+
+    /// Mean, σ, min and max of the successful runs' planning times (seconds).
+    pub fn time_spread(&self) -> Option<Spread> {
+        Spread::of(self.times.iter().copied())
+    }
+
+    /// The spread of one path-quality figure over the successful runs where it applies.
+    pub fn quality_spread(&self, figure: impl Fn(&PathQuality) -> Option<f64>) -> Option<Spread> {
+        Spread::of(self.quality.iter().filter_map(figure))
     }
 
     /// Successes over runs, 0 without runs.
@@ -57,6 +110,18 @@ impl Cell {
     pub fn mean(&self) -> Option<f64> {
         (!self.times.is_empty()).then(|| self.times.iter().sum::<f64>() / self.times.len() as f64)
     }
+}
+
+/// A row's path quality, when it has one.
+fn quality(r: &Row) -> Option<PathQuality> {
+    Some(PathQuality {
+        path_length_rad: r.path_length_rad?,
+        max_speed_frac: r.max_speed_frac?,
+        max_accel_frac: r.max_accel_frac,
+        min_arm_clearance_m: r.min_arm_clearance_m,
+        min_obstacle_clearance_m: r.min_obstacle_clearance_m,
+        path_cost: r.path_cost?,
+    })
 }
 
 fn ratio(a: usize, b: usize) -> f64 {
@@ -116,6 +181,103 @@ impl Summary {
             robot_counts,
             cells,
             invalid,
+        }
+    }
+
+    /// Each planner's cells, per arm count then over all problems, with their label.
+    fn groups<'a>(&'a self, planner: &'a str) -> impl Iterator<Item = (String, &'a Cell)> + 'a {
+        (self.robot_counts.iter().map(|&n| (n.to_string(), Some(n))))
+            .chain([("all".to_string(), None)])
+            .filter_map(move |(label, key)| Some((label, self.cell(planner, key)?)))
+    }
+
+    fn time_table(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Planning time of successful runs (ms)\n");
+        let _ = writeln!(
+            s,
+            "| planner | arms | solved | mean | σ | min | median | max |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|");
+        for p in &self.planners {
+            for (label, c) in self.groups(p) {
+                let _ = write!(s, "| {p} | {label} | {} |", c.successes);
+                match c.time_spread() {
+                    Some(t) => {
+                        let ms = |x: f64| format!("{:.1}", 1000.0 * x);
+                        let median = c.median().map_or("-".to_string(), ms);
+                        let _ = writeln!(
+                            s,
+                            " {} | {} | {} | {median} | {} |",
+                            ms(t.mean),
+                            ms(t.std_dev),
+                            ms(t.min),
+                            ms(t.max)
+                        );
+                    }
+                    None => {
+                        let _ = writeln!(s, " - | - | - | - | - |");
+                    }
+                }
+            }
+        }
+    }
+
+    fn quality_table(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Path quality of successful runs\n");
+        let _ = writeln!(
+            s,
+            "Over each planner's own successes (so planners are compared on different problem \
+             sets). Path length: joint-space length summed over the arms (rad). Cost: Ω-A*'s \
+             `g` summed over the tracking arms. Speed and acceleration: the largest joint \
+             speed and acceleration (finite differences at the steps) as a fraction of the \
+             joint's limit. Clearances: the smallest capsule distance at the steps, between \
+             arms and between an arm and an obstacle (mm). Each figure: mean over runs, and \
+             the extreme in brackets (largest fraction, smallest clearance).\n"
+        );
+        let _ = writeln!(
+            s,
+            "| planner | arms | runs | path length (rad) | cost | speed / limit | acceleration / limit | arm clearance (mm) | obstacle clearance (mm) |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let fmt = |spread: Option<Spread>, scale: f64, digits: usize, extreme: Option<bool>| {
+            spread.map_or("-".to_string(), |v| match extreme {
+                None => format!("{:.digits$}", scale * v.mean),
+                Some(max) => format!(
+                    "{:.digits$} ({:.digits$})",
+                    scale * v.mean,
+                    scale * if max { v.max } else { v.min }
+                ),
+            })
+        };
+        for p in &self.planners {
+            for (label, c) in self.groups(p) {
+                let _ = writeln!(
+                    s,
+                    "| {p} | {label} | {} | {} | {} | {} | {} | {} | {} |",
+                    c.quality.len(),
+                    fmt(c.quality_spread(|q| Some(q.path_length_rad)), 1.0, 2, None),
+                    fmt(c.quality_spread(|q| Some(q.path_cost)), 1.0, 2, None),
+                    fmt(
+                        c.quality_spread(|q| Some(q.max_speed_frac)),
+                        1.0,
+                        2,
+                        Some(true)
+                    ),
+                    fmt(c.quality_spread(|q| q.max_accel_frac), 1.0, 2, Some(true)),
+                    fmt(
+                        c.quality_spread(|q| q.min_arm_clearance_m),
+                        1000.0,
+                        1,
+                        Some(false)
+                    ),
+                    fmt(
+                        c.quality_spread(|q| q.min_obstacle_clearance_m),
+                        1000.0,
+                        1,
+                        Some(false)
+                    ),
+                );
+            }
         }
     }
 
@@ -181,6 +343,8 @@ impl Summary {
                 );
             }
         }
+        self.time_table(&mut s);
+        self.quality_table(&mut s);
         if !self.invalid.is_empty() {
             let _ = writeln!(s, "\n## Invalid \"successes\" (counted as failures)\n");
             for r in &self.invalid {

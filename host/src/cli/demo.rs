@@ -8,6 +8,7 @@ use omcbsa::demo::{box_flip, run_on_mock_arms, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::{plan_file, InputOrPlanError};
+use omcbsa::view::write_html;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::record::TOLERANCE;
 use serde::Serialize;
@@ -22,7 +23,8 @@ use super::{bad_input, negative, note, positive_seconds, print};
 /// a fault, 2 the mock arms or the output directory are not available.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Where to write problem.json, solution.json and the mock arms' records.
+    /// Where to write problem.json, solution.json, plan.html (the 3D view) and the mock arms'
+    /// records.
     #[arg(long, default_value = "demo-out")]
     out: PathBuf,
     /// Planning time limit, seconds.
@@ -88,7 +90,15 @@ fn write_files(out: &Path, checked: &CheckedSolution) -> Result<(), ExitCode> {
     std::fs::create_dir_all(out)
         .map_err(|e| bad_input(format!("cannot create {}: {e}", out.display())))?;
     write_json(&out.join("problem.json"), checked.problem())?;
-    write_json(&out.join("solution.json"), checked.solution())
+    write_json(&out.join("solution.json"), checked.solution())?;
+    let page = out.join("plan.html");
+    let (problem, solution, report) = (checked.problem(), checked.solution(), checked.report());
+    write_html(problem, Some(solution), Some(report), &page).map_err(|e| e.to_string())?;
+    println!(
+        "wrote {} (open it in a browser to see the plan)",
+        page.display()
+    );
+    Ok(())
 }
 
 fn write_json(path: &Path, value: &impl Serialize) -> Result<(), ExitCode> {

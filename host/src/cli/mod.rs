@@ -13,12 +13,14 @@ pub mod ik;
 mod lines;
 pub mod plan;
 pub mod validate;
+pub mod view;
 
 use std::fmt::Display;
 use std::io::{self, Write};
+use std::path::Path;
 use std::process::ExitCode;
 
-use omcbsa::error::Errors;
+use omcbsa::error::{Errors, InputError};
 use omcbsa::load;
 use omcbsa_core::model::Model;
 
@@ -86,4 +88,14 @@ pub fn configuration<M: Model<D>, const D: usize>(
         .finish()
         .map_err(|e| e.to_string().replace('\n', "; "))?;
     q.ok_or_else(|| format!("{name}: invalid configuration"))
+}
+
+/// Every error of `e`, one per line, prefixed with the file's name.
+pub fn in_file(path: &Path, e: InputError) -> String {
+    let lines: Vec<String> = e
+        .errors
+        .iter()
+        .map(|f| format!("{}: {f}", path.display()))
+        .collect();
+    lines.join("\n")
 }

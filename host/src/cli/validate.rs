@@ -3,13 +3,12 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::error::InputError;
 use omcbsa::load;
 use omcbsa::models::ModelKind;
 use omcbsa::validate::{validate, Report};
 use omcbsa_core::model::{KinovaGen3, Model};
 
-use super::{bad_input, negative, print, InputLimit};
+use super::{bad_input, in_file, negative, print, InputLimit};
 
 /// Checks a solution against its problem: the five rules of docs/FORMATS.md with the
 /// project's collision model. Prints `valid`, or every violation with its rule, robot and
@@ -76,14 +75,4 @@ fn check_with<M: Model<D>, const D: usize>(
 ) -> Result<Report, String> {
     let problem = load::problem::<M, D>(file).map_err(|e| in_file(&args.problem, e))?;
     Ok(validate::<M, D>(file, &problem, solution))
-}
-
-/// Every error of `e`, one per line, prefixed with the file's name.
-fn in_file(path: &Path, e: InputError) -> String {
-    let lines: Vec<String> = e
-        .errors
-        .iter()
-        .map(|f| format!("{}: {f}", path.display()))
-        .collect();
-    lines.join("\n")
 }

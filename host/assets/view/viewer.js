@@ -1,0 +1,288 @@
+// omcbsa plan viewer. Everything it draws comes from the embedded scene, computed by the host
+// with the planner's own kinematic model: link frames per step, joint axes, capsules, poses.
+// three.js is loaded from the page itself (no network); see the licences in the page.
+(async function () {
+  "use strict";
+  const view = (window.omcbsaView = { ready: false, error: null });
+  const text = (id) => document.getElementById(id).textContent;
+  try {
+    const moduleUrl = (src) => URL.createObjectURL(new Blob([src], { type: "text/javascript" }));
+    const threeUrl = moduleUrl(text("three-src"));
+    const THREE = await import(threeUrl);
+    const orbit = text("orbit-src").replace("from 'three'", "from '" + threeUrl + "'");
+    const { OrbitControls } = await import(moduleUrl(orbit));
+    const { scene, meshes } = JSON.parse(text("data"));
+    start(THREE, OrbitControls, scene, meshes, view);
+  } catch (e) {
+    view.error = String(e && e.stack ? e.stack : e);
+    document.getElementById("status").innerHTML = '<span class="bad">The viewer failed: ' +
+      String(e).replace(/</g, "&lt;") + "</span>";
+    throw e;
+  }
+})();
+
+function start(THREE, OrbitControls, data, meshes, view) {
+  "use strict";
+  const COLORS = [0x1f77b4, 0xff7f0e, 0x2ca02c, 0x9467bd, 0x8c564b, 0xe377c2, 0x17becf, 0xbcbd22];
+  const CLASH = 0xe0141e;
+  const hex = (c) => "#" + c.toString(16).padStart(6, "0");
+  const el = (id) => document.getElementById(id);
+  const escape = (s) => String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;");
+
+  // ---- renderer, camera, lights (world z is up, as in the problem files)
+  const box = el("view");
+  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(window.devicePixelRatio || 1);
+  box.appendChild(renderer.domElement);
+  const world = new THREE.Scene();
+  world.background = new THREE.Color(0xf4f5f7);
+  const camera = new THREE.PerspectiveCamera(45, 1, 0.01, 100);
+  camera.up.set(0, 0, 1);
+  world.add(new THREE.HemisphereLight(0xffffff, 0x8890a0, 2.0));
+  const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+  sun.position.set(2, -3, 5);
+  world.add(sun);
+  const grid = new THREE.GridHelper(4, 40, 0xb0b4bc, 0xd4d7dd);
+  grid.rotation.x = Math.PI / 2;
+  world.add(grid);
+
+  // ---- Kinova's meshes (binary STL)
+  function stlGeometry(b64) {
+    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+    const dv = new DataView(bytes.buffer);
+    const n = dv.getUint32(80, true);
+    const pos = new Float32Array(n * 9), nrm = new Float32Array(n * 9);
+    for (let i = 0; i < n; i++) {
+      const o = 84 + 50 * i;
+      for (let v = 0; v < 3; v++) {
+        for (let k = 0; k < 3; k++) {
+          nrm[9 * i + 3 * v + k] = dv.getFloat32(o + 4 * k, true);
+          pos[9 * i + 3 * v + k] = dv.getFloat32(o + 12 + 12 * v + 4 * k, true);
+        }
+      }
+    }
+    const g = new THREE.BufferGeometry();
+    g.setAttribute("position", new THREE.BufferAttribute(pos, 3));
+    g.setAttribute("normal", new THREE.BufferAttribute(nrm, 3));
+    return g;
+  }
+  const geometries = {};
+  for (const link of Object.keys(meshes)) geometries[link] = stlGeometry(meshes[link]);
+
+  // A capsule (or cylinder) between local points a and b; three's shapes run along y.
+  function between(geometry, material, a, b) {
+    const va = new THREE.Vector3(...a), vb = new THREE.Vector3(...b);
+    const m = new THREE.Mesh(geometry, material);
+    m.position.copy(va).add(vb).multiplyScalar(0.5);
+    const d = vb.clone().sub(va);
+    if (d.length() > 1e-9) m.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), d.normalize());
+    return m;
+  }
+  const capsuleGeometry = (r, a, b) =>
+    new THREE.CapsuleGeometry(r, new THREE.Vector3(...a).distanceTo(new THREE.Vector3(...b)), 6, 16);
+
+  // ---- arms: one group per robot, one object per link placed at the embedded frames
+  const capsuleObjects = [];
+  const arms = data.robots.map((robot, i) => {
+    const color = COLORS[i % COLORS.length];
+    const group = new THREE.Group();
+    group.name = "arm";
+    group.userData.robot = i;
+    const links = data.links.map((name, l) => {
+      const link = new THREE.Group();
+      link.name = name;
+      link.matrixAutoUpdate = false;
+      const material = new THREE.MeshStandardMaterial({ color, roughness: 0.55, metalness: 0.1 });
+      if (geometries[name]) link.add(new THREE.Mesh(geometries[name], material));
+      link.userData.material = material;
+      link.userData.color = color;
+      const capsuleMaterial = new THREE.MeshStandardMaterial({ color, transparent: true, opacity: 0.45 });
+      for (const c of data.capsules.filter((c) => c.link === l)) {
+        const m = between(capsuleGeometry(c.radius, c.a, c.b), capsuleMaterial, c.a, c.b);
+        m.visible = false;
+        capsuleObjects.push(m);
+        link.add(m);
+      }
+      group.add(link);
+      return link;
+    });
+    world.add(group);
+    return { robot, links };
+  });
+
+  // ---- trajectories in their arm's colour, and the target pose of the current step
+  const targets = data.trajectories.map((t) => {
+    const color = t.robot === null ? 0x777777 : COLORS[t.robot % COLORS.length];
+    const points = t.poses.map((p) => new THREE.Vector3(p[0], p[1], p[2]));
+    const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(points),
+      new THREE.LineBasicMaterial({ color }));
+    line.name = "trajectory";
+    world.add(line);
+    const target = new THREE.Group();
+    target.add(new THREE.AxesHelper(0.08));
+    target.add(new THREE.Mesh(new THREE.SphereGeometry(0.012, 16, 8),
+      new THREE.MeshBasicMaterial({ color })));
+    world.add(target);
+    return { t, target };
+  });
+
+  // ---- obstacles (capsule and cylinder axes along their local z)
+  const obstacleMaterial = new THREE.MeshStandardMaterial({ color: 0x9aa0aa, transparent: true, opacity: 0.8 });
+  for (const o of data.obstacles) {
+    let g;
+    if (o.shape === "box") g = new THREE.BoxGeometry(...o.half_extents.map((h) => 2 * h));
+    else if (o.shape === "sphere") g = new THREE.SphereGeometry(o.radius, 24, 16);
+    else if (o.shape === "capsule") g = new THREE.CapsuleGeometry(o.radius, 2 * o.half_length, 6, 16).rotateX(Math.PI / 2);
+    else g = new THREE.CylinderGeometry(o.radius, o.radius, 2 * o.half_length, 24).rotateX(Math.PI / 2);
+    const m = new THREE.Mesh(g, obstacleMaterial);
+    m.name = "obstacle";
+    m.position.set(...o.pose.position);
+    m.quaternion.set(...o.pose.quat_xyzw);
+    world.add(m);
+  }
+
+  // ---- panel: what is shown, who tracks what, what the validator found
+  const steps = Math.max(1, data.steps);
+  el("title").textContent = data.name;
+  const sol = data.solution;
+  el("status").innerHTML = sol === null
+    ? "problem only: no solution given (arms at their initial configurations)"
+    : escape(sol.planner) + ": " + escape(sol.status) +
+      (sol.status === "solved" ? ", " + (1000 * sol.planning_time_s).toFixed(1) + " ms" : "") +
+      ' &mdash; <span class="' + (sol.valid ? "ok" : "bad") + '">' + escape(sol.summary) + "</span>" +
+      (sol.message ? "<br>" + escape(sol.message) : "");
+  el("legend").innerHTML = data.robots.map((r, i) =>
+    '<li><span class="swatch" style="background:' + hex(COLORS[i % COLORS.length]) + '"></span>' +
+    escape(r.name) + " &rarr; " +
+    (r.trajectory === null ? "holds" : escape(data.trajectories[r.trajectory].name)) + "</li>").join("");
+  const violations = sol === null ? [] : sol.violations;
+  el("violations").innerHTML = violations.map((v, k) =>
+    '<li data-k="' + k + '">' + escape(v.rule) + (v.step === null ? "" : ", step " + v.step) +
+    ": " + escape(v.detail) + "</li>").join("");
+  for (const li of el("violations").children) {
+    li.onclick = () => {
+      const v = violations[+li.dataset.k];
+      if (v.step !== null) setStep(v.step);
+    };
+  }
+
+  // ---- stepping
+  const slider = el("slider");
+  slider.max = String(steps - 1);
+  let step = 0;
+  function setStep(t) {
+    step = Math.min(steps - 1, Math.max(0, Math.round(t)));
+    slider.value = String(step);
+    for (const { robot, links } of arms) {
+      const frames = robot.frames[Math.min(step, robot.frames.length - 1)];
+      links.forEach((link, l) => {
+        const f = frames[l];
+        link.matrix.set(f[0], f[3], f[6], f[9], f[1], f[4], f[7], f[10], f[2], f[5], f[8], f[11], 0, 0, 0, 1);
+        link.matrixWorldNeedsUpdate = true;
+        link.userData.material.color.setHex(link.userData.color);
+        link.userData.material.emissive.setHex(0);
+      });
+    }
+    // Collisions at this step (or on the motion leaving it): their links in red.
+    const now = violations.filter((v) => v.step === step && v.links && v.links.length);
+    for (const v of now) {
+      for (const [r, l] of v.links) {
+        const m = arms[r].links[l].userData.material;
+        m.color.setHex(CLASH);
+        m.emissive.setHex(0x550000);
+      }
+    }
+    for (const li of el("violations").children) {
+      li.classList.toggle("now", violations[+li.dataset.k].step === step);
+    }
+    el("clash").textContent = now.length ? "step " + step + ": " + now.map((v) => v.detail).join("; ") : "";
+    for (const { t, target } of targets) {
+      const p = t.poses[Math.min(step, t.poses.length - 1)];
+      if (!p) continue;
+      target.position.set(p[0], p[1], p[2]);
+      target.quaternion.set(p[3], p[4], p[5], p[6]);
+    }
+    el("counter").textContent = "step " + step + " / " + (steps - 1) + "  (" + (step * data.dt).toFixed(2) + " s)";
+    world.updateMatrixWorld(true);
+  }
+  slider.addEventListener("input", () => setStep(+slider.value));
+
+  let playing = false, last = null, carried = 0;
+  el("play").onclick = () => {
+    playing = !playing;
+    if (playing && step === steps - 1) setStep(0);
+    el("play").textContent = playing ? "Pause" : "Play";
+    last = null;
+  };
+  el("capsules").onchange = (e) => {
+    for (const m of capsuleObjects) m.visible = e.target.checked;
+    for (const { links } of arms) for (const l of links) for (const c of l.children) {
+      if (!capsuleObjects.includes(c)) c.visible = !e.target.checked;
+    }
+  };
+
+  // ---- camera on everything
+  const bounds = new THREE.Box3();
+  for (const r of data.robots) for (const f of r.frames[0]) bounds.expandByPoint(new THREE.Vector3(f[9], f[10], f[11]));
+  for (const t of data.trajectories) for (const p of t.poses) bounds.expandByPoint(new THREE.Vector3(p[0], p[1], p[2]));
+  const centre = bounds.isEmpty() ? new THREE.Vector3(0, 0, 0.4) : bounds.getCenter(new THREE.Vector3());
+  const radius = bounds.isEmpty() ? 1 : Math.max(0.6, bounds.getSize(new THREE.Vector3()).length() / 2 + 0.4);
+  camera.position.copy(centre).add(new THREE.Vector3(1.2, -1.9, 1.3).multiplyScalar(radius * 0.9));
+  const controls = new OrbitControls(camera, renderer.domElement);
+  controls.target.copy(centre);
+  controls.update();
+
+  function resize() {
+    const w = box.clientWidth, h = Math.max(1, box.clientHeight);
+    renderer.setSize(w, h);
+    camera.aspect = w / h;
+    camera.updateProjectionMatrix();
+  }
+  window.addEventListener("resize", resize);
+  resize();
+
+  function frame(now) {
+    if (playing) {
+      if (last !== null) carried += (now - last) / 1000;
+      last = now;
+      if (carried >= data.dt) {
+        carried = 0;
+        if (step + 1 >= steps) { playing = false; el("play").textContent = "Play"; }
+        else setStep(step + 1);
+      }
+    }
+    controls.update();
+    renderer.render(world, camera);
+    requestAnimationFrame(frame);
+  }
+
+  // The joint angles as drawn: from the world frames of each joint's two link objects,
+  // rel = parent^T child = origin * rot(axis, q).
+  function jointAngles() {
+    return arms.map(({ links }) => data.joints.map((j) => {
+      const rot = (obj) => new THREE.Matrix3().setFromMatrix4(obj.matrixWorld);
+      const o = new THREE.Matrix3().fromArray(j.origin);
+      const m = o.transpose().multiply(rot(links[j.parent]).transpose()).multiply(rot(links[j.child]));
+      const e = m.elements; // column-major
+      const s = 0.5 * ((e[5] - e[7]) * j.axis[0] + (e[6] - e[2]) * j.axis[1] + (e[1] - e[3]) * j.axis[2]);
+      const c = 0.5 * (e[0] + e[4] + e[8] - 1);
+      return Math.atan2(s, c);
+    }));
+  }
+
+  Object.assign(view, {
+    steps,
+    arms: () => world.children.filter((o) => o.name === "arm").length,
+    step: () => step,
+    setStep,
+    jointAngles,
+    // [robot, link name] of every link drawn in the clash colour.
+    marked: () => arms.flatMap(({ links }, r) => links
+      .filter((l) => l.userData.material.color.getHex() === CLASH)
+      .map((l) => [r, l.name])),
+  });
+  setStep(0);
+  renderer.render(world, camera);
+  requestAnimationFrame(frame);
+  view.ready = true;
+}

@@ -1,0 +1,192 @@
+//! `omcbsa view`: one self-contained HTML page showing a problem and its plan in 3D, working
+//! offline. It bundles three.js (MIT, `host/assets/three/`) and Kinova's Gen3 meshes
+//! decimated for the page (BSD, `host/assets/gen3/`, notice in the page), and embeds the scene
+//! computed here with the planner's own model ([`scene`]): the page only places meshes at the
+//! link frames it is given, so what it draws is what the planner and the validator checked.
+//!
+//! The page exposes `window.omcbsaView` (`ready`, `error`, `arms()`, `steps`, `step()`,
+//! `setStep(t)`, `jointAngles()`) for tests and scripts; `jointAngles()` reads the angles back
+//! from the drawn meshes' frames.
+
+mod scene;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+use omcbsa_core::model::{KinovaGen3, Model};
+
+use crate::error::InputError;
+use crate::format::{ProblemFile, SolutionFile};
+use crate::load;
+use crate::models::ModelKind;
+use crate::validate::{validate, Report};
+
+pub use scene::Scene;
+
+const TEMPLATE: &str = include_str!("../../assets/view/page.html");
+const VIEWER_JS: &str = include_str!("../../assets/view/viewer.js");
+const THREE_JS: &str = include_str!("../../assets/three/three.module.min.js");
+const ORBIT_JS: &str = include_str!("../../assets/three/OrbitControls.js");
+const THREE_LICENSE: &str = include_str!("../../assets/three/LICENSE");
+const KINOVA_LICENSE: &str = include_str!("../../assets/gen3/LICENSE");
+
+/// The Gen3 links that have a mesh, with it (binary STL, decimated by
+/// `host/assets/gen3/decimate.py`).
+const GEN3_MESHES: [(&str, &[u8]); 8] = [
+    (
+        "base_link",
+        include_bytes!("../../assets/gen3/base_link.stl"),
+    ),
+    (
+        "shoulder_link",
+        include_bytes!("../../assets/gen3/shoulder_link.stl"),
+    ),
+    (
+        "half_arm_1_link",
+        include_bytes!("../../assets/gen3/half_arm_1_link.stl"),
+    ),
+    (
+        "half_arm_2_link",
+        include_bytes!("../../assets/gen3/half_arm_2_link.stl"),
+    ),
+    (
+        "forearm_link",
+        include_bytes!("../../assets/gen3/forearm_link.stl"),
+    ),
+    (
+        "spherical_wrist_1_link",
+        include_bytes!("../../assets/gen3/spherical_wrist_1_link.stl"),
+    ),
+    (
+        "spherical_wrist_2_link",
+        include_bytes!("../../assets/gen3/spherical_wrist_2_link.stl"),
+    ),
+    (
+        "bracelet_link",
+        include_bytes!("../../assets/gen3/bracelet_no_vision_link.stl"),
+    ),
+];
+
+/// Why no page was written.
+#[derive(Debug)]
+pub enum ViewError {
+    /// The problem file breaks the spec.
+    Input(InputError),
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+impl fmt::Display for ViewError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ViewError::Input(e) => e.fmt(f),
+            ViewError::Io { path, source } => {
+                write!(f, "cannot write {}: {source}", path.display())
+            }
+        }
+    }
+}
+
+impl std::error::Error for ViewError {}
+
+/// The page for `problem`, and `solution` when given. `report` is the solution's validation;
+/// when `None` the solution is validated here. The page marks the clashing links and the step
+/// of every collision the report names.
+pub fn html(
+    problem: &ProblemFile,
+    solution: Option<&SolutionFile>,
+    report: Option<&Report>,
+) -> Result<String, ViewError> {
+    let ModelKind::KinovaGen3 = load::model_of(problem).map_err(ViewError::Input)?;
+    page::<KinovaGen3, 7>(problem, solution, report)
+}
+
+/// Writes [`html`] to `path`.
+pub fn write_html(
+    problem: &ProblemFile,
+    solution: Option<&SolutionFile>,
+    report: Option<&Report>,
+    path: &Path,
+) -> Result<(), ViewError> {
+    let text = html(problem, solution, report)?;
+    std::fs::write(path, text).map_err(|source| ViewError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn page<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    solution: Option<&SolutionFile>,
+    report: Option<&Report>,
+) -> Result<String, ViewError> {
+    let problem = load::problem::<M, D>(file).map_err(ViewError::Input)?;
+    let own_report;
+    let report = match (solution, report) {
+        (Some(s), None) => {
+            own_report = validate::<M, D>(file, &problem, s);
+            Some(&own_report)
+        }
+        (_, r) => r,
+    };
+    let scene = scene::scene::<M, D>(file, &problem, solution.zip(report));
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let meshes: serde_json::Map<String, serde_json::Value> = (GEN3_MESHES.iter())
+        .filter(|(link, _)| M::LINK_NAMES.contains(link))
+        .map(|(link, stl)| (link.to_string(), b64.encode(stl).into()))
+        .collect();
+    let data = serde_json::json!({ "scene": scene, "meshes": meshes });
+    Ok(fill(
+        TEMPLATE,
+        &[
+            ("TITLE", &escape_html(&file.name)),
+            ("THREE_LICENSE", &escape_html(THREE_LICENSE)),
+            ("KINOVA_LICENSE", &escape_html(KINOVA_LICENSE)),
+            ("THREE_JS", THREE_JS),
+            ("ORBIT_JS", ORBIT_JS),
+            ("VIEWER_JS", VIEWER_JS),
+            // Inside a <script> element `</` could end it early; `<\/` is the same JSON.
+            ("DATA", &data.to_string().replace("</", "<\\/")),
+        ],
+    ))
+}
+
+/// `template` with every `{{NAME}}` replaced by its value, in one pass (so a value is never
+/// searched for placeholders).
+fn fill(template: &str, values: &[(&str, &str)]) -> String {
+    let mut out =
+        String::with_capacity(template.len() + values.iter().map(|v| v.1.len()).sum::<usize>());
+    let mut rest = template;
+    while let Some(start) = rest.find("{{") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 2..];
+        match after.find("}}").and_then(|end| {
+            let name = &after[..end];
+            values
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, v)| (end, *v))
+        }) {
+            Some((end, value)) => {
+                out.push_str(value);
+                rest = &after[end + 2..];
+            }
+            None => {
+                out.push_str("{{");
+                rest = after;
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+fn escape_html(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

@@ -1,0 +1,226 @@
+//! What the plan page draws, computed on the host with the planner's own model: every link
+//! frame of every robot at every step (the core's forward kinematics), the joints' axes (so the
+//! page can read the drawn joint angles back from its meshes), the collision capsules, the
+//! trajectories with their assigned robot, the obstacles and the validator's findings.
+
+use serde::Serialize;
+
+use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::nalgebra::Matrix3;
+use omcbsa_core::problem::Problem;
+
+use crate::format::{ObstacleSpec, ProblemFile, SolutionFile};
+use crate::validate::{Report, Violation};
+
+/// A frame as the page reads it: rotation columns (x, y, z axes), then the position.
+type FrameData = [f32; 12];
+
+#[derive(Serialize)]
+pub struct Scene<'a> {
+    pub name: &'a str,
+    pub dt: f64,
+    pub steps: usize,
+    /// Absent when only the problem is shown.
+    pub solution: Option<SolutionInfo<'a>>,
+    pub links: &'static [&'static str],
+    pub joints: Vec<Joint>,
+    pub capsules: Vec<CapsuleData>,
+    pub robots: Vec<RobotView<'a>>,
+    pub trajectories: Vec<TrajectoryView<'a>>,
+    pub obstacles: &'a [ObstacleSpec],
+}
+
+#[derive(Serialize)]
+pub struct SolutionInfo<'a> {
+    pub planner: &'a str,
+    pub status: &'a str,
+    pub message: &'a str,
+    pub planning_time_s: f64,
+    pub valid: bool,
+    pub summary: String,
+    pub violations: &'a [Violation],
+}
+
+/// A joint between two links of a serial chain.
+#[derive(Serialize)]
+pub struct Joint {
+    pub name: &'static str,
+    pub parent: usize,
+    pub child: usize,
+    /// Rotation of the child's frame in the parent's at joint value 0 (columns).
+    pub origin: [f32; 9],
+    /// The axis in the child's frame at 0, which the joint turns about.
+    pub axis: [f32; 3],
+}
+
+#[derive(Serialize)]
+pub struct CapsuleData {
+    pub link: usize,
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    pub radius: f64,
+}
+
+#[derive(Serialize)]
+pub struct RobotView<'a> {
+    pub name: &'a str,
+    /// The trajectory it tracks, when a solution assigns one.
+    pub trajectory: Option<usize>,
+    /// Whether the frames follow the solution's joint path (else they hold one configuration:
+    /// `initial`, or all joints at 0 without one).
+    pub planned: bool,
+    /// `frames[t][link]` in the world; a single entry when not `planned`.
+    pub frames: Vec<Vec<FrameData>>,
+}
+
+#[derive(Serialize)]
+pub struct TrajectoryView<'a> {
+    pub name: &'a str,
+    pub robot: Option<usize>,
+    /// Per step: position and quaternion (x, y, z, w) of the hand.
+    pub poses: Vec<[f64; 7]>,
+}
+
+fn frame_data(f: &Frame) -> FrameData {
+    let r = &f.rot;
+    let p = &f.pos;
+    std::array::from_fn(|k| if k < 9 { r[(k % 3, k / 3)] } else { p[k - 9] } as f32)
+}
+
+fn columns(r: &Matrix3<f64>) -> [f32; 9] {
+    std::array::from_fn(|k| r[(k % 3, k / 3)] as f32)
+}
+
+/// Every link frame of model `M` at `q`, in the model's base frame.
+fn link_frames<M: Model<D>, const D: usize>(q: &[f64; D]) -> Vec<Frame> {
+    let mut frames = vec![Frame::IDENTITY; M::LINK_NAMES.len()];
+    M::link_frames(q, &mut frames);
+    frames
+}
+
+/// The joints of `M`, found from its forward kinematics: joint `j` turns the first link whose
+/// frame moves when only `j` does, about the axis of that small rotation.
+fn joints<M: Model<D>, const D: usize>() -> Vec<Joint> {
+    let zero = link_frames::<M, D>(&[0.0; D]);
+    const PROBE: f64 = 0.5;
+    (0..D)
+        .filter_map(|j| {
+            let mut q = [0.0; D];
+            q[j] = PROBE;
+            let moved = link_frames::<M, D>(&q);
+            let child = (1..zero.len()).find(|&l| (moved[l].rot - zero[l].rot).norm() > 1e-9)?;
+            let parent = child - 1;
+            let origin = zero[parent].rot.transpose() * zero[child].rot;
+            // origin * R(axis, PROBE) = moved relative rotation.
+            let turn = origin.transpose() * moved[parent].rot.transpose() * moved[child].rot;
+            let skew = turn - turn.transpose();
+            let axis = [skew[(2, 1)], skew[(0, 2)], skew[(1, 0)]];
+            let s = 2.0 * PROBE.sin();
+            Some(Joint {
+                name: M::JOINT_NAMES[j],
+                parent,
+                child,
+                origin: columns(&origin),
+                axis: axis.map(|a| (a / s) as f32),
+            })
+        })
+        .collect()
+}
+
+/// The scene of `file` (checked and loaded as `problem`), with `solution` and its validation
+/// `report` when given.
+pub fn scene<'a, M: Model<D>, const D: usize>(
+    file: &'a ProblemFile,
+    problem: &Problem<D>,
+    solution: Option<(&'a SolutionFile, &'a Report)>,
+) -> Scene<'a> {
+    let steps = problem.horizon();
+    let paths = solution.and_then(|(s, _)| planned_paths::<D>(s, problem.robots.len(), steps));
+    let assignment = |i: usize| {
+        solution
+            .and_then(|(s, _)| s.assignment.get(i).copied().flatten())
+            .filter(|&j| j < file.trajectories.len())
+    };
+    let robots = (file.robots.iter().zip(&problem.robots))
+        .enumerate()
+        .map(|(i, (spec, robot))| {
+            let at = |q: &[f64; D]| -> Vec<FrameData> {
+                (link_frames::<M, D>(q).iter())
+                    .map(|f| frame_data(&robot.base.compose(f)))
+                    .collect()
+            };
+            let frames = match &paths {
+                Some(paths) => paths[i].iter().map(at).collect(),
+                None => vec![at(&robot.initial.unwrap_or([0.0; D]))],
+            };
+            RobotView {
+                name: &spec.name,
+                trajectory: assignment(i),
+                planned: paths.is_some(),
+                frames,
+            }
+        })
+        .collect();
+    let trajectories = (file.trajectories.iter().enumerate())
+        .map(|(j, t)| TrajectoryView {
+            name: &t.name,
+            robot: (0..file.robots.len()).find(|&i| assignment(i) == Some(j)),
+            poses: (t.poses.iter())
+                .map(|p| {
+                    let [x, y, z] = p.position;
+                    let [qx, qy, qz, qw] = p.quat_xyzw;
+                    [x, y, z, qx, qy, qz, qw]
+                })
+                .collect(),
+        })
+        .collect();
+    Scene {
+        name: &file.name,
+        dt: file.dt,
+        steps,
+        solution: solution.map(|(s, report)| SolutionInfo {
+            planner: &s.planner,
+            status: s.status.as_str(),
+            message: &s.message,
+            planning_time_s: s.planning_time_s,
+            valid: report.is_valid(),
+            summary: report.summary(),
+            violations: &report.violations,
+        }),
+        links: M::LINK_NAMES,
+        joints: joints::<M, D>(),
+        capsules: (M::CAPSULES.iter())
+            .map(|c| CapsuleData {
+                link: usize::from(c.link),
+                a: c.a,
+                b: c.b,
+                radius: c.radius,
+            })
+            .collect(),
+        robots,
+        trajectories,
+        obstacles: &file.obstacles,
+    }
+}
+
+/// The solution's joint paths when they have the problem's shape (one path of `steps`
+/// configurations of `D` values per robot); `None` otherwise (the validator says what is
+/// wrong, and the page shows that instead of guessing).
+fn planned_paths<const D: usize>(
+    solution: &SolutionFile,
+    robots: usize,
+    steps: usize,
+) -> Option<Vec<Vec<[f64; D]>>> {
+    let paths = solution.joint_paths.as_ref()?;
+    if paths.len() != robots || paths.iter().any(|p| p.len() != steps) {
+        return None;
+    }
+    paths
+        .iter()
+        .map(|p| {
+            p.iter()
+                .map(|q| <[f64; D]>::try_from(q.as_slice()).ok())
+                .collect()
+        })
+        .collect()
+}
