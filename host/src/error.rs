@@ -21,7 +21,7 @@ pub const MAX_NAME_CHARS: usize = 40;
 impl FieldError {
     pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
         FieldError {
-            path: clipped(path.into(), MAX_MESSAGE_CHARS),
+            path: clipped(path.into(), MAX_NAME_CHARS * 2),
             message: clipped(message.into(), MAX_MESSAGE_CHARS),
         }
     }

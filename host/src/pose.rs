@@ -58,6 +58,10 @@ pub fn finite(values: &[f64]) -> Result<(), FieldError> {
 
 /// A number for a message: at most 9 decimals, without trailing zeros.
 pub fn short(x: f64) -> String {
+    // Beyond a million, nine decimals say nothing: the exponent form (1e308) is short.
+    if x.abs() >= 1e6 {
+        return format!("{x:e}");
+    }
     let s = format!("{x:.9}");
     let s = s.trim_end_matches('0');
     s.strip_suffix('.').unwrap_or(s).to_string()

@@ -152,7 +152,7 @@ fn unknown_fields_are_refused_outside_stats() {
 fn numbers_beyond_a_double_are_refused() {
     let text = valid().to_string().replace("\"dt\":0.1", "\"dt\":1e999");
     let e = load::parse_problem(&text).unwrap_err();
-    assert!(e.has("", "number out of range"), "{e}");
+    assert!(e.has("dt", "number out of range"), "{e}");
 }
 
 #[test]

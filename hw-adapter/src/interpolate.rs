@@ -7,7 +7,7 @@
 //! plan's `dt` is too short for the velocity or acceleration limits, the whole plan (every arm
 //! alike, so the arms stay coordinated) is slowed down uniformly.
 
-use crate::cia402::{counts_to_rad, rad_to_counts};
+use crate::cia402::{counts_to_rad, rad_to_counts, COUNTS_PER_RAD};
 use crate::plan::{JointLimits, Plan, JOINTS};
 
 /// The fraction of each velocity and acceleration limit the interpolation aims for; the rest
@@ -223,7 +223,10 @@ pub fn check_command(
                 ));
             }
         }
-        let v = counts_to_rad(cmd[j] - prev1[j]) / period;
+        // In i64: near the ends of the bus range these differences overflow i32.
+        let counts = |c: i64| c as f64 / COUNTS_PER_RAD;
+        let (c0, c1, c2) = (i64::from(cmd[j]), i64::from(prev1[j]), i64::from(prev2[j]));
+        let v = counts(c0 - c1) / period;
         if v.abs() > l.velocity {
             return Err(format!(
                 "joint {}: velocity {v:.4} rad/s exceeds the limit {}",
@@ -231,7 +234,7 @@ pub fn check_command(
                 l.velocity
             ));
         }
-        let a = counts_to_rad(cmd[j] - 2 * prev1[j] + prev2[j]) / (period * period);
+        let a = counts(c0 - 2 * c1 + c2) / (period * period);
         if a.abs() > l.acceleration {
             return Err(format!(
                 "joint {}: acceleration {a:.4} rad/s² exceeds the limit {}",
