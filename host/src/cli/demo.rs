@@ -95,6 +95,10 @@ pub fn run(args: &Args) -> ExitCode {
     };
     println!("{report}");
     summary(&checked, &report);
+    println!(
+        "  bus logs              {}/mock-*.log (candump -L: every frame, both directions)",
+        args.out.display()
+    );
     ExitCode::SUCCESS
 }
 
