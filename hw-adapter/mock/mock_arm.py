@@ -79,8 +79,9 @@ class SlcanAdapterBus(can.BusABC):
     """The adapter end of SLCAN on a pty master: host commands in, bus frames out.
 
     Sending is thread-safe (the library's heartbeats come from their own threads). Every frame is
-    written to `log` (a python-can writer) if given; `silent` drops what the drives send and
-    `delay` holds it back that many seconds (fault injection)."""
+    written to `log` (a python-can writer) if given, when the mock has caught up with the host;
+    `silent` drops what the drives send and `delay` holds it back that many seconds (fault
+    injection)."""
 
     def __init__(self, fd, log=None, **kwargs):
         self.fd = fd
@@ -91,6 +92,7 @@ class SlcanAdapterBus(can.BusABC):
         self.silent = False
         self.delay = 0.0
         self.delayed = []  # (due, message), in order
+        self.unlogged = []  # (time, id, data, from host?) for the log, written when there is time
         self.lock = threading.Lock()
         super().__init__(channel="pty", **kwargs)
 
@@ -114,7 +116,7 @@ class SlcanAdapterBus(can.BusABC):
                 data, length = None, -1
             if data is not None and len(data) == length <= 8:
                 msg = can.Message(timestamp=time.time(), arbitration_id=ident, data=data, is_extended_id=False)
-                self._log(msg)
+                self._log(msg.timestamp, ident, data, True)
                 return msg
         elif line[:1] == b"O":
             self.channel_open = True
@@ -130,10 +132,18 @@ class SlcanAdapterBus(can.BusABC):
         self._reply(b"\x07")
         return None
 
-    def _log(self, msg):
+    def _log(self, t, ident, data, rx):
         if self.log is not None:
             with self.lock:
-                self.log.on_message_received(msg)
+                self.unlogged.append((t, ident, data, rx))
+
+    def write_log(self):
+        if self.log is not None:
+            with self.lock:
+                for t, ident, data, rx in self.unlogged:
+                    self.log.on_message_received(can.Message(
+                        timestamp=t, arbitration_id=ident, data=data, is_extended_id=False, is_rx=rx))
+                self.unlogged.clear()
 
     def _recv_internal(self, timeout):
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -144,7 +154,11 @@ class SlcanAdapterBus(can.BusABC):
                 if msg is not None:
                     return msg, False
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
-            ready, _, _ = select.select([self.fd], [], [], left)
+            ready, _, _ = select.select([self.fd], [], [], 0)
+            if not ready:
+                # caught up with the host: time to log
+                self.write_log()
+                ready, _, _ = select.select([self.fd], [], [], left)
             if not ready:
                 return None, False
             try:
@@ -173,10 +187,10 @@ class SlcanAdapterBus(can.BusABC):
 
     def _transmit(self, msg):
         # The caller holds the lock.
-        msg.timestamp, msg.is_rx = time.time(), False
+        data = bytes(msg.data)
         if self.log is not None:
-            self.log.on_message_received(msg)
-        self._write(b"t%03X%d%s\r" % (msg.arbitration_id, len(msg.data), bytes(msg.data).hex().upper().encode()))
+            self.unlogged.append((time.time(), msg.arbitration_id, data, False))
+        self._write(b"t%03X%d%s\r" % (msg.arbitration_id, len(data), data.hex().upper().encode()))
 
     def send_due(self):
         """Sends the held-back frames that are due; returns the time until the next one."""
@@ -627,6 +641,7 @@ def main(argv):
     finally:
         arm.write_record()
         bus.shutdown()
+        bus.write_log()
         if log is not None:
             log.stop()
     return 0

@@ -14,6 +14,7 @@ use crate::interpolate::Command;
 use crate::log::LogEntry;
 use crate::plan::JOINTS;
 use crate::transport::{Transport, TransportError};
+use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 /// CANopen node id of joint `j` (0-based).
@@ -27,8 +28,8 @@ struct NodeState {
     heartbeat: Option<(Instant, u8)>,
     /// Last TPDO1: position actual (counts), statusword.
     tpdo: Option<(i32, u16)>,
-    /// The first SYNC sent since the last TPDO1: the drive owes an answer since then.
-    unanswered_sync: Option<Instant>,
+    /// TPDO1s received since the SYNC clock was reset: each answers one SYNC, in order.
+    answered: usize,
     emcy: Option<Emcy>,
 }
 
@@ -61,6 +62,10 @@ pub struct ArmBus {
     send_timeout: Duration,
     pub log: Vec<LogEntry>,
     nodes: [NodeState; JOINTS],
+    /// Send times of the SYNCs not yet answered by every node, oldest first, and how many
+    /// SYNCs before them every node has answered.
+    syncs: VecDeque<Instant>,
+    syncs_done: usize,
     sdo_reply: Option<(u8, SdoReply)>,
 }
 
@@ -78,6 +83,8 @@ impl ArmBus {
             send_timeout: cfg.send_timeout,
             log: Vec::new(),
             nodes: [NodeState::default(); JOINTS],
+            syncs: VecDeque::new(),
+            syncs_done: 0,
             sdo_reply: None,
         }
     }
@@ -85,10 +92,7 @@ impl ArmBus {
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
         if frame.id() == canopen::SYNC_ID {
-            let now = Instant::now();
-            for n in &mut self.nodes {
-                n.unanswered_sync.get_or_insert(now);
-            }
+            self.syncs.push_back(Instant::now());
         }
         self.log.push(LogEntry {
             t: self.clock.elapsed().as_secs_f64(),
@@ -97,6 +101,16 @@ impl ArmBus {
             what,
         });
         Ok(())
+    }
+
+    /// Starts counting SYNC answers afresh: from here, every SYNC sent is owed a TPDO1 by every
+    /// node (they are operational with TPDO1 on every SYNC).
+    fn reset_sync_clock(&mut self) {
+        self.syncs.clear();
+        self.syncs_done = 0;
+        for n in &mut self.nodes {
+            n.answered = 0;
+        }
     }
 
     /// Handles every frame received so far.
@@ -119,7 +133,14 @@ impl ArmBus {
             Message::Tpdo1 { node: n, data } => {
                 if let (Some(j), Some(feedback)) = (node(n), cia402::parse_tpdo1(data.data())) {
                     self.nodes[j].tpdo = Some(feedback);
-                    self.nodes[j].unanswered_sync = None;
+                    let sent = self.syncs_done + self.syncs.len();
+                    let n = &mut self.nodes[j];
+                    n.answered = (n.answered + 1).min(sent);
+                    let all = self.nodes.iter().map(|n| n.answered).min().unwrap_or(0);
+                    while self.syncs_done < all {
+                        self.syncs.pop_front();
+                        self.syncs_done += 1;
+                    }
                 }
             }
             // Error code 0 is "error reset / no error".
@@ -178,8 +199,10 @@ impl ArmBus {
                     silent_for: Duration::MAX,
                 });
             };
-            // Measured from the SYNC it answers: waiting with no SYNC sent is no silence.
-            if let Some(t) = n.unanswered_sync {
+            // The oldest SYNC the drive has not answered: feedback late by more than the timeout
+            // is a fault even while TPDOs keep coming (a backlog), and a wait with no SYNC
+            // sent is no silence.
+            if let Some(&t) = self.syncs.get(n.answered - self.syncs_done) {
                 if now.duration_since(t) > cfg.feedback_timeout {
                     return Err(Fault::FeedbackLost {
                         node,

@@ -51,7 +51,7 @@ pub fn interpolation_time_period(period: Duration) -> Option<(u8, i8)> {
     (-6i8..=0).rev().find_map(|index| {
         let unit = 10u128.pow((9 + i32::from(index)).unsigned_abs());
         let value = u8::try_from(nanos / unit).ok()?;
-        (nanos % unit == 0 && value > 0).then_some((value, index))
+        (nanos.is_multiple_of(unit) && value > 0).then_some((value, index))
     })
 }
 

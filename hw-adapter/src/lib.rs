@@ -6,9 +6,11 @@
 //! - [`interpolate`]: waypoints to control-rate commands within joint limits.
 //! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
 //! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
-//!   what a mock received, checked against the streamed trajectory.
+//!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
+//!   logs (candump), and fault reaction times measured from them.
 
 pub mod arm;
+pub mod buslog;
 pub mod canopen;
 pub mod cia402;
 pub mod executor;

@@ -67,11 +67,11 @@ pub struct MockArmOptions {
 }
 
 /// Executor settings for the mocks: feedback and send deadlines generous enough for three
-/// Python processes sharing a busy 2-core machine (a mock that falls behind leaves its pty's
-/// buffer full for a while).
+/// Python processes sharing a busy 2-core machine (a mock that falls behind answers its SYNCs
+/// late, and leaves its pty's buffer full for a while).
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
-        feedback_timeout: Duration::from_millis(250),
+        feedback_timeout: Duration::from_secs(1),
         heartbeat_timeout: Duration::from_millis(500),
         send_timeout: Duration::from_millis(20),
         ..ExecConfig::default()

@@ -24,7 +24,8 @@ pub fn read(path: &Path) -> Result<Vec<Value>, String> {
         .collect()
 }
 
-/// How many entries of `kind` (`rpdo`, `sync`, `nmt`, `sdo`, `violation`, ...) a record holds.
+/// How many entries of `kind` (`rpdo`, `sync`, `nmt`, `sdo`, `violation`, `pdo_length`,
+/// `other`) a record holds.
 pub fn kinds(record: &[Value], kind: &str) -> usize {
     record.iter().filter(|e| e["kind"] == kind).count()
 }

@@ -78,6 +78,10 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
         })?;
     print(&report)?;
     summary(&checked, &report)?;
+    print(format_args!(
+        "  bus logs              {}/mock-*.log (candump -L: every frame, both directions)",
+        args.out.display()
+    ))?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -258,6 +258,7 @@ impl ArmBus {
             std::thread::sleep(cfg.period);
             self.poll().map_err(|e| e.to_string())?;
         }
+        self.reset_sync_clock();
         Ok(())
     }
 }
