@@ -23,8 +23,8 @@ type V3 = Vector3<f64>;
 
 /// Spacing of the surface samples, metres.
 const SPACING: f64 = 0.004;
-/// No link's capsules may stand farther off its mesh than this anywhere (the fit committed
-/// with this test measured 29.6 mm at most; the one before it 41.4 mm).
+/// No link's capsules may stand farther off its mesh than this anywhere (a little above what
+/// the committed fit measures: README, "Collision geometry").
 const MAX_SLACK: f64 = 0.032;
 
 fn repo() -> PathBuf {

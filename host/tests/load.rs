@@ -452,3 +452,29 @@ fn malformed_solutions_are_refused_with_the_field() {
     );
     solution_refused(set("extra", json!(1)), "extra", "unknown field `extra`");
 }
+
+#[test]
+fn a_tool_loads_and_bad_tool_capsules_are_named() {
+    let capsule = |radius: f64| json!({"a": [0, 0, 0.01], "b": [0, 0, 0.1], "radius": radius});
+    let tool = |capsules: Vec<Value>| json!({"name": "gripper", "capsules": capsules});
+    let p = load(&with("/robots/1/tool", tool(vec![capsule(0.04)]))).unwrap();
+    assert_eq!(p.robots[1].tool.capsules().len(), 1);
+    assert_eq!(p.robots[1].tool.capsules()[0].b, [0.0, 0.0, 0.1]);
+    assert!(p.robots[0].tool.capsules().is_empty());
+    refused(
+        &with("/robots/1/tool", tool(vec![capsule(0.04), capsule(0.0)])),
+        "robots[1].tool.capsules[1].radius",
+        "must be > 0, got 0",
+    );
+    let many = vec![capsule(0.04); omcbsa_core::tool::MAX_TOOL_CAPSULES + 1];
+    refused(
+        &with("/robots/1/tool", tool(many)),
+        "robots[1].tool.capsules",
+        "exceed the capacity MAX_TOOL_CAPSULES = 4",
+    );
+    refused(
+        &with("/robots/1/tool", json!({"capsules": []})),
+        "robots[1].tool",
+        "missing field `name`",
+    );
+}

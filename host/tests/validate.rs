@@ -219,10 +219,8 @@ fn rule_4_collision_only_between_steps() {
     );
 }
 
-#[test]
-fn rule_4_link_of_another_robot() {
-    let path = vec![Q0, Q0];
-    let (b0, b1) = (at([0.0, 0.0, 0.0]), at([0.0, 0.05, 0.0]));
+/// Robots `a` on `b0` and `b` on `b1`, both following `path`.
+fn two_robots(b0: Pose, b1: Pose, path: Vec<Q>) -> (ProblemFile, SolutionFile) {
     let p = problem(
         vec![robot("a", b0, None), robot("b", b1, None)],
         vec![
@@ -231,7 +229,15 @@ fn rule_4_link_of_another_robot() {
         ],
         0.1,
     );
-    let s = solution(vec![Some(0), Some(1)], vec![path.clone(), path]);
+    (
+        p,
+        solution(vec![Some(0), Some(1)], vec![path.clone(), path]),
+    )
+}
+
+#[test]
+fn rule_4_link_of_another_robot() {
+    let (p, s) = two_robots(at([0.0, 0.0, 0.0]), at([0.0, 0.05, 0.0]), vec![Q0, Q0]);
     only(
         &check(&p, &s),
         Rule::Collision,
@@ -372,10 +378,11 @@ fn a_solution_must_be_solved_and_name_its_problem() {
 fn rule_4_grippers_passing_through_each_other() {
     use omcbsa::demo::gripper;
     use omcbsa_core::model::Model;
-    let path = vec![Q0, Q0];
-    let tool = KinovaGen3::fk(&Q0);
+    // Reaching forward, elbow up, the tool pointing ahead (the demo's IK seed).
+    let ahead: Q = [0.0, 0.6, 0.0, 1.8, 0.0, 0.7, std::f64::consts::FRAC_PI_2];
+    let tool = KinovaGen3::fk(&ahead);
     let z = tool.rot.column(2);
-    assert!(z.x > 0.2, "Q0's tool points forward: {z:?}");
+    assert!(z.x > 0.5, "the tool points forward: {:?}", z.as_slice());
     // Tips (12 cm along z) meet at x = mid.
     let mid = tool.pos.x + 0.12 * z.x;
     let (b0, b1) = (
@@ -385,15 +392,7 @@ fn rule_4_grippers_passing_through_each_other() {
             quat_xyzw: [0.0, 0.0, 1.0, 0.0],
         },
     );
-    let mut p = problem(
-        vec![robot("a", b0, None), robot("b", b1, None)],
-        vec![
-            trajectory_of("ha", &b0, &path),
-            trajectory_of("hb", &b1, &path),
-        ],
-        0.1,
-    );
-    let s = solution(vec![Some(0), Some(1)], vec![path.clone(), path]);
+    let (mut p, s) = two_robots(b0, b1, vec![ahead, ahead]);
     let bare = check(&p, &s);
     assert!(bare.is_valid(), "without tools: {}", bare.summary());
     for r in &mut p.robots {

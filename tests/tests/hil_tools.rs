@@ -42,10 +42,10 @@ fn base_b() -> Frame {
     frame([0.0, 0.75, 0.0], [0.0, 0.0, -PI / 2.0])
 }
 
-/// `a`'s hand path: reaching forward, elbow up, swaying a little.
+/// `a`'s hand path: reaching forward, elbow up, bending a little in its plane.
 fn path_a() -> Vec<Q> {
     let q0 = [0.0, 0.6, 0.0, 1.8, 0.0, 0.7, PI / 2.0];
-    smooth_path(&q0, &[0.15, 0.1, 0.0, -0.1, 0.0, 0.1, 0.0], H)
+    smooth_path(&q0, &[0.0, 0.1, 0.0, -0.1, 0.0, 0.1, 0.0], H)
 }
 
 /// The problem: `a` tracks its hand path, `b` holds `b_at`; both carry the demo's gripper
@@ -84,12 +84,12 @@ fn plan(problem: &ProblemFile) -> SolutionFile {
 }
 
 /// A configuration of `b` whose gripper reaches `GRIP_DEPTH` past `elbow` (world), pointing
-/// at it from above `b`'s shoulder, with `b`'s bare links clear of `a` along `a_path`.
+/// at it horizontally from `b`'s side (across the plane `a`'s arm moves in), with `b`'s bare
+/// links clear of `a` along `a_path`: the IK answer that keeps farthest from `a`.
 fn gripping(elbow: &Vector3<f64>, a_path: &[Q]) -> Q {
     let b = base_b();
-    let shoulder = b.pos + Vector3::new(0.0, 0.0, 0.3);
-    let z = (elbow - shoulder).normalize();
-    let x = z.cross(&Vector3::z()).normalize();
+    let z = -Vector3::y();
+    let x = Vector3::z();
     let tool = Frame {
         rot: Matrix3::from_columns(&[x, z.cross(&x), z]),
         pos: elbow - z * GRIP_DEPTH,
@@ -105,15 +105,20 @@ fn gripping(elbow: &Vector3<f64>, a_path: &[Q]) -> Q {
     )
     .expect("b reaches a's elbow");
     let bare = |base: &Frame, q: &Q| ArmPose::new::<KinovaGen3, DOF>(base, &Tool::NONE, q);
-    (found[..n].iter().copied())
-        .find(|q| {
-            let arm = bare(&b, q);
-            arm.self_hit(0.0).is_none()
-                && a_path
-                    .iter()
-                    .all(|qa| arm.arm_hit(&bare(&base_a(), qa), 0.03).is_none())
-        })
-        .expect("an IK answer keeps b's bare links 3 cm from a")
+    // Largest margin (1 cm steps up to 5 cm) by which `b`'s bare links miss `a` everywhere.
+    let margin = |q: &Q| {
+        let arm = bare(&b, q);
+        let clear =
+            |m: f64| (a_path.iter()).all(|qa| arm.arm_hit(&bare(&base_a(), qa), m).is_none());
+        (arm.self_hit(0.0).is_none() && clear(0.0))
+            .then(|| (1..=5).take_while(|&cm| clear(0.01 * cm as f64)).count())
+    };
+    let (q, m) = (found[..n].iter())
+        .filter_map(|q| margin(q).map(|m| (*q, m)))
+        .max_by_key(|&(_, m)| m)
+        .expect("an IK answer keeps b's bare links off a");
+    println!("b grips with its bare links {m} cm or more from a: {q:?}");
+    q
 }
 
 #[test]
