@@ -115,25 +115,41 @@ impl fmt::Display for InputError {
 
 impl std::error::Error for InputError {}
 
-/// Collects the errors of one document so that all of them are reported at once.
+/// Errors kept for one document; beyond, they are only counted, so that a report stays small
+/// however large the input.
+pub const MAX_ERRORS: usize = 1000;
+
+/// Collects the errors of one document so that all of them are reported at once (up to
+/// [`MAX_ERRORS`], then how many more).
 #[derive(Debug, Default)]
-pub struct Errors(Vec<FieldError>);
+pub struct Errors {
+    list: Vec<FieldError>,
+    omitted: usize,
+}
 
 impl Errors {
     pub fn push(&mut self, path: impl Into<String>, message: impl Into<String>) {
-        self.0.push(FieldError::new(path, message));
+        self.add(FieldError::new(path, message));
     }
 
     pub fn add(&mut self, e: FieldError) {
-        self.0.push(e);
+        if self.list.len() < MAX_ERRORS {
+            self.list.push(e);
+        } else {
+            self.omitted += 1;
+        }
     }
 
     /// `Ok(())` if nothing was collected.
-    pub fn finish(self) -> Result<(), InputError> {
-        if self.0.is_empty() {
+    pub fn finish(mut self) -> Result<(), InputError> {
+        if self.omitted > 0 {
+            let more = format!("and {} more errors, not listed", self.omitted);
+            self.list.push(FieldError::new("", more));
+        }
+        if self.list.is_empty() {
             Ok(())
         } else {
-            Err(InputError { errors: self.0 })
+            Err(InputError { errors: self.list })
         }
     }
 }

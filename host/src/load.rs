@@ -29,10 +29,12 @@ use crate::format::{
 use crate::models::ModelKind;
 use crate::pose::{self, short};
 
-/// Default cap on the size of a problem or solution file (64 MiB): far beyond any problem the
-/// core's capacities admit, small enough that reading (`omcbsa plan /dev/zero`) ends with an
-/// error instead of exhausting memory. `--max-input-mib` raises it.
-pub const DEFAULT_MAX_INPUT_BYTES: u64 = 64 << 20;
+/// Default cap on the size of a problem or solution file (16 MiB): more than 10 times the
+/// largest file the core's capacities admit (8 robots x 256 steps), small enough that reading
+/// (`omcbsa plan /dev/zero`) ends with an error instead of exhausting memory, and that the
+/// costliest JSON (a free-form `stats` array of zeros) stays within about 300 MB.
+/// `--max-input-mib` raises it.
+pub const DEFAULT_MAX_INPUT_BYTES: u64 = 16 << 20;
 
 /// Reads a whole file of at most [`DEFAULT_MAX_INPUT_BYTES`] as text ([`decode_text`]).
 pub fn read_text(path: &Path) -> Result<String, InputError> {

@@ -93,10 +93,18 @@ impl fmt::Display for Violation {
     }
 }
 
+/// Violations kept in a report; beyond, they are only counted, so that a report stays small
+/// however large the solution (22 million malformed configurations are one line each
+/// otherwise).
+pub const MAX_VIOLATIONS: usize = 1000;
+
 /// The outcome of a validation: valid when there are no violations.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Report {
+    /// The first [`MAX_VIOLATIONS`] violations.
     pub violations: Vec<Violation>,
+    /// How many more there are.
+    pub omitted: usize,
 }
 
 impl Report {
@@ -109,11 +117,22 @@ impl Report {
         match self.violations.as_slice() {
             [] => "valid".to_string(),
             [only] => format!("invalid: {only}"),
-            [first, rest @ ..] => format!("invalid: {first} (and {} more)", rest.len()),
+            [first, rest @ ..] => {
+                format!("invalid: {first} (and {} more)", rest.len() + self.omitted)
+            }
         }
     }
 
+    /// Violations found so far, listed or not.
+    pub fn count(&self) -> usize {
+        self.violations.len() + self.omitted
+    }
+
     fn add(&mut self, rule: Rule, robot: Option<usize>, step: Option<usize>, detail: String) {
+        if self.violations.len() == MAX_VIOLATIONS {
+            self.omitted += 1;
+            return;
+        }
         self.violations.push(Violation {
             rule,
             robot,
@@ -248,7 +267,7 @@ fn joint_paths<M: Model<D>, const D: usize>(
     solution: &SolutionFile,
     report: &mut Report,
 ) -> Option<Vec<Vec<[f64; D]>>> {
-    let before = report.violations.len();
+    let before = report.count();
     let Some(paths) = &solution.joint_paths else {
         report.add(
             Rule::Assignment,
@@ -301,7 +320,7 @@ fn joint_paths<M: Model<D>, const D: usize>(
         }
         out.push(configurations);
     }
-    (report.violations.len() == before).then_some(out)
+    (report.count() == before).then_some(out)
 }
 
 /// Rule 1, with the range of [`joint_range`] (joint limits, and the bus's range for the

@@ -182,7 +182,7 @@ fn an_endless_input_is_refused_at_the_size_cap() {
     assert_eq!(code, 2, "{text}");
     assert_eq!(
         text.trim(),
-        "error: /dev/zero: larger than the input limit of 67108864 bytes (refused, not \
+        "error: /dev/zero: larger than the input limit of 16777216 bytes (refused, not \
          truncated; --max-input-mib raises the limit)"
     );
 }
@@ -364,4 +364,19 @@ fn numeric_flags_are_checked_for_their_range() {
         assert_eq!(code, 2, "{args:?}: {text}");
     }
     assert!(!out.exists(), "nothing was written");
+}
+
+#[test]
+fn a_huge_malformed_solution_gives_a_bounded_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let (problem, mut solution) = tiny();
+    // 100 000 configurations of no joint values: one violation each, only 1000 listed.
+    solution.joint_paths = Some(vec![vec![Vec::new(); 100_000]]);
+    let p = write(dir.path(), "p.json", &problem);
+    let sol = write(dir.path(), "s.json", &solution);
+    let (code, text) = run(&["validate", s(&p), s(&sol)]);
+    assert_eq!(code, 1, "{text:.400}");
+    assert!(text.contains("(and 100000 more)"), "{text:.400}");
+    assert!(text.contains("  and 99001 more, not listed"), "{text:.400}");
+    assert_eq!(text.lines().count(), 1 + 1000 + 1, "{text:.400}");
 }

@@ -158,6 +158,8 @@ fn apply(solution: &mut SolutionFile, m: &Mutation) {
 /// Rules 1, 2, 3 and 5 of docs/FORMATS.md checked again, from the spec, not the validator's
 /// code (rule 4 needs a collision model: the scene's robots are 2 m apart and every
 /// mutation that keeps the tool on its poses keeps the geometry). `Err` names the broken rule.
+// Joint j indexes a configuration and the model's limit arrays at once.
+#[allow(clippy::needless_range_loop)]
 fn recheck(problem: &ProblemFile, solution: &SolutionFile) -> Result<(), String> {
     type M = KinovaGen3;
     let paths = solution.joint_paths.as_ref().ok_or("no paths")?;

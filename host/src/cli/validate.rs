@@ -19,7 +19,8 @@ pub struct Args {
     problem: PathBuf,
     /// Solution file (omcbsa.solution.v1).
     solution: PathBuf,
-    /// Print the report as JSON: {"valid": bool, "summary": "...", "violations": [...]}.
+    /// Print the report as JSON: {"valid": bool, "summary": "...", "violations": [...],
+    /// "omitted": n} (violations beyond the first 1000 are only counted).
     #[arg(long)]
     json: bool,
     #[command(flatten)]
@@ -36,12 +37,16 @@ pub fn run(args: &Args) -> ExitCode {
             "valid": report.is_valid(),
             "summary": report.summary(),
             "violations": report.violations,
+            "omitted": report.omitted,
         })
         .to_string()
     } else {
         let mut lines = vec![report.summary()];
         if report.violations.len() > 1 {
             lines.extend(report.violations.iter().map(|v| format!("  {v}")));
+        }
+        if report.omitted > 0 {
+            lines.push(format!("  and {} more, not listed", report.omitted));
         }
         lines.join("\n")
     };
