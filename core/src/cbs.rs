@@ -28,6 +28,9 @@ use crate::search::{
 };
 use crate::tracking::track;
 
+/// Margin (m) of the witness of two arms that touch at a step without overlapping.
+const TOUCH: f64 = 1e-6;
+
 /// Assignment value of a robot that holds its initial configuration.
 const HOLD: u8 = u8::MAX;
 
@@ -276,13 +279,20 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             };
             let node = self.nodes[entry.node as usize];
             let branches = match self.first_conflict(&node) {
-                Some(b) => b,
+                Some((b, exact)) => {
+                    self.stats.inexact_branches += u32::from(!exact);
+                    b
+                }
                 None if node.conflicts == 0 => {
                     self.write_solution(&node, out);
                     return Some(Status::Solved);
                 }
-                // Counted conflicts but no witness: never report it as solved.
-                None => continue,
+                // Counted conflicts but nowhere to branch: never reported as solved, and
+                // counted, since completeness no longer covers its subtree.
+                None => {
+                    self.stats.unbranched_nodes += 1;
+                    continue;
+                }
             };
             self.stats.conflicts_resolved += 1;
             for (robot, constraint) in branches {
@@ -659,13 +669,15 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// The conflict to branch on: an assignment conflict if any, else the earliest geometric
-    /// one. `None` when the node is a solution.
-    fn first_conflict(&self, node: &CtNode) -> Option<Branches> {
+    /// one, and whether its two branches are mutually disjunctive. `None` when the node is a
+    /// solution (or, counted by the caller, when no conflict it counted could be located).
+    fn first_conflict(&self, node: &CtNode) -> Option<(Branches, bool)> {
         for i in 0..self.n {
             for k in i + 1..self.n {
                 let a = node.assignment[i];
                 if a != HOLD && a == node.assignment[k] {
-                    return Some([(i, Constraint::Forbid(a)), (k, Constraint::Forbid(a))]);
+                    let branches = [(i, Constraint::Forbid(a)), (k, Constraint::Forbid(a))];
+                    return Some((branches, true));
                 }
             }
         }
@@ -685,27 +697,39 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                         ArmPose::new::<M, D>(bk, &pk[t]),
                     );
                     let hit = if a.arm_hit(&b, 0.0).is_some() {
-                        a.witness(&b, 0.0).map(|p| PointConstraint {
-                            t: t as u16,
-                            segment: false,
-                            p: [p.x, p.y, p.z],
-                            margin: 0.0,
-                        })
+                        // A point inside both arms at step t; arms that only touch have none,
+                        // and a hair's margin stands in (not disjunctive, so counted).
+                        let exact = a.witness(&b, 0.0).map(|p| (p, 0.0, true));
+                        exact
+                            .or_else(|| a.witness(&b, TOUCH).map(|p| (p, TOUCH, false)))
+                            .map(|(p, margin, exact)| {
+                                let pc = PointConstraint {
+                                    t: t as u16,
+                                    segment: false,
+                                    s: 0.0,
+                                    p: [p.x, p.y, p.z],
+                                    margin,
+                                };
+                                (pc, exact)
+                            })
                     } else if t + 1 < self.h {
                         let (ma, mb) = (step_motion(bi, pi, t), step_motion(bk, pk, t));
-                        motions_contact::<M, D>(&ma, &mb, self.low.motion_step).map(|c| {
-                            PointConstraint {
+                        motions_contact::<M, D>(&ma, &mb, self.low.motion_step).map(|(c, exact)| {
+                            let pc = PointConstraint {
                                 t: t as u16,
                                 segment: true,
+                                s: c.s,
                                 p: c.point,
                                 margin: c.margin,
-                            }
+                            };
+                            (pc, exact)
                         })
                     } else {
                         None
                     };
-                    if let Some(pc) = hit {
-                        return Some([(i, Constraint::Point(pc)), (k, Constraint::Point(pc))]);
+                    if let Some((pc, exact)) = hit {
+                        let branches = [(i, Constraint::Point(pc)), (k, Constraint::Point(pc))];
+                        return Some((branches, exact));
                     }
                 }
             }
