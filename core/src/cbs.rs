@@ -5,9 +5,12 @@
 //! conflicts is expanded first (the deepest among equals). Assignment conflicts (two robots on
 //! one trajectory) are resolved first, by forbidding the trajectory to one robot or the other;
 //! then the earliest geometric conflict, by forbidding one robot or the other to occupy a
-//! witness point inside both. Each child replans only the constrained robot. A tree that uses
-//! its budget of Ω-A* expansions without ending is dropped for a new one from another root,
-//! with twice the budget ([`CbsParams::restart_expansions`]).
+//! witness point inside both at one step or one instant of a motion (disjunctive; see
+//! docs/ARCHITECTURE.md, Completeness, for what is and is not kept). Each child replans only
+//! the constrained robot. A tree that uses its budget of Ω-A* expansions without ending is
+//! dropped for a new one from another root, with twice the budget
+//! ([`CbsParams::restart_expansions`]); a tree that ends without a plan moves the search to
+//! the next refinement level ([`crate::search::refine`]).
 //!
 //! Memory: CT nodes, the OPEN list of the CT, the paths, the constraint scratch and the
 //! start-seed IK answers all live in caller storage ([`CbsStorage`]); one path costs
@@ -44,8 +47,8 @@ pub struct CbsParams {
     pub warm_start_seeds: u32,
     /// Ω-A* expansions the first constraint tree may take before the search restarts from a
     /// new root (robots placed in another order, other warm-start seeds); each restart gets
-    /// twice the budget of the one before, so some tree always gets as long as it needs and
-    /// completeness is kept. 0: one tree, no restarts.
+    /// twice the budget of the one before, so some tree always gets as long as it needs
+    /// (completeness as docs/ARCHITECTURE.md states it). 0: one tree, no restarts.
     pub restart_expansions: u64,
 }
 
@@ -362,8 +365,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// each placed by repeated IK tracking (the warm start: a few seeds per trajectory no
     /// earlier robot took, clear of the earlier robots, within `warm_start_seconds`) or,
     /// failing that, by Ω-A* with its collisions with the earlier robots counted. Only the root
-    /// is built this way: every child replans by Ω-A* under its constraints, so completeness
-    /// is kept.
+    /// is built this way: every child replans by Ω-A* under its constraints, so the tree's
+    /// completeness (docs/ARCHITECTURE.md) does not depend on the root.
     fn root(&mut self, clock: &dyn Clock, restart: u32) -> Result<CtNode, Status> {
         // The cap counts from this root on: the tracking itself is a few milliseconds of
         // bounded work, so in practice the cap never cuts it and the root (hence the answer)
