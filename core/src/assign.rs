@@ -152,12 +152,12 @@ mod tests {
         // 3 robots, 2 trajectories; robot 2 cannot take trajectory 0; everyone may hold.
         let mut t = PairTable::new(3, 2);
         let costs = [[1.0, 5.0], [2.0, 1.0], [f64::NAN, 3.0]];
-        for r in 0..3 {
-            for j in 0..2 {
-                let p = if costs[r][j].is_nan() {
+        for (r, row) in costs.iter().enumerate() {
+            for (j, &c) in row.iter().enumerate() {
+                let p = if c.is_nan() {
                     Pair::Infeasible
                 } else {
-                    Pair::Feasible(costs[r][j])
+                    Pair::Feasible(c)
                 };
                 t.set(r, j, p);
             }

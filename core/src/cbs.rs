@@ -5,9 +5,12 @@
 //! conflicts is expanded first (the deepest among equals). Assignment conflicts (two robots on
 //! one trajectory) are resolved first, by forbidding the trajectory to one robot or the other;
 //! then the earliest geometric conflict, by forbidding one robot or the other to occupy a
-//! witness point inside both. Each child replans only the constrained robot. A tree that uses
-//! its budget of Ω-A* expansions without ending is dropped for a new one from another root,
-//! with twice the budget ([`CbsParams::restart_expansions`]).
+//! witness point inside both at one step or one instant of a motion (disjunctive; see
+//! docs/ARCHITECTURE.md, Completeness, for what is and is not kept). Each child replans only
+//! the constrained robot. A tree that uses its budget of Ω-A* expansions without ending is
+//! dropped for a new one from another root, with twice the budget
+//! ([`CbsParams::restart_expansions`]); a tree that ends without a plan moves the search to
+//! the next refinement level ([`crate::search::refine`]).
 //!
 //! Memory: CT nodes, the OPEN list of the CT, the paths, the constraint scratch and the
 //! start-seed IK answers all live in caller storage ([`CbsStorage`]); one path costs
@@ -28,6 +31,9 @@ use crate::search::{
 };
 use crate::tracking::track;
 
+/// Margin (m) of the witness of two arms that touch at a step without overlapping.
+const TOUCH: f64 = 1e-6;
+
 /// Assignment value of a robot that holds its initial configuration.
 const HOLD: u8 = u8::MAX;
 
@@ -41,8 +47,8 @@ pub struct CbsParams {
     pub warm_start_seeds: u32,
     /// Ω-A* expansions the first constraint tree may take before the search restarts from a
     /// new root (robots placed in another order, other warm-start seeds); each restart gets
-    /// twice the budget of the one before, so some tree always gets as long as it needs and
-    /// completeness is kept. 0: one tree, no restarts.
+    /// twice the budget of the one before, so some tree always gets as long as it needs
+    /// (completeness as docs/ARCHITECTURE.md states it). 0: one tree, no restarts.
     pub restart_expansions: u64,
 }
 
@@ -276,13 +282,20 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             };
             let node = self.nodes[entry.node as usize];
             let branches = match self.first_conflict(&node) {
-                Some(b) => b,
+                Some((b, exact)) => {
+                    self.stats.inexact_branches += u32::from(!exact);
+                    b
+                }
                 None if node.conflicts == 0 => {
                     self.write_solution(&node, out);
                     return Some(Status::Solved);
                 }
-                // Counted conflicts but no witness: never report it as solved.
-                None => continue,
+                // Counted conflicts but nowhere to branch: never reported as solved, and
+                // counted, since completeness no longer covers its subtree.
+                None => {
+                    self.stats.unbranched_nodes += 1;
+                    continue;
+                }
             };
             self.stats.conflicts_resolved += 1;
             for (robot, constraint) in branches {
@@ -352,8 +365,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// each placed by repeated IK tracking (the warm start: a few seeds per trajectory no
     /// earlier robot took, clear of the earlier robots, within `warm_start_seconds`) or,
     /// failing that, by Ω-A* with its collisions with the earlier robots counted. Only the root
-    /// is built this way: every child replans by Ω-A* under its constraints, so completeness
-    /// is kept.
+    /// is built this way: every child replans by Ω-A* under its constraints, so the tree's
+    /// completeness (docs/ARCHITECTURE.md) does not depend on the root.
     fn root(&mut self, clock: &dyn Clock, restart: u32) -> Result<CtNode, Status> {
         // The cap counts from this root on: the tracking itself is a few milliseconds of
         // bounded work, so in practice the cap never cuts it and the root (hence the answer)
@@ -662,13 +675,15 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// The conflict to branch on: an assignment conflict if any, else the earliest geometric
-    /// one. `None` when the node is a solution.
-    fn first_conflict(&self, node: &CtNode) -> Option<Branches> {
+    /// one, and whether its two branches are mutually disjunctive. `None` when the node is a
+    /// solution (or, counted by the caller, when no conflict it counted could be located).
+    fn first_conflict(&self, node: &CtNode) -> Option<(Branches, bool)> {
         for i in 0..self.n {
             for k in i + 1..self.n {
                 let a = node.assignment[i];
                 if a != HOLD && a == node.assignment[k] {
-                    return Some([(i, Constraint::Forbid(a)), (k, Constraint::Forbid(a))]);
+                    let branches = [(i, Constraint::Forbid(a)), (k, Constraint::Forbid(a))];
+                    return Some((branches, true));
                 }
             }
         }
@@ -688,27 +703,39 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                         ArmPose::new::<M, D>(&rk.base, &rk.tool, &pk[t]),
                     );
                     let hit = if a.arm_hit(&b, 0.0).is_some() {
-                        a.witness(&b, 0.0).map(|p| PointConstraint {
-                            t: t as u16,
-                            segment: false,
-                            p: [p.x, p.y, p.z],
-                            margin: 0.0,
-                        })
+                        // A point inside both arms at step t; arms that only touch have none,
+                        // and a hair's margin stands in (not disjunctive, so counted).
+                        let exact = a.witness(&b, 0.0).map(|p| (p, 0.0, true));
+                        exact
+                            .or_else(|| a.witness(&b, TOUCH).map(|p| (p, TOUCH, false)))
+                            .map(|(p, margin, exact)| {
+                                let pc = PointConstraint {
+                                    t: t as u16,
+                                    segment: false,
+                                    s: 0.0,
+                                    p: [p.x, p.y, p.z],
+                                    margin,
+                                };
+                                (pc, exact)
+                            })
                     } else if t + 1 < self.h {
                         let (ma, mb) = (step_motion(ri, pi, t), step_motion(rk, pk, t));
-                        motions_contact::<M, D>(&ma, &mb, self.low.motion_step).map(|c| {
-                            PointConstraint {
+                        motions_contact::<M, D>(&ma, &mb, self.low.motion_step).map(|(c, exact)| {
+                            let pc = PointConstraint {
                                 t: t as u16,
                                 segment: true,
+                                s: c.s,
                                 p: c.point,
                                 margin: c.margin,
-                            }
+                            };
+                            (pc, exact)
                         })
                     } else {
                         None
                     };
-                    if let Some(pc) = hit {
-                        return Some([(i, Constraint::Point(pc)), (k, Constraint::Point(pc))]);
+                    if let Some((pc, exact)) = hit {
+                        let branches = [(i, Constraint::Point(pc)), (k, Constraint::Point(pc))];
+                        return Some((branches, exact));
                     }
                 }
             }

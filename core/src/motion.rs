@@ -32,12 +32,17 @@ impl<'a, const D: usize> ArmMotion<'a, D> {
     }
 }
 
-/// Where two arms came too close: a point within `margin` of both arms' volumes.
+/// Where two arms came too close during a motion: at the instant `s` (a fraction of the step)
+/// the point lies within `margin` of both arms' volumes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Contact {
+    pub s: f64,
     pub point: [f64; 3],
     pub margin: f64,
 }
+
+/// Instants per sweep piece at which [`motions_contact`] looks for the arms overlapping.
+const CONTACT_SAMPLES: usize = 4;
 
 /// Whether the motion stays clear of the obstacles and of the arm itself.
 pub fn motion_is_free<M: Model<D>, const D: usize>(
@@ -94,28 +99,44 @@ pub fn motions_collide_posed<M: Model<D>, const D: usize>(
     sweeps_collide_posed(&sa, a.base, a_ends, &sb, b.base, b_ends)
 }
 
-/// Where two arms' simultaneous motions first come too close: the same pieces and margins as
-/// [`motions_collide`], scanned in order. `None` when they stay clear.
+/// Where two arms' simultaneous motions first meet, for a branching that is mutually
+/// disjunctive: the first instant (on a grid [`CONTACT_SAMPLES`] times finer than the sweep's
+/// pieces) at which the arms overlap, with a point inside both (`margin` 0). No two arms that
+/// never collide can both occupy one point at one instant, so of the two constraints "robot i
+/// is not at `point` at `s`" every collision-free plan keeps one. When the arms never overlap
+/// at those instants but come within the sweep's tolerance of each other (the conservative
+/// check counts that as a conflict), the first instant they do so, with the tolerance as
+/// `margin`; the caller must treat that branching as not disjunctive (`exact == false`).
+/// `None` when they stay clear.
 pub fn motions_contact<M: Model<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     b: &ArmMotion<'_, D>,
     max_step: f64,
-) -> Option<Contact> {
+) -> Option<(Contact, bool)> {
     let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
-    let count = sa.count().max(sb.count());
-    let margin = (sa.length() + sb.length()) / (2.0 * count as f64);
-    (0..count).find_map(|i| {
-        let s = (i as f64 + 0.5) / count as f64;
-        let (pa, pb) = (
-            ArmPose::new::<M, D>(a.base, a.tool, &sa.at(s)),
-            ArmPose::new::<M, D>(b.base, b.tool, &sb.at(s)),
-        );
-        pa.arm_hit(&pb, margin)?;
-        pa.witness(&pb, margin).map(|p| Contact {
-            point: [p.x, p.y, p.z],
-            margin,
+    let pieces = sa.count().max(sb.count());
+    let at = |count: usize, margin: f64| {
+        (0..count).find_map(|i| {
+            let s = (i as f64 + 0.5) / count as f64;
+            let (pa, pb) = (
+                ArmPose::new::<M, D>(a.base, a.tool, &sa.at(s)),
+                ArmPose::new::<M, D>(b.base, b.tool, &sb.at(s)),
+            );
+            pa.arm_hit(&pb, margin)?;
+            pa.witness(&pb, margin).map(|p| Contact {
+                s,
+                point: [p.x, p.y, p.z],
+                margin,
+            })
         })
-    })
+    };
+    if let Some(c) = at(pieces * CONTACT_SAMPLES, 0.0) {
+        return Some((c, true));
+    }
+    // The sweep's tolerance first; the pair-by-pair check may have bisected differently, so
+    // wider ones after it rather than no branch at all.
+    let margin = (sa.length() + sb.length()) / (2.0 * pieces as f64);
+    (0..4).find_map(|k| at(pieces, margin * f64::from(1u32 << k)).map(|c| (c, false)))
 }
 
 /// Whether the arm comes within `margin` of `p` anywhere along its motion, checked on the

@@ -23,8 +23,7 @@ use serde_json::value::RawValue;
 use crate::error::{quoted, Errors, InputError};
 use crate::format::{
     ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToolSpec,
-    MAX_JOINT_VALUE,
-    PROBLEM_FORMAT, SOLUTION_FORMAT,
+    MAX_JOINT_VALUE, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::models::ModelKind;
 use crate::pose::{self, short};

@@ -132,6 +132,7 @@ impl Storage {
                 PointConstraint {
                     t: 0,
                     segment: false,
+                    s: 0.0,
                     p: [0.0; 3],
                     margin: 0.0
                 };

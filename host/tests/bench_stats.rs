@@ -10,6 +10,7 @@ use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::model::{Frame, LinkCapsule, Model};
 use omcbsa_core::nalgebra::{Rotation3, SMatrix, Vector3};
 use omcbsa_core::problem::{Problem, Robot, Tolerance};
+use omcbsa_core::tool::Tool;
 
 /// One revolute joint about z at the base; link 1 is a stick of length 1 along its x axis,
 /// radius 0.1, and the tool frame sits at its tip.
@@ -91,6 +92,7 @@ fn path_quality_of_a_hand_computed_plan() {
         .push(Robot {
             base: at(0.0, 0.0),
             tcp: Frame::IDENTITY,
+            tool: Tool::NONE,
             // Tool at (0, 1); the trajectory starts at (1, 0): a start cost of sqrt(2).
             initial: Some([FRAC_PI_2]),
         })
@@ -100,6 +102,7 @@ fn path_quality_of_a_hand_computed_plan() {
         .push(Robot {
             base: at(3.0, 0.0),
             tcp: Frame::IDENTITY,
+            tool: Tool::NONE,
             initial: Some([PI]),
         })
         .unwrap();
@@ -149,6 +152,7 @@ fn a_single_arm_without_obstacles_has_no_clearance_figures() {
         .push(Robot {
             base: Frame::IDENTITY,
             tcp: Frame::IDENTITY,
+            tool: Tool::NONE,
             initial: None,
         })
         .unwrap();

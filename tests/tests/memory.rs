@@ -138,3 +138,30 @@ fn storage_is_reusable() {
         );
     }
 }
+
+/// Refinement allocates nothing either: a problem that Ω-CBSA and OM-PP-A*_single solve only
+/// at a finer level (tests/fixtures/level0_miss_2arms.json).
+#[test]
+fn refinement_allocates_nothing() {
+    let text = include_str!("../fixtures/level0_miss_2arms.json");
+    let file = omcbsa::load::parse_problem(text).expect("fixture parses");
+    let problem = core_problem(&file);
+    let handle = std::thread::Builder::new()
+        .stack_size(PLANNER_STACK)
+        .spawn(move || {
+            let mut storage = Storage::new(Capacities::default(), problem.horizon());
+            ["omcbsa", "pp-single"].map(|name| {
+                let mut stats = Stats::default();
+                let clock = WallClock::start();
+                let (r, n) =
+                    allocations(|| storage.solve_core(name, &problem, &clock, 60.0, &mut stats));
+                (name, r.expect("known planner").0, n, stats.level)
+            })
+        })
+        .expect("spawn");
+    for (name, status, n, level) in handle.join().expect("no stack overflow") {
+        assert_eq!(status, Status::Solved, "{name}");
+        assert!(level >= 1, "{name} should need a finer level");
+        assert_eq!(n, 0, "{name} allocated {n} times while refining");
+    }
+}

@@ -85,12 +85,17 @@ pub enum OthersMode {
     Avoid,
 }
 
-/// "This robot may not come within `margin` of `p` at step `t`" (`segment == false`), or
-/// anywhere on its motion from step `t` to `t + 1` (`segment == true`).
+/// "This robot may not come within `margin` of `p` at step `t`" (`segment == false`), or at
+/// the instant `t + s` of its motion from step `t` to `t + 1` (`segment == true`; the robot
+/// is then at `q_t + s (q_{t+1} - q_t)`). Constraints at one instant, not over a whole
+/// motion, so that the two children of a conflict are mutually disjunctive (see
+/// [`crate::motion::motions_contact`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointConstraint {
     pub t: u16,
     pub segment: bool,
+    /// Fraction of the step (`segment` constraints only).
+    pub s: f64,
     pub p: [f64; 3],
     pub margin: f64,
 }

@@ -6,9 +6,7 @@ use core::cell::RefCell;
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
-use crate::motion::{
-    motion_is_free_posed, motion_near_point_posed, motions_collide_posed, near_point, ArmMotion,
-};
+use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
 use crate::problem::MAX_ROBOTS;
 use crate::tool::Tool;
 
@@ -146,11 +144,11 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
             return None;
         }
         for pc in self.points {
-            if pc.segment
-                && pc.t as usize == t
-                && motion_near_point_posed::<M, D>(&me, ends, &pc.p, pc.margin, self.motion_step)
-            {
-                return None;
+            if pc.segment && pc.t as usize == t {
+                let q: [f64; D] = core::array::from_fn(|i| a[i] + pc.s * (b[i] - a[i]));
+                if near_point(&ArmPose::new::<M, D>(&self.base, &self.tool, &q), &pc.p, pc.margin) {
+                    return None;
+                }
             }
         }
         self.place_others(t);

@@ -97,12 +97,11 @@ fn write_files(out: &Path, checked: &CheckedSolution) -> Result<(), ExitCode> {
     write_json(&out.join("solution.json"), checked.solution())?;
     let page = out.join("plan.html");
     let (problem, solution, report) = (checked.problem(), checked.solution(), checked.report());
-    write_html(problem, Some(solution), Some(report), &page).map_err(|e| e.to_string())?;
-    println!(
+    write_html(problem, Some(solution), Some(report), &page).map_err(bad_input)?;
+    print(format_args!(
         "wrote {} (open it in a browser to see the plan)",
         page.display()
-    );
-    Ok(())
+    ))
 }
 
 fn write_json(path: &Path, value: &impl Serialize) -> Result<(), ExitCode> {
