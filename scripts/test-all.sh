@@ -12,5 +12,10 @@ cargo build -p omcbsa-core --release --target thumbv7em-none-eabihf
 echo "== Python venv for the mock arms (pinned python-can, canopen)"
 bash hw-adapter/mock/setup_venv.sh
 
+echo "== headless Chromium for the plan viewer's browser test (host/tests/view_browser.rs)"
+if ! command -v chromium >/dev/null; then
+    apt-get update && apt-get install -y chromium
+fi
+
 echo "== tests"
 cargo test --workspace

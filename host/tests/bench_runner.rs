@@ -179,7 +179,7 @@ fn every_run_is_a_row_and_invalid_successes_are_failures() {
     let good = report.summary.cell("good", None).unwrap();
     assert_eq!((good.median(), good.mean()), (Some(0.002), Some(0.002)));
     assert_eq!(report.plot_error, None);
-    assert_eq!(report.plots.len(), 6);
+    assert_eq!(report.plots.len(), 10);
     for plot in &report.plots {
         assert!(
             std::fs::metadata(plot).unwrap().len() > 1000,
@@ -187,6 +187,26 @@ fn every_run_is_a_row_and_invalid_successes_are_failures() {
             plot.display()
         );
     }
+    // Path quality only for valid successes: `good` holds HOME, so it does not move at all.
+    for r in &rows {
+        let expected = (r.planner == "good").then_some((0.0, 0.0, 0.0));
+        let got = r
+            .path_length_rad
+            .map(|l| (l, r.max_speed_frac.unwrap(), r.path_cost.unwrap()));
+        assert_eq!(got, expected, "{r:?}");
+    }
+    // index.html: the summary's tables, the plots, a view of every problem (good's plan).
+    let index = std::fs::read_to_string(&report.index).unwrap();
+    assert!(index.contains("<table>") && index.contains("runtime_mean.png"));
+    for k in 0..4 {
+        assert!(
+            index.contains(&format!("<a href=\"views/p{k:02}.html\">good</a>")),
+            "{index}"
+        );
+        let view = std::fs::read_to_string(out.path().join(format!("views/p{k:02}.html"))).unwrap();
+        assert!(view.contains("<script src=\"assets.js\">") && view.contains("\"planned\":true"));
+    }
+    assert!(out.path().join("views/assets.js").exists());
 }
 
 #[test]

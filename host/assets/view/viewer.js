@@ -6,13 +6,14 @@
   const view = (window.omcbsaView = { ready: false, error: null });
   const text = (id) => document.getElementById(id).textContent;
   try {
+    // The libraries and meshes are in the page, or in a shared script (`omcbsa bench` pages).
+    const assets = window.omcbsaAssets || JSON.parse(text("assets"));
     const moduleUrl = (src) => URL.createObjectURL(new Blob([src], { type: "text/javascript" }));
-    const threeUrl = moduleUrl(text("three-src"));
+    const threeUrl = moduleUrl(assets.three);
     const THREE = await import(threeUrl);
-    const orbit = text("orbit-src").replace("from 'three'", "from '" + threeUrl + "'");
+    const orbit = assets.orbit.replace("from 'three'", "from '" + threeUrl + "'");
     const { OrbitControls } = await import(moduleUrl(orbit));
-    const { scene, meshes } = JSON.parse(text("data"));
-    start(THREE, OrbitControls, scene, meshes, view);
+    start(THREE, OrbitControls, JSON.parse(text("data")), assets.meshes, view);
   } catch (e) {
     view.error = String(e && e.stack ? e.stack : e);
     document.getElementById("status").innerHTML = '<span class="bad">The viewer failed: ' +

@@ -3,12 +3,16 @@
 //! validator. Writes into the output directory:
 //! - `results.csv`: one row per run, appended and flushed as runs finish. Interrupting keeps
 //!   the rows written; rerunning skips the (problem, planner) pairs already there.
-//! - `summary.md`: success rate and median / mean planning time per planner and arm count.
-//! - `success_overall`, `success_by_robots`, `runtime_cdf` as `.svg` and `.png`.
+//! - `summary.md`: success rate, planning time (median, mean, σ, min, max) and path quality
+//!   per planner and arm count.
+//! - `success_overall`, `success_by_robots`, `runtime_cdf`, `runtime_mean`, `path_length` as
+//!   `.svg` and `.png`.
+//! - `index.html`: the summary with the plots, and every problem with a page to view it.
 //!
 //! The planners are reached through [`Solver`], so the runner is tested with fake planners and
 //! anyone can bench their own planner on the suite.
 
+mod index;
 mod plots;
 mod quality;
 mod results;
@@ -35,7 +39,7 @@ use crate::{load, validate};
 
 pub use quality::{path_quality, PathQuality};
 pub use results::Row;
-pub use summary::{Cell, Summary};
+pub use summary::{Cell, Spread, Summary};
 
 pub use crate::planners::PLANNERS;
 /// `--quick` runs every this-many-th problem of the suite...
@@ -127,6 +131,8 @@ pub struct BenchReport {
     pub plots: Vec<PathBuf>,
     /// Why the plots were not drawn, if they were not (the rest was still written).
     pub plot_error: Option<String>,
+    /// `index.html`: the summary, the plots and a 3D view of every problem.
+    pub index: PathBuf,
 }
 
 #[derive(Debug)]
@@ -274,7 +280,8 @@ pub fn run_bench_with(
                 jobs.par_iter().for_each_with(tx, |tx, &(entry, planner)| {
                     if !stop.load(Ordering::Relaxed) {
                         // The receiver only goes away after every job has ended.
-                        let _ = tx.send(run_one(suite_dir, entry, planner, timeout, solver));
+                        let row = run_one(suite_dir, &out_dir, entry, planner, timeout, solver);
+                        let _ = tx.send(row);
                     }
                 })
             })
@@ -317,7 +324,8 @@ pub fn run_bench_with(
         rows.len()
     );
     let summary_path = out_dir.join(SUMMARY_FILE);
-    std::fs::write(&summary_path, summary.markdown(&context)).map_err(|source| Error::Io {
+    let markdown = summary.markdown(&context);
+    std::fs::write(&summary_path, &markdown).map_err(|source| Error::Io {
         path: summary_path.clone(),
         source,
     })?;
@@ -325,6 +333,15 @@ pub fn run_bench_with(
         Ok(p) => (p, None),
         Err(e) => (Vec::new(), Some(e)),
     };
+    let index = index::write_index(
+        &out_dir,
+        suite_dir,
+        &problems,
+        &opts.planners,
+        &rows,
+        &markdown,
+        &plots,
+    )?;
     Ok(BenchReport {
         out_dir,
         runs,
@@ -334,12 +351,29 @@ pub fn run_bench_with(
         results_path,
         plots,
         plot_error,
+        index,
     })
+}
+
+/// Keeps a solved run's solution (`solutions/PLANNER/PROBLEM.json`) for its 3D view.
+fn save_solution(
+    out_dir: &Path,
+    problem: &str,
+    planner: &str,
+    solution: &SolutionFile,
+) -> Result<(), String> {
+    let path = index::solution_path(out_dir, planner, problem);
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let text = serde_json::to_string(solution).map_err(|e| e.to_string())?;
+    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// One run: load, plan (a panic is caught and reported), re-validate a success.
 fn run_one(
     suite_dir: &Path,
+    out_dir: &Path,
     entry: &SuiteEntry,
     planner: &str,
     timeout_s: f64,
@@ -401,6 +435,9 @@ fn run_one(
     row.expansions = solution.stats.get("expansions").and_then(|v| v.as_u64());
     row.message = solution.message.clone();
     if solution.status == Status::Solved {
+        if let Err(e) = save_solution(out_dir, &entry.name, planner, &solution) {
+            row.message = format!("{} (solution not saved: {e})", row.message);
+        }
         let report = validate::validate::<KinovaGen3, 7>(&file, &problem, &solution);
         row.valid = Some(report.is_valid());
         row.success = report.is_valid();

@@ -1,6 +1,8 @@
 //! The benchmark's figures, in SVG and PNG (plotters): success rate per planner, success rate
 //! by number of arms, and the distribution of planning times (share of runs solved within a
-//! time budget, the cumulative distribution of successful planning times).
+//! time budget, the cumulative distribution of successful planning times), the mean planning
+//! time with its standard deviation, and the mean joint-space path length, per planner and
+//! number of arms.
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -8,7 +10,7 @@ use std::sync::OnceLock;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::summary::Summary;
+use super::summary::{Cell, Spread, Summary};
 
 const SIZE: (u32, u32) = (900, 540);
 /// Fonts tried when `fc-match` finds none (Debian's fonts-dejavu-core).
@@ -18,7 +20,13 @@ const FALLBACK_FONTS: [&str; 2] = [
 ];
 
 /// The figures, by file name.
-const CHARTS: [&str; 3] = ["success_overall", "success_by_robots", "runtime_cdf"];
+const CHARTS: [&str; 5] = [
+    "success_overall",
+    "success_by_robots",
+    "runtime_cdf",
+    "runtime_mean",
+    "path_length",
+];
 
 /// Writes every chart of [`CHARTS`] as `.svg` and `.png` into `dir`; returns the files
 /// written. `timeout_s` bounds the time axis.
@@ -54,6 +62,20 @@ fn draw<DB: DrawingBackend>(
     match name {
         "success_overall" => success_overall(root, s),
         "success_by_robots" => success_by_robots(root, s),
+        "runtime_mean" => grouped_bars(
+            root,
+            s,
+            "Mean planning time of successful runs (bars: ±σ)",
+            "planning time (ms, log scale)",
+            &|c| c.time_spread().map(|t| t.scaled(1000.0)),
+        ),
+        "path_length" => grouped_bars(
+            root,
+            s,
+            "Mean joint-space path length of successful runs (bars: ±σ)",
+            "path length, all arms (rad, log scale)",
+            &|c| c.quality_spread(|q| Some(q.path_length_rad)),
+        ),
         _ => runtime_cdf(root, s, timeout_s),
     }
 }
@@ -262,6 +284,99 @@ fn runtime_cdf<DB: DrawingBackend>(
             .map_err(err)?
             .label(p.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 15))
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
+/// One group of bars per arm count, one bar per planner at its mean with a ±σ error bar, on a
+/// log scale (means span several decades); the lower whisker stops at the axis.
+fn grouped_bars<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &Summary,
+    caption: &str,
+    y_desc: &str,
+    value: &dyn Fn(&Cell) -> Option<Spread>,
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(err)?;
+    let spreads: Vec<(usize, usize, Spread)> = (s.planners.iter().enumerate())
+        .flat_map(|(i, p)| {
+            (s.robot_counts.iter().enumerate())
+                .filter_map(move |(g, &n)| s.cell(p, Some(n)).and_then(value).map(|v| (g, i, v)))
+        })
+        .collect();
+    let positive = spreads.iter().map(|(_, _, v)| v.min).filter(|m| *m > 0.0);
+    let lo = positive.fold(f64::INFINITY, f64::min);
+    let lo = if lo.is_finite() { lo * 0.5 } else { 1e-3 };
+    let hi = (spreads.iter())
+        .map(|(_, _, v)| v.mean + v.std_dev)
+        .fold(lo * 10.0, f64::max)
+        * 2.0;
+    let groups = s.robot_counts.len().max(1);
+    let width = 0.8 / s.planners.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(-0.5..(groups as f64 - 0.5), (lo..hi).log_scale())
+        .map_err(err)?;
+    let counts = s.robot_counts.clone();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_desc("arms")
+        .y_desc(y_desc)
+        .x_labels(groups)
+        .x_label_formatter(&|x| {
+            let g = x.round();
+            if (x - g).abs() < 1e-6 && g >= 0.0 {
+                counts
+                    .get(g as usize)
+                    .map_or(String::new(), |n| n.to_string())
+            } else {
+                String::new()
+            }
+        })
+        .y_label_formatter(&|y| format!("{y:.1e}"))
+        .label_style(("sans-serif", 16))
+        .draw()
+        .map_err(err)?;
+    let centre =
+        |g: usize, i: usize| g as f64 + (i as f64 - (s.planners.len() as f64 - 1.0) / 2.0) * width;
+    for (i, p) in s.planners.iter().enumerate() {
+        let c = color(i);
+        let mine: Vec<&(usize, usize, Spread)> = spreads.iter().filter(|x| x.1 == i).collect();
+        chart
+            .draw_series(mine.iter().map(|&&(g, i, v)| {
+                let x = centre(g, i);
+                Rectangle::new(
+                    [(x - 0.45 * width, lo), (x + 0.45 * width, v.mean.max(lo))],
+                    c.filled(),
+                )
+            }))
+            .map_err(err)?
+            .label(p.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 18, y + 6)], c.filled()));
+        chart
+            .draw_series(mine.iter().map(|&&(g, i, v)| {
+                ErrorBar::new_vertical(
+                    centre(g, i),
+                    (v.mean - v.std_dev).max(lo),
+                    v.mean.max(lo),
+                    (v.mean + v.std_dev).max(lo),
+                    BLACK.stroke_width(2),
+                    8,
+                )
+            }))
+            .map_err(err)?;
     }
     chart
         .configure_series_labels()

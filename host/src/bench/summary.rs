@@ -19,6 +19,17 @@ pub struct Spread {
 }
 
 impl Spread {
+    /// Every figure times `k` (a change of unit).
+    pub fn scaled(self, k: f64) -> Spread {
+        Spread {
+            n: self.n,
+            mean: k * self.mean,
+            std_dev: k * self.std_dev,
+            min: k * self.min,
+            max: k * self.max,
+        }
+    }
+
     /// `None` for no values.
     pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Spread> {
         let values: Vec<f64> = values.into_iter().collect();

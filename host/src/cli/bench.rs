@@ -1,4 +1,4 @@
-//! `omcbsa bench`: runs planners on a suite; CSV, summary and plots.
+//! `omcbsa bench`: runs planners on a suite; CSV, summary, plots and index.html.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -9,7 +9,7 @@ use omcbsa::planners::PLANNERS;
 use super::{bad_input, note, positive_seconds, print};
 
 /// Runs every planner on every problem of SUITE_DIR (made by gen-bench), re-validating every
-/// reported success, and writes results.csv (resumable), summary.md and plots.
+/// reported success, and writes results.csv (resumable), summary.md, plots and index.html.
 /// Exit code 0 done, 1 if some reported success failed validation, 2 on an error.
 #[derive(clap::Args)]
 pub struct Args {
@@ -64,6 +64,10 @@ pub fn run(args: &Args) -> ExitCode {
             if let Err(code) = print(lines.join("\n")) {
                 return code;
             }
+            println!(
+                "index: {} (summary, plots, a 3D view of every problem)",
+                report.index.display()
+            );
             if let Some(e) = &report.plot_error {
                 note(format_args!("plots not drawn: {e}"));
             }

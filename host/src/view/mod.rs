@@ -77,6 +77,8 @@ pub enum ViewError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// The scene could not be written as JSON.
+    Encode(String),
 }
 
 impl fmt::Display for ViewError {
@@ -86,11 +88,22 @@ impl fmt::Display for ViewError {
             ViewError::Io { path, source } => {
                 write!(f, "cannot write {}: {source}", path.display())
             }
+            ViewError::Encode(e) => write!(f, "cannot encode the scene: {e}"),
         }
     }
 }
 
 impl std::error::Error for ViewError {}
+
+/// Where a page finds three.js and the meshes (2 MB together).
+#[derive(Clone, Copy, Debug)]
+pub enum Assets<'a> {
+    /// In the page itself: one file that works anywhere.
+    Inline,
+    /// In the script [`write_assets`] writes, at this URL relative to the page: many pages
+    /// of one directory share it.
+    Shared(&'a str),
+}
 
 /// The page for `problem`, and `solution` when given. `report` is the solution's validation;
 /// when `None` the solution is validated here. The page marks the clashing links and the step
@@ -99,29 +112,59 @@ pub fn html(
     problem: &ProblemFile,
     solution: Option<&SolutionFile>,
     report: Option<&Report>,
+    assets: Assets,
 ) -> Result<String, ViewError> {
     let ModelKind::KinovaGen3 = load::model_of(problem).map_err(ViewError::Input)?;
-    page::<KinovaGen3, 7>(problem, solution, report)
+    page::<KinovaGen3, 7>(problem, solution, report, assets)
 }
 
-/// Writes [`html`] to `path`.
+/// Writes the self-contained [`html`] page to `path`.
 pub fn write_html(
     problem: &ProblemFile,
     solution: Option<&SolutionFile>,
     report: Option<&Report>,
     path: &Path,
 ) -> Result<(), ViewError> {
-    let text = html(problem, solution, report)?;
+    write(path, &html(problem, solution, report, Assets::Inline)?)
+}
+
+/// Writes the script that pages made with [`Assets::Shared`] load.
+pub fn write_assets(path: &Path) -> Result<(), ViewError> {
+    let text = format!(
+        "window.omcbsaAssets = {};\n",
+        assets_json::<KinovaGen3, 7>()
+    );
+    write(path, &text)
+}
+
+fn write(path: &Path, text: &str) -> Result<(), ViewError> {
     std::fs::write(path, text).map_err(|source| ViewError::Io {
         path: path.to_path_buf(),
         source,
     })
 }
 
+/// three.js, its orbit controls and the meshes of model `M`'s links, as one JSON object.
+fn assets_json<M: Model<D>, const D: usize>() -> String {
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let meshes: serde_json::Map<String, serde_json::Value> = (GEN3_MESHES.iter())
+        .filter(|(link, _)| M::LINK_NAMES.contains(link))
+        .map(|(link, stl)| (link.to_string(), b64.encode(stl).into()))
+        .collect();
+    let assets = serde_json::json!({ "three": THREE_JS, "orbit": ORBIT_JS, "meshes": meshes });
+    script_safe(&assets.to_string())
+}
+
+/// JSON inside a <script> element: `</` could end it early; `<\/` is the same JSON.
+fn script_safe(json: &str) -> String {
+    json.replace("</", "<\\/")
+}
+
 fn page<M: Model<D>, const D: usize>(
     file: &ProblemFile,
     solution: Option<&SolutionFile>,
     report: Option<&Report>,
+    assets: Assets,
 ) -> Result<String, ViewError> {
     let problem = load::problem::<M, D>(file).map_err(ViewError::Input)?;
     let own_report;
@@ -133,23 +176,23 @@ fn page<M: Model<D>, const D: usize>(
         (_, r) => r,
     };
     let scene = scene::scene::<M, D>(file, &problem, solution.zip(report));
-    let b64 = base64::engine::general_purpose::STANDARD;
-    let meshes: serde_json::Map<String, serde_json::Value> = (GEN3_MESHES.iter())
-        .filter(|(link, _)| M::LINK_NAMES.contains(link))
-        .map(|(link, stl)| (link.to_string(), b64.encode(stl).into()))
-        .collect();
-    let data = serde_json::json!({ "scene": scene, "meshes": meshes });
+    let data = serde_json::to_string(&scene).map_err(|e| ViewError::Encode(e.to_string()))?;
+    let assets = match assets {
+        Assets::Inline => format!(
+            "<script type=\"application/json\" id=\"assets\">{}</script>",
+            assets_json::<M, D>()
+        ),
+        Assets::Shared(url) => format!("<script src=\"{}\"></script>", escape_html(url)),
+    };
     Ok(fill(
         TEMPLATE,
         &[
             ("TITLE", &escape_html(&file.name)),
             ("THREE_LICENSE", &escape_html(THREE_LICENSE)),
             ("KINOVA_LICENSE", &escape_html(KINOVA_LICENSE)),
-            ("THREE_JS", THREE_JS),
-            ("ORBIT_JS", ORBIT_JS),
+            ("ASSETS", &assets),
             ("VIEWER_JS", VIEWER_JS),
-            // Inside a <script> element `</` could end it early; `<\/` is the same JSON.
-            ("DATA", &data.to_string().replace("</", "<\\/")),
+            ("DATA", &script_safe(&data)),
         ],
     ))
 }
