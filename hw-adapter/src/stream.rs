@@ -408,3 +408,147 @@ fn to_counts(q: &[f64; JOINTS]) -> Result<Command, String> {
     }
     Ok(c)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cia402::counts_to_rad;
+
+    const PERIOD: f64 = 0.002;
+
+    /// One arm from `from`, `n` waypoints moving joint 1 (and 5) by `step` rad each.
+    fn ramp(from: f64, step: f64, n: usize) -> Vec<[f64; JOINTS]> {
+        (1..=n)
+            .map(|i| {
+                let mut q = [0.1; JOINTS];
+                q[0] = from + step * i as f64;
+                q[4] = q[0] / 2.0;
+                q
+            })
+            .collect()
+    }
+
+    fn generator() -> Generator {
+        let mut start = [0.1; JOINTS];
+        (start[0], start[4]) = (0.0, 0.0);
+        Generator::new(&[start], JointLimits::kinova_gen3(), PERIOD, 0.5).unwrap()
+    }
+
+    /// Runs `cycles` cycles (or until the hold at the end); the commands and ticks.
+    fn run(g: &mut Generator, cycles: usize) -> Vec<(Tick, Command)> {
+        let mut out = [[0; JOINTS]];
+        let mut seen = Vec::new();
+        for _ in 0..cycles {
+            let tick = g.next(&mut out).unwrap();
+            seen.push((tick, out[0]));
+            if tick.holding && tick.cycle > 0 {
+                break;
+            }
+        }
+        seen
+    }
+
+    #[test]
+    fn replacing_the_tail_keeps_what_runs_and_lands_on_the_new_end() {
+        let (mut a, mut b) = (generator(), generator());
+        let path = ramp(0.0, 0.02, 10);
+        a.push(1, &[&path]).unwrap();
+        b.push(1, &[&path]).unwrap();
+        let before = run(&mut a, 700);
+        assert_eq!(run(&mut b, 700), before);
+        assert_eq!(a.step(), 2); // 700 cycles of 2 ms at 0.5 s per step
+        assert_eq!(a.fixed(), 3);
+        // turn back from step 4 on
+        let back = ramp(a.tracks[0].queue[3 - a.base][0], -0.02, 6);
+        a.push(4, &[&back]).unwrap();
+        let (after, unchanged) = (run(&mut a, 100_000), run(&mut b, 100_000));
+        // what was executing (up to waypoint 3, frozen) is the same until step 3 is reached
+        let reach3 = (3.0 * 0.5 / PERIOD) as usize - 700;
+        for k in 0..reach3 {
+            assert_eq!(after[k], unchanged[k], "cycle {k}");
+        }
+        let end = |s: &[(Tick, Command)]| counts_to_rad(s[s.len() - 1].1[0]);
+        assert!((end(&after) - back[5][0]).abs() < 1e-7, "{}", end(&after));
+        assert!((end(&unchanged) - path[9][0]).abs() < 1e-7);
+        // every command of the spliced run passed the check (`run` unwraps `next`), and the
+        // splice is smooth: no cycle-to-cycle velocity change above the acceleration limit
+        let all: Vec<Command> = before.iter().chain(&after).map(|s| s.1).collect();
+        for w in all.windows(3) {
+            let acc = counts_to_rad(w[2][0] - 2 * w[1][0] + w[0][0]) / PERIOD / PERIOD;
+            assert!(acc.abs() <= 1.0 + 1e-9, "{acc}");
+        }
+    }
+
+    #[test]
+    fn pushes_into_the_fixed_past_or_past_a_gap_are_refused() {
+        let mut g = generator();
+        g.push(1, &[&ramp(0.0, 0.02, 10)]).unwrap();
+        run(&mut g, 700);
+        let e = g.push(3, &[&ramp(0.0, 0.0, 2)]).unwrap_err();
+        assert_eq!(e, PushError::AlreadyFixed { start: 3, fixed: 3 });
+        assert!(e.to_string().contains("at step 4 at the earliest"), "{e}");
+        let e = g.push(12, &[&ramp(0.0, 0.0, 2)]).unwrap_err();
+        assert_eq!(e, PushError::Gap { start: 12, end: 10 });
+        let e = g.push(5, &[&[[f64::NAN; JOINTS]]]).unwrap_err();
+        assert!(e.to_string().contains("waypoint 5 joint 1"), "{e}");
+        let e = g.push(5, &[]).unwrap_err();
+        assert_eq!(
+            e,
+            PushError::Arms {
+                expected: 1,
+                got: 0
+            }
+        );
+    }
+
+    #[test]
+    fn segment_breaking_a_limit_is_refused_and_changes_nothing() {
+        let mut g = generator();
+        let path = ramp(0.0, 0.02, 10);
+        g.push(1, &[&path]).unwrap();
+        run(&mut g, 300);
+        let queued = g.clone();
+        // joint 2 beyond its position limit (±2.24 rad), however slowly
+        let mut far = ramp(0.0, 0.02, 10);
+        let last = far[9];
+        far.extend((1..=300).map(|i| {
+            let mut q = last;
+            q[1] = 0.1 + 0.008 * i as f64;
+            q
+        }));
+        let e = g.push(5, &[&far[4..]]).unwrap_err();
+        assert!(matches!(e, PushError::Limits { arm: 0, .. }), "{e}");
+        assert!(e.to_string().contains("joint 2: position 2.24"), "{e}");
+        // a jump too fast for joint 1's velocity and acceleration
+        let mut jump = ramp(0.0, 0.02, 10);
+        jump[6][0] += 1.0;
+        let e = g.push(5, &[&jump[4..]]).unwrap_err();
+        assert!(e.to_string().contains("joint 1: "), "{e}");
+        assert_eq!(format!("{g:?}"), format!("{queued:?}"));
+    }
+
+    #[test]
+    fn dry_queue_holds_at_rest_and_resumes_on_a_later_push() {
+        let mut g = generator();
+        let path = ramp(0.0, 0.02, 3);
+        g.push(1, &[&path]).unwrap();
+        let first = run(&mut g, 100_000);
+        let (tick, last) = first[first.len() - 1];
+        assert!(tick.holding && tick.ran_dry && tick.step == 3, "{tick:?}");
+        assert!((counts_to_rad(last[0]) - path[2][0]).abs() < 1e-7);
+        // it holds, reporting the dry queue once
+        let held = run(&mut g, 10);
+        assert!(held
+            .iter()
+            .all(|(t, c)| t.holding && !t.ran_dry && *c == last));
+        // a late segment continues from the held waypoint
+        let e = g.push(3, &[&ramp(0.06, 0.02, 3)]).unwrap_err();
+        assert!(matches!(e, PushError::AlreadyFixed { .. }), "{e}");
+        g.push(4, &[&ramp(0.06, 0.02, 3)]).unwrap();
+        let resumed = run(&mut g, 100_000);
+        assert!(!resumed[1].0.holding && resumed[1].0.step == 3);
+        let end = resumed[resumed.len() - 1];
+        assert!(end.0.holding && end.0.step == 6);
+        assert!((counts_to_rad(end.1[0]) - 0.12).abs() < 1e-7);
+    }
+}
