@@ -169,13 +169,8 @@ pub(crate) fn start(
 ) -> Result<StreamHandle, ExecError> {
     let log = open_log(&config)?;
     let clock = Instant::now();
-    let first: Vec<Command> = {
-        let mut g = generator.clone();
-        let mut out = vec![[0; JOINTS]; g.arms()];
-        g.next(&mut out)
-            .map_err(|e| ExecError::Limits(e.to_string()))?;
-        out
-    };
+    // Start-up checks each arm against the command it holds before the first cycle.
+    let first: Vec<Command> = generator.held().collect();
     let arms = generator.arms();
     let shared = Arc::new(Shared {
         barrier: Barrier::new(buses.len()),
@@ -232,8 +227,14 @@ impl StreamHandle {
     /// the start; waypoint `i` of each at step `start_step + i`). Refused, with nothing
     /// changed, if `start_step` is already fixed ([`StreamProgress::fixed`]), leaves a gap,
     /// queues too far ahead, or if any command the new tail leads to (through to the hold at
-    /// its end) would break a limit; or if the stream has stopped.
-    pub fn push(&self, start_step: usize, waypoints: &[&[[f64; JOINTS]]]) -> Result<(), PushError> {
+    /// its end) would break a limit; or if the stream has stopped. Returns the control cycle
+    /// from which the new tail is streamed (the generator's state when it was applied: a
+    /// [`Generator`] given the same pushes at the same cycles computes the same commands).
+    pub fn push(
+        &self,
+        start_step: usize,
+        waypoints: &[&[[f64; JOINTS]]],
+    ) -> Result<u64, PushError> {
         if let Some((arm, fault, ..)) = lock(&self.shared.fault).as_ref() {
             return Err(PushError::Stopped(format!("fault on arm {arm:?}: {fault}")));
         }

@@ -216,6 +216,11 @@ impl Generator {
         self.holding
     }
 
+    /// Every arm's last command (before the first cycle: its start).
+    pub fn held(&self) -> impl Iterator<Item = Command> + '_ {
+        self.tracks.iter().map(|t| t.prev[1])
+    }
+
     /// Cycles produced so far.
     pub fn cycle(&self) -> u64 {
         self.cycle
