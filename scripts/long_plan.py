@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
-"""Writes a valid 3-arm problem and solution lasting MINUTES minutes (dt = 1 s), for measuring
-`omcbsa execute --dry-run` on long plans (README, issue 15):
+"""Writes a valid 3-arm problem and solution of 241 steps lasting MINUTES minutes (dt =
+MINUTES * 60 / 240 s), for measuring `omcbsa execute --dry-run` on long plans (README, issue
+15): plans of different durations with the same number of waypoints.
 
     python3 scripts/long_plan.py OMCBSA_BINARY MINUTES OUTDIR
 
-Each arm sways slowly around a folded posture (well inside its limits, bases 2 m apart so the
-arms never meet); its hand trajectory is the forward kinematics of that motion (`omcbsa fk`).
+Each arm sways around a folded posture (well inside its limits, bases 2 m apart so the arms
+never meet); its hand trajectory is the forward kinematics of that motion (`omcbsa fk`).
 """
 
 import json
@@ -14,18 +15,18 @@ import subprocess
 import sys
 
 omcbsa, minutes, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-dt = 1.0
-steps = minutes * 60 + 1
+steps = 241
+dt = minutes * 60 / (steps - 1)
 seed = [0.0, 0.6, 0.0, 1.8, 0.0, 0.7, math.pi / 2]
 names = ["left", "middle", "right"]
 bases = [-2.0, 0.0, 2.0]
 
 
-def q(arm, t):
-    return [s + 0.2 * math.sin(2 * math.pi * t / (40.0 + 7 * arm) + j) for j, s in enumerate(seed)]
+def q(arm, i):
+    return [s + 0.2 * math.sin(2 * math.pi * i / (60 + 7 * arm) + j) for j, s in enumerate(seed)]
 
 
-paths = [[q(a, i * dt) for i in range(steps)] for a in range(3)]
+paths = [[q(a, i) for i in range(steps)] for a in range(3)]
 lines = "".join(json.dumps(c) + "\n" for p in paths for c in p)
 poses = subprocess.run([omcbsa, "fk", "--model", "kinova_gen3"], input=lines, text=True,
                        capture_output=True, check=True).stdout.splitlines()
