@@ -346,7 +346,7 @@ fn stream_arm(
                 prev1 = cmd;
                 let done = end.is_some_and(|e| k as u64 >= e + cfg.settle_cycles as u64);
                 if let Some(p) = progress {
-                    if k % progress_every == 0 || done {
+                    if k.is_multiple_of(progress_every) || done {
                         p(Progress {
                             arm: &bus.name,
                             cycle: k + 1,

@@ -12,7 +12,7 @@ use omcbsa_hw::interpolate::{min_time_scale, Command};
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::stream::Generator;
 use omcbsa_hw::{Event, ExecConfig, Executor, JointLimits, PushError, StreamHandle, JOINTS};
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// Three mocks per test: run the tests of this file one at a time.
@@ -39,6 +39,7 @@ struct Pushed {
 }
 
 struct Online {
+    _one_at_a_time: MutexGuard<'static, ()>,
     handle: StreamHandle,
     mocks: Vec<omcbsa_hw::mock::MockArm>,
     starts: Vec<[f64; JOINTS]>,
@@ -46,9 +47,13 @@ struct Online {
     pushed: Vec<Pushed>,
 }
 
-/// Starts the mocks and the online stream at the first waypoints of `plan`.
-fn start(tag: &str, time_scale: f64) -> (Online, Vec<Path>) {
+/// Starts the mocks and the online stream at the first waypoints of a 3-arm plan, slowed
+/// down so that its segments are within the limits; returns the plan's paths.
+fn start(tag: &str) -> (Online, Vec<Path>) {
+    let one_at_a_time = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let plan = three_arm_plan(40);
+    let paths: Vec<Path> = plan.arms.iter().map(|a| a.joint_path.clone()).collect();
+    let time_scale = scale(&paths);
     let mocks = spawn_arms(&plan, tag, &[]);
     let starts: Vec<[f64; JOINTS]> = plan.arms.iter().map(|a| a.joint_path[0]).collect();
     let arms = (open_buses(&mocks).into_iter().zip(&starts))
@@ -56,8 +61,8 @@ fn start(tag: &str, time_scale: f64) -> (Online, Vec<Path>) {
         .collect();
     let handle = Executor::online(arms, DT, time_scale, JointLimits::kinova_gen3(), config())
         .unwrap_or_else(|e| panic!("{e}"));
-    let paths = plan.arms.into_iter().map(|a| a.joint_path).collect();
     let online = Online {
+        _one_at_a_time: one_at_a_time,
         handle,
         mocks,
         starts,
@@ -80,7 +85,7 @@ impl Online {
     }
 
     /// Waits until `done` holds for the stream's progress (at most 20 s).
-    fn wait(&self, what: &str, done: impl Fn(&omcbsa_hw::StreamProgress) -> bool) {
+    fn wait(&self, what: &str, mut done: impl FnMut(&omcbsa_hw::StreamProgress) -> bool) {
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
             let p = self.handle.progress();
@@ -97,6 +102,16 @@ impl Online {
             );
             std::thread::sleep(Duration::from_millis(2));
         }
+    }
+
+    /// Waits for the next events (at most 20 s).
+    fn next_events(&self, what: &str) -> Vec<Event> {
+        let mut events = Vec::new();
+        self.wait(what, |_| {
+            events = self.handle.events();
+            !events.is_empty()
+        });
+        events
     }
 
     /// Finishes the stream, replays the pushes on a generator, and checks every mock's record
@@ -169,14 +184,7 @@ fn at(paths: &[Path], step: usize) -> Vec<[f64; JOINTS]> {
 
 #[test]
 fn pushed_segments_replace_the_tail_while_running_with_continuous_commands() {
-    let _one = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-    let plan = three_arm_plan(40);
-    let paths: Vec<Path> = plan.arms.iter().map(|a| a.joint_path.clone()).collect();
-    let (mut online, paths) = {
-        let s = scale(&paths);
-        let (o, p) = start("replace", s);
-        (o, p)
-    };
+    let (mut online, paths) = start("replace");
     let first: Vec<Path> = paths.iter().map(|p| p[1..20].to_vec()).collect();
     online.push(1, first).unwrap();
     online.wait("step 5", |p| p.step >= 5);
@@ -198,43 +206,38 @@ fn pushed_segments_replace_the_tail_while_running_with_continuous_commands() {
 
 #[test]
 fn late_segment_lets_the_arms_hold_within_limits_and_is_reported() {
-    let _one = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-    let plan = three_arm_plan(40);
-    let paths: Vec<Path> = plan.arms.iter().map(|a| a.joint_path.clone()).collect();
-    let (mut online, paths) = start("late", scale(&paths));
+    let (mut online, paths) = start("late");
     online
         .push(1, paths.iter().map(|p| p[1..8].to_vec()).collect())
         .unwrap();
-    online.wait("the queue to run dry", |p| p.holding && p.step == 7);
-    std::thread::sleep(Duration::from_millis(100));
-    let events = online.handle.events();
-    assert!(
-        matches!(events[..], [Event::QueueDry { step: 7, .. }]),
-        "{events:?}"
-    );
+    let events = online.next_events("the queue to run dry");
+    let dry = match events[..] {
+        [Event::QueueDry { step: 7, cycle }] => cycle,
+        _ => panic!("{events:?}"),
+    };
+    online.wait("50 cycles of hold", |p| p.cycle >= dry + 50);
     // the late segment continues from the held waypoint
     online
         .push(8, paths.iter().map(|p| p[8..16].to_vec()).collect())
         .unwrap();
-    online.wait("the arms to move on", |p| p.step >= 8);
-    let events = online.handle.events();
+    let resume = online.pushed[1].cycle;
+    let events = online.next_events("the arms to move on");
     assert!(
         matches!(events[..], [Event::Resumed { step: 7, .. }]),
         "{events:?}"
     );
     let (cmds, report) = online.finish_and_check();
     assert_eq!(report.holds, 1, "{report}");
-    // the hold: at least 50 cycles (100 ms) of one unchanged command, at step 7's waypoint
-    let held = cmds[0].windows(50).any(|w| w.iter().all(|c| *c == w[0]));
-    assert!(held);
+    // the hold: one unchanged command, at step 7's waypoint, from the dry cycle to the push
+    for arm in &cmds {
+        let held = &arm[dry as usize..resume as usize];
+        assert!(held.len() >= 50 && held.iter().all(|c| *c == held[0]));
+    }
 }
 
 #[test]
 fn segment_breaking_a_limit_is_refused_and_none_of_it_is_sent() {
-    let _one = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-    let plan = three_arm_plan(40);
-    let paths: Vec<Path> = plan.arms.iter().map(|a| a.joint_path.clone()).collect();
-    let (mut online, paths) = start("refuse", scale(&paths));
+    let (mut online, paths) = start("refuse");
     // refused before anything moves: joint 1 of arm 1 jumps by 0.5 rad
     let mut bad: Vec<Path> = paths.iter().map(|p| p[1..10].to_vec()).collect();
     bad[1][3][0] += 0.5;
