@@ -21,6 +21,7 @@ use serde_json::error::Category;
 use serde_json::value::RawValue;
 
 use crate::error::{quoted, Errors, InputError};
+use crate::format::DT_RANGE;
 use crate::format::{
     ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToolSpec,
     MAX_JOINT_VALUE, PROBLEM_FORMAT, SOLUTION_FORMAT,
@@ -181,6 +182,16 @@ pub fn problem<M: Model<D>, const D: usize>(file: &ProblemFile) -> Result<Proble
     }
     if !(file.dt.is_finite() && file.dt > 0.0) {
         errors.push("dt", format!("must be > 0, got {}", file.dt));
+    } else if !DT_RANGE.contains(&file.dt) {
+        errors.push(
+            "dt",
+            format!(
+                "must be within [{}, {}] s, got {}",
+                DT_RANGE.start(),
+                DT_RANGE.end(),
+                file.dt
+            ),
+        );
     }
     for (field, value) in [
         ("tolerance.position_m", file.tolerance.position_m),

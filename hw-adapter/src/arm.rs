@@ -6,12 +6,15 @@ mod setup;
 
 pub use setup::SetupOverride;
 
+/// Per joint, the range (bus counts) an arm's commands stay in.
+pub type Span = [(i32, i32); JOINTS];
+
 use crate::canopen::{self, Emcy, Message, NmtCommand, SdoReply};
 use crate::cia402::{self, counts_to_rad};
 use crate::executor::{ExecConfig, Fault};
 use crate::frame::CanFrame;
 use crate::interpolate::Command;
-use crate::log::LogEntry;
+use crate::log::{LogEntry, LogSink};
 use crate::plan::JOINTS;
 use crate::transport::{Transport, TransportError};
 use std::collections::VecDeque;
@@ -60,7 +63,9 @@ pub struct ArmBus {
     /// Origin of the log's time stamps.
     clock: Instant,
     send_timeout: Duration,
-    pub log: Vec<LogEntry>,
+    log: Option<LogSink>,
+    /// Frames sent so far.
+    pub frames_sent: usize,
     nodes: [NodeState; JOINTS],
     /// Send times of the SYNCs not yet answered by every node, oldest first, and how many
     /// SYNCs before them every node has answered.
@@ -75,13 +80,15 @@ impl ArmBus {
         transport: Box<dyn Transport>,
         clock: Instant,
         cfg: &ExecConfig,
+        log: Option<LogSink>,
     ) -> Self {
         Self {
             name,
             transport,
             clock,
             send_timeout: cfg.send_timeout,
-            log: Vec::new(),
+            log,
+            frames_sent: 0,
             nodes: [NodeState::default(); JOINTS],
             syncs: VecDeque::new(),
             syncs_done: 0,
@@ -94,12 +101,15 @@ impl ArmBus {
         if frame.id() == canopen::SYNC_ID {
             self.syncs.push_back(Instant::now());
         }
-        self.log.push(LogEntry {
-            t: self.clock.elapsed().as_secs_f64(),
-            arm: self.name.clone(),
-            frame: frame.to_string(),
-            what,
-        });
+        self.frames_sent += 1;
+        if let Some(log) = &self.log {
+            log.write(&LogEntry {
+                t: self.clock.elapsed().as_secs_f64(),
+                arm: &self.name,
+                frame: frame.to_string(),
+                what: &what,
+            });
+        }
         Ok(())
     }
 

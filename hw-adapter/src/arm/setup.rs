@@ -9,7 +9,7 @@
 //!
 //! A drive's SDO abort ends the set-up with the node, the object and the abort code.
 
-use super::{node_id, ArmBus, NodeState};
+use super::{node_id, ArmBus, NodeState, Span};
 use crate::canopen::{self, NmtCommand, SdoReply, SdoValue};
 use crate::cia402::{self, counts_to_rad};
 use crate::executor::ExecConfig;
@@ -131,7 +131,8 @@ impl ArmBus {
     pub fn configure(
         &mut self,
         cfg: &ExecConfig,
-        cmds: &[Command],
+        start: &Command,
+        span: &Span,
         stop: &AtomicBool,
     ) -> Result<(), String> {
         let period = cia402::interpolation_time_period(cfg.period).ok_or_else(|| {
@@ -141,7 +142,6 @@ impl ArmBus {
                 cfg.period
             )
         })?;
-        let start = cmds.first().ok_or("the trajectory is empty")?;
         let timeout = cfg.sdo_timeout;
         for j in 0..JOINTS {
             let node = node_id(j);
@@ -192,8 +192,7 @@ impl ArmBus {
             let limit = cia402::SOFTWARE_POSITION_LIMIT;
             let lo = i32::from_le_bytes(self.sdo_read(node, (limit, 1), timeout)?);
             let hi = i32::from_le_bytes(self.sdo_read(node, (limit, 2), timeout)?);
-            let (min, max) = (cmds.iter().map(|c| c[j]))
-                .fold((i32::MAX, i32::MIN), |(a, b), c| (a.min(c), b.max(c)));
+            let (min, max) = span[j];
             if min < lo || max > hi {
                 return Err(format!(
                     "joint {}: the plan spans [{:.6}, {:.6}] rad, beyond the drive's software \
