@@ -11,6 +11,7 @@ pub mod execute;
 pub mod format;
 pub mod load;
 pub mod models;
+pub mod online;
 pub mod planners;
 pub mod pose;
 pub mod suite;
