@@ -19,10 +19,12 @@
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
 mod error;
+pub mod policy;
+pub mod record;
 
 pub use error::OnlineError;
 
-use omcbsa_core::approach::{plan_approach, ApproachError, ApproachParams};
+use omcbsa_core::approach::ApproachParams;
 use omcbsa_core::ik::{ik, ik_multi_start, MultiStart};
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{Stats, Status};
@@ -111,7 +113,6 @@ pub struct Embodier {
     names: Vec<String>,
     options: OnlineOptions,
     storage: Storage,
-    approach_buf: Vec<[f64; DOF]>,
     /// Per robot, its configurations from timeline index `window_start` on.
     window: Vec<Vec<[f64; DOF]>>,
     window_start: usize,
@@ -171,13 +172,11 @@ impl Embodier {
         let mut problem = load::problem::<KinovaGen3, DOF>(&file)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
-        let n = robots.len();
         let storage = Storage::new(options.capacities, options.max_chunk_len + 1);
         Ok(Embodier {
             robots,
             template: problem,
             names: setup.robots.iter().map(|r| r.name.clone()).collect(),
-            approach_buf: vec![[0.0; DOF]; n * options.max_approach_len],
             options,
             storage,
             window: Vec::new(),
@@ -335,25 +334,25 @@ impl Embodier {
         let outcome = self.solve(&problem, start_step)?;
         let h = problem.horizon();
         let n = self.robots.len();
-        let mut flat = Vec::with_capacity(n * h);
-        outcome
-            .joint_paths
-            .iter()
-            .for_each(|p| flat.extend_from_slice(p));
-        let a = plan_approach::<KinovaGen3, DOF>(
+        let approach = crate::approach::approach(
             &problem,
-            &flat,
-            h,
+            &outcome.joint_paths,
             &self.options.approach,
-            &mut self.approach_buf,
+            &self.names,
         )
-        .map_err(|e| OnlineError::Approach(self.describe(e)))?;
-        let cap = self.options.max_approach_len;
+        .map_err(OnlineError::Approach)?;
+        let a = approach.first().map_or(0, Vec::len);
+        if a > self.options.max_approach_len {
+            return Err(OnlineError::Approach(format!(
+                "it needs {a} configurations, more than max_approach_len {}",
+                self.options.max_approach_len
+            )));
+        }
         self.window = (0..n)
             .map(|i| {
                 let mut w = Vec::with_capacity(1 + a + h);
                 w.push(self.robots[i].initial.unwrap_or(outcome.joint_paths[i][0]));
-                w.extend_from_slice(&self.approach_buf[i * cap..i * cap + a]);
+                w.extend_from_slice(&approach[i]);
                 w.extend_from_slice(&outcome.joint_paths[i]);
                 w
             })
@@ -517,27 +516,5 @@ impl Embodier {
             }
         }
         None
-    }
-
-    fn describe(&self, e: ApproachError) -> String {
-        let name = |i: usize| format!("robot {i} ({:?})", self.names[i]);
-        match e {
-            ApproachError::StartCollides { robot, other: None } => {
-                format!("{} collides where it stands (initial)", name(robot))
-            }
-            ApproachError::StartCollides {
-                robot,
-                other: Some(o),
-            } => format!("{} and {} collide where they stand", name(robot), name(o)),
-            ApproachError::TooLong { needed, capacity } => {
-                format!("it needs {needed} configurations, more than max_approach_len {capacity}")
-            }
-            ApproachError::Blocked { robot, other } => format!(
-                "every motion tried collides: {} hits {}",
-                name(robot),
-                other.map_or("an obstacle or itself".to_string(), name)
-            ),
-            ApproachError::Invalid(why) => why.to_string(),
-        }
     }
 }
