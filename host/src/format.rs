@@ -32,6 +32,11 @@ impl Pose {
     };
 }
 
+/// The `dt` a problem may have, s. Below 1 ms consecutive poses are closer together than the
+/// Gen3's 1 kHz control loop can follow; above a minute between two poses a plan is no longer
+/// a motion (and its execution's length in control cycles grows without bound).
+pub const DT_RANGE: std::ops::RangeInclusive<f64> = 0.001..=60.0;
+
 /// A problem file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

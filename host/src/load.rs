@@ -17,6 +17,7 @@ use serde::de::DeserializeOwned;
 use serde_json::Value;
 
 use crate::error::{Errors, InputError};
+use crate::format::DT_RANGE;
 use crate::format::{
     ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, PROBLEM_FORMAT,
     SOLUTION_FORMAT,
@@ -116,6 +117,16 @@ pub fn problem<M: Model<D>, const D: usize>(file: &ProblemFile) -> Result<Proble
     }
     if !(file.dt.is_finite() && file.dt > 0.0) {
         errors.push("dt", format!("must be > 0, got {}", file.dt));
+    } else if !DT_RANGE.contains(&file.dt) {
+        errors.push(
+            "dt",
+            format!(
+                "must be within [{}, {}] s, got {}",
+                DT_RANGE.start(),
+                DT_RANGE.end(),
+                file.dt
+            ),
+        );
     }
     for (field, value) in [
         ("tolerance.position_m", file.tolerance.position_m),

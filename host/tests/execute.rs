@@ -204,3 +204,38 @@ fn dry_run_checks_everything_and_logs_what_it_would_send() {
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("--rate"), "{text}");
 }
+
+/// Issue 15: values that once aborted, panicked or talked about NaN are bad input (exit 2)
+/// with a message naming the value, never a crash (exit 101).
+#[test]
+fn out_of_range_dt_and_rate_are_refused_with_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = demo();
+    for (dt, shown) in [
+        (1e6, "1000000"),
+        (1e308, "1000000000000000"),
+        (1e-4, "0.0001"),
+    ] {
+        let mut d = Demo {
+            problem: demo.problem.clone(),
+            witness: demo.witness.clone(),
+        };
+        d.problem.dt = dt;
+        let (code, text) = execute(dir.path(), &d, &d.witness, &["--dry-run"]);
+        assert_eq!(code, 2, "dt {dt}: {text}");
+        assert!(
+            text.contains("dt: must be within [0.001, 60] s, got ") && text.contains(shown),
+            "dt {dt}: {text}"
+        );
+        assert!(!text.contains("NaN"), "{text}");
+    }
+    for rate in ["1e-20", "99", "1001", "NaN", "inf", "-500"] {
+        let flag = format!("--rate={rate}");
+        let (code, text) = execute(dir.path(), &demo, &demo.witness, &["--dry-run", &flag]);
+        assert_eq!(code, 2, "--rate {rate}: {text}");
+        assert!(
+            text.contains("--rate: must be within [100, 1000] Hz, got "),
+            "--rate {rate}: {text}"
+        );
+    }
+}

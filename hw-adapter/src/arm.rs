@@ -7,7 +7,7 @@ use crate::cia402::{self, counts_to_rad};
 use crate::executor::{ExecConfig, Fault};
 use crate::frame::CanFrame;
 use crate::interpolate::Command;
-use crate::log::LogEntry;
+use crate::log::{LogEntry, LogSink};
 use crate::plan::JOINTS;
 use crate::transport::{Transport, TransportError};
 use std::time::{Duration, Instant};
@@ -53,7 +53,9 @@ pub struct ArmBus {
     /// Origin of the log's time stamps.
     clock: Instant,
     send_timeout: Duration,
-    pub log: Vec<LogEntry>,
+    log: Option<LogSink>,
+    /// Frames sent so far.
+    pub frames_sent: usize,
     nodes: [NodeState; JOINTS],
     sdo_reply: Option<(u8, SdoReply)>,
 }
@@ -64,13 +66,15 @@ impl ArmBus {
         transport: Box<dyn Transport>,
         clock: Instant,
         cfg: &ExecConfig,
+        log: Option<LogSink>,
     ) -> Self {
         Self {
             name,
             transport,
             clock,
             send_timeout: cfg.send_timeout,
-            log: Vec::new(),
+            log,
+            frames_sent: 0,
             nodes: [NodeState::default(); JOINTS],
             sdo_reply: None,
         }
@@ -78,12 +82,15 @@ impl ArmBus {
 
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
-        self.log.push(LogEntry {
-            t: self.clock.elapsed().as_secs_f64(),
-            arm: self.name.clone(),
-            frame: frame.to_string(),
-            what,
-        });
+        self.frames_sent += 1;
+        if let Some(log) = &self.log {
+            log.write(&LogEntry {
+                t: self.clock.elapsed().as_secs_f64(),
+                arm: &self.name,
+                frame: frame.to_string(),
+                what: &what,
+            });
+        }
         Ok(())
     }
 

@@ -1,17 +1,17 @@
 //! The executor: validates, interpolates, starts every arm together (one thread per bus),
 //! streams, watches the feedback, and on any fault quick-stops every arm.
 
-use crate::arm::{cycle_frames, ArmBus};
+use crate::arm::cycle_frames;
 use crate::cia402;
-use crate::interpolate::{check_command, interpolate, Command, Trajectory};
-use crate::log::{write_jsonl, LogEntry};
+use crate::interpolate::plan_generator;
+use crate::live::{self, RunInfo, StreamHandle};
+use crate::log::LogEntry;
 use crate::plan::{JointLimits, Plan, PlanValidator, JOINTS};
+use crate::stream::Generator;
 use crate::transport::Transport;
 use std::fmt;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Barrier, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Every arm sends its stop frames within this many control periods of a fault's detection.
 /// The arms stream in lockstep (no arm sends cycle k+1 before every arm has sent cycle k), so no
@@ -19,9 +19,6 @@ use std::time::{Duration, Instant};
 /// arm thread looks at the shared fault flag at least every `FAULT_POLL` while it waits, so
 /// its stop follows within a fraction of a period, preemption by the OS aside.
 pub const STOP_BOUND_PERIODS: u32 = 3;
-
-/// How often a waiting arm thread looks at the shared fault flag.
-const FAULT_POLL: Duration = Duration::from_micros(100);
 
 #[derive(Clone, Debug)]
 pub struct ExecConfig {
@@ -48,6 +45,9 @@ pub struct ExecConfig {
     pub send_timeout: Duration,
     /// Cycles holding the final position, feedback still watched, before the drives are disabled.
     pub settle_cycles: usize,
+    /// Online execution: the most motion a push may queue ahead of the fixed waypoint (each
+    /// push is checked cycle by cycle over its whole tail while the stream waits).
+    pub online_horizon: Duration,
 }
 
 impl Default for ExecConfig {
@@ -65,6 +65,7 @@ impl Default for ExecConfig {
             start_tolerance: 1e-3,
             send_timeout: Duration::from_millis(2),
             settle_cycles: 50,
+            online_horizon: Duration::from_secs(20),
         }
     }
 }
@@ -242,6 +243,8 @@ pub struct Report {
     pub arms: Vec<ArmReport>,
     /// Largest delay of a cycle behind its schedule.
     pub max_lateness: Duration,
+    /// Online execution: times the queue ran dry and the arms held.
+    pub holds: usize,
 }
 
 impl fmt::Display for Report {
@@ -270,6 +273,13 @@ impl fmt::Display for Report {
                 a.name, a.cycles_sent, a.max_following_error
             )?;
         }
+        if self.holds > 0 {
+            write!(
+                f,
+                "\nthe queue ran dry {} times (the arms held)",
+                self.holds
+            )?;
+        }
         if !self.dry_run {
             write!(f, "\nlargest cycle lateness {:?}", self.max_lateness)?;
         }
@@ -285,7 +295,7 @@ pub struct Progress<'a> {
     pub cycles: usize,
 }
 
-type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
+pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
 
 pub struct Executor {
     plan: Plan,
@@ -294,41 +304,6 @@ pub struct Executor {
     buses: Vec<Box<dyn Transport>>,
     config: ExecConfig,
     progress: Option<ProgressFn>,
-}
-
-/// State shared by the arm threads.
-struct Shared {
-    barrier: Barrier,
-    startup_failed: AtomicBool,
-    start: Mutex<Option<Instant>>,
-    faulted: AtomicBool,
-    names: Vec<String>,
-    /// Cycles each arm has sent (`usize::MAX` once it has finished).
-    sent: Vec<AtomicUsize>,
-    /// The first fault: arm, fault, cycle, when detected.
-    fault: Mutex<Option<(String, Fault, usize, Instant)>>,
-}
-
-impl Shared {
-    fn raise(&self, arm: &str, fault: Fault, cycle: usize) -> Instant {
-        let now = Instant::now();
-        let mut first = self.fault.lock().unwrap_or_else(|p| p.into_inner());
-        first.get_or_insert((arm.to_string(), fault, cycle, now));
-        self.faulted.store(true, Ordering::SeqCst);
-        now
-    }
-}
-
-enum ArmEnd {
-    StartupFailed(String),
-    /// Start-up went fine but another arm's did not.
-    Aborted,
-    Completed {
-        cycles: usize,
-        max_following_error: f64,
-        max_lateness: Duration,
-    },
-    Stopped(ArmStop),
 }
 
 impl Executor {
@@ -372,326 +347,134 @@ impl Executor {
     }
 
     /// Validates the plan with `validator` (refusing to start, nothing sent, if it fails),
-    /// interpolates it, and streams it to every arm.
+    /// checks every command it leads to against the limits (likewise), and streams it to
+    /// every arm, computing each cycle's commands as they are sent.
     pub fn run(self, validator: &dyn PlanValidator) -> Result<Report, ExecError> {
         validator.validate(&self.plan).map_err(ExecError::Refused)?;
-        let traj = interpolate(&self.plan, &self.limits, self.config.period.as_secs_f64())
-            .map_err(ExecError::Limits)?;
-        if self.config.dry_run {
-            return self.dry_run(&traj);
-        }
-        let clock = Instant::now();
-        let Executor {
-            plan,
-            limits,
-            buses,
-            config,
-            progress,
-        } = self;
-        let shared = Shared {
-            barrier: Barrier::new(buses.len()),
-            startup_failed: AtomicBool::new(false),
-            start: Mutex::new(None),
-            faulted: AtomicBool::new(false),
-            names: plan.arms.iter().map(|a| a.name.clone()).collect(),
-            sent: buses.iter().map(|_| AtomicUsize::new(0)).collect(),
-            fault: Mutex::new(None),
-        };
-        let (limits, config, progress) = (&limits, &config, progress.as_deref());
-        let ends: Vec<(ArmEnd, Vec<LogEntry>)> = std::thread::scope(|s| {
-            let handles: Vec<_> = buses
-                .into_iter()
-                .zip(&plan.arms)
-                .zip(&traj.commands)
-                .enumerate()
-                .map(|(me, ((bus, arm), cmds))| {
-                    let shared = &shared;
-                    let mut bus = ArmBus::new(arm.name.clone(), bus, clock, config);
-                    s.spawn(move || {
-                        let end = stream_arm(me, &mut bus, cmds, shared, config, limits, progress);
-                        (end, bus.log)
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| {
-                    h.join().unwrap_or_else(|_| {
-                        (
-                            ArmEnd::StartupFailed("arm thread panicked".into()),
-                            Vec::new(),
-                        )
-                    })
-                })
-                .collect()
-        });
-        finish_run(&plan, config, &traj, ends, shared)
-    }
-
-    fn dry_run(&self, traj: &Trajectory) -> Result<Report, ExecError> {
         let period = self.config.period.as_secs_f64();
-        let mut log = Vec::new();
-        for (arm, cmds) in self.plan.arms.iter().zip(&traj.commands) {
-            for (k, cmd) in cmds.iter().enumerate() {
-                for (f, what) in cycle_frames(cmd, cia402::CW_ENABLE_OPERATION) {
-                    log.push(LogEntry {
-                        t: k as f64 * period,
-                        arm: arm.name.clone(),
-                        frame: f.to_string(),
-                        what,
-                    });
-                }
-            }
+        let (generator, timing) =
+            plan_generator(&self.plan, &self.limits, period).map_err(ExecError::Limits)?;
+        let names: Vec<String> = self.plan.arms.iter().map(|a| a.name.clone()).collect();
+        if self.config.dry_run {
+            return dry_run(generator, &names, &self.config, timing.time_scale);
         }
-        let frames_sent = log.len();
-        write_log(&self.config, &mut log)?;
-        Ok(Report {
-            dry_run: true,
-            period: self.config.period,
-            time_scale: traj.time_scale,
-            cycles: traj.commands.first().map_or(0, |c| c.len()),
-            frames_sent,
-            arms: self
-                .plan
-                .arms
-                .iter()
-                .zip(&traj.commands)
-                .map(|(a, c)| ArmReport {
-                    name: a.name.clone(),
-                    cycles_sent: c.len(),
-                    max_following_error: 0.0,
-                })
-                .collect(),
-            max_lateness: Duration::ZERO,
-        })
-    }
-}
-
-fn write_log(cfg: &ExecConfig, log: &mut [LogEntry]) -> Result<(), ExecError> {
-    match &cfg.log_path {
-        Some(path) => write_jsonl(path, log).map_err(|error| ExecError::Log {
-            path: path.clone(),
-            error,
-        }),
-        None => Ok(()),
-    }
-}
-
-/// One arm's whole run, on its own thread.
-fn stream_arm(
-    me: usize,
-    bus: &mut ArmBus,
-    cmds: &[Command],
-    shared: &Shared,
-    cfg: &ExecConfig,
-    limits: &[JointLimits; JOINTS],
-    progress: Option<&(dyn Fn(Progress) + Send + Sync)>,
-) -> ArmEnd {
-    // The trajectory always has a first command (plans have at least one waypoint).
-    let (first, last) = (cmds[0], cmds[cmds.len() - 1]);
-    let startup = bus.start_up(cfg, &first);
-    if startup.is_err() {
-        shared.startup_failed.store(true, Ordering::SeqCst);
-    }
-    shared.barrier.wait();
-    if let Err(e) = startup {
-        return ArmEnd::StartupFailed(e);
-    }
-    if shared.startup_failed.load(Ordering::SeqCst) {
-        return match bus.abort() {
-            Ok(()) => ArmEnd::Aborted,
-            Err(e) => ArmEnd::StartupFailed(format!("while aborting: {e}")),
+        let info = RunInfo {
+            time_scale: timing.time_scale,
+            total_cycles: Some(timing.cycles as u64 + 1 + self.config.settle_cycles as u64),
         };
+        let progress = self.progress;
+        live::start(
+            names,
+            generator,
+            self.buses,
+            self.config,
+            progress,
+            true,
+            info,
+        )?
+        .finish()
     }
-    // Every arm streams on the same schedule from a common start time.
-    let t0 = *shared
-        .start
-        .lock()
-        .unwrap_or_else(|p| p.into_inner())
-        .get_or_insert_with(|| Instant::now() + cfg.period);
-    let period = cfg.period.as_secs_f64();
-    let total = cmds.len() + cfg.settle_cycles;
-    let progress_every = (0.1 / period).ceil().max(1.0) as usize;
-    let (mut prev2, mut prev1) = (first, first);
-    let mut max_fe: f64 = 0.0;
-    let mut max_late = Duration::ZERO;
-    for k in 0..total {
-        let due = t0 + cfg.period * k as u32;
-        max_late = max_late.max(Instant::now().saturating_duration_since(due));
-        let fault = if let Err(e) = wait_turn(me, k, due, shared, cfg) {
-            Some(e)
-        } else if let Err(e) = bus.poll() {
-            Some(Fault::Bus(e.to_string()))
-        } else if shared.faulted.load(Ordering::SeqCst) {
-            None
-        } else {
-            let cmd = cmds.get(k).unwrap_or(&last);
-            match bus.check_feedback(Instant::now(), cfg, &prev1) {
-                Err(f) => Some(f),
-                Ok(fe) => {
-                    max_fe = max_fe.max(fe);
-                    match check_command(limits, &prev2, &prev1, cmd, period) {
-                        Err(e) => Some(Fault::CommandRefused(e)),
-                        Ok(()) => match bus.send_cycle(cmd, cia402::CW_ENABLE_OPERATION) {
-                            Err(e) => Some(Fault::Bus(e.to_string())),
-                            Ok(()) => {
-                                shared.sent[me].store(k + 1, Ordering::SeqCst);
-                                (prev2, prev1) = (prev1, *cmd);
-                                if let Some(p) = progress {
-                                    if k % progress_every == 0 || k + 1 == total {
-                                        p(Progress {
-                                            arm: &bus.name,
-                                            cycle: k + 1,
-                                            cycles: total,
-                                        });
-                                    }
-                                }
-                                continue;
-                            }
-                        },
-                    }
-                }
-            }
-        };
-        // A fault here or on another arm: quick stop, and nothing after it.
-        let detected = match fault {
-            Some(f) => shared.raise(&bus.name, f, k),
-            None => shared
-                .fault
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .as_ref()
-                .map_or_else(Instant::now, |f| f.3),
-        };
-        let error = bus.quick_stop(&prev1).err();
-        return ArmEnd::Stopped(ArmStop {
-            arm: bus.name.clone(),
-            cycles_sent: k,
-            latency: detected.elapsed(),
-            error,
-        });
-    }
-    shared.sent[me].store(usize::MAX, Ordering::SeqCst);
-    match bus.finish(&last) {
-        Ok(()) => ArmEnd::Completed {
-            cycles: total,
-            max_following_error: max_fe,
-            max_lateness: max_late,
-        },
-        Err(e) => {
-            let detected = shared.raise(&bus.name, Fault::Bus(e.clone()), total);
-            ArmEnd::Stopped(ArmStop {
-                arm: bus.name.clone(),
-                cycles_sent: total,
-                latency: detected.elapsed(),
-                error: Some(e),
-            })
-        }
-    }
-}
 
-/// Waits until cycle `k` is due and every arm has sent cycle `k - 1`; returns early if a fault
-/// is raised. An arm that keeps the others waiting longer than the feedback timeout is a fault.
-fn wait_turn(
-    me: usize,
-    k: usize,
-    due: Instant,
-    shared: &Shared,
-    cfg: &ExecConfig,
-) -> Result<(), Fault> {
-    let give_up = due.max(Instant::now()) + cfg.feedback_timeout;
-    loop {
-        if shared.faulted.load(Ordering::SeqCst) {
-            return Ok(());
+    /// Online execution: starts every arm holding still at its start configuration and returns
+    /// the handle that pushes segments (waypoints `dt` apart, streamed slowed down uniformly by
+    /// `time_scale` >= 1) while the arms move. `arms` pairs each arm's name with its start
+    /// configuration and its bus; the handle's pushes take the arms in this order. A dry run
+    /// is not supported here. Each push may queue at most [`ExecConfig::online_horizon`] of
+    /// motion ahead.
+    pub fn online(
+        arms: Vec<(String, [f64; JOINTS], Box<dyn Transport>)>,
+        dt: f64,
+        time_scale: f64,
+        limits: [JointLimits; JOINTS],
+        config: ExecConfig,
+    ) -> Result<StreamHandle, ExecError> {
+        if config.dry_run {
+            return Err(ExecError::Buses(
+                "online execution streams to buses; it has no dry run".into(),
+            ));
         }
-        let now = Instant::now();
-        let behind = shared
-            .sent
-            .iter()
-            .position(|c| c.load(Ordering::SeqCst) < k);
-        if now >= due && behind.is_none() {
-            return Ok(());
-        }
-        if now >= give_up {
-            let other = behind.unwrap_or(me);
-            return Err(Fault::Bus(format!(
-                "arm {:?} fell more than {:?} behind the common schedule",
-                shared.names[other], cfg.feedback_timeout
+        if !(time_scale.is_finite() && time_scale >= 1.0) {
+            return Err(ExecError::InvalidPlan(format!(
+                "time scale must be a number >= 1, got {time_scale}"
             )));
         }
-        std::thread::sleep(
-            due.saturating_duration_since(now)
-                .clamp(Duration::ZERO, FAULT_POLL)
-                .max(Duration::from_micros(20)),
-        );
+        let mut names: Vec<String> = Vec::with_capacity(arms.len());
+        for (n, ..) in &arms {
+            if names.contains(n) {
+                return Err(ExecError::Buses(format!("arm {n:?} is given twice")));
+            }
+            names.push(n.clone());
+        }
+        let starts: Vec<[f64; JOINTS]> = arms.iter().map(|a| a.1).collect();
+        let step_time = dt * time_scale;
+        let max_queued = (config.online_horizon.as_secs_f64() / step_time).floor();
+        let generator = Generator::new(&starts, limits, config.period.as_secs_f64(), step_time)
+            .map_err(ExecError::InvalidPlan)?
+            .with_max_queued(if max_queued >= 1.0 {
+                max_queued as usize
+            } else {
+                1
+            });
+        let buses = arms.into_iter().map(|a| a.2).collect();
+        let info = RunInfo {
+            time_scale,
+            total_cycles: None,
+        };
+        live::start(names, generator, buses, config, None, false, info)
     }
 }
 
-fn finish_run(
-    plan: &Plan,
-    cfg: &ExecConfig,
-    traj: &Trajectory,
-    ends: Vec<(ArmEnd, Vec<LogEntry>)>,
-    shared: Shared,
+/// The dry run: every cycle computed and checked as in a real run, and logged if asked,
+/// without buses.
+fn dry_run(
+    mut generator: Generator,
+    names: &[String],
+    config: &ExecConfig,
+    time_scale: f64,
 ) -> Result<Report, ExecError> {
-    let mut log: Vec<LogEntry> = Vec::new();
-    let mut startup_errors = Vec::new();
-    let mut stops = Vec::new();
-    let mut arms = Vec::new();
-    let mut max_lateness = Duration::ZERO;
-    for ((end, entries), arm) in ends.into_iter().zip(&plan.arms) {
-        log.extend(entries);
-        match end {
-            ArmEnd::StartupFailed(e) => startup_errors.push((arm.name.clone(), e)),
-            ArmEnd::Aborted => {}
-            ArmEnd::Stopped(s) => stops.push(s),
-            ArmEnd::Completed {
-                cycles,
-                max_following_error,
-                max_lateness: late,
-            } => {
-                max_lateness = max_lateness.max(late);
-                arms.push(ArmReport {
-                    name: arm.name.clone(),
-                    cycles_sent: cycles,
-                    max_following_error,
-                });
+    let log = live::open_log(config)?;
+    let period = config.period.as_secs_f64();
+    let mut out = vec![[0; JOINTS]; names.len()];
+    let mut frames_sent = 0;
+    loop {
+        let tick = generator
+            .next(&mut out)
+            .map_err(|e| ExecError::Limits(e.to_string()))?;
+        for (name, cmd) in names.iter().zip(&out) {
+            match &log {
+                Some(log) => {
+                    for (f, what) in cycle_frames(cmd, cia402::CW_ENABLE_OPERATION) {
+                        log.write(&LogEntry {
+                            t: tick.cycle as f64 * period,
+                            arm: name,
+                            frame: f.to_string(),
+                            what: &what,
+                        });
+                        frames_sent += 1;
+                    }
+                }
+                None => frames_sent += JOINTS + 1,
             }
         }
-    }
-    let frames_sent = log.len();
-    let logged = write_log(cfg, &mut log);
-    if !startup_errors.is_empty() {
-        return Err(ExecError::Startup(startup_errors));
-    }
-    if let Some((arm, fault, cycle, _)) =
-        shared.fault.into_inner().unwrap_or_else(|p| p.into_inner())
-    {
-        // Arms that had already finished normally count as stopped at once.
-        for a in arms {
-            stops.push(ArmStop {
-                arm: a.name,
-                cycles_sent: a.cycles_sent,
-                latency: Duration::ZERO,
-                error: None,
+        if tick.holding {
+            live::finish_log(log)?;
+            let cycles = tick.cycle as usize + 1;
+            return Ok(Report {
+                dry_run: true,
+                period: config.period,
+                time_scale,
+                cycles,
+                frames_sent,
+                arms: (names.iter())
+                    .map(|name| ArmReport {
+                        name: name.clone(),
+                        cycles_sent: cycles,
+                        max_following_error: 0.0,
+                    })
+                    .collect(),
+                max_lateness: Duration::ZERO,
+                holds: 0,
             });
         }
-        return Err(ExecError::Fault(Box::new(FaultReport {
-            arm,
-            fault,
-            cycle,
-            stops,
-            bound: cfg.period * STOP_BOUND_PERIODS,
-        })));
     }
-    logged?;
-    Ok(Report {
-        dry_run: false,
-        period: cfg.period,
-        time_scale: traj.time_scale,
-        cycles: traj.commands.first().map_or(0, |c| c.len()),
-        frames_sent,
-        arms,
-        max_lateness,
-    })
 }

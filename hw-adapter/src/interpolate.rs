@@ -7,8 +7,9 @@
 //! plan's `dt` is too short for the velocity or acceleration limits, the whole plan (every arm
 //! alike, so the arms stay coordinated) is slowed down uniformly.
 
-use crate::cia402::{counts_to_rad, rad_to_counts};
+use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
 use crate::plan::{JointLimits, Plan, JOINTS};
+use crate::stream::{Generator, PushError};
 
 /// The fraction of each velocity and acceleration limit the interpolation aims for; the rest
 /// absorbs the rounding of commands to bus counts (see `cia402`).
@@ -29,15 +30,15 @@ pub struct Trajectory {
 
 /// One cubic Hermite segment on u ∈ [0, 1]; tangents are per segment (rad per segment).
 #[derive(Clone, Copy)]
-struct Segment {
-    p0: f64,
-    p1: f64,
-    m0: f64,
-    m1: f64,
+pub(crate) struct Segment {
+    pub p0: f64,
+    pub p1: f64,
+    pub m0: f64,
+    pub m1: f64,
 }
 
 impl Segment {
-    fn position(&self, u: f64) -> f64 {
+    pub fn position(&self, u: f64) -> f64 {
         let (u2, u3) = (u * u, u * u * u);
         (2.0 * u3 - 3.0 * u2 + 1.0) * self.p0
             + (u3 - 2.0 * u2 + u) * self.m0
@@ -71,137 +72,151 @@ impl Segment {
     }
 }
 
-/// The spline segments of one joint's waypoints.
-fn segments(points: impl Iterator<Item = f64> + Clone) -> Vec<Segment> {
-    let p: Vec<f64> = points.collect();
-    let slope = |i: usize| p[i + 1] - p[i];
-    let tangent = |i: usize| {
-        if i == 0 || i + 1 == p.len() {
-            return 0.0;
-        }
-        let (a, b) = (slope(i - 1), slope(i));
-        if a * b <= 0.0 {
-            0.0
-        } else {
-            2.0 * a * b / (a + b)
-        }
-    };
-    (0..p.len().saturating_sub(1))
-        .map(|i| Segment {
-            p0: p[i],
-            p1: p[i + 1],
-            m0: tangent(i),
-            m1: tangent(i + 1),
-        })
-        .collect()
+/// The tangent at a waypoint between slopes `a` (from the previous waypoint) and `b` (to the
+/// next): their harmonic mean, or zero where the path turns (Fritsch–Butland).
+pub(crate) fn fritsch_butland(a: f64, b: f64) -> f64 {
+    if a * b <= 0.0 {
+        0.0
+    } else {
+        2.0 * a * b / (a + b)
+    }
 }
 
-/// Interpolates every arm of `plan` (whose shape must be valid) to `period`, slowing the plan
-/// down if needed, and checks every resulting command against `limits`.
+/// Segment `i` (waypoint `i` to `i + 1`) of joint `j` of `path`, at rest at both ends.
+fn segment(path: &[[f64; JOINTS]], j: usize, i: usize) -> Segment {
+    let p = |k: usize| path[k][j];
+    let tangent = |k: usize| {
+        if k == 0 || k + 1 == path.len() {
+            0.0
+        } else {
+            fritsch_butland(p(k) - p(k - 1), p(k + 1) - p(k))
+        }
+    };
+    Segment {
+        p0: p(i),
+        p1: p(i + 1),
+        m0: tangent(i),
+        m1: tangent(i + 1),
+    }
+}
+
+/// The smallest uniform slow-down `s` that keeps every joint of every path (waypoints `dt`
+/// apart, each at rest at both ends) within [`LIMIT_MARGIN`] of its velocity and acceleration
+/// limits: with segment duration h = dt·s, velocity = slope/h and acceleration = curvature/h².
+/// At least 1.
+pub fn min_time_scale<'a>(
+    paths: impl IntoIterator<Item = &'a [[f64; JOINTS]]>,
+    limits: &[JointLimits; JOINTS],
+    dt: f64,
+) -> f64 {
+    let mut s_min: f64 = 1.0;
+    for path in paths {
+        for (j, l) in limits.iter().enumerate() {
+            for i in 0..path.len().saturating_sub(1) {
+                let seg = segment(path, j, i);
+                s_min = s_min
+                    .max(seg.max_slope() / (dt * LIMIT_MARGIN * l.velocity))
+                    .max(
+                        (seg.max_curvature() / (dt.powi(2) * LIMIT_MARGIN * l.acceleration)).sqrt(),
+                    );
+            }
+        }
+    }
+    s_min
+}
+
+/// How `plan` (whose shape must be valid) is timed at `period`: the uniform slow-down, with
+/// the duration rounded up to whole control periods so that the last command lands exactly on
+/// the last waypoint, and the resulting time per step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    pub time_scale: f64,
+    /// Seconds per step (the plan's dt times `time_scale`).
+    pub step_time: f64,
+    /// Control cycles from the first waypoint to the last.
+    pub cycles: f64,
+}
+
+pub fn timing(plan: &Plan, limits: &[JointLimits; JOINTS], period: f64) -> Result<Timing, String> {
+    if !(period.is_finite() && period > 0.0) {
+        return Err(format!("control period must be positive, got {period} s"));
+    }
+    let paths = plan.arms.iter().map(|a| a.joint_path.as_slice());
+    let s_min = min_time_scale(paths, limits, plan.dt);
+    let n_seg = plan
+        .arms
+        .first()
+        .map_or(0, |a| a.joint_path.len().saturating_sub(1));
+    let cycles = (n_seg as f64 * plan.dt * s_min / period - 1e-9)
+        .ceil()
+        .max(0.0);
+    let (time_scale, step_time) = if n_seg == 0 {
+        (1.0, plan.dt)
+    } else {
+        let s = cycles * period / (n_seg as f64 * plan.dt);
+        (s, plan.dt * s)
+    };
+    if !(cycles.is_finite() && time_scale.is_finite() && step_time.is_finite() && step_time > 0.0) {
+        return Err(format!(
+            "cannot time the plan: dt {} s with a slow-down of {s_min} does not give a finite \
+             number of {period} s control cycles",
+            plan.dt
+        ));
+    }
+    Ok(Timing {
+        time_scale,
+        step_time,
+        cycles,
+    })
+}
+
+/// The generator streaming `plan` (whose shape must be valid): holding at the first
+/// waypoints, with the rest queued and checked in full (nothing is sent before that).
+pub fn plan_generator(
+    plan: &Plan,
+    limits: &[JointLimits; JOINTS],
+    period: f64,
+) -> Result<(Generator, Timing), String> {
+    let timing = timing(plan, limits, period)?;
+    let starts: Vec<[f64; JOINTS]> = plan.arms.iter().map(|a| a.joint_path[0]).collect();
+    let mut generator = Generator::new(&starts, *limits, period, timing.step_time)?;
+    if plan.arms[0].joint_path.len() > 1 {
+        let rest: Vec<&[[f64; JOINTS]]> = plan.arms.iter().map(|a| &a.joint_path[1..]).collect();
+        generator.push(1, &rest).map_err(|e| match e {
+            PushError::Limits { arm, error, .. } => {
+                format!("arm {:?}: {error}", plan.arms[arm].name)
+            }
+            e => e.to_string(),
+        })?;
+    }
+    Ok((generator, timing))
+}
+
+/// Every command of `plan` (whose shape must be valid) interpolated to `period`, slowed down if
+/// needed, from the first waypoint to the last: the commands the executor streams, collected
+/// (for checks and tests; the executor itself never holds them all).
 pub fn interpolate(
     plan: &Plan,
     limits: &[JointLimits; JOINTS],
     period: f64,
 ) -> Result<Trajectory, String> {
-    if !(period.is_finite() && period > 0.0) {
-        return Err(format!("control period must be positive, got {period} s"));
-    }
-    // splines[arm][joint]
-    let splines: Vec<Vec<Vec<Segment>>> = plan
-        .arms
-        .iter()
-        .map(|a| {
-            (0..JOINTS)
-                .map(|j| segments(a.joint_path.iter().map(|q| q[j])))
-                .collect()
-        })
-        .collect();
-    let n_seg = plan
-        .arms
-        .first()
-        .map_or(0, |a| a.joint_path.len().saturating_sub(1));
-
-    // Smallest uniform slow-down s that keeps every joint within LIMIT_MARGIN of its limits:
-    // with segment duration h = dt·s, velocity = slope/h and acceleration = curvature/h².
-    let mut s_min: f64 = 1.0;
-    for arm in &splines {
-        for (j, segs) in arm.iter().enumerate() {
-            let l = &limits[j];
-            for seg in segs {
-                s_min = s_min
-                    .max(seg.max_slope() / (plan.dt * LIMIT_MARGIN * l.velocity))
-                    .max(
-                        (seg.max_curvature() / (plan.dt.powi(2) * LIMIT_MARGIN * l.acceleration))
-                            .sqrt(),
-                    );
-            }
+    let (mut generator, timing) = plan_generator(plan, limits, period)?;
+    let mut commands = vec![Vec::new(); plan.arms.len()];
+    let mut out = vec![[0; JOINTS]; plan.arms.len()];
+    loop {
+        let tick = generator.next(&mut out).map_err(|e| e.to_string())?;
+        for (c, o) in commands.iter_mut().zip(&out) {
+            c.push(*o);
         }
-    }
-    // Round the duration up to whole control periods so that the last command lands exactly on
-    // the last waypoint.
-    let cycles = (n_seg as f64 * plan.dt * s_min / period - 1e-9)
-        .ceil()
-        .max(0.0) as usize;
-    let time_scale = if n_seg == 0 {
-        1.0
-    } else {
-        cycles as f64 * period / (n_seg as f64 * plan.dt)
-    };
-    let h = plan.dt * time_scale;
-
-    let mut commands = Vec::with_capacity(plan.arms.len());
-    for (arm, joints) in plan.arms.iter().zip(&splines) {
-        let mut cmds = Vec::with_capacity(cycles + 1);
-        for k in 0..=cycles {
-            let x = if n_seg == 0 {
-                0.0
-            } else {
-                k as f64 * period / h
-            };
-            let i = (x.floor() as usize).min(n_seg.saturating_sub(1));
-            let u = (x - i as f64).clamp(0.0, 1.0);
-            let mut c = [0i32; JOINTS];
-            for (j, segs) in joints.iter().enumerate() {
-                let q = segs.get(i).map_or(arm.joint_path[0][j], |s| s.position(u));
-                c[j] = rad_to_counts(q).ok_or_else(|| {
-                    format!(
-                        "arm {:?} joint {}: {q} rad is outside the bus range",
-                        arm.name,
-                        j + 1
-                    )
-                })?;
-            }
-            cmds.push(c);
+        if tick.holding {
+            break;
         }
-        check_sequence(&cmds, limits, period).map_err(|e| format!("arm {:?}: {e}", arm.name))?;
-        commands.push(cmds);
     }
     Ok(Trajectory {
         period,
-        time_scale,
+        time_scale: timing.time_scale,
         commands,
     })
-}
-
-/// Checks a whole command sequence, starting and ending at rest, as the executor will send it.
-fn check_sequence(
-    cmds: &[Command],
-    limits: &[JointLimits; JOINTS],
-    period: f64,
-) -> Result<(), String> {
-    let (Some(first), Some(last)) = (cmds.first(), cmds.last()) else {
-        return Ok(());
-    };
-    let held = [*first, *first]
-        .into_iter()
-        .chain(cmds.iter().copied())
-        .chain([*last, *last]);
-    let seq: Vec<Command> = held.collect();
-    for (k, w) in seq.windows(3).enumerate() {
-        check_command(limits, &w[0], &w[1], &w[2], period)
-            .map_err(|e| format!("cycle {}: {e}", k as isize - 1))?;
-    }
-    Ok(())
 }
 
 /// Checks `cmd` against the position limits, and the velocity and acceleration it implies after
@@ -223,7 +238,9 @@ pub fn check_command(
                 ));
             }
         }
-        let v = counts_to_rad(cmd[j] - prev1[j]) / period;
+        // In i64: commands span the whole i32 range.
+        let (c, p1, p2) = (i64::from(cmd[j]), i64::from(prev1[j]), i64::from(prev2[j]));
+        let v = (c - p1) as f64 / COUNTS_PER_RAD / period;
         if v.abs() > l.velocity {
             return Err(format!(
                 "joint {}: velocity {v:.4} rad/s exceeds the limit {}",
@@ -231,7 +248,7 @@ pub fn check_command(
                 l.velocity
             ));
         }
-        let a = counts_to_rad(cmd[j] - 2 * prev1[j] + prev2[j]) / (period * period);
+        let a = (c - 2 * p1 + p2) as f64 / COUNTS_PER_RAD / (period * period);
         if a.abs() > l.acceleration {
             return Err(format!(
                 "joint {}: acceleration {a:.4} rad/s² exceeds the limit {}",
@@ -246,6 +263,7 @@ pub fn check_command(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cia402::rad_to_counts;
     use crate::plan::ArmPlan;
 
     fn one_arm(dt: f64, path: Vec<[f64; JOINTS]>) -> Plan {
@@ -266,7 +284,8 @@ mod tests {
 
     #[test]
     fn hermite_passes_through_waypoints_with_continuous_slope() {
-        let segs = segments([0.0, 1.0, 1.5, 0.5].into_iter());
+        let path: Vec<[f64; JOINTS]> = [0.0, 1.0, 1.5, 0.5].map(|v| [v; JOINTS]).to_vec();
+        let segs: Vec<Segment> = (0..3).map(|i| segment(&path, 0, i)).collect();
         for w in segs.windows(2) {
             assert_eq!(w[0].position(1.0), w[1].position(0.0));
             assert_eq!(w[0].m1, w[1].m0);
@@ -303,7 +322,12 @@ mod tests {
             let q = counts_to_rad(cmds[k.round() as usize][0]);
             assert!((q - plan.arms[0].joint_path[5][0]).abs() <= 1e-7);
         }
-        check_sequence(cmds, &limits, 0.002).unwrap();
+        let mut held = vec![cmds[0]; 2];
+        held.extend(cmds.iter().copied());
+        held.extend([cmds[cmds.len() - 1]; 2]);
+        for w in held.windows(3) {
+            check_command(&limits, &w[0], &w[1], &w[2], 0.002).unwrap();
+        }
         // and the slow-down is not excessive: some joint uses over half its acceleration or
         // velocity budget
         let max_v = cmds

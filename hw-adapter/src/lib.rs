@@ -4,6 +4,8 @@
 //! - [`transport`]: the [`Transport`] trait and its SLCAN, SocketCAN and in-process mock buses.
 //! - [`canopen`], [`cia402`]: the protocol.
 //! - [`interpolate`]: waypoints to control-rate commands within joint limits.
+//! - [`stream`]: the frame generator: commands cycle by cycle from a queue of waypoints that
+//!   may be replaced while the arms move.
 //! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
 //! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
 //!   what a mock received, checked against the streamed trajectory.
@@ -14,13 +16,17 @@ pub mod cia402;
 pub mod executor;
 pub mod frame;
 pub mod interpolate;
+pub mod live;
 pub mod log;
 pub mod mock;
 pub mod plan;
 pub mod record;
+pub mod stream;
 pub mod transport;
 
 pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
 pub use frame::CanFrame;
+pub use live::{Event, StreamHandle, StreamProgress};
 pub use plan::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
+pub use stream::PushError;
 pub use transport::{Transport, TransportError};

@@ -1,27 +1,69 @@
-//! The command log: every frame the executor sends (or, in a dry run, would send), as JSON lines.
+//! The command log: every frame the executor sends (or, in a dry run, would send), as JSON
+//! lines, written as the frames go out (nothing is kept in memory).
 
 use serde::Serialize;
+use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 #[derive(Clone, Debug, Serialize)]
-pub struct LogEntry {
+pub struct LogEntry<'a> {
     /// Seconds since the executor started (planned time in a dry run).
     pub t: f64,
-    pub arm: String,
+    pub arm: &'a str,
     /// `candump` style, e.g. `201#809698000F00`.
     pub frame: String,
     /// What the frame means, e.g. `RPDO1 node 1 target 1.0000000 rad cw 0x000f`.
-    pub what: String,
+    pub what: &'a str,
 }
 
-/// Writes `entries` sorted by time to `path`, one JSON object per line.
-pub fn write_jsonl(path: &Path, entries: &mut [LogEntry]) -> std::io::Result<()> {
-    entries.sort_by(|a, b| a.t.total_cmp(&b.t));
-    let mut out = BufWriter::new(std::fs::File::create(path)?);
-    for e in entries.iter() {
-        serde_json::to_writer(&mut out, e)?;
-        out.write_all(b"\n")?;
+struct Sink {
+    out: BufWriter<File>,
+    /// The first write error; later entries are dropped and the run reports it at its end.
+    error: Option<std::io::Error>,
+}
+
+/// A log file shared by the arm threads; lines are in the order the frames were sent.
+#[derive(Clone)]
+pub struct LogSink {
+    path: PathBuf,
+    sink: Arc<Mutex<Sink>>,
+}
+
+impl LogSink {
+    pub fn create(path: &Path) -> std::io::Result<Self> {
+        Ok(Self {
+            path: path.to_path_buf(),
+            sink: Arc::new(Mutex::new(Sink {
+                out: BufWriter::new(File::create(path)?),
+                error: None,
+            })),
+        })
     }
-    out.flush()
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn write(&self, entry: &LogEntry) {
+        let mut s = self.sink.lock().unwrap_or_else(|p| p.into_inner());
+        if s.error.is_none() {
+            let written = serde_json::to_writer(&mut s.out, entry)
+                .map_err(std::io::Error::from)
+                .and_then(|()| s.out.write_all(b"\n"));
+            if let Err(e) = written {
+                s.error = Some(e);
+            }
+        }
+    }
+
+    /// Flushes the file; the first error of the whole log, if any.
+    pub fn finish(&self) -> std::io::Result<()> {
+        let mut s = self.sink.lock().unwrap_or_else(|p| p.into_inner());
+        match s.error.take() {
+            Some(e) => Err(e),
+            None => s.out.flush(),
+        }
+    }
 }

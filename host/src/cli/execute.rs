@@ -34,10 +34,16 @@ pub struct Args {
     /// Write every command sent (or, in a dry run, that would be sent) here, as JSON lines.
     #[arg(long, value_name = "FILE")]
     log: Option<PathBuf>,
-    /// Control rate, Hz.
+    /// Control rate, Hz, within [100, 1000].
     #[arg(long, value_name = "HZ", default_value_t = 500.0)]
     rate: f64,
 }
+
+/// The control rates `--rate` accepts, Hz. At most 1 kHz: the Gen3's own control rate, and
+/// about what a 1 Mbit/s bus carries with 8 frames per arm and cycle. At least 100 Hz: cyclic
+/// synchronous position needs cycles of a few ms, and each drive's feedback (one TPDO per
+/// SYNC) must be fresher than the feedback timeout (50 ms).
+pub const RATE_RANGE: std::ops::RangeInclusive<f64> = 100.0..=1000.0;
 
 fn parse_arm(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
@@ -51,11 +57,11 @@ fn parse_arm(s: &str) -> Result<(String, String), String> {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    // At most 1 kHz: the Gen3's own control rate, and about what a 1 Mbit/s bus carries with
-    // 8 frames per arm and cycle.
-    if !(args.rate > 0.0 && args.rate <= 1000.0) {
+    if !RATE_RANGE.contains(&args.rate) {
         return bad_input(format!(
-            "--rate: must be in (0, 1000] Hz, got {}",
+            "--rate: must be within [{}, {}] Hz, got {}",
+            RATE_RANGE.start(),
+            RATE_RANGE.end(),
             args.rate
         ));
     }
