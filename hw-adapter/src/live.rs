@@ -241,9 +241,9 @@ impl StreamHandle {
         if self.threads.iter().all(|t| t.is_finished()) {
             return Err(PushError::Stopped("the stream has ended".into()));
         }
-        lock(&self.shared.cycle)
-            .generator
-            .push(start_step, waypoints)
+        let mut c = lock(&self.shared.cycle);
+        c.generator.push(start_step, waypoints)?;
+        Ok(c.generator.cycle())
     }
 
     pub fn progress(&self) -> StreamProgress {
