@@ -25,6 +25,7 @@ enum Command {
     Fk(cli::fk::Args),
     GenBench(cli::gen_bench::Args),
     Ik(cli::ik::Args),
+    Online(cli::online::Args),
     Plan(cli::plan::Args),
     Validate(cli::validate::Args),
 }
@@ -37,6 +38,7 @@ fn main() -> ExitCode {
         Command::Fk(args) => cli::fk::run(&args),
         Command::GenBench(args) => cli::gen_bench::run(&args),
         Command::Ik(args) => cli::ik::run(&args),
+        Command::Online(args) => cli::online::run(&args),
         Command::Plan(args) => cli::plan::run(&args),
         Command::Validate(args) => cli::validate::run(&args),
     }

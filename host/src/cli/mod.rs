@@ -9,6 +9,7 @@ pub mod fk;
 pub mod gen_bench;
 pub mod ik;
 mod lines;
+pub mod online;
 pub mod plan;
 pub mod validate;
 

@@ -21,6 +21,7 @@
 mod error;
 pub mod policy;
 pub mod record;
+pub mod run;
 
 pub use error::OnlineError;
 
