@@ -20,6 +20,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     Bench(cli::bench::Args),
+    BenchOnline(cli::bench_online::Args),
     Demo(cli::demo::Args),
     Execute(cli::execute::Args),
     Fk(cli::fk::Args),
@@ -33,6 +34,7 @@ enum Command {
 fn main() -> ExitCode {
     match Cli::parse().command {
         Command::Bench(args) => cli::bench::run(&args),
+        Command::BenchOnline(args) => cli::bench_online::run(&args),
         Command::Demo(args) => cli::demo::run(&args),
         Command::Execute(args) => cli::execute::run(&args),
         Command::Fk(args) => cli::fk::run(&args),

@@ -3,6 +3,7 @@
 //! or usage (clap exits with 2 on usage errors too).
 
 pub mod bench;
+pub mod bench_online;
 pub mod demo;
 pub mod execute;
 pub mod fk;

@@ -18,6 +18,7 @@
 //! - Memory stays bounded however long the run: the plan before the last step sent to the
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
+pub mod bench;
 mod error;
 pub mod policy;
 pub mod record;

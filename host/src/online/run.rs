@@ -125,12 +125,19 @@ pub fn run_on_mock_arms(
     let buses = (mocks.iter())
         .map(|m| m.open_bus().map_err(|err| err.to_string()))
         .collect::<Result<Vec<Box<dyn Transport>>, _>>()?;
-    let arms = (e.robot_names().iter().cloned().zip(initial.iter().copied()).zip(buses))
-        .map(|((name, q), bus)| (name, q, bus))
-        .collect();
+    let arms = (e
+        .robot_names()
+        .iter()
+        .cloned()
+        .zip(initial.iter().copied())
+        .zip(buses))
+    .map(|((name, q), bus)| (name, q, bus))
+    .collect();
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
         online_horizon: Duration::from_secs(120),
+        // Three Python mocks on a shared, busy machine drain their ptys late at times.
+        send_timeout: Duration::from_millis(50),
         ..exec_config()
     };
     let handle =
@@ -304,7 +311,9 @@ fn replay<'a>(
     config: &'a omcbsa_hw::ExecConfig,
     limits: &'a [JointLimits; JOINTS],
 ) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::interpolate::Command>> + 'a, String> {
-    let max_queued = (config.online_horizon.as_secs_f64() / step_time).floor().max(1.0);
+    let max_queued = (config.online_horizon.as_secs_f64() / step_time)
+        .floor()
+        .max(1.0);
     let generator = Generator::new(starts, *limits, config.period.as_secs_f64(), step_time)?
         .with_max_queued(max_queued as usize);
     Ok(move |cycles: usize| {
