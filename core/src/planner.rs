@@ -169,3 +169,18 @@ fn check_online<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
     }
     Ok(())
 }
+
+/// For the planners that choose every start state and the whole assignment themselves (the
+/// baselines): refuses a problem with a robot whose start or trajectory is fixed.
+pub fn check_free<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
+    if problem
+        .robots
+        .iter()
+        .any(|r| r.start != Start::Sampled || r.assigned != Assigned::Free)
+    {
+        return Err(Status::InvalidProblem(
+            "this planner cannot start robots at given configurations or keep an assignment",
+        ));
+    }
+    Ok(())
+}

@@ -13,9 +13,14 @@ fn embodier(policy: &BoxFlipPolicy) -> Embodier {
     Embodier::new(&policy.setup(), OnlineOptions::default()).expect("setup is valid")
 }
 
-/// Runs `chunks` chunks just in time: everything before a chunk's first step is sent first.
-fn run(policy: &BoxFlipPolicy, e: &mut Embodier, rec: &mut RunRecord, chunks: usize) {
-    for c in 0..chunks {
+/// Runs chunks `chunks` just in time: everything before a chunk's first step is sent first.
+fn run(
+    policy: &BoxFlipPolicy,
+    e: &mut Embodier,
+    rec: &mut RunRecord,
+    chunks: std::ops::Range<usize>,
+) {
+    for c in chunks {
         let chunk = policy.chunk(c);
         if let Some(index) = e.timeline_index(chunk.start_step) {
             rec.send(e, index);
@@ -34,14 +39,14 @@ fn box_flip_chunks_plan_keep_the_assignment_and_validate_whole() {
     let policy = BoxFlipPolicy::default();
     let mut e = embodier(&policy);
     let mut rec = RunRecord::default();
-    run(&policy, &mut e, &mut rec, 1);
+    run(&policy, &mut e, &mut rec, 0..1);
     let first = e.assignment().expect("assigned").to_vec();
     assert!(
         e.approach_len() > 0,
         "the arms start folded away from the box"
     );
     for c in 1..10 {
-        run_one(&policy, &mut e, &mut rec, c);
+        run(&policy, &mut e, &mut rec, c..c + 1);
         assert_eq!(e.assignment().unwrap(), first.as_slice(), "chunk {c}");
     }
     rec.send(&e, e.end());
@@ -55,22 +60,12 @@ fn box_flip_chunks_plan_keep_the_assignment_and_validate_whole() {
     assert_eq!(sent.len(), e.approach_len() + 1 + 9 * 8 + 16);
 }
 
-fn run_one(policy: &BoxFlipPolicy, e: &mut Embodier, rec: &mut RunRecord, c: usize) {
-    let chunk = policy.chunk(c);
-    let index = e.timeline_index(chunk.start_step).unwrap();
-    rec.send(e, index);
-    e.commit_until(index);
-    e.push_chunk(chunk.start_step, &chunk.hands)
-        .unwrap_or_else(|err| panic!("chunk {c}: {err}"));
-    rec.chunk(chunk.start_step, &chunk.hands);
-}
-
 #[test]
 fn an_unreachable_hand_pose_is_named_and_the_plan_kept() {
     let policy = BoxFlipPolicy::default();
     let mut e = embodier(&policy);
     let mut rec = RunRecord::default();
-    run(&policy, &mut e, &mut rec, 2);
+    run(&policy, &mut e, &mut rec, 0..2);
     let before: Vec<Vec<[f64; DOF]>> = (0..3).map(|i| e.planned(i, 0).to_vec()).collect();
     let mut chunk = policy.chunk(2);
     // Hand 1's pose at the chunk's sixth step is 3 m up: out of every arm's reach.
@@ -102,7 +97,7 @@ fn a_late_chunk_is_refused_as_missing_its_deadline() {
     let policy = BoxFlipPolicy::default();
     let mut e = embodier(&policy);
     let mut rec = RunRecord::default();
-    run(&policy, &mut e, &mut rec, 1);
+    run(&policy, &mut e, &mut rec, 0..1);
     let chunk = policy.chunk(1);
     let index = e.timeline_index(chunk.start_step).unwrap();
     // The arms were sent three steps of what the chunk was to replace.

@@ -166,8 +166,8 @@ fn online_chunks_allocate_nothing() {
                 for (i, r) in chunk.robots.iter_mut().enumerate() {
                     r.initial = Some(outcome.joint_paths[i][start - 1]);
                     r.start = Start::AtInitial;
-                    r.assigned = outcome.assignment[i]
-                        .map_or(Assigned::Hold, |j| Assigned::Track(j as u8));
+                    r.assigned =
+                        outcome.assignment[i].map_or(Assigned::Hold, |j| Assigned::Track(j as u8));
                 }
                 for name in ["omcbsa", "pp"] {
                     let clock = WallClock::start();
@@ -175,14 +175,24 @@ fn online_chunks_allocate_nothing() {
                     let (r, n) =
                         allocations(|| storage.solve_core(name, &chunk, &clock, 5.0, &mut stats));
                     let (status, assignment) = r.expect("known planner");
-                    results.push((name, start, status, n, assignment, outcome.assignment.clone()));
+                    results.push((
+                        name,
+                        start,
+                        status,
+                        n,
+                        assignment,
+                        outcome.assignment.clone(),
+                    ));
                 }
             }
             results
         })
         .expect("spawn");
     for (name, start, status, n, assignment, whole) in handle.join().expect("no overflow") {
-        assert_eq!(n, 0, "{name} allocated {n} times planning the chunk from {start}");
+        assert_eq!(
+            n, 0,
+            "{name} allocated {n} times planning the chunk from {start}"
+        );
         assert_eq!(status, Status::Solved, "{name} chunk from {start}");
         let kept: Vec<Option<usize>> = assignment[..whole.len()]
             .iter()
