@@ -145,10 +145,11 @@ fn storage_is_reusable() {
 fn online_chunks_allocate_nothing() {
     use omcbsa_core::problem::{Assigned, Start};
     let file = facing_pair_problem(120).expect("scene");
-    let whole = core_problem(&file);
+    let whole = Box::new(core_problem(&file));
     let h = whole.horizon();
     let handle = std::thread::Builder::new()
-        .stack_size(PLANNER_STACK)
+        // The planners' stack, and room for this test's own problem copies (kept boxed).
+        .stack_size(2 * PLANNER_STACK)
         .spawn(move || {
             let mut storage = Storage::new(Capacities::default(), h);
             let outcome = storage.solve("omcbsa", &whole, 5.0).expect("planner");
@@ -158,6 +159,7 @@ fn online_chunks_allocate_nothing() {
             // from there on (pose 0 is where the arms are, not tracked).
             for start in [1usize, 3, 5] {
                 let mut chunk = whole.clone();
+                let chunk = &mut *chunk;
                 for t in chunk.trajectories.iter_mut() {
                     let rest: heapless::Vec<_, { omcbsa_core::problem::MAX_STEPS }> =
                         t[start - 1..].iter().copied().collect();
@@ -173,7 +175,7 @@ fn online_chunks_allocate_nothing() {
                     let clock = WallClock::start();
                     let mut stats = Stats::default();
                     let (r, n) =
-                        allocations(|| storage.solve_core(name, &chunk, &clock, 5.0, &mut stats));
+                        allocations(|| storage.solve_core(name, chunk, &clock, 5.0, &mut stats));
                     let (status, assignment) = r.expect("known planner");
                     results.push((
                         name,
