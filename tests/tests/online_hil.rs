@@ -19,8 +19,7 @@ fn chunks_stream_to_three_mock_arms_without_stopping() {
         chunks: 3,
         ..RunScript::default()
     };
-    let out = run_on_mock_arms(&script, &python, &dir, &mut |l| eprintln!("{l}"))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let out = run_big_stack(script, python, dir);
     assert!(out.chunk_errors.is_empty(), "{:?}", out.chunk_errors);
     assert_eq!(out.latencies.len(), 3);
     // No stop between chunks: the queue never ran dry while the chunks came.
@@ -51,8 +50,7 @@ fn unreachable_and_late_chunks_hold_the_arms_safely_and_are_reported() {
         late_chunk: Some(2),
         ..RunScript::default()
     };
-    let out = run_on_mock_arms(&script, &python, &dir, &mut |l| eprintln!("{l}"))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let out = run_big_stack(script, python, dir);
     // Chunk 1 named the hand and the step it cannot reach, and was not sent.
     match out.chunk_errors.as_slice() {
         [(1, OnlineError::Unreachable { hand: 0, step, .. })] => assert_eq!(*step, 8 + 8),
@@ -74,6 +72,22 @@ fn unreachable_and_late_chunks_hold_the_arms_safely_and_are_reported() {
     // records in `run_on_mock_arms`).
     assert!(out.validation.is_valid(), "{}", out.validation.summary());
     assert_eq!(out.latencies.len(), 2);
+}
+
+/// The run, in a thread with the stack the planners and the chunk problems need (the test
+/// harness's threads have 2 MiB).
+fn run_big_stack(
+    script: RunScript,
+    python: std::path::PathBuf,
+    dir: std::path::PathBuf,
+) -> omcbsa::online::run::RunOutcome {
+    std::thread::Builder::new()
+        .stack_size(16 << 20)
+        .spawn(move || run_on_mock_arms(&script, &python, &dir, &mut |l| eprintln!("{l}")))
+        .expect("spawn")
+        .join()
+        .expect("the run thread")
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn tempfile_dir(name: &str) -> std::path::PathBuf {
