@@ -222,6 +222,12 @@ pub fn run_on_mock_arms(
     let mut cycles = Vec::with_capacity(n);
     let replay = replay(&initial, &pushes, scale * dt, &config, &limits)?;
     for (i, mock) in mocks.into_iter().enumerate() {
+        // A mock writes its record as it exits; a long run's record takes a while on a busy
+        // machine, longer than `MockArm::finish` waits.
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while !records[i].exists() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(50));
+        }
         let record = mock.finish()?;
         let enabled = omcbsa_hw::record::targets(&record)?[0]
             .iter()
