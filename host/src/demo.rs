@@ -39,7 +39,7 @@ pub const DT: f64 = 0.1;
 /// Steps of the motion (3 s).
 pub const STEPS: usize = 31;
 /// `ORDER[j]`: the robot whose hand trajectory `j` is.
-const ORDER: [usize; 3] = [2, 0, 1];
+pub(crate) const ORDER: [usize; 3] = [2, 0, 1];
 
 const RING_RADIUS: f64 = 0.75;
 const BOX_HEIGHT: f64 = 0.35;
@@ -66,14 +66,14 @@ fn frame(rot: Matrix3<f64>, pos: Vector3<f64>) -> Frame {
     Frame { rot, pos }
 }
 
-fn base(k: usize) -> Frame {
+pub(crate) fn base(k: usize) -> Frame {
     let a = heading(k);
     // The arm faces the box: its x axis points at the ring's centre.
     let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), a + PI).into_inner();
     frame(rot, RING_RADIUS * Vector3::new(a.cos(), a.sin(), 0.0))
 }
 
-fn tcp() -> Frame {
+pub(crate) fn tcp() -> Frame {
     frame(Matrix3::identity(), Vector3::new(0.0, 0.0, TCP_LENGTH))
 }
 
@@ -96,7 +96,7 @@ pub fn gripper() -> ToolSpec {
 
 /// Hand `k` on its face of the box flipped by `s` (0 at rest, 1 fully flipped): at the face's
 /// centre, tool z into the face, tool x up the face.
-fn hand(k: usize, s: f64) -> Frame {
+pub(crate) fn hand(k: usize, s: f64) -> Frame {
     let flip = Rotation3::from_axis_angle(&Vector3::y_axis(), FLIP * s).into_inner();
     let centre = Vector3::new(0.0, 0.0, BOX_HEIGHT + LIFT * s);
     let a = heading(k);
@@ -167,6 +167,7 @@ pub fn box_flip() -> Result<Demo, String> {
         tolerance: ToleranceSpec::default(),
     };
     let witness = SolutionFile {
+        approach: None,
         format: SOLUTION_FORMAT.to_string(),
         problem: NAME.to_string(),
         planner: "witness".to_string(),

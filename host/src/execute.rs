@@ -71,8 +71,8 @@ impl CheckedSolution {
         if let Some((_, a)) = (arms.iter().enumerate()).find(|(i, a)| arms[..*i].contains(a)) {
             return Err(format!("arm {} is given twice", quoted(a)));
         }
-        let paths = self.paths()?;
-        let arms = (robots.iter().zip(paths))
+        let paths = self.timelines()?;
+        let arms = (robots.iter().zip(&paths))
             .enumerate()
             .filter(|(_, (r, _))| arms.contains(&r.name.as_str()))
             .map(|(i, (r, path))| {
@@ -98,13 +98,27 @@ impl CheckedSolution {
         })
     }
 
-    fn paths(&self) -> Result<&Vec<Vec<Vec<f64>>>, String> {
-        self.solution.joint_paths.as_ref().ok_or_else(|| {
+    /// Every robot's executed timeline: with an approach, `initial`, the approach, then the
+    /// joint path (so the arms must stand at `initial`); without one, the joint path.
+    fn timelines(&self) -> Result<Vec<Vec<Vec<f64>>>, String> {
+        let paths = self.solution.joint_paths.as_ref().ok_or_else(|| {
             format!(
                 "the solution has no joint paths (status {}): nothing to execute",
                 self.solution.status.as_str()
             )
-        })
+        })?;
+        let Some(approach) = &self.solution.approach else {
+            return Ok(paths.clone());
+        };
+        Ok((paths.iter().enumerate())
+            .map(|(i, path)| {
+                let robot = self.problem.robots.get(i);
+                (robot.and_then(|r| r.initial.clone()).into_iter())
+                    .chain(approach.get(i).into_iter().flatten().cloned())
+                    .chain(path.iter().cloned())
+                    .collect()
+            })
+            .collect())
     }
 }
 
@@ -119,7 +133,7 @@ impl PlanValidator for CheckedSolution {
                 plan.dt, self.problem.dt
             ));
         }
-        let paths = self.paths()?;
+        let paths = self.timelines()?;
         for arm in &plan.arms {
             let i = (self.problem.robots.iter())
                 .position(|r| r.name == arm.name)
@@ -138,7 +152,7 @@ impl PlanValidator for CheckedSolution {
             }
         }
         // An arm left out would stand still where the solution has it move: a collision.
-        for (r, path) in self.problem.robots.iter().zip(paths) {
+        for (r, path) in self.problem.robots.iter().zip(&paths) {
             let moves = path.windows(2).any(|w| w[0] != w[1]);
             if moves && !plan.arms.iter().any(|a| a.name == r.name) {
                 return Err(format!(

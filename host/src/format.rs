@@ -209,6 +209,13 @@ pub struct SolutionFile {
     /// `joint_paths[i][t]`: robot i's configuration at step t; present only when solved.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint_paths: Option<Vec<Vec<Vec<f64>>>>,
+    /// Optional: `approach[i]`, A configurations (the same A >= 0 for every robot) that take
+    /// robot i from its `initial` to `joint_paths[i][0]`: its executed timeline is `initial`,
+    /// `approach[i][0..A]`, `joint_paths[i][0..H]` at `dt` spacing. Checked like the paths
+    /// (limits, velocity, collisions) but tracks no pose. Absent: the timeline starts at
+    /// `joint_paths[i][0]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub approach: Option<Vec<Vec<Vec<f64>>>>,
     /// Free-form counters; any keys are accepted and kept.
     #[serde(default)]
     pub stats: Map<String, Value>,

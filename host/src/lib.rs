@@ -4,6 +4,7 @@
 //! checking them into the core's fixed-capacity problem ([`load`]), and checking a solution
 //! against its problem ([`validate`]). The `omcbsa` binary is a thin command line over these.
 
+pub mod approach;
 pub mod bench;
 pub mod demo;
 pub mod error;
@@ -11,6 +12,7 @@ pub mod execute;
 pub mod format;
 pub mod load;
 pub mod models;
+pub mod online;
 pub mod planners;
 pub mod pose;
 pub mod suite;

@@ -339,6 +339,8 @@ fn robot<M: Model<D>, const D: usize>(
         tcp: tcp?,
         initial: initial?,
         tool: tool?,
+        start: Default::default(),
+        assigned: Default::default(),
     })
 }
 
@@ -562,6 +564,22 @@ pub fn check_solution(file: &SolutionFile) -> Result<(), InputError> {
             "message",
             "empty, but status invalid_problem needs a message saying what is wrong",
         );
+    }
+    if file.approach.is_some() && file.status != Status::Solved {
+        errors.push(
+            "approach",
+            format!(
+                "present, but status is {} (only solved solutions carry an approach)",
+                file.status.as_str()
+            ),
+        );
+    }
+    for (i, path) in file.approach.iter().flatten().enumerate() {
+        for (k, q) in path.iter().enumerate() {
+            if let Err(e) = pose::finite(q) {
+                errors.add(e.within(&format!("approach[{i}][{k}]")));
+            }
+        }
     }
     for (i, path) in file.joint_paths.iter().flatten().enumerate() {
         for (t, q) in path.iter().enumerate() {

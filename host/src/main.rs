@@ -20,11 +20,13 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     Bench(cli::bench::Args),
+    BenchOnline(cli::bench_online::Args),
     Demo(cli::demo::Args),
     Execute(cli::execute::Args),
     Fk(cli::fk::Args),
     GenBench(cli::gen_bench::Args),
     Ik(cli::ik::Args),
+    Online(cli::online::Args),
     Plan(cli::plan::Args),
     Validate(cli::validate::Args),
     View(cli::view::Args),
@@ -33,11 +35,13 @@ enum Command {
 fn main() -> ExitCode {
     match Cli::parse().command {
         Command::Bench(args) => cli::bench::run(&args),
+        Command::BenchOnline(args) => cli::bench_online::run(&args),
         Command::Demo(args) => cli::demo::run(&args),
         Command::Execute(args) => cli::execute::run(&args),
         Command::Fk(args) => cli::fk::run(&args),
         Command::GenBench(args) => cli::gen_bench::run(&args),
         Command::Ik(args) => cli::ik::run(&args),
+        Command::Online(args) => cli::online::run(&args),
         Command::Plan(args) => cli::plan::run(&args),
         Command::Validate(args) => cli::validate::run(&args),
         Command::View(args) => cli::view::run(&args),

@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use crate::approach::approach;
 use crate::error::InputError;
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
@@ -10,6 +11,7 @@ use crate::format::{
 use crate::load;
 use crate::models::ModelKind;
 use crate::validate::validate;
+use omcbsa_core::approach::ApproachParams;
 use omcbsa_core::baselines::{
     CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
     IkTracking, IkTrackingParams,
@@ -314,6 +316,7 @@ impl Outcome {
         stats.insert("inexact_branches".into(), s.inexact_branches.into());
         stats.insert("unbranched_nodes".into(), s.unbranched_nodes.into());
         SolutionFile {
+            approach: None,
             format: SOLUTION_FORMAT.to_string(),
             problem: file.name.clone(),
             planner: planner.to_string(),
@@ -347,6 +350,19 @@ pub fn plan_file(
         .solve(name, &problem, timeout_s)
         .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, name);
+    // When the problem says where every arm stands, the plan begins there.
+    if solution.status == FileStatus::Solved && problem.robots.iter().all(|r| r.initial.is_some()) {
+        let names: Vec<String> = file.robots.iter().map(|r| r.name.clone()).collect();
+        let params = ApproachParams::default();
+        match approach(&problem, &outcome.joint_paths, &params, &names) {
+            Ok(a) => solution.approach = Some(joint_paths_value(&a)),
+            Err(why) => {
+                solution.status = FileStatus::NoSolution;
+                solution.message = format!("no approach from the initial configurations: {why}");
+                solution.joint_paths = None;
+            }
+        }
+    }
     if solution.status == FileStatus::Solved {
         let report = validate::<KinovaGen3, DOF>(file, &problem, &solution);
         if !report.is_valid() {

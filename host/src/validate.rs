@@ -196,7 +196,100 @@ pub fn validate<M: Model<D>, const D: usize>(
     check_tracking::<M, D>(file, problem, &solution.assignment, &paths, &mut report);
     check_velocity::<M, D>(problem.dt, &paths, &mut report);
     check_collisions::<M, D>(file, problem, &paths, &mut report);
+    check_approach::<M, D>(file, problem, solution, &paths, &mut report);
     report
+}
+
+/// The optional approach: its shape, then rules 1, 3 and 4 on every robot's timeline from
+/// `initial` through the approach to `joint_paths[i][0]`. Violations name the approach's step
+/// (0 = `initial`, A + 1 = `joint_paths[i][0]`).
+fn check_approach<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    problem: &Problem<D>,
+    solution: &SolutionFile,
+    paths: &[Vec<[f64; D]>],
+    report: &mut Report,
+) {
+    let Some(approach) = &solution.approach else {
+        return;
+    };
+    let before = report.violations.len();
+    let a = approach.first().map_or(0, Vec::len);
+    if approach.len() != problem.robots.len() {
+        report.add(
+            Rule::Assignment,
+            None,
+            None,
+            format!(
+                "approach has {} lists for {} robots",
+                approach.len(),
+                problem.robots.len()
+            ),
+        );
+    }
+    let mut timelines = Vec::with_capacity(approach.len());
+    for (i, (list, robot)) in approach.iter().zip(&problem.robots).enumerate() {
+        let Some(initial) = robot.initial else {
+            report.add(
+                Rule::Assignment,
+                Some(i),
+                None,
+                "approach given, but the problem gives the robot no initial configuration"
+                    .to_string(),
+            );
+            continue;
+        };
+        if list.len() != a {
+            report.add(
+                Rule::Assignment,
+                Some(i),
+                None,
+                format!(
+                    "approach[{i}] has {} configurations, approach[0] has {a}: every robot's \
+                     approach has the same length",
+                    list.len()
+                ),
+            );
+        }
+        let mut timeline = vec![initial];
+        for (k, q) in list.iter().enumerate() {
+            match <[f64; D]>::try_from(q.as_slice()) {
+                Ok(q) => timeline.push(q),
+                Err(_) => report.add(
+                    Rule::Assignment,
+                    Some(i),
+                    None,
+                    format!(
+                        "approach[{i}][{k}] has {} joint values, model {} has {D}",
+                        q.len(),
+                        M::NAME
+                    ),
+                ),
+            }
+        }
+        timeline.extend(paths.get(i).and_then(|p| p.first()));
+        timelines.push(timeline);
+    }
+    if report.violations.len() != before {
+        return;
+    }
+    let mut sub = Report::default();
+    check_limits::<M, D>(&timelines, &mut sub);
+    check_velocity::<M, D>(problem.dt, &timelines, &mut sub);
+    check_collisions::<M, D>(file, problem, &timelines, &mut sub);
+    for v in sub.violations {
+        let at = v.step.map_or(String::new(), |t| format!(" step {t}"));
+        report.add(
+            v.rule,
+            v.robot,
+            None,
+            format!(
+                "approach{at} (0 = initial, {} = joint_paths[0]): {}",
+                a + 1,
+                v.detail
+            ),
+        );
+    }
 }
 
 /// Rule 5, the assignment: one entry per robot, existing trajectories, each exactly once.
@@ -590,7 +683,7 @@ fn check_collisions<M: Model<D>, const D: usize>(
     paths: &[Vec<[f64; D]>],
     report: &mut Report,
 ) {
-    let horizon = problem.horizon();
+    let horizon = paths.iter().map(Vec::len).min().unwrap_or(0);
     let arms_at = |configurations: &mut dyn Iterator<Item = [f64; D]>| -> Vec<ArmPose> {
         (problem.robots.iter().zip(configurations))
             .map(|(robot, q)| ArmPose::new::<M, D>(&robot.base, &robot.tool, &q))

@@ -89,6 +89,7 @@ fn fake(
         _ => panic!("crash"),
     };
     Ok(SolutionFile {
+        approach: None,
         format: SOLUTION_FORMAT.to_string(),
         problem: file.name.clone(),
         planner: planner.to_string(),

@@ -93,6 +93,8 @@ fn path_quality_of_a_hand_computed_plan() {
             base: at(0.0, 0.0),
             tcp: Frame::IDENTITY,
             tool: Tool::NONE,
+            start: Default::default(),
+            assigned: Default::default(),
             // Tool at (0, 1); the trajectory starts at (1, 0): a start cost of sqrt(2).
             initial: Some([FRAC_PI_2]),
         })
@@ -103,6 +105,8 @@ fn path_quality_of_a_hand_computed_plan() {
             base: at(3.0, 0.0),
             tcp: Frame::IDENTITY,
             tool: Tool::NONE,
+            start: Default::default(),
+            assigned: Default::default(),
             initial: Some([PI]),
         })
         .unwrap();
@@ -153,6 +157,8 @@ fn a_single_arm_without_obstacles_has_no_clearance_figures() {
             base: Frame::IDENTITY,
             tcp: Frame::IDENTITY,
             tool: Tool::NONE,
+            start: Default::default(),
+            assigned: Default::default(),
             initial: None,
         })
         .unwrap();

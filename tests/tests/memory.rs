@@ -165,3 +165,68 @@ fn refinement_allocates_nothing() {
         assert_eq!(n, 0, "{name} allocated {n} times while refining");
     }
 }
+
+/// Online chunks (every robot starting exactly where it is, the assignment fixed) are planned
+/// with no allocation inside the core, by Ω-CBSA and OM-PP-A*.
+#[test]
+fn online_chunks_allocate_nothing() {
+    use omcbsa_core::problem::{Assigned, Start};
+    let file = facing_pair_problem(120).expect("scene");
+    let whole = Box::new(core_problem(&file));
+    let h = whole.horizon();
+    let handle = std::thread::Builder::new()
+        // The planners' stack, and room for this test's own problem copies (kept boxed).
+        .stack_size(2 * PLANNER_STACK)
+        .spawn(move || {
+            let mut storage = Storage::new(Capacities::default(), h);
+            let outcome = storage.solve("omcbsa", &whole, 5.0).expect("planner");
+            assert_eq!(outcome.status, Status::Solved);
+            let mut results = Vec::new();
+            // Chunks from steps 1, 3, 5: the arms at the whole plan's step before, the poses
+            // from there on (pose 0 is where the arms are, not tracked).
+            for start in [1usize, 3, 5] {
+                let mut chunk = whole.clone();
+                let chunk = &mut *chunk;
+                for t in chunk.trajectories.iter_mut() {
+                    let rest: heapless::Vec<_, { omcbsa_core::problem::MAX_STEPS }> =
+                        t[start - 1..].iter().copied().collect();
+                    *t = rest;
+                }
+                for (i, r) in chunk.robots.iter_mut().enumerate() {
+                    r.initial = Some(outcome.joint_paths[i][start - 1]);
+                    r.start = Start::AtInitial;
+                    r.assigned =
+                        outcome.assignment[i].map_or(Assigned::Hold, |j| Assigned::Track(j as u8));
+                }
+                for name in ["omcbsa", "pp"] {
+                    let clock = WallClock::start();
+                    let mut stats = Stats::default();
+                    let (r, n) =
+                        allocations(|| storage.solve_core(name, chunk, &clock, 5.0, &mut stats));
+                    let (status, assignment) = r.expect("known planner");
+                    results.push((
+                        name,
+                        start,
+                        status,
+                        n,
+                        assignment,
+                        outcome.assignment.clone(),
+                    ));
+                }
+            }
+            results
+        })
+        .expect("spawn");
+    for (name, start, status, n, assignment, whole) in handle.join().expect("no overflow") {
+        assert_eq!(
+            n, 0,
+            "{name} allocated {n} times planning the chunk from {start}"
+        );
+        assert_eq!(status, Status::Solved, "{name} chunk from {start}");
+        let kept: Vec<Option<usize>> = assignment[..whole.len()]
+            .iter()
+            .map(|a| a.map(usize::from))
+            .collect();
+        assert_eq!(kept, whole, "{name} kept the assignment");
+    }
+}

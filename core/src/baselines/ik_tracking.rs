@@ -5,7 +5,7 @@
 
 use crate::ik::IkParams;
 use crate::model::Model;
-use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::planner::{check_free, check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
@@ -50,6 +50,9 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for IkTracking {
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
+        if let Err(s) = check_free(problem) {
+            return s;
+        }
         let h = match check_problem(problem, out) {
             Ok(h) => h,
             Err(s) => return s,

@@ -146,7 +146,11 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         for pc in self.points {
             if pc.segment && pc.t as usize == t {
                 let q: [f64; D] = core::array::from_fn(|i| a[i] + pc.s * (b[i] - a[i]));
-                if near_point(&ArmPose::new::<M, D>(&self.base, &self.tool, &q), &pc.p, pc.margin) {
+                if near_point(
+                    &ArmPose::new::<M, D>(&self.base, &self.tool, &q),
+                    &pc.p,
+                    pc.margin,
+                ) {
                     return None;
                 }
             }

@@ -5,12 +5,14 @@
 //! through [`print`] and [`note`], never `println!`, which panics when stdout fails.
 
 pub mod bench;
+pub mod bench_online;
 pub mod demo;
 pub mod execute;
 pub mod fk;
 pub mod gen_bench;
 pub mod ik;
 mod lines;
+pub mod online;
 pub mod plan;
 pub mod validate;
 pub mod view;

@@ -219,6 +219,7 @@ fn files(
     let witness = match &sample.witness {
         Some(paths) => {
             let solution = SolutionFile {
+                approach: None,
                 format: SOLUTION_FORMAT.to_string(),
                 problem: spec.name.clone(),
                 planner: "witness".to_string(),

@@ -69,6 +69,7 @@ pub fn problem(robots: Vec<RobotSpec>, trajectories: Vec<TrajectorySpec>, dt: f6
 
 pub fn solution(assignment: Vec<Option<usize>>, paths: Vec<Vec<Q>>) -> SolutionFile {
     SolutionFile {
+        approach: None,
         format: SOLUTION_FORMAT.to_string(),
         problem: "tiny".to_string(),
         planner: "by hand".to_string(),

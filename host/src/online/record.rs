@@ -1,0 +1,100 @@
+//! What an online run sent to the arms, as a problem and solution file pair the validator
+//! checks whole: the timeline from `initial` through the approach and every chunk, against
+//! the poses of the last chunk that covered each step.
+
+use std::collections::BTreeMap;
+
+use serde_json::Map;
+
+use super::{Embodier, Setup};
+use crate::format::{
+    joint_paths_value, Pose, ProblemFile, SolutionFile, Status, TrajectorySpec, PROBLEM_FORMAT,
+    SOLUTION_FORMAT,
+};
+use crate::planners::DOF;
+
+/// Records the sent timeline and the poses it tracks, as the run goes.
+#[derive(Clone, Debug, Default)]
+pub struct RunRecord {
+    /// Per robot, every configuration sent, from timeline index 0.
+    pub sent: Vec<Vec<[f64; DOF]>>,
+    /// Per policy step, every hand's pose (the latest chunk's).
+    poses: BTreeMap<u64, Vec<Pose>>,
+}
+
+impl RunRecord {
+    /// Keeps the poses of a chunk that was planned (they replace older ones).
+    pub fn chunk(&mut self, start_step: u64, hands: &[Vec<Pose>]) {
+        for k in 0..hands.first().map_or(0, Vec::len) {
+            let at: Vec<Pose> = hands.iter().map(|h| h[k]).collect();
+            self.poses.insert(start_step + k as u64, at);
+        }
+    }
+
+    /// Records the embodier's plan up to (not including) timeline index `until` as sent; call
+    /// before [`Embodier::commit_until`] forgets it.
+    pub fn send(&mut self, embodier: &Embodier, until: usize) {
+        let n = embodier.robot_names().len();
+        self.sent.resize(n, Vec::new());
+        for (i, sent) in self.sent.iter_mut().enumerate() {
+            while sent.len() < until {
+                match embodier.configuration(i, sent.len()) {
+                    Some(q) => sent.push(q),
+                    None => break,
+                }
+            }
+        }
+    }
+
+    /// The problem (poses of the steps sent) and the solution (approach and paths sent).
+    /// `None` before the first chunk's first step was sent.
+    pub fn files(&self, setup: &Setup, embodier: &Embodier) -> Option<(ProblemFile, SolutionFile)> {
+        let (&first, _) = self.poses.first_key_value()?;
+        let a = embodier.approach_len();
+        let sent = self.sent.first()?.len();
+        let h = sent.checked_sub(a + 1).filter(|&h| h > 0)?;
+        let hands = self.poses.values().next()?.len();
+        let name = "online_run".to_string();
+        let problem = ProblemFile {
+            format: PROBLEM_FORMAT.to_string(),
+            name: name.clone(),
+            dt: setup.dt,
+            robots: setup.robots.clone(),
+            trajectories: (0..hands)
+                .map(|j| TrajectorySpec {
+                    name: format!("hand_{j}"),
+                    poses: (first..first + h as u64)
+                        .map(|s| self.poses.get(&s).map_or(Pose::IDENTITY, |p| p[j]))
+                        .collect(),
+                })
+                .collect(),
+            obstacles: setup.obstacles.clone(),
+            tolerance: setup.tolerance,
+        };
+        let solution = SolutionFile {
+            format: SOLUTION_FORMAT.to_string(),
+            problem: name,
+            planner: "online".to_string(),
+            status: Status::Solved,
+            message: String::new(),
+            planning_time_s: 0.0,
+            assignment: embodier.assignment()?.to_vec(),
+            approach: Some(joint_paths_value(
+                &self
+                    .sent
+                    .iter()
+                    .map(|s| s[1..=a].to_vec())
+                    .collect::<Vec<_>>(),
+            )),
+            joint_paths: Some(joint_paths_value(
+                &self
+                    .sent
+                    .iter()
+                    .map(|s| s[a + 1..].to_vec())
+                    .collect::<Vec<_>>(),
+            )),
+            stats: Map::new(),
+        };
+        Some((problem, solution))
+    }
+}

@@ -1,0 +1,343 @@
+//! An online run on Python mock arms: the scripted policy emits its chunks while the arms
+//! move, each chunk is planned as it arrives and pushed to the streaming executor without
+//! stopping; afterwards, what each mock received is compared with a replay of the pushes and
+//! the whole sent timeline is validated.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use omcbsa_core::model::KinovaGen3;
+use omcbsa_hw::cia402::CW_ENABLE_OPERATION;
+use omcbsa_hw::interpolate::min_time_scale;
+use omcbsa_hw::mock::{bus_log_path, exec_config, script_path, MockArm, MockArmOptions};
+use omcbsa_hw::record::check_followed;
+use omcbsa_hw::stream::Generator;
+use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, Transport, JOINTS};
+
+use super::policy::BoxFlipPolicy;
+use super::record::RunRecord;
+use super::{Embodier, OnlineError, OnlineOptions};
+use crate::planners::DOF;
+use crate::validate::{validate, Report as Validation};
+
+/// How the run goes.
+#[derive(Clone, Debug)]
+pub struct RunScript {
+    pub policy: BoxFlipPolicy,
+    pub chunks: usize,
+    /// A chunk arrives when the arms are this many steps before its first step.
+    pub lead_steps: usize,
+    /// This chunk arrives only once the queue ran dry (a policy that was late).
+    pub late_chunk: Option<usize>,
+    /// This chunk has a hand pose no arm can reach.
+    pub unreachable_chunk: Option<usize>,
+    /// Uniform slow-down over the first chunk's need (velocity and acceleration limits), for
+    /// the room later chunks may need.
+    pub time_margin: f64,
+    pub options: OnlineOptions,
+}
+
+impl Default for RunScript {
+    fn default() -> Self {
+        RunScript {
+            policy: BoxFlipPolicy::default(),
+            chunks: 12,
+            lead_steps: 4,
+            late_chunk: None,
+            unreachable_chunk: None,
+            time_margin: 2.0,
+            options: OnlineOptions::default(),
+        }
+    }
+}
+
+/// One push to the executor, as replayed afterwards.
+#[derive(Clone, Debug)]
+pub struct Push {
+    pub cycle: u64,
+    pub start: usize,
+    pub waypoints: Vec<Vec<[f64; JOINTS]>>,
+}
+
+/// What happened in a run.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// Planning time of each chunk planned, s.
+    pub latencies: Vec<f64>,
+    /// Chunks that were not planned, with why.
+    pub chunk_errors: Vec<(usize, OnlineError)>,
+    pub events: Vec<Event>,
+    pub pushes: Vec<Push>,
+    pub exec: Report,
+    /// Per arm, the cycles its mock received, all equal to the replayed stream to 1e-6 rad
+    /// and within the limits.
+    pub cycles: Vec<usize>,
+    /// The whole sent timeline against the poses it tracked.
+    pub validation: Validation,
+    pub assignment: Vec<Option<usize>>,
+}
+
+/// Runs `script` on one mock arm per robot (`python` from the mocks' venv), the mocks
+/// recording to `record_dir`; `progress` gets one line per chunk.
+pub fn run_on_mock_arms(
+    script: &RunScript,
+    python: &Path,
+    record_dir: &Path,
+    progress: &mut dyn FnMut(&str),
+) -> Result<RunOutcome, String> {
+    let setup = script.policy.setup();
+    let mut e = Embodier::new(&setup, script.options.clone()).map_err(|e| e.to_string())?;
+    let mut rec = RunRecord::default();
+    let first = script.policy.chunk(0);
+    let report = e
+        .push_chunk(first.start_step, &first.hands)
+        .map_err(|e| format!("chunk 0: {e}"))?;
+    rec.chunk(first.start_step, &first.hands);
+    let mut latencies = vec![report.planning_time_s];
+    let n = e.robot_names().len();
+    let limits = JointLimits::kinova_gen3();
+    let dt = setup.dt;
+    let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
+    progress(&format!(
+        "chunk 0 planned in {:.1} ms (approach {} steps, assignment {:?}); streaming at {:.2}x \
+         the planned time",
+        1e3 * report.planning_time_s,
+        e.approach_len(),
+        e.assignment().unwrap_or(&[]),
+        scale
+    ));
+    let initial: Vec<[f64; DOF]> = (0..n).map(|i| e.planned(i, 0)[0]).collect();
+    let records: Vec<PathBuf> = (e.robot_names().iter())
+        .map(|name| record_dir.join(format!("online-{name}.jsonl")))
+        .collect();
+    let mocks = (e.robot_names().iter().zip(&initial).zip(&records))
+        .map(|((name, q), record)| {
+            let _ = std::fs::remove_file(record);
+            let opts = MockArmOptions {
+                initial: *q,
+                record: Some(record.clone()),
+                bus_log: Some(bus_log_path(record)),
+                extra_args: Vec::new(),
+            };
+            MockArm::spawn(python, &script_path(), name, &opts)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let buses = (mocks.iter())
+        .map(|m| m.open_bus().map_err(|err| err.to_string()))
+        .collect::<Result<Vec<Box<dyn Transport>>, _>>()?;
+    let arms = (e
+        .robot_names()
+        .iter()
+        .cloned()
+        .zip(initial.iter().copied())
+        .zip(buses))
+    .map(|((name, q), bus)| (name, q, bus))
+    .collect();
+    let config = omcbsa_hw::ExecConfig {
+        // The approach and the first chunk are one push.
+        online_horizon: Duration::from_secs(120),
+        // Three Python mocks on a shared, busy machine drain their ptys late at times.
+        send_timeout: Duration::from_millis(50),
+        ..exec_config()
+    };
+    let handle =
+        Executor::online(arms, dt, scale, limits, config.clone()).map_err(|e| e.to_string())?;
+    let mut pushes = Vec::new();
+    push(&handle, &e, 1, &mut pushes)?;
+    let mut events = Vec::new();
+    let mut chunk_errors = Vec::new();
+    for c in 1..script.chunks {
+        let mut chunk = script.policy.chunk(c);
+        if script.unreachable_chunk == Some(c) {
+            let k = chunk.hands[0].len() / 2;
+            chunk.hands[0][k].position[2] += 3.0;
+        }
+        let due = e.timeline_index(chunk.start_step).unwrap_or(0);
+        let waited = if script.late_chunk == Some(c) {
+            wait(&handle, |p| p.holding, &mut events)
+        } else {
+            wait(&handle, |p| p.step + script.lead_steps >= due, &mut events)
+        };
+        if let Err(why) = waited {
+            return Err(match handle.finish() {
+                Err(fault) => format!("{why}: {fault}"),
+                Ok(_) => why,
+            });
+        }
+        // What the arms are executing, and the step after, cannot change any more.
+        let fixed = handle.progress().fixed;
+        rec.send(&e, fixed + 2);
+        e.commit_until(fixed + 2);
+        let old_end = e.end();
+        let result = match e.push_chunk(chunk.start_step, &chunk.hands) {
+            // Late: the steps already sent are dropped, the rest planned from where the arms
+            // are (holding at the end of the plan, if it ran out).
+            Err(OnlineError::DeadlineMissed { .. }) => {
+                let skip = (0..chunk.hands[0].len())
+                    .find(|&k| {
+                        e.timeline_index(chunk.start_step + k as u64)
+                            .is_some_and(|i| i >= fixed + 2)
+                    })
+                    .unwrap_or(chunk.hands[0].len());
+                chunk.start_step += skip as u64;
+                chunk.hands.iter_mut().for_each(|h| {
+                    h.drain(..skip);
+                });
+                if chunk.hands[0].is_empty() {
+                    Err(OnlineError::DeadlineMissed {
+                        start_step: chunk.start_step,
+                        committed_step: 0,
+                    })
+                } else {
+                    progress(&format!(
+                        "chunk {c} is late: its first {skip} steps dropped, the rest planned"
+                    ));
+                    e.push_chunk(chunk.start_step, &chunk.hands)
+                }
+            }
+            other => other,
+        };
+        match result {
+            Ok(report) => {
+                rec.chunk(chunk.start_step, &chunk.hands);
+                latencies.push(report.planning_time_s);
+                push(&handle, &e, report.index.min(old_end), &mut pushes)?;
+                progress(&format!(
+                    "chunk {c:>3} (steps {}..{}) planned in {:.1} ms, arms at step {}",
+                    chunk.start_step,
+                    chunk.start_step + chunk.hands[0].len() as u64,
+                    1e3 * report.planning_time_s,
+                    handle.progress().step
+                ));
+            }
+            Err(err) => {
+                progress(&format!("chunk {c:>3} NOT planned: {err}"));
+                chunk_errors.push((c, err));
+            }
+        }
+    }
+    rec.send(&e, e.end());
+    events.extend(handle.events());
+    let exec = handle.finish().map_err(|e| e.to_string())?;
+    let mut cycles = Vec::with_capacity(n);
+    let replay = replay(&initial, &pushes, scale * dt, &config, &limits)?;
+    for (i, mock) in mocks.into_iter().enumerate() {
+        // A mock writes its record as it exits; a long run's record takes a while on a busy
+        // machine, longer than `MockArm::finish` waits.
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while !records[i].exists() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let record = mock.finish()?;
+        let enabled = omcbsa_hw::record::targets(&record)?[0]
+            .iter()
+            .filter(|t| t.controlword == CW_ENABLE_OPERATION)
+            .count();
+        let motion = enabled.saturating_sub(config.settle_cycles);
+        let cmds: Vec<_> = replay(motion).into_iter().map(|c| c[i]).collect();
+        let got = check_followed(
+            &record,
+            &cmds,
+            config.settle_cycles,
+            &limits,
+            config.period.as_secs_f64(),
+        )
+        .map_err(|err| format!("mock arm {:?}: {err}", e.robot_names()[i]))?;
+        cycles.push(got);
+    }
+    drop(replay);
+    let (problem, solution) = rec
+        .files(&setup, &e)
+        .ok_or("nothing was sent to the arms")?;
+    let core = crate::load::problem::<KinovaGen3, DOF>(&problem).map_err(|e| e.to_string())?;
+    let validation = validate::<KinovaGen3, DOF>(&problem, &core, &solution);
+    Ok(RunOutcome {
+        latencies,
+        chunk_errors,
+        events,
+        pushes,
+        exec,
+        cycles,
+        validation,
+        assignment: e.assignment().unwrap_or(&[]).to_vec(),
+    })
+}
+
+/// Pushes the embodier's plan from timeline index `from` to the executor.
+fn push(
+    handle: &StreamHandle,
+    e: &Embodier,
+    from: usize,
+    pushes: &mut Vec<Push>,
+) -> Result<(), String> {
+    let waypoints: Vec<Vec<[f64; JOINTS]>> = (0..e.robot_names().len())
+        .map(|i| e.planned(i, from).to_vec())
+        .collect();
+    let slices: Vec<&[[f64; JOINTS]]> = waypoints.iter().map(Vec::as_slice).collect();
+    let cycle = handle
+        .push(from, &slices)
+        .map_err(|err| format!("the executor refused the plan from step {from}: {err}"))?;
+    pushes.push(Push {
+        cycle,
+        start: from,
+        waypoints,
+    });
+    Ok(())
+}
+
+/// Waits until `done` holds for the stream's progress (collecting its events), or fails if the
+/// stream faulted or it takes over a minute.
+fn wait(
+    handle: &StreamHandle,
+    done: impl Fn(&omcbsa_hw::StreamProgress) -> bool,
+    events: &mut Vec<Event>,
+) -> Result<(), String> {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        events.extend(handle.events());
+        if handle.faulted() {
+            return Err("the stream stopped on a fault".to_string());
+        }
+        if done(&handle.progress()) {
+            return Ok(());
+        }
+        if Instant::now() > deadline {
+            return Err("the stream made no progress for a minute".to_string());
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// A generator given the same pushes at the same cycles: the commands every arm was to
+/// receive, for the first `cycles` cycles.
+fn replay<'a>(
+    starts: &'a [[f64; JOINTS]],
+    pushes: &'a [Push],
+    step_time: f64,
+    config: &'a omcbsa_hw::ExecConfig,
+    limits: &'a [JointLimits; JOINTS],
+) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::interpolate::Command>> + 'a, String> {
+    let max_queued = (config.online_horizon.as_secs_f64() / step_time)
+        .floor()
+        .max(1.0);
+    let generator = Generator::new(starts, *limits, config.period.as_secs_f64(), step_time)?
+        .with_max_queued(max_queued as usize);
+    Ok(move |cycles: usize| {
+        let mut g = generator.clone();
+        let mut out = vec![[0; JOINTS]; starts.len()];
+        let mut next = pushes.iter().peekable();
+        let mut cmds = Vec::with_capacity(cycles);
+        for _ in 0..cycles {
+            while let Some(p) = next.next_if(|p| p.cycle == g.cycle()) {
+                let slices: Vec<&[[f64; JOINTS]]> = p.waypoints.iter().map(Vec::as_slice).collect();
+                // Accepted live, so accepted here.
+                let _ = g.push(p.start, &slices);
+            }
+            if g.next(&mut out).is_err() {
+                break;
+            }
+            cmds.push(out.clone());
+        }
+        cmds
+    })
+}
