@@ -4,22 +4,27 @@
 
 use numpy::ndarray::ArrayViewD;
 use omcbsa::error::{FieldError, InputError};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde_json::{Map, Number, Value};
 
-pyo3::create_exception!(
-    _omcbsa,
-    InputErrorPy,
-    PyValueError,
+/// The exception type, in its own module so that Python sees it as `omcbsa.InputError`.
+pub mod exception {
+    use pyo3::exceptions::PyValueError;
+
+    pyo3::create_exception!(
+        omcbsa,
+        InputError,
+        PyValueError,
     "Bad input: the message has one line `field: what is wrong` per problem (the command \
      line's words); `errors` holds the same as (field, message) pairs."
-);
+    );
+}
 
 /// The `ValueError` of one or more field errors, with the pairs in its `errors` attribute.
 pub fn input_error(py: Python<'_>, e: &InputError) -> PyErr {
-    let err = InputErrorPy::new_err(e.to_string());
+    let err = exception::InputError::new_err(e.to_string());
     let pairs: Vec<(String, String)> = (e.errors.iter())
         .map(|f| (f.path.clone(), f.message.clone()))
         .collect();

@@ -24,7 +24,7 @@ pub(crate) fn guard<T>(what: &str, f: impl FnOnce() -> T) -> PyResult<T> {
 
 #[pymodule]
 fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("InputError", m.py().get_type::<convert::InputErrorPy>())?;
+    m.add("InputError", m.py().get_type::<convert::exception::InputError>())?;
     m.add_class::<problem::Problem>()?;
     m.add_class::<problem::Solution>()?;
     m.add_class::<problem::Report>()?;
