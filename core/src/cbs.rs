@@ -346,7 +346,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let mut node = CtNode::default();
         let (mut taken, mut placed) = (0u32, 0u32);
         for &i in &order[..self.n] {
-            let left = self.all_trajectories() & !taken;
+            let left = self.all_trajectories() & !taken & self.pr.robots[i].assigned.mask();
             let tracked = if self.params.warm_start_seconds > 0.0 && left != 0 {
                 self.warm_track(i, &node, placed, left, restart, &warm)
             } else {

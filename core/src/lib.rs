@@ -15,6 +15,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod approach;
 pub mod baselines;
 pub mod cbs;
 pub mod collision;

@@ -3,7 +3,7 @@
 //! termination condition ([`Clock`] + timeout) and a solution written to caller storage.
 
 use crate::model::Model;
-use crate::problem::{Problem, MAX_ROBOTS};
+use crate::problem::{Assigned, Problem, Start, MAX_ROBOTS};
 use crate::search::Deadline;
 
 /// Time since planning started, in seconds. The core has no clock of its own: the host passes
@@ -124,6 +124,7 @@ pub fn check_problem<const D: usize>(
             "fewer trajectories than robots: every robot needs an initial configuration",
         ));
     }
+    check_online(problem)?;
     if out.paths.len() < problem.robots.len() * h {
         return Err(Status::OutOfMemory("solution path buffer"));
     }
@@ -133,4 +134,38 @@ pub fn check_problem<const D: usize>(
         return Err(Status::InvalidProblem("dt must be positive"));
     }
     Ok(h)
+}
+
+/// Checks the robots' fixed starts and fixed assignment: a start at `initial` or a hold needs
+/// `initial`; fixed trajectories exist, are taken once, and when every robot's part is fixed,
+/// every trajectory is taken.
+fn check_online<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
+    let mut taken = 0u32;
+    for r in &problem.robots {
+        if r.initial.is_none() && (r.start == Start::AtInitial || r.assigned == Assigned::Hold) {
+            return Err(Status::InvalidProblem(
+                "a robot that starts at or holds its initial configuration needs one",
+            ));
+        }
+        if let Assigned::Track(j) = r.assigned {
+            if usize::from(j) >= problem.trajectories.len() {
+                return Err(Status::InvalidProblem(
+                    "fixed assignment to no such trajectory",
+                ));
+            }
+            if taken & (1 << j) != 0 {
+                return Err(Status::InvalidProblem(
+                    "fixed assignment gives a trajectory twice",
+                ));
+            }
+            taken |= 1 << j;
+        }
+    }
+    let all_fixed = problem.robots.iter().all(|r| r.assigned != Assigned::Free);
+    if all_fixed && taken.count_ones() as usize != problem.trajectories.len() {
+        return Err(Status::InvalidProblem(
+            "fixed assignment leaves a trajectory untracked",
+        ));
+    }
+    Ok(())
 }

@@ -42,6 +42,57 @@ pub struct Robot<const D: usize> {
     pub tcp: Frame,
     /// Current configuration, if given (required for robots without a trajectory).
     pub initial: Option<[f64; D]>,
+    /// Where the robot's path begins (online planning continues from where the arm is).
+    pub start: Start,
+    /// The trajectory the robot must take (online planning keeps the first chunk's hands).
+    pub assigned: Assigned,
+}
+
+/// Where a robot's path begins.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Start {
+    /// Anywhere on the first pose's manifold: the planners sample start states (IK from
+    /// `initial` first, then random seeds); an approach from `initial` is planned apart
+    /// ([`crate::approach`]).
+    #[default]
+    Sampled,
+    /// Exactly at `initial`, at step 0: the path's first configuration is `initial` and pose 0
+    /// of its trajectory is not tracked. Online planning puts the arm's configuration one step
+    /// before a chunk at step 0, so reaching the chunk's first pose (step 1) from it is a step
+    /// like any other, within the velocity limits and collision-checked.
+    AtInitial,
+}
+
+/// A robot's fixed part of the assignment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Assigned {
+    /// The planner chooses.
+    #[default]
+    Free,
+    /// The robot tracks this trajectory and no other.
+    Track(u8),
+    /// The robot holds `initial`.
+    Hold,
+}
+
+impl Assigned {
+    /// The trajectories (bit set) the robot may take.
+    pub fn mask(self) -> u32 {
+        match self {
+            Assigned::Free => u32::MAX,
+            Assigned::Track(j) => 1u32.checked_shl(u32::from(j)).unwrap_or(0),
+            Assigned::Hold => 0,
+        }
+    }
+
+    /// Whether the robot may hold, given whether the planner would let it.
+    pub fn may_hold(self, planner_allows: bool) -> bool {
+        match self {
+            Assigned::Free => planner_allows,
+            Assigned::Track(_) => false,
+            Assigned::Hold => true,
+        }
+    }
 }
 
 /// One hand trajectory: where a tool centre point must be at each step, in the world frame.

@@ -4,7 +4,7 @@
 
 use crate::ik::{ik, IkParams};
 use crate::model::{Frame, Model};
-use crate::problem::{Robot, Trajectory};
+use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
 
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
@@ -21,7 +21,12 @@ pub fn track<M: Model<D>, const D: usize>(
     let base_inv = robot.base.inverse();
     let tcp_inv = robot.tcp.inverse();
     let target = |x: &Frame| base_inv.compose(x).compose(&tcp_inv);
-    let mut q = ik::<M, D>(&target(&traj[0]), seed, ik_params).ok()?;
+    let mut q = match (robot.start, robot.initial) {
+        // Online: the path begins where the arm is (pose 0 is not tracked).
+        (Start::AtInitial, Some(q)) => q,
+        (Start::AtInitial, None) => return None,
+        (Start::Sampled, _) => ik::<M, D>(&target(&traj[0]), seed, ik_params).ok()?,
+    };
     let mut c = valid.state(&q, 0)? as u32;
     out[0] = q;
     for t in 1..traj.len() {

@@ -12,6 +12,7 @@ pub mod format;
 pub mod ik;
 pub mod load;
 pub mod models;
+pub mod online;
 pub mod planners;
 pub mod pose;
 pub mod suite;

@@ -219,6 +219,8 @@ fn robot<M: Model<D>, const D: usize>(
         base: base?,
         tcp: tcp?,
         initial: initial?,
+        start: Default::default(),
+        assigned: Default::default(),
     })
 }
 

@@ -230,6 +230,8 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
         base,
         tcp: Frame::IDENTITY,
         initial: None,
+        start: Default::default(),
+        assigned: Default::default(),
     };
     let mut alt = vec![[0.0; DOF]; p0.len()];
     omcbsa_core::tracking::track::<KinovaGen3, DOF>(

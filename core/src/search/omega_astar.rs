@@ -16,7 +16,7 @@ use crate::geometry::Obstacle;
 use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
 use crate::model::{Frame, Model};
-use crate::problem::{Robot, Trajectory};
+use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
 
 use super::validity::Validity;
@@ -265,6 +265,17 @@ pub fn plan<M: Model<D>, const D: usize>(
     if query.trajectories.len() > 32 {
         return Err(SearchError::InvalidQuery("more than 32 trajectories"));
     }
+    // A robot's fixed part of the assignment narrows what the planner allows.
+    let query = &Query {
+        allowed: query.allowed & query.robot.assigned.mask(),
+        hold: query.robot.assigned.may_hold(query.hold),
+        ..*query
+    };
+    if query.robot.start == Start::AtInitial && query.robot.initial.is_none() {
+        return Err(SearchError::InvalidQuery(
+            "start at initial without an initial configuration",
+        ));
+    }
     if query.hold && query.robot.initial.is_none() {
         return Err(SearchError::InvalidQuery(
             "hold requested without an initial configuration",
@@ -292,6 +303,21 @@ pub fn plan<M: Model<D>, const D: usize>(
         }
     }
     Err(SearchError::NoSolution)
+}
+
+/// An initial state of the search (no parent, motion nothing to check).
+fn start_node<const D: usize>(q: [f64; D], g: f64, c: u16, j: u8) -> Node<D> {
+    Node {
+        q,
+        g,
+        parent: u32::MAX,
+        t: 0,
+        c,
+        j,
+        closed: false,
+        checked: true,
+        dead: false,
+    }
 }
 
 struct Ctx<'q, 'a, M, const D: usize> {
@@ -417,6 +443,13 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             if self.q.allowed & (1 << j) == 0 {
                 continue;
             }
+            if let (Start::AtInitial, Some(q)) = (self.q.robot.start, self.q.robot.initial) {
+                // Online: the arm is where it is; its motion to the chunk starts at step 1.
+                if let Some(c) = self.valid.state(&q, 0) {
+                    self.add(ws, start_node(q, 0.0, c, j as u8), stats)?;
+                }
+                continue;
+            }
             let target = self.target(j, 0);
             let g0 = self.start_cost(j);
             // The same seeds for a trajectory whatever else is asked, so a replan under one
@@ -451,18 +484,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 let Some(c) = self.valid.state(&q, 0) else {
                     continue;
                 };
-                let node = Node {
-                    q,
-                    g: g0,
-                    parent: u32::MAX,
-                    t: 0,
-                    c,
-                    j: j as u8,
-                    closed: false,
-                    checked: true,
-                    dead: false,
-                };
-                self.add(ws, node, stats)?;
+                self.add(ws, start_node(q, g0, c, j as u8), stats)?;
             }
         }
         Ok(())

@@ -1,0 +1,543 @@
+//! Online embodiment: a policy emits chunks of hand poses as it runs (every 0.1-1 s, 8-50
+//! poses per hand, usually replacing the tail of the previous chunk); the [`Embodier`] plans
+//! each chunk as it arrives, from where the arms will be, and keeps one plan the arms can be
+//! streamed without stopping.
+//!
+//! Steps: the policy numbers its poses by *policy step* (`start_step + k` for pose `k` of a
+//! chunk); the arms' timeline numbers configurations by *timeline index* at `dt` spacing,
+//! index 0 being `initial` (where the arms stand), then the approach to the first chunk, then
+//! the chunks. [`Embodier::timeline_index`] converts.
+//!
+//! - The first chunk chooses the assignment (which arm takes which hand) and its start
+//!   states; an approach from `initial` to them is planned ([`omcbsa_core::approach`]).
+//! - Every later chunk `push_chunk(s, poses)` is planned from the configuration every arm has
+//!   at step `s - 1` under the current plan (exactly there, not at sampled IK seeds), so that
+//!   reaching the chunk's first pose is one step within the velocity limits, collision-checked
+//!   like the others; the assignment is kept (Ω-CBSA and OM-PP-A* then only resolve
+//!   conflicts). The plan from step `s` on is replaced by the chunk's.
+//! - Memory stays bounded however long the run: the plan before the last step sent to the
+//!   arms ([`Embodier::commit_until`]) is dropped.
+
+mod error;
+
+pub use error::OnlineError;
+
+use omcbsa_core::approach::{plan_approach, ApproachError, ApproachParams};
+use omcbsa_core::ik::{ik, ik_multi_start, MultiStart};
+use omcbsa_core::model::KinovaGen3;
+use omcbsa_core::planner::{Stats, Status};
+use omcbsa_core::problem::{Assigned, Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
+use omcbsa_core::rng::Rng;
+
+use crate::error::{Errors, InputError};
+use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
+use crate::load;
+use crate::planners::{Capacities, Storage, DOF};
+use crate::pose;
+
+/// Where the arms are and what is around them: everything of a problem but the hands' poses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Setup {
+    /// Every robot needs `initial`: the arm's configuration when the run starts.
+    pub robots: Vec<RobotSpec>,
+    pub obstacles: Vec<ObstacleSpec>,
+    pub tolerance: ToleranceSpec,
+    /// Time between consecutive poses and configurations, s.
+    pub dt: f64,
+}
+
+impl Setup {
+    /// The setup of a problem file (its trajectories left out).
+    pub fn of_problem(file: &ProblemFile) -> Setup {
+        Setup {
+            robots: file.robots.clone(),
+            obstacles: file.obstacles.clone(),
+            tolerance: file.tolerance,
+            dt: file.dt,
+        }
+    }
+}
+
+/// How chunks are planned.
+#[derive(Clone, Debug)]
+pub struct OnlineOptions {
+    /// `omcbsa` (Ω-CBSA) or `pp` (OM-PP-A*).
+    pub planner: String,
+    /// Planning time allowed per chunk, s (the core's deadline).
+    pub chunk_timeout_s: f64,
+    /// Longest chunk (poses per hand) the storage is made for.
+    pub max_chunk_len: usize,
+    /// Most configurations of the approach to the first chunk.
+    pub max_approach_len: usize,
+    pub approach: ApproachParams,
+    /// Pool sizes of the planner (allocated once, in [`Embodier::new`]).
+    pub capacities: Capacities,
+}
+
+impl Default for OnlineOptions {
+    fn default() -> Self {
+        OnlineOptions {
+            planner: "omcbsa".to_string(),
+            chunk_timeout_s: 1.0,
+            max_chunk_len: 64,
+            max_approach_len: 1024,
+            approach: ApproachParams::default(),
+            capacities: Capacities {
+                path_slots: 1 << 11,
+                ..Capacities::default()
+            },
+        }
+    }
+}
+
+/// What one planned chunk changed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChunkReport {
+    pub start_step: u64,
+    /// Timeline index of the chunk's first pose: the plan from here on is new.
+    pub index: usize,
+    /// Timeline index one past the plan's last configuration.
+    pub end: usize,
+    /// Wall time of the planner call, s.
+    pub planning_time_s: f64,
+    pub stats: Stats,
+}
+
+/// Plans policy chunks as they arrive (see the module documentation).
+pub struct Embodier {
+    robots: heapless::Vec<Robot<DOF>, MAX_ROBOTS>,
+    /// The setup as a core problem without trajectories.
+    template: Problem<DOF>,
+    names: Vec<String>,
+    options: OnlineOptions,
+    storage: Storage,
+    approach_buf: Vec<[f64; DOF]>,
+    /// Per robot, its configurations from timeline index `window_start` on.
+    window: Vec<Vec<[f64; DOF]>>,
+    window_start: usize,
+    /// Timeline index of policy step 0 (set by the first chunk).
+    offset: Option<i64>,
+    approach_len: usize,
+    /// Per robot, the hand it holds, `None` when it holds still (set by the first chunk).
+    assignment: Option<Vec<Option<usize>>>,
+    /// Timeline indices below this were sent to the arms.
+    committed: usize,
+}
+
+impl Embodier {
+    /// Checks the setup (names the field that breaks a rule) and allocates every pool the
+    /// planner will use.
+    pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
+        let mut errors = Errors::default();
+        if !matches!(options.planner.as_str(), "omcbsa" | "pp") {
+            errors.push(
+                "planner",
+                format!("{:?} cannot plan online: use omcbsa or pp", options.planner),
+            );
+        }
+        if !(options.chunk_timeout_s.is_finite() && options.chunk_timeout_s > 0.0) {
+            errors.push("chunk_timeout_s", "must be a positive number of seconds");
+        }
+        if options.max_chunk_len == 0 || options.max_chunk_len >= MAX_STEPS {
+            errors.push(
+                "max_chunk_len",
+                format!("must be 1 to {} (MAX_STEPS - 1)", MAX_STEPS - 1),
+            );
+        }
+        for (i, r) in setup.robots.iter().enumerate() {
+            if r.initial.is_none() {
+                errors.push(
+                    format!("robots[{i}].initial"),
+                    "missing: online planning starts from where every arm stands",
+                );
+            }
+        }
+        errors.finish()?;
+        // The file loader checks robots, obstacles, tolerance and dt; one placeholder hand
+        // stands in for the chunks to come.
+        let file = ProblemFile {
+            format: crate::format::PROBLEM_FORMAT.to_string(),
+            name: "online".to_string(),
+            dt: setup.dt,
+            robots: setup.robots.clone(),
+            trajectories: vec![TrajectorySpec {
+                name: "hand".to_string(),
+                poses: vec![Pose::IDENTITY],
+            }],
+            obstacles: setup.obstacles.clone(),
+            tolerance: setup.tolerance,
+        };
+        load::model_of(&file)?;
+        let mut problem = load::problem::<KinovaGen3, DOF>(&file)?;
+        problem.trajectories.clear();
+        let robots = problem.robots.clone();
+        let n = robots.len();
+        let storage = Storage::new(options.capacities, options.max_chunk_len + 1);
+        Ok(Embodier {
+            robots,
+            template: problem,
+            names: setup.robots.iter().map(|r| r.name.clone()).collect(),
+            approach_buf: vec![[0.0; DOF]; n * options.max_approach_len],
+            options,
+            storage,
+            window: Vec::new(),
+            window_start: 0,
+            offset: None,
+            approach_len: 0,
+            assignment: None,
+            committed: 0,
+        })
+    }
+
+    /// Robot names, in the setup's order.
+    pub fn robot_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Per robot, the hand it holds (`None`: it holds still), once the first chunk chose it.
+    pub fn assignment(&self) -> Option<&[Option<usize>]> {
+        self.assignment.as_deref()
+    }
+
+    /// Configurations of the approach to the first chunk (between `initial` at index 0 and
+    /// the first chunk's first pose at index `approach_len() + 1`).
+    pub fn approach_len(&self) -> usize {
+        self.approach_len
+    }
+
+    /// The timeline index of policy step `step`, once the first chunk fixed it.
+    pub fn timeline_index(&self, step: u64) -> Option<usize> {
+        let i = self.offset? + step as i64;
+        usize::try_from(i).ok()
+    }
+
+    /// Timeline index one past the plan's last configuration (0 before the first chunk).
+    pub fn end(&self) -> usize {
+        self.window_start + self.window.first().map_or(0, Vec::len)
+    }
+
+    /// Robot `robot`'s configuration at timeline index `index`, if still kept; past the
+    /// plan's end, the last one (the arm holds there).
+    pub fn configuration(&self, robot: usize, index: usize) -> Option<[f64; DOF]> {
+        let path = self.window.get(robot)?;
+        let k = index.checked_sub(self.window_start)?;
+        path.get(k.min(path.len().checked_sub(1)?)).copied()
+    }
+
+    /// Robot `robot`'s planned configurations from timeline index `from` to the plan's end.
+    pub fn planned(&self, robot: usize, from: usize) -> &[[f64; DOF]] {
+        let path = self.window.get(robot).map_or(&[][..], Vec::as_slice);
+        let k = from.saturating_sub(self.window_start).min(path.len());
+        &path[k..]
+    }
+
+    /// The arms were sent the plan up to (not including) timeline index `index`: a chunk may no
+    /// longer replace it, and it is forgotten (but for the last configuration sent, where the
+    /// next chunk starts from).
+    pub fn commit_until(&mut self, index: usize) {
+        self.committed = self.committed.max(index);
+        let keep_from = self
+            .committed
+            .saturating_sub(1)
+            .min(self.end().saturating_sub(1));
+        let drop = keep_from.saturating_sub(self.window_start);
+        if drop > 0 {
+            self.window.iter_mut().for_each(|p| {
+                p.drain(..drop);
+            });
+            self.window_start += drop;
+        }
+    }
+
+    /// Plans a chunk: `hands[j][k]` is hand `j`'s pose at policy step `start_step + k`. The
+    /// first chunk chooses the assignment and an approach from `initial`; a later one is
+    /// planned from the arms' configurations at step `start_step - 1` and replaces the plan
+    /// from `start_step` on (a chunk that starts after the plan's end has the arms hold until
+    /// it). On error the plan is left as it was.
+    pub fn push_chunk(
+        &mut self,
+        start_step: u64,
+        hands: &[Vec<Pose>],
+    ) -> Result<ChunkReport, OnlineError> {
+        let frames = self.check_chunk(hands)?;
+        match self.offset {
+            None => self.first_chunk(start_step, &frames),
+            Some(_) => self.next_chunk(start_step, &frames),
+        }
+    }
+
+    /// Shape and value checks of a chunk; its poses as frames.
+    fn check_chunk(&self, hands: &[Vec<Pose>]) -> Result<Vec<Trajectory>, OnlineError> {
+        let mut errors = Errors::default();
+        let n = self.robots.len();
+        match &self.assignment {
+            Some(a) => {
+                let held = a.iter().flatten().count();
+                if hands.len() != held {
+                    errors.push(
+                        "hands",
+                        format!(
+                            "{} hands, but the first chunk had {held}: the hands are kept \
+                             across chunks",
+                            hands.len()
+                        ),
+                    );
+                }
+            }
+            None if hands.is_empty() || hands.len() > n => errors.push(
+                "hands",
+                format!("{} hands for {n} robots: 1 to {n} are needed", hands.len()),
+            ),
+            None => {}
+        }
+        let h = hands.first().map_or(0, Vec::len);
+        if h == 0 || h > self.options.max_chunk_len {
+            errors.push(
+                "hands[0]",
+                format!(
+                    "{h} poses: a chunk has 1 to {} (max_chunk_len)",
+                    self.options.max_chunk_len
+                ),
+            );
+        }
+        let mut out = Vec::with_capacity(hands.len());
+        for (j, poses) in hands.iter().enumerate() {
+            if poses.len() != h {
+                errors.push(
+                    format!("hands[{j}]"),
+                    format!(
+                        "{} poses, but hands[0] has {h}: all hands need as many",
+                        poses.len()
+                    ),
+                );
+            }
+            let mut t = Trajectory::new();
+            for (k, p) in poses.iter().enumerate().take(MAX_STEPS - 1) {
+                match pose::to_frame(p) {
+                    Ok(f) => {
+                        let _ = t.push(f);
+                    }
+                    Err(e) => errors.add(e.within(&format!("hands[{j}][{k}]"))),
+                }
+            }
+            out.push(t);
+        }
+        errors.finish()?;
+        Ok(out)
+    }
+
+    fn first_chunk(
+        &mut self,
+        start_step: u64,
+        hands: &[Trajectory],
+    ) -> Result<ChunkReport, OnlineError> {
+        let problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
+        let outcome = self.solve(&problem, start_step)?;
+        let h = problem.horizon();
+        let n = self.robots.len();
+        let mut flat = Vec::with_capacity(n * h);
+        outcome
+            .joint_paths
+            .iter()
+            .for_each(|p| flat.extend_from_slice(p));
+        let a = plan_approach::<KinovaGen3, DOF>(
+            &problem,
+            &flat,
+            h,
+            &self.options.approach,
+            &mut self.approach_buf,
+        )
+        .map_err(|e| OnlineError::Approach(self.describe(e)))?;
+        let cap = self.options.max_approach_len;
+        self.window = (0..n)
+            .map(|i| {
+                let mut w = Vec::with_capacity(1 + a + h);
+                w.push(self.robots[i].initial.unwrap_or(outcome.joint_paths[i][0]));
+                w.extend_from_slice(&self.approach_buf[i * cap..i * cap + a]);
+                w.extend_from_slice(&outcome.joint_paths[i]);
+                w
+            })
+            .collect();
+        self.window_start = 0;
+        self.approach_len = a;
+        self.offset = Some((a + 1) as i64 - start_step as i64);
+        self.assignment = Some(outcome.assignment.clone());
+        Ok(ChunkReport {
+            start_step,
+            index: a + 1,
+            end: self.end(),
+            planning_time_s: outcome.planning_time_s,
+            stats: outcome.stats,
+        })
+    }
+
+    fn next_chunk(
+        &mut self,
+        start_step: u64,
+        hands: &[Trajectory],
+    ) -> Result<ChunkReport, OnlineError> {
+        let index = self.offset.unwrap_or(0) + start_step as i64;
+        // The chunk's first step must not be sent yet; the one before it (its start) may be.
+        if index < self.committed as i64 || index <= self.window_start as i64 {
+            return Err(OnlineError::DeadlineMissed {
+                start_step,
+                committed_step: self.committed as i64 - 1 - self.offset.unwrap_or(0),
+            });
+        }
+        let index = index as usize;
+        let pins: Vec<[f64; DOF]> = (0..self.robots.len())
+            .map(|i| self.configuration(i, index - 1).unwrap_or([0.0; DOF]))
+            .collect();
+        // Step 0 is where the arms are; its pose is not tracked (it repeats the first).
+        let trajectories = hands.iter().map(|t| {
+            let mut with_pin = Trajectory::new();
+            let _ = with_pin.push(t[0]);
+            t.iter().for_each(|f| {
+                let _ = with_pin.push(*f);
+            });
+            with_pin
+        });
+        let problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
+        let outcome = self.solve(&problem, start_step)?;
+        let keep = index - self.window_start;
+        for (w, path) in self.window.iter_mut().zip(&outcome.joint_paths) {
+            // A chunk after the plan's end: the arms hold until it starts.
+            let last = *w.last().unwrap_or(&path[0]);
+            w.resize(keep, last);
+            w.extend_from_slice(&path[1..]);
+        }
+        Ok(ChunkReport {
+            start_step,
+            index,
+            end: self.end(),
+            planning_time_s: outcome.planning_time_s,
+            stats: outcome.stats,
+        })
+    }
+
+    /// The core problem of a chunk: robots start as `start` (from `pins` when given) with the
+    /// assignment kept once chosen.
+    fn problem(
+        &self,
+        trajectories: impl Iterator<Item = Trajectory>,
+        start: Start,
+        pins: Option<&[[f64; DOF]]>,
+    ) -> Problem<DOF> {
+        let mut problem = self.template.clone();
+        problem.trajectories = trajectories.collect();
+        problem.robots = (self.robots.iter().enumerate())
+            .map(|(i, r)| Robot {
+                initial: pins.map_or(r.initial, |p| Some(p[i])),
+                start,
+                assigned: match &self.assignment {
+                    None => Assigned::Free,
+                    Some(a) => a[i].map_or(Assigned::Hold, |j| Assigned::Track(j as u8)),
+                },
+                ..*r
+            })
+            .collect();
+        problem
+    }
+
+    fn solve(
+        &mut self,
+        problem: &Problem<DOF>,
+        start_step: u64,
+    ) -> Result<crate::planners::Outcome, OnlineError> {
+        let outcome = self
+            .storage
+            .solve(&self.options.planner, problem, self.options.chunk_timeout_s)
+            .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
+        if outcome.status == Status::Solved {
+            return Ok(outcome);
+        }
+        if let Some(e) = self.unreachable(problem, start_step) {
+            return Err(e);
+        }
+        let status = match outcome.status {
+            Status::Solved => unreachable!("handled above"),
+            Status::NoSolution => "no plan exists in the search space".to_string(),
+            Status::Timeout => format!(
+                "not planned within the chunk timeout of {} s",
+                self.options.chunk_timeout_s
+            ),
+            Status::OutOfMemory(pool) => format!("{pool} is full"),
+            Status::InvalidProblem(why) => why.to_string(),
+        };
+        Err(OnlineError::NotPlanned { start_step, status })
+    }
+
+    /// The first hand pose (earliest step) that no arm allowed to take the hand can reach:
+    /// IK from the previous step's answer, else from random seeds.
+    fn unreachable(&self, problem: &Problem<DOF>, start_step: u64) -> Option<OnlineError> {
+        let pinned = problem.robots.first()?.start == Start::AtInitial;
+        let first = usize::from(pinned);
+        let h = problem.horizon();
+        let mut last: Vec<Vec<Option<[f64; DOF]>>> =
+            vec![vec![None; self.robots.len()]; problem.trajectories.len()];
+        let ik_params = Default::default();
+        let multi = MultiStart {
+            attempts: 32,
+            ..MultiStart::default()
+        };
+        for k in first..h {
+            for (j, traj) in problem.trajectories.iter().enumerate() {
+                let fixed = problem
+                    .robots
+                    .iter()
+                    .position(|r| r.assigned == Assigned::Track(j as u8));
+                let mut reached = false;
+                for (i, r) in problem.robots.iter().enumerate() {
+                    if fixed.is_some_and(|f| f != i) {
+                        continue;
+                    }
+                    let target = r.base.inverse().compose(&traj[k]).compose(&r.tcp.inverse());
+                    let seed = last[j][i].or(r.initial);
+                    let mut q =
+                        seed.and_then(|s| ik::<KinovaGen3, DOF>(&target, &s, &ik_params).ok());
+                    if q.is_none() {
+                        let mut rng = Rng::new(0x0e1b ^ (k as u64) << 8 ^ j as u64);
+                        let mut out = [[0.0; DOF]; 1];
+                        if let Ok(1) = ik_multi_start::<KinovaGen3, DOF>(
+                            &target, &ik_params, &multi, &mut rng, &mut out,
+                        ) {
+                            q = Some(out[0]);
+                        }
+                    }
+                    last[j][i] = q;
+                    reached |= q.is_some();
+                }
+                if !reached {
+                    return Some(OnlineError::Unreachable {
+                        hand: j,
+                        step: start_step + (k - first) as u64,
+                        robot: fixed,
+                    });
+                }
+            }
+        }
+        None
+    }
+
+    fn describe(&self, e: ApproachError) -> String {
+        let name = |i: usize| format!("robot {i} ({:?})", self.names[i]);
+        match e {
+            ApproachError::StartCollides { robot, other: None } => {
+                format!("{} collides where it stands (initial)", name(robot))
+            }
+            ApproachError::StartCollides {
+                robot,
+                other: Some(o),
+            } => format!("{} and {} collide where they stand", name(robot), name(o)),
+            ApproachError::TooLong { needed, capacity } => {
+                format!("it needs {needed} configurations, more than max_approach_len {capacity}")
+            }
+            ApproachError::Blocked { robot, other } => format!(
+                "every motion tried collides: {} hits {}",
+                name(robot),
+                other.map_or("an obstacle or itself".to_string(), name)
+            ),
+            ApproachError::Invalid(why) => why.to_string(),
+        }
+    }
+}
