@@ -12,6 +12,8 @@ the same Rust library as the command line; bad input raises :class:`InputError` 
 """
 
 from ._omcbsa import (
+    ChunkError,
+    Embodier,
     InputError,
     Problem,
     Report,
@@ -24,6 +26,8 @@ from ._omcbsa import (
 )
 
 __all__ = [
+    "ChunkError",
+    "Embodier",
     "InputError",
     "Problem",
     "Report",

@@ -123,3 +123,51 @@ def ik(
     seed: int = 0,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
     """(..., 7) poses -> ((..., 7) joint values, NaN where none; (...) success flags)."""
+
+class ChunkError(RuntimeError):
+    """A chunk was not planned; the plan made before is kept."""
+
+    kind: str
+    """``unreachable``, ``deadline_missed``, ``not_planned`` or ``approach``."""
+    hand: Optional[int]
+    step: Optional[int]
+    robot: Optional[int]
+
+class Embodier:
+    """Plans policy chunks as they arrive (the library's online API).
+
+    ``setup``: a Problem whose robots all give ``initial`` (its trajectories are not used).
+    Timeline index 0 is ``initial``, then the approach, then the chunks, one per ``dt``.
+    """
+
+    def __init__(
+        self,
+        setup: Problem,
+        planner: str = "omcbsa",
+        chunk_timeout: float = 1.0,
+        max_chunk_len: int = 64,
+    ) -> None: ...
+    def push_chunk(self, start_step: int, hands: ArrayLike) -> npt.NDArray[np.float64]:
+        """``hands`` (hands, H, 7) poses at policy steps ``start_step..start_step+H`` ->
+        the new joint segment (robots, n, 7) from timeline index ``last_index`` to the end.
+        GIL released. Raises InputError or ChunkError; on error the plan is kept."""
+    def planned(self, start: int) -> npt.NDArray[np.float64]:
+        """(robots, n, 7) configurations from timeline index ``start`` to the end."""
+    @property
+    def approach(self) -> npt.NDArray[np.float64]:
+        """(robots, approach_len, 7): timeline indices 1 to approach_len."""
+    def commit_until(self, index: int) -> None:
+        """The arms were sent everything before ``index``; it is no longer replaced or kept."""
+    def timeline_index(self, step: int) -> Optional[int]: ...
+    @property
+    def assignment(self) -> Optional[list[Optional[int]]]: ...
+    @property
+    def approach_len(self) -> int: ...
+    @property
+    def end(self) -> int: ...
+    @property
+    def last_index(self) -> Optional[int]: ...
+    @property
+    def last_report(self) -> Optional[dict[str, Any]]: ...
+    @property
+    def robot_names(self) -> list[str]: ...

@@ -3,6 +3,7 @@
 //! and poses. One implementation: everything here converts and calls the host library.
 
 mod convert;
+mod embodier;
 mod kinematics;
 mod problem;
 
@@ -25,6 +26,8 @@ pub(crate) fn guard<T>(what: &str, f: impl FnOnce() -> T) -> PyResult<T> {
 #[pymodule]
 fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("InputError", m.py().get_type::<convert::exception::InputError>())?;
+    m.add("ChunkError", m.py().get_type::<embodier::ChunkError>())?;
+    m.add_class::<embodier::Embodier>()?;
     m.add_class::<problem::Problem>()?;
     m.add_class::<problem::Solution>()?;
     m.add_class::<problem::Report>()?;
