@@ -2,6 +2,7 @@
 //! docs/FORMATS.md as Python objects, planned and checked by the host library's own code.
 
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 use numpy::ndarray::{Array3, ArrayViewD};
 use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
@@ -9,7 +10,7 @@ use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
 use omcbsa::models::ModelKind;
-use omcbsa::planners::{plan_file, InputOrPlanError};
+use omcbsa::planners::{load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError, Storage};
 use omcbsa::validate::validate as check_solution;
 use omcbsa_core::model::KinovaGen3;
 use pyo3::exceptions::PyRuntimeError;
@@ -430,11 +431,35 @@ pub fn plan(py: Python<'_>, problem: &Problem, planner: &str, timeout: f64) -> P
         ));
     }
     let file = &problem.file;
-    match py.detach(|| guard("plan", || plan_file(file, planner, timeout)))? {
+    match py.detach(|| guard("plan", || plan_with_pools(file, planner, timeout)))? {
         Ok(file) => Ok(Solution { file }),
         Err(InputOrPlanError::Input(e)) => Err(input_error(py, &e)),
         Err(InputOrPlanError::Plan(e)) => Err(field_error(py, "planner", e)),
     }
+}
+
+/// The planner's pools, kept from call to call with the horizon they fit: allocating them
+/// (tens of MB) costs more than planning a small problem.
+static POOLS: Mutex<Option<(usize, Storage)>> = Mutex::new(None);
+
+/// `plan_file` in the kept pools; a call made while another thread plans gets pools of its
+/// own.
+fn plan_with_pools(
+    file: &ProblemFile,
+    planner: &str,
+    timeout: f64,
+) -> Result<SolutionFile, InputOrPlanError> {
+    let Ok(mut slot) = POOLS.try_lock() else {
+        return plan_file(file, planner, timeout);
+    };
+    let problem = load_problem(file)?;
+    let h = problem.horizon();
+    if !matches!(&*slot, Some((fits, _)) if *fits >= h) {
+        *slot = None; // the old pools go before the new ones are made
+    }
+    let (_, storage) =
+        slot.get_or_insert_with(|| (h, Storage::new(Capacities::default(), h)));
+    plan_loaded(storage, file, &problem, planner, timeout)
 }
 
 /// One broken rule of a validation, as `omcbsa validate` reports it: `str(v)` is the

@@ -1,6 +1,6 @@
 """Benchmark of the Python package: what a call from Python costs on top of the planner.
 
-    python python/bench.py SUITE_DIR [--limit N] [--planner omcbsa] [--fk-n 100000]
+    python python/benches/bench.py SUITE_DIR [--limit N] [--planner omcbsa] [--fk-n 100000]
 
 - Planning: for each suite problem (from `omcbsa gen-bench`), the wall time of
   `omcbsa.plan()` as Python sees it against the planner's own planning time
