@@ -17,7 +17,7 @@ pub mod exception {
         omcbsa,
         InputError,
         PyValueError,
-    "Bad input: the message has one line `field: what is wrong` per problem (the command \
+        "Bad input: the message has one line `field: what is wrong` per problem (the command \
      line's words); `errors` holds the same as (field, message) pairs."
     );
 }

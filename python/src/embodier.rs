@@ -43,7 +43,9 @@ fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
         OnlineError::DeadlineMissed { start_step, .. } => {
             ("deadline_missed", None, Some(*start_step), None)
         }
-        OnlineError::NotPlanned { start_step, .. } => ("not_planned", None, Some(*start_step), None),
+        OnlineError::NotPlanned { start_step, .. } => {
+            ("not_planned", None, Some(*start_step), None)
+        }
         OnlineError::Approach(_) => ("approach", None, None, None),
     };
     let err = ChunkError::new_err(e.to_string());

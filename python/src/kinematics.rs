@@ -5,8 +5,8 @@ use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
 use omcbsa::error::{Errors, InputError};
 use omcbsa::format::Pose;
-use omcbsa::models::ModelKind;
 use omcbsa::ik::solve as solve_ik;
+use omcbsa::models::ModelKind;
 use omcbsa::{load, pose};
 use omcbsa_core::model::{KinovaGen3, Model};
 use pyo3::prelude::*;
@@ -69,6 +69,9 @@ pub fn fk<'py>(
     array(py, shape, out)
 }
 
+/// Joint values (..., 7) and success flags (...).
+type IkAnswer<'py> = (Bound<'py, PyArrayDyn<f64>>, Bound<'py, PyArrayDyn<bool>>);
+
 /// Inverse kinematics: `poses` of shape (..., 7), position + quaternion xyzw of the tool
 /// frame in the model's base frame -> (`q` of shape (..., 7), `ok` of shape (...)). Each pose
 /// is solved from its seed (`seeds`: None, one configuration (7,), or one per pose) and then
@@ -82,7 +85,7 @@ pub fn ik<'py>(
     poses: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     seeds: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     seed: u64,
-) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, Bound<'py, PyArrayDyn<bool>>)> {
+) -> PyResult<IkAnswer<'py>> {
     let ModelKind::KinovaGen3 = model(py, model_name)?;
     let poses = poses.as_array();
     let shape = poses.shape().to_vec();
@@ -120,12 +123,9 @@ pub fn ik<'py>(
                     let target = pose::to_frame(&p)
                         .map_err(|e| InputError::from(e.within(&index_path("poses", &lead, k))))?;
                     let start = match &seeds {
-                        Some(s) if s.len() == DOF => Some(configuration::<KinovaGen3, DOF>(
-                            s,
-                            "seeds",
-                            &[],
-                            0,
-                        )?),
+                        Some(s) if s.len() == DOF => {
+                            Some(configuration::<KinovaGen3, DOF>(s, "seeds", &[], 0)?)
+                        }
                         Some(s) => Some(configuration::<KinovaGen3, DOF>(
                             &s[k * DOF..(k + 1) * DOF],
                             "seeds",
@@ -156,7 +156,11 @@ pub fn ik<'py>(
     Ok((array(py, q_shape, q)?, ok.into_pyarray(py)))
 }
 
-fn array(py: Python<'_>, shape: Vec<usize>, values: Vec<f64>) -> PyResult<Bound<'_, PyArrayDyn<f64>>> {
+fn array(
+    py: Python<'_>,
+    shape: Vec<usize>,
+    values: Vec<f64>,
+) -> PyResult<Bound<'_, PyArrayDyn<f64>>> {
     ArrayD::from_shape_vec(IxDyn(&shape), values)
         .map(|a| a.into_pyarray(py))
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))

@@ -25,7 +25,10 @@ pub(crate) fn guard<T>(what: &str, f: impl FnOnce() -> T) -> PyResult<T> {
 
 #[pymodule]
 fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("InputError", m.py().get_type::<convert::exception::InputError>())?;
+    m.add(
+        "InputError",
+        m.py().get_type::<convert::exception::InputError>(),
+    )?;
     m.add("ChunkError", m.py().get_type::<embodier::ChunkError>())?;
     m.add_class::<embodier::Embodier>()?;
     m.add_class::<problem::Problem>()?;

@@ -10,7 +10,9 @@ use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
 use omcbsa::models::ModelKind;
-use omcbsa::planners::{load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError, Storage};
+use omcbsa::planners::{
+    load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError, Storage,
+};
 use omcbsa::validate::validate as check_solution;
 use omcbsa_core::model::KinovaGen3;
 use pyo3::exceptions::PyRuntimeError;
@@ -18,7 +20,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde_json::{Map, Value};
 
-use crate::convert::{field_error, input_error, flat, number, pose_value, to_json};
+use crate::convert::{field_error, flat, input_error, number, pose_value, to_json};
 use crate::guard;
 
 /// Joint count of the compiled-in model (Kinova Gen3).
@@ -62,7 +64,11 @@ fn document(source: &Bound<'_, PyAny>) -> PyResult<String> {
             "",
             format!(
                 "expected a dict or the path of a JSON file, got a {}",
-                source.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                source
+                    .get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
             ),
         )
     })?;
@@ -135,7 +141,13 @@ impl Problem {
                 let one = flat(py, &a.as_array(), 7, "tcp", "(7,)")?;
                 Some(vec![one; base_rows.len()])
             }
-            Some(a) => Some(pose_rows(py, &a.as_array(), 2, "tcp", "(robots, 7) or (7,)")?),
+            Some(a) => Some(pose_rows(
+                py,
+                &a.as_array(),
+                2,
+                "tcp",
+                "(robots, 7) or (7,)",
+            )?),
             None => None,
         };
         for (arg, n) in [("initial", &initial_rows), ("tcp", &tcp_rows)] {
@@ -153,7 +165,10 @@ impl Problem {
             let mut r = Map::new();
             r.insert("name".into(), Value::from(format!("robot_{i}")));
             r.insert("model".into(), Value::from(model));
-            r.insert("base".into(), pose(b, format!("bases[{i}]")).map_err(|e| fe(py, e))?);
+            r.insert(
+                "base".into(),
+                pose(b, format!("bases[{i}]")).map_err(|e| fe(py, e))?,
+            );
             if let Some(q) = &initial_rows {
                 let q = (q[i].iter().enumerate())
                     .map(|(j, &v)| number(v, &format!("initial[{i}][{j}]")))
@@ -162,7 +177,10 @@ impl Problem {
                 r.insert("initial".into(), Value::Array(q));
             }
             if let Some(t) = &tcp_rows {
-                r.insert("tcp".into(), pose(&t[i], format!("tcp[{i}]")).map_err(|e| fe(py, e))?);
+                r.insert(
+                    "tcp".into(),
+                    pose(&t[i], format!("tcp[{i}]")).map_err(|e| fe(py, e))?,
+                );
             }
             robots.push(Value::Object(r));
         }
@@ -264,10 +282,16 @@ fn pose_rows(
         return Err(field_error(
             py,
             name,
-            format!("expected a non-empty array of shape {shape}, got shape {:?}", a.shape()),
+            format!(
+                "expected a non-empty array of shape {shape}, got shape {:?}",
+                a.shape()
+            ),
         ));
     }
-    Ok(flat(py, a, 7, name, shape)?.chunks_exact(7).map(<[f64]>::to_vec).collect())
+    Ok(flat(py, a, 7, name, shape)?
+        .chunks_exact(7)
+        .map(<[f64]>::to_vec)
+        .collect())
 }
 
 /// A planner's answer (`omcbsa.solution.v1`): `status`, `assignment`, `joint_paths` (a
@@ -457,8 +481,7 @@ fn plan_with_pools(
     if !matches!(&*slot, Some((fits, _)) if *fits >= h) {
         *slot = None; // the old pools go before the new ones are made
     }
-    let (_, storage) =
-        slot.get_or_insert_with(|| (h, Storage::new(Capacities::default(), h)));
+    let (_, storage) = slot.get_or_insert_with(|| (h, Storage::new(Capacities::default(), h)));
     plan_loaded(storage, file, &problem, planner, timeout)
 }
 

@@ -3,9 +3,9 @@
 use std::process::ExitCode;
 
 use omcbsa::format::Pose;
+use omcbsa::ik::solve;
 use omcbsa::models::ModelKind;
 use omcbsa::pose;
-use omcbsa::ik::solve;
 use omcbsa_core::model::{KinovaGen3, Model};
 
 use super::{bad_input, configuration, lines};
