@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every test on a fresh machine, installing what the tests need first:
 #   - the bare-metal target, to prove the core builds with no std and no alloc;
-#   - the Python venv of the mock arms (hardware-in-the-loop tests).
+#   - the Python venv of the mock arms (hardware-in-the-loop tests);
+#   - the Python package (python/), built from source by maturin into that venv.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,3 +20,11 @@ fi
 
 echo "== tests"
 cargo test --workspace
+
+echo "== Python package: wheel built by maturin into .venv (pinned), pytest against the CLI"
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -r python/requirements.txt
+cargo build --release -p omcbsa
+# One release build of the host crate serves the CLI above and the wheel (same target dir).
+PATH="$PWD/.venv/bin:$PATH" CARGO_TARGET_DIR="$PWD/target" .venv/bin/python -m pip install --quiet --disable-pip-version-check \
+    --no-build-isolation --no-deps --force-reinstall ./python
+.venv/bin/python -m pytest python/tests -q

@@ -10,6 +10,7 @@ pub mod demo;
 pub mod error;
 pub mod execute;
 pub mod format;
+pub mod ik;
 pub mod load;
 pub mod models;
 pub mod online;

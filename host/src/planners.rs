@@ -343,11 +343,28 @@ pub fn plan_file(
     name: &str,
     timeout_s: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
-    let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
-    let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
+    let problem = load_problem(file)?;
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
+    plan_loaded(&mut storage, file, &problem, name, timeout_s)
+}
+
+/// The checked core problem of a problem file.
+pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
+    let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
+    load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)
+}
+
+/// [`plan_file`] on a loaded problem with storage the caller keeps from run to run (made for
+/// horizons of at least `problem`'s).
+pub fn plan_loaded(
+    storage: &mut Storage,
+    file: &ProblemFile,
+    problem: &Problem<DOF>,
+    name: &str,
+    timeout_s: f64,
+) -> Result<SolutionFile, InputOrPlanError> {
     let outcome = storage
-        .solve(name, &problem, timeout_s)
+        .solve(name, problem, timeout_s)
         .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, name);
     // When the problem says where every arm stands, the plan begins there.
@@ -364,7 +381,7 @@ pub fn plan_file(
         }
     }
     if solution.status == FileStatus::Solved {
-        let report = validate::<KinovaGen3, DOF>(file, &problem, &solution);
+        let report = validate::<KinovaGen3, DOF>(file, problem, &solution);
         if !report.is_valid() {
             solution.status = FileStatus::NoSolution;
             solution.message = format!(

@@ -3,11 +3,10 @@
 use std::process::ExitCode;
 
 use omcbsa::format::Pose;
+use omcbsa::ik::solve;
 use omcbsa::models::ModelKind;
 use omcbsa::pose;
-use omcbsa_core::ik::{ik, ik_multi_start, IkError, IkParams, MultiStart};
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
-use omcbsa_core::rng::Rng;
+use omcbsa_core::model::{KinovaGen3, Model};
 
 use super::{bad_input, configuration, lines};
 
@@ -54,25 +53,4 @@ fn solve_lines<M: Model<D>, const D: usize>(args: &Args) -> ExitCode {
         let q = solve::<M, D>(&target, start.as_ref(), args.seed).map_err(|e| e.to_string())?;
         serde_json::to_value(q.to_vec()).map_err(|e| e.to_string())
     })
-}
-
-/// IK from `start` if given, else (or if that fails) from random starts.
-fn solve<M: Model<D>, const D: usize>(
-    target: &Frame,
-    start: Option<&[f64; D]>,
-    seed: u64,
-) -> Result<[f64; D], IkError> {
-    let params = IkParams::default();
-    if let Some(Ok(q)) = start.map(|s| ik::<M, D>(target, s, &params)) {
-        return Ok(q);
-    }
-    let mut out = [[0.0; D]; 1];
-    ik_multi_start::<M, D>(
-        target,
-        &params,
-        &MultiStart::default(),
-        &mut Rng::new(seed),
-        &mut out,
-    )?;
-    Ok(out[0])
 }

@@ -1,0 +1,235 @@
+//! `omcbsa.Embodier`: the host library's online API (plan policy chunks as they arrive).
+
+use numpy::ndarray::Array3;
+use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
+use omcbsa::format::Pose;
+use omcbsa::online::{ChunkReport, Embodier as HostEmbodier, OnlineError, OnlineOptions, Setup};
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::convert::{field_error, flat, input_error};
+use crate::guard;
+use crate::problem::{Problem, DOF};
+
+pyo3::create_exception!(
+    omcbsa,
+    ChunkError,
+    PyRuntimeError,
+    "A chunk was not planned (a pose no arm can reach, a missed deadline, no plan within the \
+     time, no approach); the plan made before is kept. `kind` says which: `unreachable`, \
+     `deadline_missed`, `not_planned` or `approach`."
+);
+
+/// Plans policy chunks as they arrive, from where the arms will be, keeping one plan the arms
+/// can be streamed without stopping (the `omcbsa` library's `Embodier`).
+///
+/// `Embodier(setup, planner="omcbsa", chunk_timeout=1.0, max_chunk_len=64)`: `setup` is a
+/// `Problem` whose robots all give `initial` (its trajectories are not used). Timeline index
+/// 0 is `initial`; then the approach to the first chunk; then the chunks, one configuration
+/// per `dt`.
+#[pyclass(module = "omcbsa")]
+pub struct Embodier {
+    inner: HostEmbodier,
+    last: Option<ChunkReport>,
+}
+
+fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
+    let (kind, hand, step, robot) = match &e {
+        OnlineError::Input(e) => return input_error(py, e),
+        OnlineError::Unreachable { hand, step, robot } => {
+            ("unreachable", Some(*hand), Some(*step), *robot)
+        }
+        OnlineError::DeadlineMissed { start_step, .. } => {
+            ("deadline_missed", None, Some(*start_step), None)
+        }
+        OnlineError::NotPlanned { start_step, .. } => {
+            ("not_planned", None, Some(*start_step), None)
+        }
+        OnlineError::Approach(_) => ("approach", None, None, None),
+    };
+    let err = ChunkError::new_err(e.to_string());
+    let value = err.value(py);
+    let set = || -> PyResult<()> {
+        value.setattr("kind", kind)?;
+        value.setattr("hand", hand)?;
+        value.setattr("step", step)?;
+        value.setattr("robot", robot)
+    };
+    match set() {
+        Ok(()) => err,
+        Err(e) => e,
+    }
+}
+
+impl Embodier {
+    /// Robots' configurations from timeline index `from` to the plan's end, (robots, n, 7).
+    fn segment<'py>(&self, py: Python<'py>, from: usize) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        self.range(py, from, self.inner.end().saturating_sub(from))
+    }
+
+    /// Robots' configurations at timeline indices `from..from + len`, (robots, len, 7).
+    fn range<'py>(
+        &self,
+        py: Python<'py>,
+        from: usize,
+        len: usize,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let n = self.inner.robot_names().len();
+        let mut values = Vec::with_capacity(n * len * DOF);
+        for i in 0..n {
+            let path = self.inner.planned(i, from);
+            let Some(path) = path.get(..len) else {
+                return Err(PyRuntimeError::new_err(format!(
+                    "timeline index {from} of robot {i} is no longer kept (committed)"
+                )));
+            };
+            path.iter().for_each(|q| values.extend_from_slice(q));
+        }
+        Array3::from_shape_vec((n, len, DOF), values)
+            .map(|a| a.into_pyarray(py))
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    }
+}
+
+#[pymethods]
+impl Embodier {
+    #[new]
+    #[pyo3(signature = (setup, planner="omcbsa", chunk_timeout=1.0, max_chunk_len=64))]
+    fn new(
+        py: Python<'_>,
+        setup: &Problem,
+        planner: &str,
+        chunk_timeout: f64,
+        max_chunk_len: usize,
+    ) -> PyResult<Embodier> {
+        let options = OnlineOptions {
+            planner: planner.to_string(),
+            chunk_timeout_s: chunk_timeout,
+            max_chunk_len,
+            ..OnlineOptions::default()
+        };
+        let setup = Setup::of_problem(&setup.file);
+        let inner = py
+            .detach(|| guard("Embodier", || HostEmbodier::new(&setup, options)))?
+            .map_err(|e| online_error(py, e))?;
+        Ok(Embodier { inner, last: None })
+    }
+
+    /// Plans a chunk: `hands[j][k]` (shape (hands, H, 7), position + quaternion xyzw) is hand
+    /// j's pose at policy step `start_step + k`. Returns the new joint segment, shape
+    /// (robots, n, 7): every robot's configurations from the chunk's first pose (timeline
+    /// index `last_index`) to the plan's end. The first chunk chooses the assignment and the
+    /// approach from `initial` (`approach`); later chunks keep the assignment and replace the
+    /// plan from `start_step` on. The GIL is released while planning. Bad input raises
+    /// `InputError` (`hands[1][4].quat_xyzw: ...`); a chunk that cannot be planned raises
+    /// `ChunkError` and leaves the plan as it was.
+    fn push_chunk<'py>(
+        &mut self,
+        py: Python<'py>,
+        start_step: u64,
+        hands: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let hands = hands.as_array();
+        let shape = hands.shape().to_vec();
+        if shape.len() != 3 {
+            return Err(field_error(
+                py,
+                "hands",
+                format!("expected an array of shape (hands, H, 7), got shape {shape:?}"),
+            ));
+        }
+        let values = flat(py, &hands, 7, "hands", "(hands, H, 7)")?;
+        let h = shape[1].max(1);
+        let poses: Vec<Vec<Pose>> = (values.chunks(h * 7))
+            .map(|hand| {
+                (hand.chunks_exact(7))
+                    .map(|p| Pose {
+                        position: [p[0], p[1], p[2]],
+                        quat_xyzw: [p[3], p[4], p[5], p[6]],
+                    })
+                    .collect()
+            })
+            .collect();
+        let inner = &mut self.inner;
+        let report = py
+            .detach(|| guard("push_chunk", || inner.push_chunk(start_step, &poses)))?
+            .map_err(|e| online_error(py, e))?;
+        let index = report.index;
+        self.last = Some(report);
+        self.segment(py, index)
+    }
+
+    /// Robots' planned configurations from timeline index `start` to the plan's end, shape
+    /// (robots, n, 7).
+    fn planned<'py>(&self, py: Python<'py>, start: usize) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        self.segment(py, start)
+    }
+
+    /// The approach from `initial` to the first chunk, shape (robots, approach_len, 7)
+    /// (timeline indices 1 to approach_len).
+    #[getter]
+    fn approach<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        self.range(py, 1, self.inner.approach_len())
+    }
+
+    /// The arms were sent the plan up to (not including) timeline index `index`: later chunks
+    /// may no longer replace it, and it is forgotten (memory stays bounded).
+    fn commit_until(&mut self, index: usize) {
+        self.inner.commit_until(index);
+    }
+
+    /// The timeline index of policy step `step` (None before the first chunk).
+    fn timeline_index(&self, step: u64) -> Option<usize> {
+        self.inner.timeline_index(step)
+    }
+
+    /// Per robot, the hand it holds (None: it holds still); None before the first chunk.
+    #[getter]
+    fn assignment(&self) -> Option<Vec<Option<usize>>> {
+        self.inner.assignment().map(<[_]>::to_vec)
+    }
+
+    #[getter]
+    fn approach_len(&self) -> usize {
+        self.inner.approach_len()
+    }
+
+    /// Timeline index one past the plan's last configuration.
+    #[getter]
+    fn end(&self) -> usize {
+        self.inner.end()
+    }
+
+    /// Timeline index of the last chunk's first pose (None before the first chunk).
+    #[getter]
+    fn last_index(&self) -> Option<usize> {
+        self.last.as_ref().map(|r| r.index)
+    }
+
+    /// The last chunk's planning report: start_step, index, end, planning_time_s, stats.
+    #[getter]
+    fn last_report<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(r) = &self.last else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("start_step", r.start_step)?;
+        d.set_item("index", r.index)?;
+        d.set_item("end", r.end)?;
+        d.set_item("planning_time_s", r.planning_time_s)?;
+        let stats = PyDict::new(py);
+        stats.set_item("expansions", r.stats.expansions)?;
+        stats.set_item("low_level_calls", r.stats.low_level_calls)?;
+        stats.set_item("ct_nodes", r.stats.ct_nodes)?;
+        stats.set_item("conflicts_resolved", r.stats.conflicts_resolved)?;
+        d.set_item("stats", stats)?;
+        Ok(Some(d))
+    }
+
+    /// Robot names, in the setup's order.
+    #[getter]
+    fn robot_names(&self) -> Vec<String> {
+        self.inner.robot_names().to_vec()
+    }
+}

@@ -1,0 +1,167 @@
+//! `fk` and `ik`, vectorised over the leading dimensions of their arrays, answering as
+//! `omcbsa fk` and `omcbsa ik` answer one line.
+
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
+use omcbsa::error::{Errors, InputError};
+use omcbsa::format::Pose;
+use omcbsa::ik::solve as solve_ik;
+use omcbsa::models::ModelKind;
+use omcbsa::{load, pose};
+use omcbsa_core::model::{KinovaGen3, Model};
+use pyo3::prelude::*;
+
+use crate::convert::{field_error, flat, index_path, input_error};
+use crate::guard;
+use crate::problem::DOF;
+
+/// The compiled-in model named `name`.
+fn model(py: Python<'_>, name: &str) -> PyResult<ModelKind> {
+    ModelKind::parse(name).map_err(|e| field_error(py, "model", e))
+}
+
+/// Row `k` of `values` as a configuration of `M` (finite, within limits), or the error naming
+/// `name[i][j]`.
+fn configuration<M: Model<D>, const D: usize>(
+    row: &[f64],
+    name: &str,
+    lead: &[usize],
+    k: usize,
+) -> Result<[f64; D], InputError> {
+    let mut errors = Errors::default();
+    let q = load::joint_values::<M, D>(row, "", &mut errors);
+    errors.finish().map_err(|e| InputError {
+        errors: (e.errors.into_iter())
+            .map(|f| f.within(&index_path(name, lead, k)))
+            .collect(),
+    })?;
+    Ok(q.unwrap_or([0.0; D]))
+}
+
+/// Forward kinematics: `q` of shape (..., 7) joint values -> poses of shape (..., 7),
+/// position + quaternion xyzw (w >= 0) of the tool frame in the model's base frame. A value
+/// outside the joint limits raises `ValueError` naming it (`q[2][5]`).
+#[pyfunction]
+pub fn fk<'py>(
+    py: Python<'py>,
+    model_name: &str,
+    q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let ModelKind::KinovaGen3 = model(py, model_name)?;
+    let q = q.as_array();
+    let shape = q.shape().to_vec();
+    let values = flat(py, &q, DOF, "q", "(..., 7)")?;
+    let lead = &shape[..shape.len() - 1];
+    let out = py
+        .detach(|| {
+            guard("fk", || {
+                let mut out = Vec::with_capacity(values.len());
+                for (k, row) in values.chunks_exact(DOF).enumerate() {
+                    let q = configuration::<KinovaGen3, DOF>(row, "q", lead, k)?;
+                    let p = pose::from_frame(&KinovaGen3::fk(&q));
+                    out.extend_from_slice(&p.position);
+                    out.extend_from_slice(&p.quat_xyzw);
+                }
+                Ok::<_, InputError>(out)
+            })
+        })?
+        .map_err(|e| input_error(py, &e))?;
+    array(py, shape, out)
+}
+
+/// Joint values (..., 7) and success flags (...).
+type IkAnswer<'py> = (Bound<'py, PyArrayDyn<f64>>, Bound<'py, PyArrayDyn<bool>>);
+
+/// Inverse kinematics: `poses` of shape (..., 7), position + quaternion xyzw of the tool
+/// frame in the model's base frame -> (`q` of shape (..., 7), `ok` of shape (...)). Each pose
+/// is solved from its seed (`seeds`: None, one configuration (7,), or one per pose) and then
+/// from random starts drawn from `seed`, as `omcbsa ik` does; a pose with no solution gets
+/// `ok` False and NaN joint values. A bad pose or seed raises `ValueError` naming it.
+#[pyfunction]
+#[pyo3(signature = (model_name, poses, seeds=None, seed=0))]
+pub fn ik<'py>(
+    py: Python<'py>,
+    model_name: &str,
+    poses: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    seeds: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    seed: u64,
+) -> PyResult<IkAnswer<'py>> {
+    let ModelKind::KinovaGen3 = model(py, model_name)?;
+    let poses = poses.as_array();
+    let shape = poses.shape().to_vec();
+    let values = flat(py, &poses, 7, "poses", "(..., 7)")?;
+    let lead = shape[..shape.len() - 1].to_vec();
+    let n = values.len() / 7;
+    let seeds = match &seeds {
+        None => None,
+        Some(s) => {
+            let s = s.as_array();
+            let ok = s.shape() == [DOF] || s.shape() == shape.as_slice();
+            if !ok {
+                return Err(field_error(
+                    py,
+                    "seeds",
+                    format!(
+                        "expected shape (7,) or the shape of poses {shape:?}, got {:?}",
+                        s.shape()
+                    ),
+                ));
+            }
+            Some(flat(py, &s, DOF, "seeds", "(..., 7)")?)
+        }
+    };
+    let (q, ok) = py
+        .detach(|| {
+            guard("ik", || {
+                let mut q = Vec::with_capacity(n * DOF);
+                let mut ok = Vec::with_capacity(n);
+                for (k, row) in values.chunks_exact(7).enumerate() {
+                    let p = Pose {
+                        position: [row[0], row[1], row[2]],
+                        quat_xyzw: [row[3], row[4], row[5], row[6]],
+                    };
+                    let target = pose::to_frame(&p)
+                        .map_err(|e| InputError::from(e.within(&index_path("poses", &lead, k))))?;
+                    let start = match &seeds {
+                        Some(s) if s.len() == DOF => {
+                            Some(configuration::<KinovaGen3, DOF>(s, "seeds", &[], 0)?)
+                        }
+                        Some(s) => Some(configuration::<KinovaGen3, DOF>(
+                            &s[k * DOF..(k + 1) * DOF],
+                            "seeds",
+                            &lead,
+                            k,
+                        )?),
+                        None => None,
+                    };
+                    match solve_ik::<KinovaGen3, DOF>(&target, start.as_ref(), seed) {
+                        Ok(sol) => {
+                            q.extend_from_slice(&sol);
+                            ok.push(true);
+                        }
+                        Err(_) => {
+                            q.extend_from_slice(&[f64::NAN; DOF]);
+                            ok.push(false);
+                        }
+                    }
+                }
+                Ok::<_, InputError>((q, ok))
+            })
+        })?
+        .map_err(|e| input_error(py, &e))?;
+    let mut q_shape = lead.clone();
+    q_shape.push(DOF);
+    let ok = ArrayD::from_shape_vec(IxDyn(&lead), ok)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    Ok((array(py, q_shape, q)?, ok.into_pyarray(py)))
+}
+
+fn array(
+    py: Python<'_>,
+    shape: Vec<usize>,
+    values: Vec<f64>,
+) -> PyResult<Bound<'_, PyArrayDyn<f64>>> {
+    ArrayD::from_shape_vec(IxDyn(&shape), values)
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
+}
