@@ -3,14 +3,15 @@
 //! assignment kept) and streamed without stopping; then what the mocks received is compared
 //! with the planned stream and the whole sent timeline validated.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::online::run::{run_on_mock_arms, RunScript};
+use omcbsa::online::run::{run_on_mock_arms, RunOutcome, RunScript};
+use omcbsa::view::write_html;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::Event;
 
-use super::{bad_input, negative};
+use super::{bad_input, negative, note, print};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -32,16 +33,16 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
+    online(args).unwrap_or_else(|code| code)
+}
+
+fn online(args: &Args) -> Result<ExitCode, ExitCode> {
     if args.chunks == 0 {
-        return bad_input("--chunks: at least 1");
+        return Err(bad_input("--chunks: at least 1"));
     }
-    if let Err(e) = std::fs::create_dir_all(&args.out) {
-        return bad_input(format!("--out {}: {e}", args.out.display()));
-    }
-    let python = match ensure_venv() {
-        Ok(p) => p,
-        Err(e) => return bad_input(format!("mock arms: {e}")),
-    };
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| bad_input(format!("--out {}: {e}", args.out.display())))?;
+    let python = ensure_venv().map_err(|e| bad_input(format!("mock arms: {e}")))?;
     let mut script = RunScript {
         chunks: args.chunks,
         late_chunk: args.late_chunk,
@@ -49,43 +50,81 @@ pub fn run(args: &Args) -> ExitCode {
         ..RunScript::default()
     };
     script.options.planner = args.planner.clone();
-    println!(
+    print(format_args!(
         "online: box flip policy, {} chunks of {} poses every {} poses, 3 mock arms",
         script.chunks, script.policy.chunk_len, script.policy.stride
-    );
-    let outcome = match run_on_mock_arms(&script, &python, &args.out, &mut |l| println!("{l}")) {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return negative();
-        }
-    };
+    ))?;
+    // Progress lines are best effort: a closed stdout must not stop the arms mid-run.
+    let outcome = run_on_mock_arms(&script, &python, &args.out, &mut |l| {
+        let _ = print(l);
+    })
+    .map_err(|e| {
+        note(format!("error: {e}"));
+        negative()
+    })?;
     for e in &outcome.events {
         match e {
             Event::QueueDry { step, .. } => {
-                println!("queue ran dry: the arms held at step {step}")
+                print(format_args!("queue ran dry: the arms held at step {step}"))?
             }
-            Event::Resumed { step, .. } => println!("resumed from step {step}"),
+            Event::Resumed { step, .. } => print(format_args!("resumed from step {step}"))?,
         }
     }
     let mut ms: Vec<f64> = outcome.latencies.iter().map(|s| s * 1e3).collect();
     ms.sort_by(f64::total_cmp);
-    println!(
-        "{} chunks planned ({} not), latency median {:.1} ms, max {:.1} ms; {}",
-        ms.len(),
-        outcome.chunk_errors.len(),
-        ms[ms.len() / 2],
-        ms[ms.len() - 1],
-        outcome.exec
-    );
-    println!(
+    if let (Some(median), Some(max)) = (ms.get(ms.len() / 2), ms.last()) {
+        print(format_args!(
+            "{} chunks planned ({} not), latency median {median:.1} ms, max {max:.1} ms; {}",
+            ms.len(),
+            outcome.chunk_errors.len(),
+            outcome.exec
+        ))?;
+    }
+    print(format_args!(
         "every mock received the planned stream (to 1e-6 rad, within limits): {:?} cycles",
         outcome.cycles
-    );
-    println!("sent timeline: {}", outcome.validation.summary());
-    if outcome.validation.is_valid() && outcome.chunk_errors.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        negative()
+    ))?;
+    print(format_args!(
+        "sent timeline: {}",
+        outcome.validation.summary()
+    ))?;
+    write_run(&args.out, &outcome)?;
+    Ok(
+        if outcome.validation.is_valid() && outcome.chunk_errors.is_empty() {
+            ExitCode::SUCCESS
+        } else {
+            negative()
+        },
+    )
+}
+
+/// The sent timeline as problem.json and solution.json, and its page (plan.html), in `out`.
+fn write_run(out: &Path, outcome: &RunOutcome) -> Result<(), ExitCode> {
+    for (name, text) in [
+        (
+            "problem.json",
+            serde_json::to_string_pretty(&outcome.problem),
+        ),
+        (
+            "solution.json",
+            serde_json::to_string_pretty(&outcome.solution),
+        ),
+    ] {
+        let path = out.join(name);
+        let text = text.map_err(|e| bad_input(format!("cannot encode {}: {e}", path.display())))?;
+        std::fs::write(&path, text)
+            .map_err(|e| bad_input(format!("cannot write {}: {e}", path.display())))?;
     }
+    let page = out.join("plan.html");
+    write_html(
+        &outcome.problem,
+        Some(&outcome.solution),
+        Some(&outcome.validation),
+        &page,
+    )
+    .map_err(bad_input)?;
+    print(format_args!(
+        "wrote {} (open it in a browser to see the run)",
+        page.display()
+    ))
 }

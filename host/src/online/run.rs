@@ -17,6 +17,7 @@ use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, Transport, J
 use super::policy::BoxFlipPolicy;
 use super::record::RunRecord;
 use super::{Embodier, OnlineError, OnlineOptions};
+use crate::format::{ProblemFile, SolutionFile};
 use crate::planners::DOF;
 use crate::validate::{validate, Report as Validation};
 
@@ -75,6 +76,9 @@ pub struct RunOutcome {
     /// The whole sent timeline against the poses it tracked.
     pub validation: Validation,
     pub assignment: Vec<Option<usize>>,
+    /// The whole sent timeline as a problem and solution pair (what `validation` checked).
+    pub problem: ProblemFile,
+    pub solution: SolutionFile,
 }
 
 /// Runs `script` on one mock arm per robot (`python` from the mocks' venv), the mocks
@@ -260,6 +264,8 @@ pub fn run_on_mock_arms(
         cycles,
         validation,
         assignment: e.assignment().unwrap_or(&[]).to_vec(),
+        problem,
+        solution,
     })
 }
 
