@@ -23,12 +23,13 @@ fn three_arms_follow_the_interpolated_plan() {
     let report = exec.run(&AcceptAll).unwrap_or_else(|e| panic!("{e}"));
     println!("{report}");
 
-    let traj = interpolate(&plan, &limits, 0.002).unwrap();
+    let period = cfg.period.as_secs_f64();
+    let traj = interpolate(&plan, &limits, period).unwrap();
     for (arm, mock) in mocks.into_iter().enumerate() {
         let name = mock.name.clone();
         let record = record_of(mock);
         let cmds = &traj.commands[arm];
-        let cycles = check_followed(&record, cmds, cfg.settle_cycles, &limits, 0.002)
+        let cycles = check_followed(&record, cmds, cfg.settle_cycles, &limits, period)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(cycles, cmds.len() + cfg.settle_cycles);
         // the plan's waypoints themselves are reached: first and last exactly (to 1e-7)

@@ -33,6 +33,9 @@ const FOREARM: usize = 4;
 /// fingers' capsule ends at 12 cm).
 const GRIP_DEPTH: f64 = 0.10;
 
+/// Kinova's home posture (its `initial` in ros2_kortex).
+const HOME: Q = [0.0, 0.26, PI, -2.27, 0.0, 0.96, PI / 2.0];
+
 fn base_a() -> Frame {
     frame([0.0; 3], [0.0; 3])
 }
@@ -53,7 +56,8 @@ fn path_a() -> Vec<Q> {
 fn scene(b_at: &Q, tools: bool) -> ProblemFile {
     let (a, b) = (base_a(), base_b());
     let mut robots = vec![
-        robot_json("a", &a, Some(&path_a()[0])),
+        // `a` stands at Kinova's home posture; its plan begins there (with an approach).
+        robot_json("a", &a, Some(&HOME)),
         robot_json("b", &b, Some(b_at)),
     ];
     if tools {
