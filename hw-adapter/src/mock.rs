@@ -68,12 +68,14 @@ pub struct MockArmOptions {
 
 /// Executor settings for the mocks: feedback and send deadlines generous enough for three
 /// Python processes sharing a busy 2-core machine (a mock that falls behind answers its SYNCs
-/// late, and leaves its pty's buffer full for a while).
+/// late, and leaves its pty's buffer full for a while: a stall of a few hundred ms was seen
+/// with several builds running). The send deadline stays under the feedback deadline, which
+/// is how long the other arms wait for a late one on the common schedule.
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
         feedback_timeout: Duration::from_secs(1),
         heartbeat_timeout: Duration::from_millis(500),
-        send_timeout: Duration::from_millis(20),
+        send_timeout: Duration::from_millis(500),
         ..ExecConfig::default()
     }
 }

@@ -117,7 +117,9 @@ pub fn run_on_mock_arms(
                 initial: *q,
                 record: Some(record.clone()),
                 bus_log: Some(bus_log_path(record)),
-                extra_args: Vec::new(),
+                // A slowed-down run on a busy machine outlasts the mock's default minute
+                // (it is killed when dropped in any case).
+                extra_args: vec!["--max-seconds=600".to_string()],
             };
             MockArm::spawn(python, &script_path(), name, &opts)
         })
@@ -136,8 +138,6 @@ pub fn run_on_mock_arms(
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
         online_horizon: Duration::from_secs(120),
-        // Three Python mocks on a shared, busy machine drain their ptys late at times.
-        send_timeout: Duration::from_millis(50),
         ..exec_config()
     };
     let handle =
