@@ -138,6 +138,9 @@ pub fn run_on_mock_arms(
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
         online_horizon: Duration::from_secs(120),
+        // A minute-long run of three Python mocks on a loaded machine sees a mock stall for
+        // over a second at times (heartbeats, limits and following error stay watched).
+        feedback_timeout: Duration::from_secs(3),
         ..exec_config()
     };
     let handle =
