@@ -33,6 +33,10 @@ struct NodeState {
     tpdo: Option<(i32, u16)>,
     /// TPDO1s received since the SYNC clock was reset: each answers one SYNC, in order.
     answered: usize,
+    /// The targets in force at the SYNC the last TPDO1 answers (None: it answered none). The
+    /// following error is the distance to these, not to a target sent after the drive
+    /// measured (feedback that arrives late is no following error).
+    answered_target: Option<i32>,
     emcy: Option<Emcy>,
 }
 
@@ -67,9 +71,9 @@ pub struct ArmBus {
     /// Frames sent so far.
     pub frames_sent: usize,
     nodes: [NodeState; JOINTS],
-    /// Send times of the SYNCs not yet answered by every node, oldest first, and how many
-    /// SYNCs before them every node has answered.
-    syncs: VecDeque<Instant>,
+    /// Send times of the SYNCs not yet answered by every node, oldest first, with the targets
+    /// of their cycle; and how many SYNCs before them every node has answered.
+    syncs: VecDeque<(Instant, Option<Command>)>,
     syncs_done: usize,
     sdo_reply: Option<(u8, SdoReply)>,
 }
@@ -99,7 +103,7 @@ impl ArmBus {
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
         if frame.id() == canopen::SYNC_ID {
-            self.syncs.push_back(Instant::now());
+            self.syncs.push_back((Instant::now(), None));
         }
         self.frames_sent += 1;
         if let Some(log) = &self.log {
@@ -145,6 +149,11 @@ impl ArmBus {
                     self.nodes[j].tpdo = Some(feedback);
                     let sent = self.syncs_done + self.syncs.len();
                     let n = &mut self.nodes[j];
+                    // The SYNC this TPDO1 answers, if one is owed.
+                    n.answered_target = (n.answered < sent)
+                        .then(|| self.syncs[n.answered - self.syncs_done].1)
+                        .flatten()
+                        .map(|cmd| cmd[j]);
                     n.answered = (n.answered + 1).min(sent);
                     let all = self.nodes.iter().map(|n| n.answered).min().unwrap_or(0);
                     while self.syncs_done < all {
@@ -164,8 +173,9 @@ impl ArmBus {
         }
     }
 
-    /// The first fault visible in the feedback, given the last target sent (`target`); also
-    /// returns the largest following error seen.
+    /// The first fault visible in the feedback, given the last target sent (`target`, the
+    /// reference for feedback that answers no SYNC of a cycle); also returns the largest
+    /// following error seen.
     pub fn check_feedback(
         &self,
         now: Instant,
@@ -212,7 +222,7 @@ impl ArmBus {
             // The oldest SYNC the drive has not answered: feedback late by more than the timeout
             // is a fault even while TPDOs keep coming (a backlog), and a wait with no SYNC
             // sent is no silence.
-            if let Some(&t) = self.syncs.get(n.answered - self.syncs_done) {
+            if let Some(&(t, _)) = self.syncs.get(n.answered - self.syncs_done) {
                 if now.duration_since(t) > cfg.feedback_timeout {
                     return Err(Fault::FeedbackLost {
                         node,
@@ -226,12 +236,13 @@ impl ArmBus {
                     statusword: sw,
                 });
             }
-            let err = counts_to_rad(target[j] - pos).abs();
+            let goal = n.answered_target.unwrap_or(target[j]);
+            let err = counts_to_rad(goal - pos).abs();
             if err > cfg.following_error_bound {
                 return Err(Fault::FollowingError {
                     node,
                     actual: counts_to_rad(pos),
-                    target: counts_to_rad(target[j]),
+                    target: counts_to_rad(goal),
                 });
             }
             worst = worst.max(err);
@@ -242,6 +253,9 @@ impl ArmBus {
     pub fn send_cycle(&mut self, cmd: &Command, controlword: u16) -> Result<(), TransportError> {
         for (f, what) in cycle_frames(cmd, controlword) {
             self.send(&f, what)?;
+        }
+        if let Some(sync) = self.syncs.back_mut() {
+            sync.1 = Some(*cmd);
         }
         Ok(())
     }

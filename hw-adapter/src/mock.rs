@@ -68,15 +68,18 @@ pub struct MockArmOptions {
 
 /// Executor settings for the mocks: feedback and send deadlines generous enough for three
 /// Python processes sharing a busy 2-core machine (a mock that falls behind answers its SYNCs
-/// late, and leaves its pty's buffer full for a while), and a 4 ms control period: seven
-/// `canopen` nodes per arm in Python cost about 0.5 ms of CPU per cycle, so three mocks at
-/// 500 Hz alone would need most of the machine (real drives have their own processors).
+/// late, and leaves its pty's buffer full for a while: a stall of a few hundred ms was seen
+/// with several builds running), and a 4 ms control period: seven `canopen` nodes per arm in
+/// Python cost about 0.5 ms of CPU per cycle, so three mocks at 500 Hz alone would need most of
+/// the machine (real drives have their own processors). The send deadline stays under the
+/// feedback deadline, which is how long the other arms wait for a late one on the common
+/// schedule.
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
         period: Duration::from_millis(4),
         feedback_timeout: Duration::from_secs(1),
         heartbeat_timeout: Duration::from_millis(500),
-        send_timeout: Duration::from_millis(20),
+        send_timeout: Duration::from_millis(500),
         ..ExecConfig::default()
     }
 }

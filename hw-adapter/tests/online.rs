@@ -11,7 +11,7 @@ use common::*;
 use omcbsa_hw::interpolate::{min_time_scale, Command};
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::stream::Generator;
-use omcbsa_hw::{Event, ExecConfig, Executor, JointLimits, PushError, StreamHandle, JOINTS};
+use omcbsa_hw::{Event, Executor, JointLimits, PushError, StreamHandle, JOINTS};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -19,15 +19,6 @@ use std::time::{Duration, Instant};
 static SERIAL: Mutex<()> = Mutex::new(());
 
 const DT: f64 = 0.1;
-
-/// The mocks' settings, with room for three Python mocks on a busy 2-core machine to read
-/// their pty late.
-fn config() -> ExecConfig {
-    ExecConfig {
-        send_timeout: Duration::from_millis(50),
-        ..mock_config()
-    }
-}
 
 type Path = Vec<[f64; JOINTS]>;
 
@@ -59,8 +50,14 @@ fn start(tag: &str) -> (Online, Vec<Path>) {
     let arms = (open_buses(&mocks).into_iter().zip(&starts))
         .map(|((name, bus), q)| (name, *q, bus))
         .collect();
-    let handle = Executor::online(arms, DT, time_scale, JointLimits::kinova_gen3(), config())
-        .unwrap_or_else(|e| panic!("{e}"));
+    let handle = Executor::online(
+        arms,
+        DT,
+        time_scale,
+        JointLimits::kinova_gen3(),
+        mock_config(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let online = Online {
         _one_at_a_time: one_at_a_time,
         handle,
@@ -117,7 +114,7 @@ impl Online {
     /// Finishes the stream, replays the pushes on a generator, and checks every mock's record
     /// against the replay. Returns the replayed commands per arm and the events seen.
     fn finish_and_check(self) -> (Vec<Vec<Command>>, omcbsa_hw::Report) {
-        let cfg = config();
+        let cfg = mock_config();
         let report = self.handle.finish().unwrap_or_else(|e| panic!("{e}"));
         println!("{report}");
         let limits = JointLimits::kinova_gen3();

@@ -10,9 +10,19 @@ use omcbsa::online::run::{run_on_mock_arms, RunScript};
 use omcbsa::online::OnlineError;
 use omcbsa_hw::mock::venv_python;
 use omcbsa_hw::Event;
+use std::sync::{Mutex, MutexGuard};
+
+/// Three mocks per test: the tests of this file run one at a time (six Python mocks at the
+/// control rate would starve each other on a 2-core machine).
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 #[test]
 fn chunks_stream_to_three_mock_arms_without_stopping() {
+    let _serial = serial();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let dir = tempfile_dir("online-ok");
     let script = RunScript {
@@ -42,6 +52,7 @@ fn chunks_stream_to_three_mock_arms_without_stopping() {
 
 #[test]
 fn unreachable_and_late_chunks_hold_the_arms_safely_and_are_reported() {
+    let _serial = serial();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let dir = tempfile_dir("online-faults");
     let script = RunScript {

@@ -63,8 +63,13 @@ impl RunRecord {
             trajectories: (0..hands)
                 .map(|j| TrajectorySpec {
                     name: format!("hand_{j}"),
+                    // A step no chunk planned (a late chunk's dropped steps) is where the
+                    // arms held the step before (see `Embodier::push_chunk`): its pose too.
                     poses: (first..first + h as u64)
-                        .map(|s| self.poses.get(&s).map_or(Pose::IDENTITY, |p| p[j]))
+                        .scan(None, |held, s| {
+                            *held = self.poses.get(&s).map(|p| p[j]).or(*held);
+                            Some(held.unwrap_or(Pose::IDENTITY))
+                        })
                         .collect(),
                 })
                 .collect(),

@@ -121,7 +121,9 @@ pub fn run_on_mock_arms(
                 initial: *q,
                 record: Some(record.clone()),
                 bus_log: Some(bus_log_path(record)),
-                extra_args: Vec::new(),
+                // A slowed-down run on a busy machine outlasts the mock's default minute
+                // (it is killed when dropped in any case).
+                extra_args: vec!["--max-seconds=600".to_string()],
             };
             MockArm::spawn(python, &script_path(), name, &opts)
         })
@@ -140,8 +142,9 @@ pub fn run_on_mock_arms(
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
         online_horizon: Duration::from_secs(120),
-        // Three Python mocks on a shared, busy machine drain their ptys late at times.
-        send_timeout: Duration::from_millis(50),
+        // A minute-long run of three Python mocks on a loaded machine sees a mock stall for
+        // over a second at times (heartbeats, limits and following error stay watched).
+        feedback_timeout: Duration::from_secs(3),
         ..exec_config()
     };
     let handle =
@@ -158,9 +161,18 @@ pub fn run_on_mock_arms(
         }
         let due = e.timeline_index(chunk.start_step).unwrap_or(0);
         let waited = if script.late_chunk == Some(c) {
-            wait(&handle, |p| p.holding, &mut events)
+            // The hold shows in the progress a cycle before its event: wait for the event.
+            wait(
+                &handle,
+                |_, seen| seen.iter().any(|e| matches!(e, Event::QueueDry { .. })),
+                &mut events,
+            )
         } else {
-            wait(&handle, |p| p.step + script.lead_steps >= due, &mut events)
+            wait(
+                &handle,
+                |p, _| p.step + script.lead_steps >= due,
+                &mut events,
+            )
         };
         if let Err(why) = waited {
             return Err(match handle.finish() {
@@ -221,6 +233,14 @@ pub fn run_on_mock_arms(
         }
     }
     rec.send(&e, e.end());
+    // The events a push causes come at the cycle it lands on (the handle goes with `finish`).
+    let last = pushes.last().map_or(0, |p| p.cycle);
+    if let Err(why) = wait(&handle, |p, _| p.cycle > last, &mut events) {
+        return Err(match handle.finish() {
+            Err(fault) => format!("{why}: {fault}"),
+            Ok(_) => why,
+        });
+    }
     events.extend(handle.events());
     let exec = handle.finish().map_err(|e| e.to_string())?;
     let mut cycles = Vec::with_capacity(n);
@@ -291,11 +311,11 @@ fn push(
     Ok(())
 }
 
-/// Waits until `done` holds for the stream's progress (collecting its events), or fails if the
-/// stream faulted or it takes over a minute.
+/// Waits until `done` holds for the stream's progress and the events collected so far, or
+/// fails if the stream faulted or it takes over a minute.
 fn wait(
     handle: &StreamHandle,
-    done: impl Fn(&omcbsa_hw::StreamProgress) -> bool,
+    done: impl Fn(&omcbsa_hw::StreamProgress, &[Event]) -> bool,
     events: &mut Vec<Event>,
 ) -> Result<(), String> {
     let deadline = Instant::now() + Duration::from_secs(60);
@@ -304,7 +324,7 @@ fn wait(
         if handle.faulted() {
             return Err("the stream stopped on a fault".to_string());
         }
-        if done(&handle.progress()) {
+        if done(&handle.progress(), events) {
             return Ok(());
         }
         if Instant::now() > deadline {
