@@ -203,14 +203,7 @@ fn row(
         success,
         time_s,
         wall_s: time_s,
-        expansions: None,
-        path_length_rad: None,
-        max_speed_frac: None,
-        max_accel_frac: None,
-        min_arm_clearance_m: None,
-        min_obstacle_clearance_m: None,
-        path_cost: None,
-        message: String::new(),
+        ..Row::default()
     };
     if let Some(q) = quality {
         r.set_quality(&q);

@@ -390,18 +390,7 @@ fn run_one(
         planner: planner.to_string(),
         timeout_s,
         status: "error".to_string(),
-        valid: None,
-        success: false,
-        time_s: 0.0,
-        wall_s: 0.0,
-        expansions: None,
-        path_length_rad: None,
-        max_speed_frac: None,
-        max_accel_frac: None,
-        min_arm_clearance_m: None,
-        min_obstacle_clearance_m: None,
-        path_cost: None,
-        message: String::new(),
+        ..Row::default()
     };
     let path = suite_dir.join(&entry.file);
     let loaded = load::read_text(&path)

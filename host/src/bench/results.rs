@@ -11,7 +11,7 @@ use super::quality::PathQuality;
 use super::Error;
 
 /// One run.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Row {
     pub problem: String,
     pub family: String,
@@ -66,30 +66,7 @@ impl Row {
 /// The header line the current [`Row`] writes.
 fn header() -> Result<String, Error> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    let dummy = Row {
-        problem: String::new(),
-        family: String::new(),
-        layout: String::new(),
-        robots: 0,
-        trajectories: 0,
-        horizon: 0,
-        known_solvable: false,
-        planner: String::new(),
-        timeout_s: 0.0,
-        status: String::new(),
-        valid: None,
-        success: false,
-        time_s: 0.0,
-        wall_s: 0.0,
-        expansions: None,
-        path_length_rad: None,
-        max_speed_frac: None,
-        max_accel_frac: None,
-        min_arm_clearance_m: None,
-        min_obstacle_clearance_m: None,
-        path_cost: None,
-        message: String::new(),
-    };
+    let dummy = Row::default();
     w.serialize(&dummy).map_err(|e| Error::Csv {
         path: PathBuf::new(),
         message: e.to_string(),
