@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use common::*;
-use omcbsa::format::{ProblemFile, SolutionFile, MAX_JOINT_VALUE};
+use omcbsa::format::{SolutionFile, MAX_JOINT_VALUE};
 use omcbsa::load;
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_hw::cia402::{rad_to_counts, MAX_POSITION_RAD};
@@ -54,19 +54,6 @@ fn tiny_files(dir: &Path) -> (PathBuf, PathBuf) {
         write(dir, "problem.json", &problem),
         write(dir, "solution.json", &solution),
     )
-}
-
-/// Two robots far apart, the first tracking, the second holding.
-fn two_robots() -> (ProblemFile, SolutionFile) {
-    let path = [near_q0(0.0), near_q0(1.0), near_q0(2.0)];
-    let (a, b) = (at([0.0; 3]), at([2.0, 0.0, 0.0]));
-    let problem = problem(
-        vec![robot("left", a, Some(Q0)), robot("right", b, Some(Q0))],
-        vec![trajectory_of("hand", &a, &path)],
-        0.1,
-    );
-    let solution = solution(vec![Some(0), None], vec![path.to_vec(), vec![Q0; 3]]);
-    (problem, solution)
 }
 
 // Item 2: a full or closed stdout.

@@ -47,19 +47,6 @@ fn edited(text: &str, edits: &[(f64, u8, u8)]) -> Vec<u8> {
     bytes
 }
 
-/// Two robots 2 m apart: the first tracks, the second holds.
-fn scene() -> (ProblemFile, SolutionFile) {
-    let path = [near_q0(0.0), near_q0(1.0), near_q0(2.0)];
-    let (a, b) = (at([0.0; 3]), at([2.0, 0.0, 0.0]));
-    let problem = problem(
-        vec![robot("left", a, Some(Q0)), robot("right", b, Some(Q0))],
-        vec![trajectory_of("hand", &a, &path)],
-        0.1,
-    );
-    let solution = solution(vec![Some(0), None], vec![path.to_vec(), vec![Q0; 3]]);
-    (problem, solution)
-}
-
 /// One change to a solution.
 #[derive(Clone, Debug)]
 enum Mutation {
@@ -237,14 +224,14 @@ proptest! {
     #[test]
     fn any_bytes_load_or_fail_cleanly(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
         load_problem(&bytes);
-        check_solution(&scene().0, &bytes);
+        check_solution(&two_robots().0, &bytes);
     }
 
     #[test]
     fn edited_files_load_or_fail_cleanly(
         edits in proptest::collection::vec((0.0..1.0f64, any::<u8>(), any::<u8>()), 1..6)
     ) {
-        let (problem, solution) = scene();
+        let (problem, solution) = two_robots();
         load_problem(&edited(&serde_json::to_string(&problem).unwrap(), &edits));
         check_solution(&problem, &edited(&serde_json::to_string(&solution).unwrap(), &edits));
     }
@@ -253,7 +240,7 @@ proptest! {
     fn a_mutated_solution_is_rejected_or_still_valid(
         mutations in proptest::collection::vec(mutation(), 1..4)
     ) {
-        let (problem, mut solution) = scene();
+        let (problem, mut solution) = two_robots();
         prop_assert_eq!(recheck(&problem, &solution), Ok(()));
         for m in &mutations {
             apply(&mut solution, m);

@@ -104,3 +104,16 @@ pub fn link_origin(q: &Q, link: usize) -> [f64; 3] {
     KinovaGen3::link_frames(q, &mut frames);
     frames[link].pos.into()
 }
+
+/// Two robots 2 m apart: the first tracks, the second holds.
+pub fn two_robots() -> (ProblemFile, SolutionFile) {
+    let path = [near_q0(0.0), near_q0(1.0), near_q0(2.0)];
+    let (a, b) = (at([0.0; 3]), at([2.0, 0.0, 0.0]));
+    let problem = problem(
+        vec![robot("left", a, Some(Q0)), robot("right", b, Some(Q0))],
+        vec![trajectory_of("hand", &a, &path)],
+        0.1,
+    );
+    let solution = solution(vec![Some(0), None], vec![path.to_vec(), vec![Q0; 3]]);
+    (problem, solution)
+}
