@@ -48,6 +48,10 @@ pub struct ExecConfig {
     /// Online execution: the most motion a push may queue ahead of the fixed waypoint (each
     /// push is checked cycle by cycle over its whole tail while the stream waits).
     pub online_horizon: Duration,
+    /// `SCHED_FIFO` priority (1 to 99) asked for the arm threads while they stream; `None`
+    /// keeps normal scheduling. Refused (no `CAP_SYS_NICE`), the run goes on at normal
+    /// priority and [`Report::realtime`] says why.
+    pub realtime_priority: Option<u8>,
     /// Tests only: one start-up SDO write changed on purpose ([`SetupOverride`]).
     #[doc(hidden)]
     pub setup_override: Option<SetupOverride>,
@@ -69,6 +73,7 @@ impl Default for ExecConfig {
             send_timeout: Duration::from_millis(2),
             settle_cycles: 50,
             online_horizon: Duration::from_secs(20),
+            realtime_priority: Some(50),
             setup_override: None,
         }
     }
@@ -249,6 +254,9 @@ pub struct Report {
     pub max_lateness: Duration,
     /// Online execution: times the queue ran dry and the arms held.
     pub holds: usize,
+    /// The arm threads' scheduling: `Ok` under the asked-for real-time priority (or none
+    /// asked), else why it was refused.
+    pub realtime: Result<(), String>,
 }
 
 impl fmt::Display for Report {
@@ -286,6 +294,9 @@ impl fmt::Display for Report {
         }
         if !self.dry_run {
             write!(f, "\nlargest cycle lateness {:?}", self.max_lateness)?;
+            if let Err(why) = &self.realtime {
+                write!(f, "\nstreamed at normal priority: {why}")?;
+            }
         }
         Ok(())
     }
@@ -497,6 +508,7 @@ fn dry_run(
                     .collect(),
                 max_lateness: Duration::ZERO,
                 holds: 0,
+                realtime: Ok(()),
             });
         }
     }

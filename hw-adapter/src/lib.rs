@@ -10,6 +10,7 @@
 //! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
 //!   logs (candump), and fault reaction times measured from them.
+//! - [`priority`]: real-time scheduling of the arm threads.
 
 pub mod arm;
 pub mod buslog;
@@ -22,6 +23,7 @@ pub mod live;
 pub mod log;
 pub mod mock;
 pub mod plan;
+pub mod priority;
 pub mod record;
 pub mod stream;
 pub mod transport;

@@ -13,6 +13,7 @@ use crate::executor::{
 use crate::interpolate::Command;
 use crate::log::LogSink;
 use crate::plan::JOINTS;
+use crate::priority;
 use crate::stream::{Generator, PushError};
 use crate::transport::Transport;
 use std::collections::VecDeque;
@@ -21,7 +22,7 @@ use std::sync::{Arc, Barrier, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-/// How often a waiting arm thread looks at the shared fault flag.
+/// How often a waiting arm thread looks at the shared fault flag and at its own bus.
 const FAULT_POLL: Duration = Duration::from_micros(100);
 
 /// Events kept for [`StreamHandle::events`]; older ones are dropped beyond this.
@@ -76,6 +77,8 @@ struct Shared {
     startup_failed: AtomicBool,
     start: Mutex<Option<Instant>>,
     faulted: AtomicBool,
+    /// Why an arm thread did not get the real-time priority asked for, if one did not.
+    realtime_refused: Mutex<Option<String>>,
     finishing: AtomicBool,
     names: Vec<String>,
     /// Cycles each arm has sent (`usize::MAX` once it has finished).
@@ -180,6 +183,7 @@ pub(crate) fn start(
         startup_failed: AtomicBool::new(false),
         start: Mutex::new(None),
         faulted: AtomicBool::new(false),
+        realtime_refused: Mutex::new(None),
         finishing: AtomicBool::new(finishing),
         sent: buses.iter().map(|_| AtomicUsize::new(0)).collect(),
         names: names.clone(),
@@ -205,6 +209,9 @@ pub(crate) fn start(
         let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
         let total = info.total_cycles;
         std::thread::spawn(move || {
+            if let Some(Err(why)) = config.realtime_priority.map(priority::make_realtime) {
+                lock(&shared.realtime_refused).get_or_insert(why);
+            }
             let progress = progress.as_deref().map(|p| p.as_ref());
             stream_arm(
                 me,
@@ -328,12 +335,18 @@ fn stream_arm(
         let due = t0 + cfg.period.mul_f64(k as f64);
         max_late = max_late.max(Instant::now().saturating_duration_since(due));
         let mut step = || -> Result<Option<(Command, Option<u64>)>, Fault> {
-            wait_turn(me, k, due, shared, cfg)?;
-            bus.poll().map_err(|e| Fault::Bus(e.to_string()))?;
+            // Feedback is read while waiting too, so that a fault is seen when its frame
+            // arrives rather than at the next cycle.
+            let mut watch = || -> Result<f64, Fault> {
+                bus.poll().map_err(|e| Fault::Bus(e.to_string()))?;
+                bus.check_feedback(Instant::now(), cfg, &prev1)
+            };
+            wait_turn(me, k, due, shared, cfg, &mut watch)?;
+            let fe = watch()?;
             if shared.faulted.load(Ordering::SeqCst) {
                 return Ok(None);
             }
-            max_fe = max_fe.max(bus.check_feedback(Instant::now(), cfg, &prev1)?);
+            max_fe = max_fe.max(fe);
             // Checked against the limits by the generator.
             let (cmd, end) = shared.command(me, k as u64)?;
             bus.send_cycle(&cmd, cia402::CW_ENABLE_OPERATION)
@@ -421,20 +434,23 @@ fn startup_phase_end(
     }
 }
 
-/// Waits until cycle `k` is due and every arm has sent cycle `k - 1`; returns early if a fault
-/// is raised. An arm that keeps the others waiting longer than the feedback timeout is a fault.
+/// Waits until cycle `k` is due and every arm has sent cycle `k - 1`, calling `watch` (this
+/// arm's feedback check) every [`FAULT_POLL`]; returns early if a fault is raised here or on
+/// another arm. An arm that keeps the others waiting longer than the feedback timeout is a fault.
 fn wait_turn(
     me: usize,
     k: usize,
     due: Instant,
     shared: &Shared,
     cfg: &ExecConfig,
+    watch: &mut dyn FnMut() -> Result<f64, Fault>,
 ) -> Result<(), Fault> {
     let give_up = due.max(Instant::now()) + cfg.feedback_timeout;
     loop {
         if shared.faulted.load(Ordering::SeqCst) {
             return Ok(());
         }
+        watch()?;
         let now = Instant::now();
         let behind = shared
             .sent
@@ -527,6 +543,7 @@ fn finish_run(
         arms,
         max_lateness,
         holds: c.holds,
+        realtime: lock(&shared.realtime_refused).clone().map_or(Ok(()), Err),
     })
 }
 

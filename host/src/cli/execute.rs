@@ -37,6 +37,20 @@ pub struct Args {
     /// Control rate, Hz, within [100, 1000].
     #[arg(long, value_name = "HZ", default_value_t = 500.0)]
     rate: f64,
+    /// SCHED_FIFO priority (1 to 99) of the streaming threads, or `off` for normal scheduling.
+    /// Refused by the system (no CAP_SYS_NICE), the run goes on at normal priority and says so.
+    #[arg(long, value_name = "PRIO|off", default_value = "50", value_parser = parse_priority)]
+    rt_priority: Option<u8>,
+}
+
+fn parse_priority(s: &str) -> Result<Option<u8>, String> {
+    if s == "off" {
+        return Ok(None);
+    }
+    match s.parse::<u8>() {
+        Ok(p) if (1..=99).contains(&p) => Ok(Some(p)),
+        _ => Err(format!("expected a priority from 1 to 99 or `off`, got {s:?}")),
+    }
 }
 
 /// The control rates `--rate` accepts, Hz. At most 1 kHz: the Gen3's own control rate, and
@@ -84,6 +98,7 @@ pub fn run(args: &Args) -> ExitCode {
         period: Duration::from_secs_f64(1.0 / args.rate),
         dry_run: args.dry_run,
         log_path: args.log.clone(),
+        realtime_priority: args.rt_priority,
         ..ExecConfig::default()
     };
     match stream(plan, buses, config, &checked) {
