@@ -40,16 +40,22 @@ pub struct Args {
     /// SCHED_FIFO priority (1 to 99) of the streaming threads, or `off` for normal scheduling.
     /// Refused by the system (no CAP_SYS_NICE), the run goes on at normal priority and says so.
     #[arg(long, value_name = "PRIO|off", default_value = "50", value_parser = parse_priority)]
-    rt_priority: Option<u8>,
+    rt_priority: RtPriority,
 }
 
-fn parse_priority(s: &str) -> Result<Option<u8>, String> {
+/// `--rt-priority`: a `SCHED_FIFO` priority, or none.
+#[derive(Clone, Copy, Debug)]
+struct RtPriority(Option<u8>);
+
+fn parse_priority(s: &str) -> Result<RtPriority, String> {
     if s == "off" {
-        return Ok(None);
+        return Ok(RtPriority(None));
     }
     match s.parse::<u8>() {
-        Ok(p) if (1..=99).contains(&p) => Ok(Some(p)),
-        _ => Err(format!("expected a priority from 1 to 99 or `off`, got {s:?}")),
+        Ok(p) if (1..=99).contains(&p) => Ok(RtPriority(Some(p))),
+        _ => Err(format!(
+            "expected a priority from 1 to 99 or `off`, got {s:?}"
+        )),
     }
 }
 
@@ -98,7 +104,7 @@ pub fn run(args: &Args) -> ExitCode {
         period: Duration::from_secs_f64(1.0 / args.rate),
         dry_run: args.dry_run,
         log_path: args.log.clone(),
-        realtime_priority: args.rt_priority,
+        realtime_priority: args.rt_priority.0,
         ..ExecConfig::default()
     };
     match stream(plan, buses, config, &checked) {
