@@ -24,7 +24,7 @@ use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Unt
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
 use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::rng::Rng;
-use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
+use crate::search::refine::{level_params, EXHAUSTED, LEVELS, LEVEL_CAP};
 use crate::search::{
     plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
     SearchError, SearchStats, StartCache, StartIk, Validity, Workspace,
@@ -50,6 +50,11 @@ pub struct CbsParams {
     /// twice the budget of the one before, so some tree always gets as long as it needs
     /// (completeness as docs/ARCHITECTURE.md states it). 0: one tree, no restarts.
     pub restart_expansions: u64,
+    /// Refinement levels searched, from level 0 ([`LEVELS`] by default, the most there are).
+    /// With fewer, exhausting the last one ends in `NoSolution` with the reason
+    /// [`LEVEL_CAP`], which proves nothing: the suite generator uses it to find problems that
+    /// the first level misses.
+    pub levels: u8,
 }
 
 impl Default for CbsParams {
@@ -59,6 +64,7 @@ impl Default for CbsParams {
             warm_start_seconds: 0.5,
             warm_start_seeds: 4,
             restart_expansions: 8000,
+            levels: LEVELS,
         }
     }
 }
@@ -225,7 +231,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// refinement level: planning goes on at the next, finer one ([`crate::search::refine`]).
     fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
         let mut restart = 0u32;
-        for level in 0..LEVELS {
+        let levels = self.params.levels.clamp(1, LEVELS);
+        for level in 0..levels {
             self.stats.level = level;
             self.low = level_params(&self.params.low, level);
             self.incomplete = false;
@@ -250,7 +257,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         if self.incomplete {
             return Status::OutOfMemory("Ω-A* workspace");
         }
-        self.stats.reason = Some(EXHAUSTED);
+        self.stats.reason = Some(if levels < LEVELS {
+            LEVEL_CAP
+        } else {
+            EXHAUSTED
+        });
         Status::NoSolution
     }
 

@@ -3,25 +3,34 @@
 //!
 //! Level 0 is the caller's [`OmegaParams`]; every later level draws more start states from
 //! more IK seeds (the first seeds are the same, so their IK answers are reused from the
-//! [`super::StartCache`]) and detects duplicates on a finer grid, and the last one also takes
-//! smaller null-space steps. The schedule counts levels, not time, so it is deterministic.
-//! The numbers come from the problems level 0 missed: 64 start states from up to 2,000 seeds
-//! and a grid of 0.05 rad solved the ones measured in the issue; the levels between reach the
-//! easier ones sooner.
+//! [`super::StartCache`]), detects duplicates on a finer grid and checks motions with a finer
+//! sweep (links inflated by 2.5 mm, then 1.25 mm, instead of 5 mm), and the last one also
+//! takes smaller null-space steps. The schedule counts levels, not time, so it is
+//! deterministic. The numbers come from the problems level 0 missed: 64 start states from up
+//! to 2,000 seeds and a grid of 0.05 rad solved the ones measured in the issue; the levels
+//! between reach the easier ones sooner. The finer sweeps come from the refinement family
+//! (`omcbsa gen-bench --refine`), whose fixtures stand 2 to 5 cm from the witness: there the
+//! 5 mm inflation turns passes a few millimetres apart into conflicts that no branching
+//! removes. Level 0 keeps the coarse sweep, which is a quarter cheaper on the suite.
 
 use super::OmegaParams;
 
 /// The reason planners report when every level was exhausted.
 pub const EXHAUSTED: &str = "every refinement level was searched without a plan";
 
+/// The reason when the levels a caller allowed (fewer than [`LEVELS`]) were all searched
+/// without a plan: no proof that there is none.
+pub const LEVEL_CAP: &str = "the refinement levels allowed were searched without a plan";
+
 /// Levels in all, level 0 included.
 pub const LEVELS: u8 = 4;
 
-/// (start states, IK seeds, duplicate grid in rad, null-space step) of levels 1.. .
-const FINER: [(usize, u32, f64, f64); LEVELS as usize - 1] = [
-    (64, 500, 0.3, 0.2),
-    (64, 2000, 0.1, 0.2),
-    (128, 4000, 0.05, 0.1),
+/// (start states, IK seeds, duplicate grid in rad, null-space step, motion step in m) of
+/// levels 1.. .
+const FINER: [(usize, u32, f64, f64, f64); LEVELS as usize - 1] = [
+    (64, 500, 0.3, 0.2, 0.0025),
+    (64, 2000, 0.1, 0.2, 0.0025),
+    (128, 4000, 0.05, 0.1, 0.0025),
 ];
 
 /// The Ω-A* settings of `level` (0: `base` itself). A level past the last is the last.
@@ -29,7 +38,7 @@ pub fn level_params(base: &OmegaParams, level: u8) -> OmegaParams {
     if level == 0 {
         return *base;
     }
-    let (solutions, attempts, resolution, epsilon) =
+    let (solutions, attempts, resolution, epsilon, motion_step) =
         FINER[(usize::from(level) - 1).min(FINER.len() - 1)];
     // Never coarser than the caller asked for.
     OmegaParams {
@@ -37,6 +46,7 @@ pub fn level_params(base: &OmegaParams, level: u8) -> OmegaParams {
         start_attempts: attempts.max(base.start_attempts),
         resolution: resolution.min(base.resolution),
         epsilon: epsilon.min(base.epsilon),
+        motion_step: motion_step.min(base.motion_step),
         ..*base
     }
 }
@@ -53,6 +63,7 @@ mod tests {
             let (a, b) = (level_params(&base, l - 1), level_params(&base, l));
             assert!(b.start_attempts >= a.start_attempts && b.start_solutions >= a.start_solutions);
             assert!(b.resolution < a.resolution && b.epsilon <= a.epsilon);
+            assert!(b.motion_step <= a.motion_step);
         }
         assert_eq!(level_params(&base, LEVELS), level_params(&base, LEVELS - 1));
     }

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use omcbsa::suite::{gen_bench, GenOptions};
+use omcbsa::suite::{gen_bench, gen_refine, GenOptions, RefineOptions, Tightness};
 
 use super::{bad_input, print};
 
@@ -16,17 +16,44 @@ pub struct Args {
     #[arg(long, default_value_t = GenOptions::default().per_family as u16,
           value_parser = clap::value_parser!(u16).range(1..=10_000))]
     per_family: u16,
-    /// Seed of the suite.
-    #[arg(long, default_value_t = GenOptions::default().seed)]
-    seed: u64,
+    /// Seed of the suite (of the refinement family: its own by default).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Instead of the suite, the refinement family: N problems with a validated witness on
+    /// which Ω-CBSA's first refinement level finds no plan (1 to 1000).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1000))]
+    refine: Option<u16>,
+    /// With --refine: fixtures 2 cm from the witness instead of the suite's 5 cm, and more of
+    /// them.
+    #[arg(long, requires = "refine")]
+    tight: bool,
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    let opts = GenOptions {
-        seed: args.seed,
-        per_family: usize::from(args.per_family),
+    let written = match args.refine {
+        Some(n) => {
+            let defaults = RefineOptions::default();
+            let opts = RefineOptions {
+                seed: args.seed.unwrap_or(defaults.seed),
+                problems: usize::from(n),
+                max_candidates: defaults.max_candidates.max(100 * usize::from(n)),
+                traps: if args.tight {
+                    Tightness::TIGHT
+                } else {
+                    Tightness::SUITE
+                },
+            };
+            gen_refine(&args.outdir, &opts)
+        }
+        None => gen_bench(
+            &args.outdir,
+            &GenOptions {
+                seed: args.seed.unwrap_or(GenOptions::default().seed),
+                per_family: usize::from(args.per_family),
+            },
+        ),
     };
-    match gen_bench(&args.outdir, &opts) {
+    match written {
         Ok(r) => match print(format_args!(
             "{} problems ({} known solvable) in {} ({:.1} s)",
             r.problems,

@@ -71,9 +71,9 @@ pub fn generate(spec: &Spec) -> Result<Generated, Error> {
             break;
         }
     }
-    fallback.ok_or_else(|| Error::Generation {
+    fallback.ok_or_else(|| Error::NoMotion {
         problem: spec.name.clone(),
-        message: format!("no random motion found in {samples} samples"),
+        samples,
     })
 }
 
@@ -95,9 +95,14 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
         Some(hands) => {
             let witness = task_witness(&scene, &layout.bases, &hands, rng);
             if let Some(paths) = &witness {
-                layout
-                    .obstacles
-                    .extend(traps(&scene, &layout.bases, &hands, paths, rng));
+                layout.obstacles.extend(traps(
+                    spec.traps,
+                    &scene,
+                    &layout.bases,
+                    &hands,
+                    paths,
+                    rng,
+                ));
             }
             Some(Sample {
                 layout,
@@ -145,9 +150,14 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
                         .collect(),
                 })
                 .collect::<Vec<_>>();
-            layout
-                .obstacles
-                .extend(traps(&scene, &layout.bases, &hands, &paths, rng));
+            layout.obstacles.extend(traps(
+                spec.traps,
+                &scene,
+                &layout.bases,
+                &hands,
+                &paths,
+                rng,
+            ));
             Some(Sample {
                 layout,
                 hands,

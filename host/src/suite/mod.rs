@@ -27,6 +27,7 @@ mod family;
 mod frames;
 mod layout;
 mod myopic;
+mod refine_family;
 mod trap;
 mod witness;
 
@@ -40,6 +41,8 @@ use omcbsa_core::rng::Rng;
 
 pub use family::Family;
 pub use layout::LayoutKind;
+pub use refine_family::{gen_refine, RefineOptions};
+pub use trap::Tightness;
 
 /// The index file of a suite directory.
 pub const INDEX_FILE: &str = "suite.json";
@@ -121,6 +124,8 @@ pub enum Error {
     Index { path: PathBuf, message: String },
     /// The generator made a problem it cannot stand behind (a bug, reported, not written).
     Generation { problem: String, message: String },
+    /// No sample of a random-family problem had a motion to build it from.
+    NoMotion { problem: String, samples: u64 },
 }
 
 impl std::fmt::Display for Error {
@@ -129,6 +134,10 @@ impl std::fmt::Display for Error {
             Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
             Error::Index { path, message } => write!(f, "{}: {message}", path.display()),
             Error::Generation { problem, message } => write!(f, "generating {problem}: {message}"),
+            Error::NoMotion { problem, samples } => write!(
+                f,
+                "generating {problem}: no random motion found in {samples} samples"
+            ),
         }
     }
 }
@@ -149,9 +158,10 @@ struct Spec {
     layout: LayoutKind,
     robots: usize,
     seed: u64,
+    traps: Tightness,
 }
 
-fn specs(opts: &GenOptions) -> Vec<Spec> {
+fn specs(opts: &GenOptions, traps: Tightness) -> Vec<Spec> {
     let mut specs = Vec::new();
     for (f, family) in Family::ALL.into_iter().enumerate() {
         let cells = family.cells();
@@ -165,6 +175,7 @@ fn specs(opts: &GenOptions) -> Vec<Spec> {
                 layout,
                 robots,
                 seed,
+                traps,
             });
         }
     }
@@ -175,12 +186,23 @@ fn specs(opts: &GenOptions) -> Vec<Spec> {
 /// and written in a fixed order; the same options give the same bytes.
 pub fn gen_bench(outdir: &Path, opts: &GenOptions) -> Result<GenReport, Error> {
     let start = Instant::now();
-    let witness_dir = outdir.join(WITNESS_DIR);
-    std::fs::create_dir_all(&witness_dir).map_err(io(&witness_dir))?;
-    let generated: Vec<emit::Generated> = specs(opts)
+    let generated: Vec<emit::Generated> = specs(opts, Tightness::SUITE)
         .par_iter()
         .map(emit::generate)
         .collect::<Result<_, _>>()?;
+    write_suite(outdir, opts.seed, generated, start)
+}
+
+/// Writes the problems, their witnesses and the index into `outdir` (created if missing), in
+/// the order given.
+fn write_suite(
+    outdir: &Path,
+    seed: u64,
+    generated: Vec<emit::Generated>,
+    start: Instant,
+) -> Result<GenReport, Error> {
+    let witness_dir = outdir.join(WITNESS_DIR);
+    std::fs::create_dir_all(&witness_dir).map_err(io(&witness_dir))?;
     let mut problems = Vec::with_capacity(generated.len());
     for g in generated {
         write_json(&outdir.join(&g.entry.file), &g.problem)?;
@@ -192,7 +214,7 @@ pub fn gen_bench(outdir: &Path, opts: &GenOptions) -> Result<GenReport, Error> {
     let known_solvable = problems.iter().filter(|e| e.known_solvable).count();
     let index = SuiteIndex {
         format: INDEX_FORMAT.to_string(),
-        seed: opts.seed,
+        seed,
         problems,
     };
     let index_path = outdir.join(INDEX_FILE);

@@ -8,7 +8,7 @@ use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 
-use super::witness::Gen3;
+use super::witness::{Gen3, MOTION_STEP};
 
 /// Looks at the clock IK tracking may take: it looks once per assignment and once per seed
 /// of every robot, so this bounds the tracks it tries.
@@ -25,13 +25,16 @@ impl Clock for Ticks {
     }
 }
 
-/// Whether IK tracking (the baseline, with its default parameters) solves `problem` within
-/// [`BUDGET`].
+/// Whether IK tracking (the baseline, with its default parameters but the suite's motion step)
+/// solves `problem` within [`BUDGET`].
 pub fn ik_tracking_solves(problem: &Problem<7>) -> bool {
     let mut paths = vec![[0.0; 7]; MAX_ROBOTS * problem.horizon()];
     let mut out = Solution::new(&mut paths);
     let mut planner = IkTracking {
-        params: IkTrackingParams::default(),
+        params: IkTrackingParams {
+            motion_step: MOTION_STEP,
+            ..IkTrackingParams::default()
+        },
     };
     let clock = Ticks(Cell::new(0));
     let status = Planner::<Gen3, 7>::solve(

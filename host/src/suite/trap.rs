@@ -11,24 +11,45 @@ use omcbsa_core::collision::ArmPose;
 use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Model};
-use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion, MOTION_STEP};
+use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 
 use super::family::Hand;
 use super::frames::{at, V3};
 use super::layout::NamedObstacle;
-use super::witness::{Gen3, Scene, Q, RETRACT};
+use super::witness::{Gen3, Scene, MOTION_STEP, Q, RETRACT};
 
-/// Fixture radii tried, largest first: the largest that keeps [`CLEARANCE`] from the witness.
+/// Fixture radii tried, largest first: the largest that keeps the clearance from the witness.
 const RADII: [f64; 4] = [0.08, 0.065, 0.05, 0.04];
-/// Room left between a fixture and every witness arm, so a planner need not retrace the
-/// witness exactly.
-const CLEARANCE: f64 = 0.05;
-/// Random starts of IK tracking per (hand, arm), besides the witness's start and the retract.
-const STARTS: usize = 6;
-/// Most fixtures per hand.
-const PER_HAND: usize = 4;
+/// How closely fixtures hem the witness in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tightness {
+    /// Room left between a fixture and every witness arm, so a planner need not retrace the
+    /// witness exactly.
+    pub clearance: f64,
+    /// Random starts of IK tracking per (hand, arm), besides the witness's start and the
+    /// retract.
+    pub starts: usize,
+    /// Most fixtures per hand.
+    pub per_hand: usize,
+}
+
+impl Tightness {
+    /// The benchmark suite's.
+    pub const SUITE: Tightness = Tightness {
+        clearance: 0.05,
+        starts: 6,
+        per_hand: 4,
+    };
+    /// The refinement family's (`refine_family`): more fixtures, closer to the witness, so
+    /// that the free postures are few and far between.
+    pub const TIGHT: Tightness = Tightness {
+        clearance: 0.02,
+        starts: 12,
+        per_hand: 8,
+    };
+}
 /// Fixtures block no track before this share of the horizon: a planner may start from any
 /// posture and needs time to swing its elbow.
 const FIRST_STEP: f64 = 0.2;
@@ -39,6 +60,7 @@ const PROBE_LINKS: [&str; 3] = ["half_arm_2_link", "forearm_link", "spherical_wr
 
 /// Fixtures for every hand (named `fixture_<k>`), given the witness `paths` of every arm.
 pub fn traps(
+    tight: Tightness,
     scene: &Scene,
     bases: &[Frame],
     hands: &[Hand],
@@ -48,7 +70,7 @@ pub fn traps(
     let probes: Vec<usize> = (PROBE_LINKS.iter())
         .filter_map(|l| Gen3::LINK_NAMES.iter().position(|n| n == l))
         .collect();
-    let witness = Witness::new(bases, paths);
+    let witness = Witness::new(bases, paths, tight.clearance);
     let mut fixtures: Vec<Obstacle> = Vec::new();
     for hand in hands {
         let mut live: Vec<(usize, Vec<Q>)> = Vec::new();
@@ -58,7 +80,7 @@ pub fn traps(
             }
             let own = (arm == hand.arm).then_some(paths[arm][0]);
             let starts: Vec<Q> = (own.into_iter().chain([RETRACT]))
-                .chain((0..STARTS).map(|_| rng.configuration(&Gen3::LOWER, &Gen3::UPPER)))
+                .chain((0..tight.starts).map(|_| rng.configuration(&Gen3::LOWER, &Gen3::UPPER)))
                 .collect();
             for start in starts {
                 if let Some(path) = track_plainly(scene, base, &hand.poses, &start) {
@@ -70,7 +92,7 @@ pub fn traps(
             }
         }
         let mut placed = 0;
-        while placed < PER_HAND {
+        while placed < tight.per_hand {
             let Some((arm, path)) = live.pop() else {
                 break;
             };
@@ -92,10 +114,11 @@ struct Witness<'a> {
     bases: &'a [Frame],
     paths: &'a [Vec<Q>],
     poses: Vec<ArmPose>,
+    clearance: f64,
 }
 
 impl<'a> Witness<'a> {
-    fn new(bases: &'a [Frame], paths: &'a [Vec<Q>]) -> Self {
+    fn new(bases: &'a [Frame], paths: &'a [Vec<Q>], clearance: f64) -> Self {
         let mut poses = Vec::new();
         for (base, path) in bases.iter().zip(paths) {
             for (t, q) in path.iter().enumerate() {
@@ -110,6 +133,7 @@ impl<'a> Witness<'a> {
             bases,
             paths,
             poses,
+            clearance,
         }
     }
 
@@ -121,7 +145,7 @@ impl<'a> Witness<'a> {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Whether a sphere of `radius` at `p` keeps [`CLEARANCE`] from every witness motion.
+    /// Whether a sphere of `radius` at `p` keeps the clearance from every witness motion.
     fn clears(&self, p: &V3, radius: f64) -> bool {
         let point = [p.x, p.y, p.z];
         (self.bases.iter().zip(self.paths)).all(|(base, path)| {
@@ -132,7 +156,7 @@ impl<'a> Witness<'a> {
                     from: &path[t.saturating_sub(1)],
                     to: &path[t],
                 };
-                !motion_near_point::<Gen3, 7>(&m, &point, radius + CLEARANCE, MOTION_STEP)
+                !motion_near_point::<Gen3, 7>(&m, &point, radius + self.clearance, MOTION_STEP)
             })
         })
     }
@@ -154,7 +178,7 @@ impl<'a> Witness<'a> {
         (points.iter().take(3)).find_map(|(gap, p)| {
             let radius = RADII
                 .into_iter()
-                .filter(|r| r + CLEARANCE < *gap)
+                .filter(|r| r + self.clearance < *gap)
                 .find(|r| self.clears(p, *r))?;
             Some(Obstacle {
                 shape: Shape::Sphere { radius },

@@ -1,0 +1,114 @@
+//! The refinement family (`omcbsa gen-bench --refine N`, issue #12): problems with a validated
+//! witness on which Ω-CBSA's first refinement level finds no plan.
+//!
+//! Candidates come from the suite's own generator (every motion family, layout and arm count,
+//! from a seed of their own), with the suite's fixtures or, `--tight`, fixtures that hem the
+//! witness in more closely ([`Tightness::TIGHT`]: more of them, 2 cm from the witness instead
+//! of 5). A candidate is
+//! kept when its witness passes the host validator and Ω-CBSA, allowed level 0 only
+//! ([`CbsParams::levels`]), ends with its search space exhausted. That is the only planner
+//! run and its only test: whether the full planner then solves a kept problem is what the
+//! family measures. Level 0 runs without a clock (its end is deterministic), so the same
+//! options give the same bytes.
+//!
+//! [`CbsParams::levels`]: omcbsa_core::cbs::CbsParams::levels
+
+use std::path::Path;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use omcbsa_core::planner::{NoClock, Stats, Status};
+use omcbsa_core::search::refine::LEVEL_CAP;
+
+use super::emit::{self, Generated};
+use super::witness::Gen3;
+use super::{specs, write_suite, Error, GenOptions, GenReport, Tightness};
+use crate::load;
+use crate::planners::{Capacities, Storage};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefineOptions {
+    /// Seed of the candidates (not the suite's, so the family shares no problem with it).
+    pub seed: u64,
+    /// Problems wanted.
+    pub problems: usize,
+    /// Candidates generated before giving up with fewer.
+    pub max_candidates: usize,
+    /// The fixtures around the witness: the suite's, or [`Tightness::TIGHT`].
+    pub traps: Tightness,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        RefineOptions {
+            seed: 20_261_123,
+            problems: 60,
+            max_candidates: 6_000,
+            traps: Tightness::SUITE,
+        }
+    }
+}
+
+/// Candidates generated (in parallel) between checks of how many were kept.
+const BATCH: usize = 48;
+
+/// Writes the family into `outdir` like a suite (`suite.json`, problems, witnesses): the first
+/// `opts.problems` candidates, in candidate order, that Ω-CBSA's level 0 misses.
+pub fn gen_refine(outdir: &Path, opts: &RefineOptions) -> Result<GenReport, Error> {
+    let start = Instant::now();
+    // Enough suite-like specs, cycling through every family, layout and arm count.
+    let per_family = opts.max_candidates.div_ceil(6).max(1);
+    let mut candidates = specs(
+        &GenOptions {
+            seed: opts.seed,
+            per_family,
+        },
+        opts.traps,
+    );
+    // Interleave the families, so that any prefix mixes them.
+    candidates.sort_by_key(|s| (s.name.rsplit('_').next().map(str::to_owned), s.family as u8));
+    candidates.truncate(opts.max_candidates);
+    let mut kept: Vec<Generated> = Vec::new();
+    for batch in candidates.chunks(BATCH) {
+        let found: Vec<Option<Generated>> = batch
+            .par_iter()
+            .map(|spec| match emit::generate(spec) {
+                Ok(g) => Ok(level0_misses(&g)?.then_some(g)),
+                // A candidate with nothing to build from is no candidate.
+                Err(Error::NoMotion { .. }) => Ok(None),
+                Err(e) => Err(e),
+            })
+            .collect::<Result<_, Error>>()?;
+        kept.extend(found.into_iter().flatten());
+        if kept.len() >= opts.problems {
+            break;
+        }
+    }
+    kept.truncate(opts.problems);
+    for g in &mut kept {
+        g.entry.family = format!("refine_{}", g.entry.family);
+    }
+    write_suite(outdir, opts.seed, kept, start)
+}
+
+/// Whether `g` has a validated witness and Ω-CBSA's level 0 exhausts its search space on it.
+fn level0_misses(g: &Generated) -> Result<bool, Error> {
+    if g.witness.is_none() {
+        return Ok(false);
+    }
+    let problem = load::problem::<Gen3, 7>(&g.problem).map_err(|e| Error::Generation {
+        problem: g.entry.name.clone(),
+        message: e.to_string(),
+    })?;
+    let mut storage = Storage::new(Capacities::default(), problem.horizon());
+    storage.cbs_params.levels = 1;
+    let mut stats = Stats::default();
+    let (status, _) = storage
+        .solve_core("omcbsa", &problem, &NoClock, f64::INFINITY, &mut stats)
+        .map_err(|message| Error::Generation {
+            problem: g.entry.name.clone(),
+            message,
+        })?;
+    Ok(status == Status::NoSolution && stats.reason == Some(LEVEL_CAP))
+}
