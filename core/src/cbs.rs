@@ -295,6 +295,9 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             let branches = match self.first_conflict(&node) {
                 Some((b, exact)) => {
                     self.stats.inexact_branches += u32::from(!exact);
+                    if let (_, Constraint::Point(p)) = b[0] {
+                        self.stats.motion_conflicts += u32::from(p.segment);
+                    }
                     b
                 }
                 None if node.conflicts == 0 => {

@@ -57,6 +57,9 @@ pub struct Stats {
     pub ct_nodes: u32,
     /// Conflicts branched on (Ω-CBSA).
     pub conflicts_resolved: u32,
+    /// Ω-CBSA: of `conflicts_resolved`, the motion conflicts (two arms meeting between steps
+    /// and at neither step), branched on a point both hold at one instant of the motion.
+    pub motion_conflicts: u32,
     /// Whether the root of Ω-CBSA's last constraint tree (warm-started by repeated IK
     /// tracking) had no conflicts.
     pub warm_start_solved: bool,

@@ -308,6 +308,7 @@ impl Outcome {
         stats.insert("low_level_calls".into(), s.low_level_calls.into());
         stats.insert("ct_nodes".into(), s.ct_nodes.into());
         stats.insert("conflicts_resolved".into(), s.conflicts_resolved.into());
+        stats.insert("motion_conflicts".into(), s.motion_conflicts.into());
         stats.insert("warm_start_solved".into(), s.warm_start_solved.into());
         stats.insert("level".into(), s.level.into());
         if let Some(reason) = s.reason {
