@@ -19,7 +19,7 @@
 
 use crate::collision::ArmPose;
 use crate::model::Model;
-use crate::motion::{motions_collide_posed, motions_contact, ArmMotion};
+use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
 use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
 use crate::reach::{unreachable_trajectory, UNREACHABLE};
@@ -659,7 +659,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// Geometric conflicts of robots `i` and `k`: steps where they collide plus motions on
-    /// which they meet, exactly as Ω-A* counts them. Each arm is placed once per step.
+    /// which they meet, as Ω-A* counts them except that a motion's is confirmed by a finer
+    /// sweep ([`motions_conflict_posed`]). Each arm is placed once per step.
     fn pair_conflicts(&self, node: &CtNode, i: usize, k: usize) -> u16 {
         let mut c = 0u16;
         let (ri, rk) = (&self.pr.robots[i], &self.pr.robots[k]);
@@ -679,7 +680,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 let next = place(t + 1);
                 let (ma, mb) = (step_motion(ri, pi, t), step_motion(rk, pk, t));
                 let (ea, eb) = ([&now[0], &next[0]], [&now[1], &next[1]]);
-                if motions_collide_posed::<M, D>(&ma, ea, &mb, eb, self.low.motion_step) {
+                if motions_conflict_posed::<M, D>(&ma, ea, &mb, eb, self.low.motion_step) {
                     c = c.saturating_add(1);
                 }
                 now = next;

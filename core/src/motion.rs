@@ -99,6 +99,26 @@ pub fn motions_collide_posed<M: Model<D>, const D: usize>(
     sweeps_collide_posed(&sa, a.base, a_ends, &sb, b.base, b_ends)
 }
 
+/// How many times finer than the caller's sweep [`motions_conflict_posed`] confirms a
+/// conflict, and [`motions_contact`] looks for where it is.
+pub const CONFIRM: f64 = 4.0;
+
+/// Whether two arms' simultaneous motions conflict, for Ω-CBSA: they come too close under the
+/// sweep of `max_step` (as Ω-A* counts it) and still do under one [`CONFIRM`] times finer.
+/// The finer check drops what is only the coarse sweep's inflation (arms passing a few
+/// millimetres apart), which no branching could resolve disjunctively; it is conservative
+/// too, so motions without a conflict never collide.
+pub fn motions_conflict_posed<M: Model<D>, const D: usize>(
+    a: &ArmMotion<'_, D>,
+    a_ends: [&ArmPose; 2],
+    b: &ArmMotion<'_, D>,
+    b_ends: [&ArmPose; 2],
+    max_step: f64,
+) -> bool {
+    motions_collide_posed::<M, D>(a, a_ends, b, b_ends, max_step)
+        && motions_collide_posed::<M, D>(a, a_ends, b, b_ends, max_step / CONFIRM)
+}
+
 /// Where two arms' simultaneous motions first meet, for a branching that is mutually
 /// disjunctive: the first instant (on a grid [`CONTACT_SAMPLES`] times finer than the sweep's
 /// pieces) at which the arms overlap, with a point inside both (`margin` 0). No two arms that
@@ -107,13 +127,16 @@ pub fn motions_collide_posed<M: Model<D>, const D: usize>(
 /// at those instants but come within the sweep's tolerance of each other (the conservative
 /// check counts that as a conflict), the first instant they do so, with the tolerance as
 /// `margin`; the caller must treat that branching as not disjunctive (`exact == false`).
-/// `None` when they stay clear.
+/// `None` when they stay clear. The sweep is the confirming one of
+/// [`motions_conflict_posed`] (`max_step / CONFIRM`), so its tolerance is the one that counted
+/// the conflict.
 pub fn motions_contact<M: Model<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     b: &ArmMotion<'_, D>,
     max_step: f64,
 ) -> Option<(Contact, bool)> {
-    let (sa, sb) = (a.sweep::<M>(max_step), b.sweep::<M>(max_step));
+    let fine = max_step / CONFIRM;
+    let (sa, sb) = (a.sweep::<M>(fine), b.sweep::<M>(fine));
     let pieces = sa.count().max(sb.count());
     let at = |count: usize, margin: f64| {
         (0..count).find_map(|i| {

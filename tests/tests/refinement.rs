@@ -7,7 +7,9 @@ use omcbsa::load;
 use omcbsa::planners::{Capacities, Storage, WallClock};
 use omcbsa_core::collision::ArmPose;
 use omcbsa_core::model::{KinovaGen3, Model};
-use omcbsa_core::motion::{motions_collide, motions_contact, near_point, ArmMotion, MOTION_STEP};
+use omcbsa_core::motion::{
+    motions_conflict_posed, motions_contact, near_point, ArmMotion, MOTION_STEP,
+};
 use omcbsa_core::planner::{Clock, NoClock, Stats, Status};
 use omcbsa_core::reach::UNREACHABLE;
 use omcbsa_core::rng::Rng;
@@ -122,8 +124,18 @@ fn motion_conflicts_branch_on_a_point_both_arms_hold_at_one_instant() {
             ArmPose::new::<KinovaGen3, 7>(m.base, m.tool, &c)
         };
         // Both arms overlap at the start: a step conflict, not a motion one.
-        if place(&ma, 0.0).arm_hit(&place(&mb, 0.0), 0.0).is_some()
-            || !motions_collide::<KinovaGen3, 7>(&ma, &mb, MOTION_STEP)
+        let ([a0, a1], [b0, b1]) = (
+            [place(&ma, 0.0), place(&ma, 1.0)],
+            [place(&mb, 0.0), place(&mb, 1.0)],
+        );
+        if a0.arm_hit(&b0, 0.0).is_some()
+            || !motions_conflict_posed::<KinovaGen3, 7>(
+                &ma,
+                [&a0, &a1],
+                &mb,
+                [&b0, &b1],
+                MOTION_STEP,
+            )
         {
             continue;
         }
