@@ -8,10 +8,13 @@ use std::path::Path;
 use omcbsa::format::SolutionFile;
 use omcbsa::load;
 use omcbsa::planners::{Capacities, Storage};
-use omcbsa::suite::{gen_bench, read_index, GenOptions, INDEX_FILE};
+use omcbsa::suite::{
+    gen_bench, gen_refine, read_index, GenOptions, RefineOptions, Tightness, INDEX_FILE,
+};
 use omcbsa::validate::validate;
 use omcbsa_core::model::KinovaGen3;
-use omcbsa_core::planner::Status;
+use omcbsa_core::planner::{NoClock, Stats, Status};
+use omcbsa_core::search::refine::LEVEL_CAP;
 
 /// Two problems per family: 12 problems, every family, several layouts and arm counts.
 fn small() -> GenOptions {
@@ -117,4 +120,44 @@ fn witnesses_solve_their_problems_and_ik_tracking_solves_at_most_half() {
         2 * tracked <= known,
         "IK tracking solved {tracked} of {known}"
     );
+}
+
+/// The refinement family (`gen-bench --refine`): the same bytes twice; every problem has a
+/// witness that validates, and Ω-CBSA limited to level 0 exhausts it.
+#[test]
+fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
+    let opts = RefineOptions {
+        problems: 2,
+        max_candidates: 96,
+        traps: Tightness::TIGHT,
+        ..RefineOptions::default()
+    };
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let report = gen_refine(a.path(), &opts).unwrap();
+    gen_refine(b.path(), &opts).unwrap();
+    assert_eq!(files(a.path()), files(b.path()));
+    assert_eq!((report.problems, report.known_solvable), (2, 2));
+    let index = read_index(a.path()).unwrap();
+    let mut storage = Storage::new(Capacities::default(), 40);
+    storage.cbs_params.levels = 1;
+    for entry in &index.problems {
+        assert!(entry.family.starts_with("refine_"), "{}", entry.family);
+        let file =
+            load::parse_problem(&load::read_text(&a.path().join(&entry.file)).unwrap()).unwrap();
+        let problem = load::problem::<KinovaGen3, 7>(&file).unwrap();
+        let text = load::read_text(&a.path().join(entry.witness.as_ref().unwrap())).unwrap();
+        let witness: SolutionFile = load::parse_solution(&text).unwrap();
+        let report = validate::<KinovaGen3, 7>(&file, &problem, &witness);
+        assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
+        let mut stats = Stats::default();
+        let (status, _) = storage
+            .solve_core("omcbsa", &problem, &NoClock, f64::INFINITY, &mut stats)
+            .unwrap();
+        assert_eq!(
+            (status, stats.reason),
+            (Status::NoSolution, Some(LEVEL_CAP)),
+            "{}",
+            entry.name
+        );
+    }
 }
