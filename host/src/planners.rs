@@ -283,6 +283,24 @@ fn workspace<'a>(
     Workspace::new(nodes, open, table).map_err(|e| format!("search workspace: {e:?}"))
 }
 
+/// A planner's counters as the solution file's `stats` object (docs/FORMATS.md).
+pub fn stats_map(s: &Stats) -> serde_json::Map<String, serde_json::Value> {
+    let mut stats = serde_json::Map::new();
+    stats.insert("expansions".into(), s.expansions.into());
+    stats.insert("low_level_calls".into(), s.low_level_calls.into());
+    stats.insert("ct_nodes".into(), s.ct_nodes.into());
+    stats.insert("conflicts_resolved".into(), s.conflicts_resolved.into());
+    stats.insert("motion_conflicts".into(), s.motion_conflicts.into());
+    stats.insert("warm_start_solved".into(), s.warm_start_solved.into());
+    stats.insert("level".into(), s.level.into());
+    if let Some(reason) = s.reason {
+        stats.insert("reason".into(), reason.into());
+    }
+    stats.insert("inexact_branches".into(), s.inexact_branches.into());
+    stats.insert("unbranched_nodes".into(), s.unbranched_nodes.into());
+    stats
+}
+
 impl Outcome {
     /// The solution file of this outcome for `file`.
     pub fn to_solution_file(&self, file: &ProblemFile, planner: &str) -> SolutionFile {
@@ -302,20 +320,7 @@ impl Outcome {
             Status::OutOfMemory(pool) => (FileStatus::OutOfMemory, format!("{pool} is full")),
             Status::InvalidProblem(why) => (FileStatus::InvalidProblem, why.to_string()),
         };
-        let s = &self.stats;
-        let mut stats = serde_json::Map::new();
-        stats.insert("expansions".into(), s.expansions.into());
-        stats.insert("low_level_calls".into(), s.low_level_calls.into());
-        stats.insert("ct_nodes".into(), s.ct_nodes.into());
-        stats.insert("conflicts_resolved".into(), s.conflicts_resolved.into());
-        stats.insert("motion_conflicts".into(), s.motion_conflicts.into());
-        stats.insert("warm_start_solved".into(), s.warm_start_solved.into());
-        stats.insert("level".into(), s.level.into());
-        if let Some(reason) = s.reason {
-            stats.insert("reason".into(), reason.into());
-        }
-        stats.insert("inexact_branches".into(), s.inexact_branches.into());
-        stats.insert("unbranched_nodes".into(), s.unbranched_nodes.into());
+        let stats = stats_map(&self.stats);
         SolutionFile {
             approach: None,
             format: SOLUTION_FORMAT.to_string(),

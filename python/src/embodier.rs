@@ -4,13 +4,14 @@ use numpy::ndarray::Array3;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
 use omcbsa::format::Pose;
 use omcbsa::online::{ChunkReport, Embodier as HostEmbodier, OnlineError, OnlineOptions, Setup};
+use omcbsa::planners::stats_map;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::convert::{field_error, flat, input_error};
 use crate::guard;
-use crate::problem::{Problem, DOF};
+use crate::problem::{to_python, Problem, DOF};
 
 pyo3::create_exception!(
     omcbsa,
@@ -218,12 +219,7 @@ impl Embodier {
         d.set_item("index", r.index)?;
         d.set_item("end", r.end)?;
         d.set_item("planning_time_s", r.planning_time_s)?;
-        let stats = PyDict::new(py);
-        stats.set_item("expansions", r.stats.expansions)?;
-        stats.set_item("low_level_calls", r.stats.low_level_calls)?;
-        stats.set_item("ct_nodes", r.stats.ct_nodes)?;
-        stats.set_item("conflicts_resolved", r.stats.conflicts_resolved)?;
-        d.set_item("stats", stats)?;
+        d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;
         Ok(Some(d))
     }
 

@@ -76,7 +76,10 @@ fn document(source: &Bound<'_, PyAny>) -> PyResult<String> {
 }
 
 /// A JSON value as a Python object (through the json module: dicts, lists, floats, ...).
-fn to_python<'py>(py: Python<'py>, value: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn to_python<'py>(
+    py: Python<'py>,
+    value: &impl serde::Serialize,
+) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(value).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     py.import("json")?.call_method1("loads", (text,))
 }
