@@ -223,24 +223,38 @@ struct Run<'r, 's, M, const D: usize> {
 type Branches = [(usize, Constraint); 2];
 
 impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
-    /// Constraint trees in turn, each with twice the expansion budget of the one before, until
-    /// one ends. Run times of tree search are heavy-tailed (most problems take a few
-    /// milliseconds, a few take seconds from one root and milliseconds from another), which
-    /// restarts cut; the budgets count expansions, not time, so the answer is deterministic.
-    /// A tree that ends with its OPEN list empty has exhausted the search space at this
-    /// refinement level: planning goes on at the next, finer one ([`crate::search::refine`]).
+    /// Constraint trees in turn, in rounds, until one ends with a plan, the deadline passes or
+    /// every level is exhausted. Run times of tree search are heavy-tailed (most problems take
+    /// a few milliseconds, a few take seconds from one root and milliseconds from another),
+    /// which restarts cut. A tree that ends with its OPEN list empty has exhausted the search
+    /// space at its refinement level ([`crate::search::refine`]), which is then left out.
+    ///
+    /// Round `r` gives level 0 a tree with `restart_expansions * 2^r` Ω-A* expansions and
+    /// level `l` one with a `4^l`-th of that, from round `2l` on: a level that is slow to
+    /// exhaust does not keep the finer ones waiting until the deadline, while the coarse level,
+    /// which solves most problems soonest, keeps most of the work (the finer ones add at most
+    /// a third to it). The budgets count expansions, not time, so the answer is deterministic.
     fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
+        let levels = usize::from(self.params.levels.clamp(1, LEVELS));
+        let mut exhausted = [false; LEVELS as usize];
+        // Whether the finest level's exhaustion proves nothing (a search ran out of memory).
+        let mut unproven = false;
         let mut restart = 0u32;
-        let levels = self.params.levels.clamp(1, LEVELS);
-        for level in 0..levels {
-            self.stats.level = level;
-            self.low = level_params(&self.params.low, level);
-            self.incomplete = false;
-            let mut budget = self.params.restart_expansions;
-            loop {
-                let limit = match budget {
+        for round in 0u32.. {
+            for level in 0..levels {
+                let Some(shift) = round.checked_sub(2 * level as u32) else {
+                    continue;
+                };
+                if exhausted[level] {
+                    continue;
+                }
+                self.stats.level = level as u8;
+                self.low = level_params(&self.params.low, level as u8);
+                self.incomplete = false;
+                let limit = match self.params.restart_expansions {
                     0 => u64::MAX,
-                    b => self.stats.expansions.saturating_add(b),
+                    b => (self.stats.expansions)
+                        .saturating_add(b.saturating_mul(1u64 << shift.min(40))),
                 };
                 let ended = self.tree(clock, out, restart, limit);
                 restart += 1;
@@ -248,16 +262,24 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 self.used_slots = 0;
                 self.open.clear();
                 match ended {
-                    None => budget = budget.saturating_mul(2),
-                    Some(Status::NoSolution) => break,
+                    None => {}
+                    Some(Status::NoSolution) => {
+                        exhausted[level] = true;
+                        if level + 1 == levels {
+                            unproven = self.incomplete;
+                        }
+                    }
                     Some(status) => return status,
                 }
             }
+            if exhausted[..levels].iter().all(|&e| e) {
+                break;
+            }
         }
-        if self.incomplete {
+        if unproven {
             return Status::OutOfMemory("Ω-A* workspace");
         }
-        self.stats.reason = Some(if levels < LEVELS {
+        self.stats.reason = Some(if levels < usize::from(LEVELS) {
             LEVEL_CAP
         } else {
             EXHAUSTED

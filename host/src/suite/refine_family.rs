@@ -18,6 +18,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use omcbsa_core::collision::ArmPose;
 use omcbsa_core::planner::{NoClock, Stats, Status};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
@@ -92,7 +93,9 @@ pub fn gen_refine(outdir: &Path, opts: &RefineOptions) -> Result<GenReport, Erro
     write_suite(outdir, opts.seed, kept, start)
 }
 
-/// Whether `g` has a validated witness and Ω-CBSA's level 0 exhausts its search space on it.
+/// Whether `g` has a validated witness, arms that can stand at their `initial` (the tighter
+/// fixtures may take the retract pose an arm starts from), and Ω-CBSA's level 0 exhausts its
+/// search space on it.
 fn level0_misses(g: &Generated) -> Result<bool, Error> {
     if g.witness.is_none() {
         return Ok(false);
@@ -101,6 +104,17 @@ fn level0_misses(g: &Generated) -> Result<bool, Error> {
         problem: g.entry.name.clone(),
         message: e.to_string(),
     })?;
+    let standing: Vec<ArmPose> = (problem.robots.iter())
+        .filter_map(|r| r.initial.map(|q| ArmPose::new::<Gen3, 7>(&r.base, &r.tool, &q)))
+        .collect();
+    let blocked = standing.iter().enumerate().any(|(i, a)| {
+        a.obstacle_hit(&problem.obstacles, 0.0).is_some()
+            || a.self_hit(0.0).is_some()
+            || standing[i + 1..].iter().any(|b| a.arm_hit(b, 0.0).is_some())
+    });
+    if blocked {
+        return Ok(false);
+    }
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
     storage.cbs_params.levels = 1;
     let mut stats = Stats::default();
