@@ -5,9 +5,9 @@
 //! as the rounded caps still cover every point ([`enclose`]). What remains is choosing the line
 //! (and possibly a radius above the minimum, which shortens the segment): a Nelder-Mead search
 //! over the line's tilt and offset from each principal axis, minimising volume. Several
-//! capsules come from splitting the cloud, one group in two at a time, where that brings the
-//! capsules closest to the mesh ([`refine`]): a flat end face, which one capsule's round cap
-//! overshoots by its radius, gets capsules of its own.
+//! capsules come from splitting the cloud, one group in two at a time along the group's
+//! principal axes ([`refine`]); the caller keeps the splits that bring the capsules closest to
+//! the mesh ([`Fit::score`]), since least volume leaves a capsule far off a thin part.
 
 use std::f64::consts::PI;
 
@@ -211,11 +211,10 @@ pub struct Fit {
 impl Fit {
     /// One capsule around all of `points`.
     pub fn one(points: &[V3], mesh: &MeshDistance) -> Fit {
-        Fit::new(vec![points.to_vec()], mesh)
+        Fit::new(vec![points.to_vec()], vec![fit_one(points)], mesh)
     }
 
-    fn new(groups: Vec<Vec<V3>>, mesh: &MeshDistance) -> Fit {
-        let capsules: Vec<Capsule> = groups.iter().map(|g| fit_one(g)).collect();
+    fn new(groups: Vec<Vec<V3>>, capsules: Vec<Capsule>, mesh: &MeshDistance) -> Fit {
         Fit {
             slack: mesh.slack(&capsules),
             capsules,
@@ -245,10 +244,15 @@ pub fn refine(fit: &Fit, mesh: &MeshDistance) -> Vec<Fit> {
             sorted.sort_by(|p, q| height(p).total_cmp(&height(q)));
             for cut in 1..CUTS {
                 let at = cut * sorted.len() / CUTS;
+                let (low, high) = (sorted[..at].to_vec(), sorted[at..].to_vec());
+                // The other groups keep their capsules.
+                let mut capsules = fit.capsules.clone();
+                capsules[i] = fit_one(&low);
+                capsules.push(fit_one(&high));
                 let mut groups = fit.groups.clone();
-                groups[i] = sorted[..at].to_vec();
-                groups.push(sorted[at..].to_vec());
-                candidates.push(Fit::new(groups, mesh));
+                groups[i] = low;
+                groups.push(high);
+                candidates.push(Fit::new(groups, capsules, mesh));
             }
         }
     }
