@@ -6,19 +6,37 @@ mod capsule;
 mod mesh;
 mod minimize;
 mod pairs;
+mod slack;
 
 use std::fmt::{self, Write as _};
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-pub use capsule::{fit_capsules, total_volume, Capsule, MAX_CAPSULES};
+pub use capsule::{refine, total_volume, Capsule, Fit};
 pub use mesh::{link_meshes, Mesh};
 pub use pairs::{disabled_pairs, parse_srdf, DisabledPair, SrdfEntry};
+pub use slack::{MeshDistance, Slack, SPACING};
 
 /// Added to every fitted radius so that rounding in later transforms cannot put a mesh vertex
 /// outside its capsules.
 pub const MARGIN: f64 = 1e-4;
+
+/// Most capsules of one arm: the core's `MAX_ARM_CAPSULES` (a generated model with more does
+/// not compile).
+pub const CAPSULE_BUDGET: usize = 16;
+
+/// What a capsule costs when the budget is shared out, metres of [`Fit::score`]: one that takes
+/// less off its link's score is not worth the distance queries it adds to the planner's inner
+/// loop.
+const CAPSULE_COST: f64 = 0.002;
+
+/// Most capsules fitted to one link.
+pub const MAX_CAPSULES: usize = 5;
+
+/// Fits of a link carried from one capsule count to the next (the best split of the best fit
+/// is not always on the way to the best fit with one capsule more).
+const BEAM: usize = 3;
 
 /// What went wrong, naming the file, link or entry.
 #[derive(Debug, Clone, PartialEq)]
@@ -125,6 +143,8 @@ pub struct LinkFit {
     pub extent: [f64; 3],
     /// With [`MARGIN`] added.
     pub capsules: Vec<Capsule>,
+    /// Of the capsules before the margin.
+    pub slack: Slack,
 }
 
 /// The result of [`fit_robot`].
@@ -153,32 +173,59 @@ pub fn fit_robot(
         None => Vec::new(),
     };
     let meshes = link_meshes(&robot, mesh_dir)?;
-    let links: Vec<LinkFit> = meshes
-        .into_iter()
-        .map(|(link, mesh)| {
-            let mut points = mesh.vertices.clone();
-            // Identical vertices of different STL files (or float duplicates) add nothing.
-            points.sort_by(|p, q| {
-                p.iter()
-                    .zip(q.iter())
-                    .map(|(a, b)| a.total_cmp(b))
-                    .find(|o| o.is_ne())
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            });
-            points.dedup();
-            let capsules = fit_capsules(&points)
-                .into_iter()
+    let mut links = Vec::new();
+    for (link, mesh) in meshes {
+        let mut points = mesh.vertices.clone();
+        // Identical vertices of different STL files (or float duplicates) add nothing.
+        points.sort_by(|p, q| {
+            p.iter()
+                .zip(q.iter())
+                .map(|(a, b)| a.total_cmp(b))
+                .find(|o| o.is_ne())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        points.dedup();
+        let distance = MeshDistance::new(&mesh)
+            .ok_or_else(|| FitError::new(format!("link {link}: a mesh without triangles")))?;
+        // A beam search: the best few fits with one capsule more split one group of a fit
+        // with one less; the best with each count is kept.
+        let mut beam = vec![Fit::one(&points, &distance)];
+        let mut fits = vec![beam[0].clone()];
+        while fits.len() < MAX_CAPSULES {
+            let mut next: Vec<Fit> = beam.iter().flat_map(|f| refine(f, &distance)).collect();
+            // Stable: equal scores stay in the order made, so the fit is deterministic.
+            next.sort_by(|a, b| a.score().total_cmp(&b.score()));
+            next.truncate(BEAM);
+            let Some(best) = next.first() else {
+                break;
+            };
+            fits.push(best.clone());
+            beam = next;
+        }
+        links.push((link, points.len(), mesh.extent(), fits));
+    }
+    let counts =
+        allocate(&links.iter().map(|l| &l.3[..]).collect::<Vec<_>>()).ok_or_else(|| {
+            FitError::new(format!(
+                "{} links with meshes, more than the budget of {CAPSULE_BUDGET} capsules",
+                links.len()
+            ))
+        })?;
+    let links: Vec<LinkFit> = (links.into_iter().zip(counts))
+        .map(|((link, vertices, extent, mut fits), count)| {
+            (link, vertices, extent, fits.swap_remove(count - 1))
+        })
+        .map(|(link, vertices, extent, fit)| LinkFit {
+            link,
+            vertices,
+            extent: extent.into(),
+            slack: fit.slack,
+            capsules: (fit.capsules.into_iter())
                 .map(|c| Capsule {
                     radius: c.radius + MARGIN,
                     ..c
                 })
-                .collect();
-            LinkFit {
-                link,
-                vertices: points.len(),
-                extent: mesh.extent().into(),
-                capsules,
-            }
+                .collect(),
         })
         .collect();
     let names: Vec<String> = links.iter().map(|l| l.link.clone()).collect();
@@ -202,14 +249,48 @@ pub fn fit_robot(
     Ok(RobotFit { file, links })
 }
 
+/// How many capsules each link gets, given its fits with 1, 2, ... capsules: at most
+/// [`CAPSULE_BUDGET`] in all, the least sum over links of [`Fit::score`], each capsule
+/// counting as [`CAPSULE_COST`] more (a small knapsack, solved exactly); `None` when there are
+/// more links than capsules.
+fn allocate(links: &[&[Fit]]) -> Option<Vec<usize>> {
+    let cost = |f: &Fit| f.score() + CAPSULE_COST * f.capsules.len() as f64;
+    // best[n]: least cost of the links so far with n capsules, and each link's count.
+    let mut best: Vec<Option<(f64, Vec<usize>)>> = vec![None; CAPSULE_BUDGET + 1];
+    best[0] = Some((0.0, Vec::new()));
+    for fits in links {
+        let mut after: Vec<Option<(f64, Vec<usize>)>> = vec![None; CAPSULE_BUDGET + 1];
+        for (n, so_far) in best.iter().enumerate() {
+            let Some((total, counts)) = so_far else {
+                continue;
+            };
+            for (k, fit) in (1..).zip(fits.iter()) {
+                if n + k > CAPSULE_BUDGET {
+                    break;
+                }
+                let candidate = total + cost(fit);
+                if after[n + k].as_ref().is_none_or(|(t, _)| candidate < *t) {
+                    let mut counts = counts.clone();
+                    counts.push(k);
+                    after[n + k] = Some((candidate, counts));
+                }
+            }
+        }
+        best = after;
+    }
+    (best.into_iter().flatten())
+        .reduce(|b, c| if c.0 < b.0 { c } else { b })
+        .map(|(_, counts)| counts)
+}
+
 impl RobotFit {
     /// A Markdown table: one row per link, with its capsules' total volume over that of the
     /// mesh's bounding box in the link frame (Kinova's meshes are hollow shells, so their own
     /// enclosed volume would be no fair reference).
     pub fn table(&self) -> String {
         let mut out = String::from(
-            "| link | vertices | bounding box (mm) | capsules | radius (mm) | length (mm) | capsules / box volume |\n\
-             |---|---:|---:|---:|---:|---:|---:|\n",
+            "| link | vertices | bounding box (mm) | capsules | radius (mm) | length (mm) | capsules / box volume | largest slack (mm) | mean slack (mm) |\n\
+             |---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for l in &self.links {
             let mm = |values: Vec<f64>| {
@@ -223,14 +304,16 @@ impl RobotFit {
             let ratio = total_volume(&l.capsules) / l.extent.iter().product::<f64>();
             let _ = writeln!(
                 out,
-                "| {} | {} | {} | {} | {} | {} | {:.2} |",
+                "| {} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.1} |",
                 l.link,
                 l.vertices,
                 mm(l.extent.to_vec()).join(" x "),
                 l.capsules.len(),
                 radii.join(", "),
                 lengths.join(", "),
-                ratio
+                ratio,
+                l.slack.largest * 1e3,
+                l.slack.mean * 1e3
             );
         }
         out

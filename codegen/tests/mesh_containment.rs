@@ -64,6 +64,7 @@ fn every_mesh_vertex_is_inside_a_capsule_of_its_link() {
         checked += mesh.vertices.len();
     }
     println!("{checked} vertices inside their link's capsules");
+    assert!(file.capsules.len() <= fit::CAPSULE_BUDGET);
     // No capsule for a link without a mesh (the tool frame).
     assert!(file
         .capsules

@@ -5,14 +5,16 @@
 //! as the rounded caps still cover every point ([`enclose`]). What remains is choosing the line
 //! (and possibly a radius above the minimum, which shortens the segment): a Nelder-Mead search
 //! over the line's tilt and offset from each principal axis, minimising volume. Several
-//! capsules come from cutting the cloud into slabs along a principal axis and then moving
-//! points to the capsule that holds them best while that lowers the total volume.
+//! capsules come from splitting the cloud, one group in two at a time along the group's
+//! principal axes ([`refine`]); the caller keeps the splits that bring the capsules closest to
+//! the mesh ([`Fit::score`]), since least volume leaves a capsule far off a thin part.
 
 use std::f64::consts::PI;
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::minimize::nelder_mead;
+use super::slack::{MeshDistance, Slack};
 
 type V3 = Vector3<f64>;
 
@@ -48,26 +50,6 @@ impl Capsule {
     pub fn contains(&self, p: &V3) -> bool {
         self.axis_distance(p) <= self.radius
     }
-}
-
-/// Most capsules fitted to one link.
-pub const MAX_CAPSULES: usize = 3;
-
-/// Fits 1 to [`MAX_CAPSULES`] capsules enclosing every point, and keeps the count with the
-/// smallest total volume, except that each extra capsule must save at least
-/// `EXTRA_CAPSULE_GAIN` of the volume (every capsule costs distance queries in the planner's
-/// inner loop).
-pub fn fit_capsules(points: &[V3]) -> Vec<Capsule> {
-    const EXTRA_CAPSULE_GAIN: f64 = 0.05;
-    let mut best = vec![fit_one(points)];
-    for count in 2..=MAX_CAPSULES {
-        if let Some(candidate) = fit_several(points, count) {
-            if total_volume(&candidate) < (1.0 - EXTRA_CAPSULE_GAIN) * total_volume(&best) {
-                best = candidate;
-            }
-        }
-    }
-    best
 }
 
 pub fn total_volume(capsules: &[Capsule]) -> f64 {
@@ -218,135 +200,111 @@ fn fit_one(points: &[V3]) -> Capsule {
     best.expect("three axes were tried")
 }
 
-/// `count` capsules around `points`, or `None` when there are too few points to split.
-fn fit_several(points: &[V3], count: usize) -> Option<Vec<Capsule>> {
-    const REFINED_CUTS: usize = 2;
-    const REASSIGN_ROUNDS: usize = 4;
-    if points.len() < 4 * count {
-        return None;
+/// Capsules around groups of points that together are the whole cloud, and their slack.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    pub capsules: Vec<Capsule>,
+    groups: Vec<Vec<V3>>,
+    pub slack: Slack,
+}
+
+impl Fit {
+    /// One capsule around all of `points`.
+    pub fn one(points: &[V3], mesh: &MeshDistance) -> Fit {
+        Fit::new(vec![points.to_vec()], vec![fit_one(points)], mesh)
     }
-    // Rank slab cuts cheaply (principal-axis capsules, no search), refine the best few.
-    let mut cuts = slab_cuts(points, count);
-    let quick = |groups: &[Vec<V3>]| -> f64 {
-        groups
-            .iter()
-            .map(|g| {
-                let (c, axes) = principal_axes(g);
-                enclose(g, &c, &axes[0], 0.0).volume()
-            })
-            .sum()
-    };
-    let mut ranked: Vec<(f64, usize)> = cuts
-        .iter()
-        .enumerate()
-        .map(|(i, g)| (quick(g), i))
-        .collect();
-    ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let mut best: Option<Vec<Capsule>> = None;
-    for &(_, i) in ranked.iter().take(REFINED_CUTS) {
-        let mut groups = std::mem::take(&mut cuts[i]);
-        let mut capsules: Vec<Capsule> = groups.iter().map(|g| fit_one(g)).collect();
-        for _ in 0..REASSIGN_ROUNDS {
-            let Some(regrouped) = reassign(points, &capsules) else {
-                break;
-            };
-            let refit: Vec<Capsule> = regrouped.iter().map(|g| fit_one(g)).collect();
-            if total_volume(&refit) >= total_volume(&capsules) * (1.0 - 1e-9) {
-                break;
+
+    fn new(groups: Vec<Vec<V3>>, capsules: Vec<Capsule>, mesh: &MeshDistance) -> Fit {
+        Fit {
+            slack: mesh.slack(&capsules),
+            capsules,
+            groups,
+        }
+    }
+
+    /// What the fitter minimises: the largest slack plus the mean.
+    pub fn score(&self) -> f64 {
+        self.slack.largest + self.slack.mean
+    }
+}
+
+/// Every way of splitting one group of `fit` in two along one of the group's principal axes,
+/// cut at eighths of its points; none when no group has enough points.
+pub fn refine(fit: &Fit, mesh: &MeshDistance) -> Vec<Fit> {
+    const CUTS: usize = 8;
+    let mut candidates: Vec<Fit> = Vec::new();
+    for (i, group) in fit.groups.iter().enumerate() {
+        if group.len() < 2 * CUTS {
+            continue;
+        }
+        let (centroid, axes) = principal_axes(group);
+        for axis in &axes {
+            let mut sorted = group.clone();
+            let height = |p: &V3| (p - centroid).dot(axis);
+            sorted.sort_by(|p, q| height(p).total_cmp(&height(q)));
+            for cut in 1..CUTS {
+                let at = cut * sorted.len() / CUTS;
+                let (low, high) = (sorted[..at].to_vec(), sorted[at..].to_vec());
+                // The other groups keep their capsules.
+                let mut capsules = fit.capsules.clone();
+                capsules[i] = fit_one(&low);
+                capsules.push(fit_one(&high));
+                let mut groups = fit.groups.clone();
+                groups[i] = low;
+                groups.push(high);
+                candidates.push(Fit::new(groups, capsules, mesh));
             }
-            (groups, capsules) = (regrouped, refit);
-        }
-        if best
-            .as_ref()
-            .is_none_or(|b| total_volume(&capsules) < total_volume(b))
-        {
-            best = Some(capsules);
         }
     }
-    best
-}
-
-/// Every way of cutting `points` into `count` slabs along one of its principal axes, with the
-/// cuts at fractions of the points on a fixed grid.
-fn slab_cuts(points: &[V3], count: usize) -> Vec<Vec<Vec<V3>>> {
-    let grid = (20 / (count - 1)).max(count);
-    let (centroid, axes) = principal_axes(points);
-    let mut cuts = Vec::new();
-    for axis in &axes {
-        let mut sorted: Vec<(f64, V3)> = points
-            .iter()
-            .map(|p| ((p - centroid).dot(axis), *p))
-            .collect();
-        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for steps in increasing(count - 1, 1, grid) {
-            let mut bounds = vec![0];
-            bounds.extend(steps.iter().map(|&s| s * sorted.len() / grid));
-            bounds.push(sorted.len());
-            cuts.push(
-                bounds
-                    .windows(2)
-                    .map(|w| sorted[w[0]..w[1]].iter().map(|(_, p)| *p).collect())
-                    .collect(),
-            );
-        }
-    }
-    cuts
-}
-
-/// All increasing sequences of `len` integers in `from..to`.
-fn increasing(len: usize, from: usize, to: usize) -> Vec<Vec<usize>> {
-    if len == 0 {
-        return vec![Vec::new()];
-    }
-    (from..to)
-        .flat_map(|first| {
-            increasing(len - 1, first + 1, to)
-                .into_iter()
-                .map(move |mut rest| {
-                    rest.insert(0, first);
-                    rest
-                })
-        })
-        .collect()
-}
-
-/// Groups each point with the capsule it lies deepest inside; `None` if a capsule would be
-/// left with no point.
-fn reassign(points: &[V3], capsules: &[Capsule]) -> Option<Vec<Vec<V3>>> {
-    let mut groups = vec![Vec::new(); capsules.len()];
-    for p in points {
-        let depth = |c: &Capsule| c.radius - c.axis_distance(p);
-        let best = (0..capsules.len()).max_by(|&i, &j| {
-            depth(&capsules[i])
-                .total_cmp(&depth(&capsules[j]))
-                .then(j.cmp(&i))
-        })?;
-        groups[best].push(*p);
-    }
-    groups.iter().all(|g| !g.is_empty()).then_some(groups)
+    candidates
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::Mesh;
 
-    /// Points on the surface of a cylinder (rings plus end caps) around the line through
+    /// A closed cylinder mesh (rings, end caps fanned to their centres) around the line through
     /// `origin` along `dir`.
-    fn cylinder(origin: V3, dir: V3, radius: f64, length: f64) -> Vec<V3> {
+    fn cylinder(origin: V3, dir: V3, radius: f64, length: f64) -> Mesh {
+        const RINGS: usize = 20;
+        const AROUND: usize = 36;
         let dir = dir.normalize();
         let u = dir.cross(&V3::new(0.3, 0.5, 0.8)).normalize();
         let v = dir.cross(&u);
-        let mut points = Vec::new();
-        for i in 0..=20 {
-            let t = length * i as f64 / 20.0;
-            for k in 0..36 {
-                let a = 2.0 * PI * k as f64 / 36.0;
-                for s in [radius, if i % 20 == 0 { 0.5 * radius } else { radius }] {
-                    points.push(origin + dir * t + (u * a.cos() + v * a.sin()) * s);
+        let mut mesh = Mesh::default();
+        for i in 0..=RINGS {
+            let t = length * i as f64 / RINGS as f64;
+            for k in 0..AROUND {
+                let a = 2.0 * PI * k as f64 / AROUND as f64;
+                mesh.vertices
+                    .push(origin + dir * t + (u * a.cos() + v * a.sin()) * radius);
+                let (next, up) = ((k + 1) % AROUND, AROUND);
+                let here = i * AROUND;
+                if i < RINGS {
+                    mesh.triangles.push([here + k, here + next, here + up + k]);
+                    mesh.triangles
+                        .push([here + next, here + up + next, here + up + k]);
                 }
             }
         }
-        points
+        for (ring, centre) in [(0, origin), (RINGS, origin + dir * length)] {
+            let c = mesh.vertices.len();
+            mesh.vertices.push(centre);
+            for k in 0..AROUND {
+                let at = ring * AROUND;
+                mesh.triangles.push([c, at + k, at + (k + 1) % AROUND]);
+            }
+        }
+        mesh
+    }
+
+    /// The best of `fit`'s splits.
+    fn best_split(fit: &Fit, mesh: &MeshDistance) -> Fit {
+        refine(fit, mesh)
+            .into_iter()
+            .reduce(|b, f| if f.score() < b.score() { f } else { b })
+            .expect("enough points to split")
     }
 
     fn assert_encloses(capsules: &[Capsule], points: &[V3]) {
@@ -388,20 +346,19 @@ mod tests {
     #[test]
     fn one_capsule_fits_a_tilted_cylinder_tightly() {
         let (radius, length) = (0.05, 0.3);
-        let points = cylinder(
+        let mesh = cylinder(
             V3::new(0.1, -0.2, 0.3),
             V3::new(1.0, 2.0, -0.5),
             radius,
             length,
         );
-        let capsules = fit_capsules(&points);
-        assert_eq!(capsules.len(), 1, "{capsules:?}");
-        assert_encloses(&capsules, &points);
+        let capsule = fit_one(&mesh.vertices);
+        assert_encloses(&[capsule], &mesh.vertices);
         // A radius a little above the cylinder's lets the caps cover the flat ends with a
         // shorter segment, which saves volume; never much above it.
         assert!(
-            capsules[0].radius >= radius - 1e-9 && capsules[0].radius < 1.02 * radius,
-            "{capsules:?}"
+            capsule.radius >= radius - 1e-9 && capsule.radius < 1.02 * radius,
+            "{capsule:?}"
         );
         // At most the capsule on the cylinder's own axis and radius.
         let on_axis = Capsule {
@@ -409,26 +366,39 @@ mod tests {
             b: V3::x() * length,
             radius,
         };
-        assert!(capsules[0].volume() <= on_axis.volume(), "{capsules:?}");
+        assert!(capsule.volume() <= on_axis.volume(), "{capsule:?}");
     }
 
     #[test]
-    fn an_l_shape_gets_two_capsules_smaller_than_one() {
-        let mut points = cylinder(V3::zeros(), V3::z(), 0.04, 0.4);
-        points.extend(cylinder(V3::new(0.0, 0.0, 0.4), V3::x(), 0.04, 0.4));
-        let capsules = fit_capsules(&points);
-        assert_encloses(&capsules, &points);
-        assert!(capsules.len() >= 2, "{capsules:?}");
-        assert!(total_volume(&capsules) < 0.5 * fit_one(&points).volume());
-        for c in &capsules {
-            assert!(c.radius < 0.045, "{capsules:?}");
+    fn an_l_shape_split_in_two_stands_closer_to_its_mesh() {
+        let mut mesh = cylinder(V3::zeros(), V3::z(), 0.04, 0.4);
+        mesh.append(cylinder(V3::new(0.0, 0.0, 0.4), V3::x(), 0.04, 0.4));
+        let distance = MeshDistance::new(&mesh).expect("triangles");
+        let one = Fit::one(&mesh.vertices, &distance);
+        let two = best_split(&one, &distance);
+        assert_encloses(&two.capsules, &mesh.vertices);
+        assert_eq!(two.capsules.len(), 2);
+        // One capsule around the L stands off it by half the L's size somewhere; two, one per
+        // bar, by little more than a cap over a flat end.
+        assert!(one.slack.largest > 0.1, "{:?}", one.slack);
+        assert!(two.slack.largest < 0.05, "{:?}", two.slack);
+        assert!(
+            two.slack.mean < 0.5 * one.slack.mean,
+            "{:?} {:?}",
+            two.slack,
+            one.slack
+        );
+        for c in &two.capsules {
+            assert!(c.radius < 0.045, "{:?}", two.capsules);
         }
     }
 
     #[test]
     fn fitting_is_deterministic() {
-        let mut points = cylinder(V3::zeros(), V3::new(0.2, 0.1, 1.0), 0.03, 0.2);
-        points.extend(cylinder(V3::new(0.05, 0.0, 0.2), V3::y(), 0.05, 0.1));
-        assert_eq!(fit_capsules(&points), fit_capsules(&points));
+        let mut mesh = cylinder(V3::zeros(), V3::new(0.2, 0.1, 1.0), 0.03, 0.2);
+        mesh.append(cylinder(V3::new(0.05, 0.0, 0.2), V3::y(), 0.05, 0.1));
+        let distance = MeshDistance::new(&mesh).expect("triangles");
+        let split = || best_split(&Fit::one(&mesh.vertices, &distance), &distance).capsules;
+        assert_eq!(split(), split());
     }
 }
