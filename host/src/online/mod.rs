@@ -107,6 +107,13 @@ pub struct ChunkReport {
     pub stats: Stats,
 }
 
+/// Ω-A*'s duplicate grid for chunks, rad: finer than a whole plan's 0.6. A chunk starts from
+/// one fixed state (where the arms are), so its lattice is small, and the coarse grid pruned
+/// the few ways through on some chunks, exhausting level 0 and sending them to the next
+/// refinement level (10-235 ms). `omcbsa bench-online /tmp/suite --stride 3`: 3-arm p99 39.5
+/// ms with 0.6, 9.2 ms with 0.3 (README, "Online embodiment").
+const CHUNK_RESOLUTION: f64 = 0.3;
+
 /// Plans policy chunks as they arrive (see the module documentation).
 pub struct Embodier {
     robots: heapless::Vec<Robot<DOF>, MAX_ROBOTS>,
@@ -174,7 +181,8 @@ impl Embodier {
         let mut problem = load::problem::<KinovaGen3, DOF>(&file)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
-        let storage = Storage::new(options.capacities, options.max_chunk_len + 1);
+        let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
+        storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
         Ok(Embodier {
             robots,
             template: problem,
