@@ -105,12 +105,17 @@ fn level0_misses(g: &Generated) -> Result<bool, Error> {
         message: e.to_string(),
     })?;
     let standing: Vec<ArmPose> = (problem.robots.iter())
-        .filter_map(|r| r.initial.map(|q| ArmPose::new::<Gen3, 7>(&r.base, &r.tool, &q)))
+        .filter_map(|r| {
+            r.initial
+                .map(|q| ArmPose::new::<Gen3, 7>(&r.base, &r.tool, &q))
+        })
         .collect();
     let blocked = standing.iter().enumerate().any(|(i, a)| {
         a.obstacle_hit(&problem.obstacles, 0.0).is_some()
             || a.self_hit(0.0).is_some()
-            || standing[i + 1..].iter().any(|b| a.arm_hit(b, 0.0).is_some())
+            || standing[i + 1..]
+                .iter()
+                .any(|b| a.arm_hit(b, 0.0).is_some())
     });
     if blocked {
         return Ok(false);
