@@ -241,11 +241,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let mut unproven = false;
         let mut restart = 0u32;
         for round in 0u32.. {
-            for level in 0..levels {
+            for (level, done) in exhausted.iter_mut().enumerate().take(levels) {
                 let Some(shift) = round.checked_sub(2 * level as u32) else {
                     continue;
                 };
-                if exhausted[level] {
+                if *done {
                     continue;
                 }
                 self.stats.level = level as u8;
@@ -264,7 +264,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 match ended {
                     None => {}
                     Some(Status::NoSolution) => {
-                        exhausted[level] = true;
+                        *done = true;
                         if level + 1 == levels {
                             unproven = self.incomplete;
                         }

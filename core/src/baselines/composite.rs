@@ -137,7 +137,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
         let mut since = 0u32;
         while let Some(e) = self.open.pop() {
             since += 1;
-            if since % 16 == 0 && self.deadline.expired() {
+            if since.is_multiple_of(16) && self.deadline.expired() {
                 return Status::Timeout;
             }
             let node = self.nodes[e.node as usize];
