@@ -24,7 +24,7 @@ use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Unt
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
 use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::rng::Rng;
-use crate::search::refine::{level_params, EXHAUSTED, LEVELS, LEVEL_CAP};
+use crate::search::refine::{level_params, EXHAUSTED, FIRST_ROUND, LEVELS, LEVEL_CAP};
 use crate::search::{
     plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
     SearchError, SearchStats, StartCache, StartIk, Validity, Workspace,
@@ -229,20 +229,22 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// which restarts cut. A tree that ends with its OPEN list empty has exhausted the search
     /// space at its refinement level ([`crate::search::refine`]), which is then left out.
     ///
-    /// Round `r` gives level 0 a tree with `restart_expansions * 2^r` Ω-A* expansions and
-    /// level `l` one with a `4^l`-th of that, from round `2l` on: a level that is slow to
-    /// exhaust does not keep the finer ones waiting until the deadline, while the coarse level,
-    /// which solves most problems soonest, keeps most of the work (the finer ones add at most
-    /// a third to it). The budgets count expansions, not time, so the answer is deterministic.
+    /// Level `l` builds its first tree in round [`FIRST_ROUND`]`[l]` = `f`, and in round `r`
+    /// one with `restart_expansions * 2^(r - f)` Ω-A* expansions after its root: level 1 gets
+    /// half of level 0's share, levels 2 and 3 a sixteenth and a sixty-fourth (see
+    /// [`FIRST_ROUND`] for why). A level that is slow to exhaust does not keep the finer ones
+    /// waiting until the deadline. The budgets count expansions, not time, so the answer is
+    /// deterministic. A tree whose pools run out ends its level (not proven exhausted) and the
+    /// other levels go on.
     fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
         let levels = usize::from(self.params.levels.clamp(1, LEVELS));
         let mut exhausted = [false; LEVELS as usize];
         // Whether the finest level's exhaustion proves nothing (a search ran out of memory).
-        let mut unproven = false;
+        let mut unproven: Option<&'static str> = None;
         let mut restart = 0u32;
         for round in 0u32.. {
             for (level, done) in exhausted.iter_mut().enumerate().take(levels) {
-                let Some(shift) = round.checked_sub(2 * level as u32) else {
+                let Some(shift) = round.checked_sub(FIRST_ROUND[level]) else {
                     continue;
                 };
                 if *done {
@@ -251,12 +253,11 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 self.stats.level = level as u8;
                 self.low = level_params(&self.params.low, level as u8);
                 self.incomplete = false;
-                let limit = match self.params.restart_expansions {
+                let budget = match self.params.restart_expansions {
                     0 => u64::MAX,
-                    b => (self.stats.expansions)
-                        .saturating_add(b.saturating_mul(1u64 << shift.min(40))),
+                    b => b.saturating_mul(1u64 << shift.min(40)),
                 };
-                let ended = self.tree(clock, out, restart, limit);
+                let ended = self.tree(clock, out, restart, budget);
                 restart += 1;
                 self.used_nodes = 0;
                 self.used_slots = 0;
@@ -265,8 +266,15 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     None => {}
                     Some(Status::NoSolution) => {
                         *done = true;
+                        if level + 1 == levels && self.incomplete {
+                            unproven = Some("Ω-A* workspace");
+                        }
+                    }
+                    // The level's searches outgrow the pools: another level may still plan.
+                    Some(Status::OutOfMemory(pool)) => {
+                        *done = true;
                         if level + 1 == levels {
-                            unproven = self.incomplete;
+                            unproven = Some(pool);
                         }
                     }
                     Some(status) => return status,
@@ -276,8 +284,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 break;
             }
         }
-        if unproven {
-            return Status::OutOfMemory("Ω-A* workspace");
+        if let Some(pool) = unproven {
+            return Status::OutOfMemory(pool);
         }
         self.stats.reason = Some(if levels < usize::from(LEVELS) {
             LEVEL_CAP
@@ -288,18 +296,21 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     }
 
     /// One constraint tree from the root of restart `restart`; `None` when it used its budget
-    /// (Ω-A* expansions up to `limit`) without ending.
+    /// (`budget` Ω-A* expansions after the root's) without ending. The root is not counted: a
+    /// fine level's root alone can take more than a small budget, and a tree cut off at its
+    /// root would be work thrown away.
     fn tree(
         &mut self,
         clock: &dyn Clock,
         out: &mut Solution<'_, D>,
         restart: u32,
-        limit: u64,
+        budget: u64,
     ) -> Option<Status> {
         let root = match self.root(clock, restart) {
             Ok(r) => r,
             Err(s) => return Some(s),
         };
+        let limit = self.stats.expansions.saturating_add(budget);
         if let Err(s) = self.push(root) {
             return Some(s);
         }

@@ -140,9 +140,26 @@ impl ArmPose {
     /// The capsules of model `M` at configuration `q`, its base frame at `base` in the world,
     /// carrying `tool`.
     pub fn new<M: Model<D>, const D: usize>(base: &Frame, tool: &Tool, q: &[f64; D]) -> ArmPose {
+        Self::new_only::<M, D>(base, tool, q, u32::MAX)
+    }
+
+    /// [`ArmPose::new`] with only the capsules whose bit is set in `only` placed (the boxes
+    /// around the arm are around those): the others are empty and meet nothing. A sweep that
+    /// has ruled most capsule pairs out places just the rest.
+    pub fn new_only<M: Model<D>, const D: usize>(
+        base: &Frame,
+        tool: &Tool,
+        q: &[f64; D],
+        only: u32,
+    ) -> ArmPose {
         const { check_model::<M, D>() };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
-        let flange = base.compose(&M::link_frames(q, &mut frames[..M::LINK_NAMES.len()]));
+        let linked = &mut frames[..M::LINK_NAMES.len()];
+        let flange = base.compose(&M::link_frames(q, linked));
+        // Into the world once per link, not once per capsule.
+        for f in linked.iter_mut() {
+            *f = base.compose(f);
+        }
         let links = M::CAPSULES.len();
         let mut pose = ArmPose {
             len: links + tool.capsules().len(),
@@ -153,16 +170,12 @@ impl ArmPose {
         };
         let placed = M::CAPSULES
             .iter()
-            .map(|c| {
-                (
-                    base.compose(&frames[usize::from(c.link)]),
-                    c.a,
-                    c.b,
-                    c.radius,
-                )
-            })
+            .map(|c| (frames[usize::from(c.link)], c.a, c.b, c.radius))
             .chain((tool.capsules().iter()).map(|c| (flange, c.a, c.b, c.radius)));
         for (i, (frame, a, b, radius)) in placed.enumerate() {
+            if only & (1 << i) == 0 {
+                continue;
+            }
             let capsule = Capsule::new(frame.apply(&a.into()), frame.apply(&b.into()), radius);
             let aabb = capsule.aabb();
             pose.capsules[i] = capsule;
@@ -357,6 +370,21 @@ impl Suspects {
     fn any(&self) -> bool {
         self.obstacles != 0 || self.pairs.iter().any(|&r| r != 0)
     }
+
+    /// The capsules in question.
+    fn capsules(&self) -> u32 {
+        let pairs = self.pairs.iter().enumerate();
+        pairs.fold(
+            self.obstacles,
+            |m, (i, &row)| {
+                if row != 0 {
+                    m | 1 << i | row
+                } else {
+                    m
+                }
+            },
+        )
+    }
 }
 
 /// The indices of the set bits of `m`, lowest first.
@@ -515,7 +543,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             self.count,
             suspects,
             &|s, w, sus: &Suspects| {
-                let arm = ArmPose::new::<M, D>(base, &self.tool, &self.at(s));
+                let arm = ArmPose::new_only::<M, D>(base, &self.tool, &self.at(s), sus.capsules());
                 let mut left = Suspects::NONE;
                 for i in bits(sus.obstacles) {
                     let m = self.travel(i) * w;
@@ -583,8 +611,14 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
     }
     let count = a.count.max(b.count);
     bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
-        let arm_a = ArmPose::new::<A, DA>(base_a, &a.tool, &a.at(s));
-        let arm_b = ArmPose::new::<B, DB>(base_b, &b.tool, &b.at(s));
+        let (rows, columns) = pairs
+            .iter()
+            .enumerate()
+            .fold((0u32, 0u32), |(r, c), (i, &row)| {
+                (if row != 0 { r | 1 << i } else { r }, c | row)
+            });
+        let arm_a = ArmPose::new_only::<A, DA>(base_a, &a.tool, &a.at(s), rows);
+        let arm_b = ArmPose::new_only::<B, DB>(base_b, &b.tool, &b.at(s), columns);
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
         for (i, &row) in pairs.iter().enumerate() {
             for j in bits(row) {

@@ -33,6 +33,17 @@ const FINER: [(usize, u32, f64, f64, f64); LEVELS as usize - 1] = [
     (128, 4000, 0.05, 0.1, 0.0025),
 ];
 
+/// The round of Ω-CBSA's restarts in which each level builds its first constraint tree; from
+/// then on its trees double round by round, as level 0's do. Level 1 answers most of what
+/// level 0 misses (66 of the 72 refinement-family problems solved in one run), and its trees
+/// need more expansions than level 0's (each search has four times the start states and a
+/// finer grid), so it starts one round behind level 0, with half its share. Levels 2 and 3
+/// are rarely needed and a single search of theirs can take 10^5 expansions, so they start
+/// late (a sixteenth and a sixty-fourth of level 0's share). Measured: with level 1 from round
+/// 2 (a quarter of the share) the refinement family lost two problems to the 5 s limit; with
+/// every level `l` from round `l` (and roots counted in the budgets), three others.
+pub const FIRST_ROUND: [u32; LEVELS as usize] = [0, 1, 4, 6];
+
 /// The Ω-A* settings of `level` (0: `base` itself). A level past the last is the last.
 pub fn level_params(base: &OmegaParams, level: u8) -> OmegaParams {
     if level == 0 {

@@ -9,6 +9,9 @@ use omcbsa::online::OnlineOptions;
 
 use super::{bad_input, negative};
 
+/// Per-chunk planning latency of online embodiment on the suite's trajectories (chunks
+/// planned from where the previous chunk left the arms), as a Markdown table per arm count.
+/// Exit code 0 done, 1 a suite that cannot be read or planned, 2 bad options
 #[derive(clap::Args)]
 pub struct Args {
     /// The suite directory (from `omcbsa gen-bench`).

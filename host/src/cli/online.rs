@@ -13,6 +13,11 @@ use omcbsa_hw::Event;
 
 use super::{bad_input, negative, note, print};
 
+/// Online embodiment on three Python mock arms: a scripted box-flip policy emits chunks of
+/// hand poses while the arms move; each chunk is planned from where the arms will be and
+/// streamed without stopping, then the sent timeline is validated. Exit code 0 every chunk
+/// planned and the timeline valid, 1 a chunk not planned, an invalid timeline or a failed run,
+/// 2 bad options or mock arms that cannot be set up
 #[derive(clap::Args)]
 pub struct Args {
     /// Chunks the policy emits (16 poses each, every 8 poses, at dt = 0.1 s).
