@@ -280,6 +280,26 @@ impl ArmPose {
             })
     }
 
+    /// A lower bound on the distance between the two arms' volumes (the smallest signed
+    /// distance of their capsule pairs; each pair's boxes first, which skip most of them).
+    pub fn clearance(&self, other: &ArmPose) -> f64 {
+        let whole = self.aabb.distance(&other.aabb);
+        if whole > 0.0 {
+            return whole;
+        }
+        let mut least = f64::INFINITY;
+        for (a, box_a) in self.capsules().iter().zip(&self.boxes) {
+            for (b, box_b) in other.capsules().iter().zip(&other.boxes) {
+                // Boxes apart by more than the least so far hold no closer pair; touching
+                // boxes may hold a deeper overlap.
+                if box_a.distance(box_b) <= least.max(0.0) {
+                    least = least.min(a.signed_distance(b));
+                }
+            }
+        }
+        least
+    }
+
     /// Whether `p` lies in any link volume (base included).
     pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
         self.aabb.contains_point(p) && self.capsules().iter().any(|c| c.contains_point(p))

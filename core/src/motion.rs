@@ -42,7 +42,7 @@ pub struct Contact {
 }
 
 /// Instants per sweep piece at which [`motions_contact`] looks for the arms overlapping.
-const CONTACT_SAMPLES: usize = 4;
+pub const CONTACT_SAMPLES: usize = 4;
 
 /// Whether the motion stays clear of the obstacles and of the arm itself.
 pub fn motion_is_free<M: Model<D>, const D: usize>(
@@ -138,20 +138,36 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
     let fine = max_step / CONFIRM;
     let (sa, sb) = (a.sweep::<M>(fine), b.sweep::<M>(fine));
     let pieces = sa.count().max(sb.count());
+    // The first of `count` instants at which the arms come closer than `margin`. Between
+    // two instants the arms close in by at most `closing` (no point of either moves farther
+    // than its sweep's length times the fraction of the motion), so the instants that the
+    // clearance at one rules out are skipped: the same first instant, found from a few.
     let at = |count: usize, margin: f64| {
-        (0..count).find_map(|i| {
+        let closing = (sa.length() + sb.length()) / count as f64;
+        let mut i = 0;
+        while i < count {
             let s = (i as f64 + 0.5) / count as f64;
             let (pa, pb) = (
                 ArmPose::new::<M, D>(a.base, a.tool, &sa.at(s)),
                 ArmPose::new::<M, D>(b.base, b.tool, &sb.at(s)),
             );
-            pa.arm_hit(&pb, margin)?;
-            pa.witness(&pb, margin).map(|p| Contact {
-                s,
-                point: [p.x, p.y, p.z],
-                margin,
-            })
-        })
+            if pa.arm_hit(&pb, margin).is_some() {
+                return pa.witness(&pb, margin).map(|p| Contact {
+                    s,
+                    point: [p.x, p.y, p.z],
+                    margin,
+                });
+            }
+            // Instants i + j with j below (clearance - margin) / closing stay clear (by more
+            // than `closing`, so rounding cannot matter); NaN or no motion skips one.
+            let ahead = (pa.clearance(&pb) - margin) / closing;
+            i += if ahead >= 2.0 && ahead.is_finite() {
+                ahead as usize
+            } else {
+                1
+            };
+        }
+        None
     };
     if let Some(c) = at(pieces * CONTACT_SAMPLES, 0.0) {
         return Some((c, true));

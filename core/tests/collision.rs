@@ -193,6 +193,31 @@ fn arm_hits_match_brute_force_and_witnesses_lie_in_both() {
     );
 }
 
+/// The clearance between two arms is at most their true distance (the least signed distance
+/// of any capsule pair), and is that distance whenever their bounding boxes overlap.
+#[test]
+fn arm_clearance_is_a_lower_bound_exact_when_near() {
+    let mut rng = Rng::new(9);
+    let mut exact = 0;
+    for _ in 0..TRIALS {
+        let (base_a, base_b) = (base_at(0.0), base_at(rng.uniform(0.1, 1.5)));
+        let a = ArmPose::new::<M, D>(&base_a, &Tool::NONE, &configuration(&mut rng));
+        let b = ArmPose::new::<M, D>(&base_b, &Tool::NONE, &configuration(&mut rng));
+        let brute = (a.capsules().iter())
+            .flat_map(|ca| b.capsules().iter().map(|cb| ca.signed_distance(cb)))
+            .fold(f64::INFINITY, f64::min);
+        let c = a.clearance(&b);
+        assert!(c <= brute + 1e-12, "{c} > {brute}");
+        if a.aabb().distance(b.aabb()) == 0.0 {
+            assert_eq!(c, brute);
+            exact += 1;
+        }
+        // Overlapping arms have a negative clearance, and only they.
+        assert_eq!(c < 0.0, a.arm_hit(&b, 0.0).is_some() && brute < 0.0);
+    }
+    assert!(exact > TRIALS / 10, "{exact} of {TRIALS} near");
+}
+
 #[test]
 fn point_containment_matches_brute_force() {
     let mut rng = Rng::new(5);

@@ -8,7 +8,8 @@ use omcbsa::planners::{Capacities, Storage, WallClock};
 use omcbsa_core::collision::ArmPose;
 use omcbsa_core::model::{KinovaGen3, Model};
 use omcbsa_core::motion::{
-    motions_conflict_posed, motions_contact, near_point, ArmMotion, MOTION_STEP,
+    motions_conflict_posed, motions_contact, near_point, ArmMotion, CONFIRM, CONTACT_SAMPLES,
+    MOTION_STEP,
 };
 use omcbsa_core::planner::{Clock, NoClock, Stats, Status};
 use omcbsa_core::reach::UNREACHABLE;
@@ -144,6 +145,16 @@ fn motion_conflicts_branch_on_a_point_both_arms_hold_at_one_instant() {
         let (c, is_exact) = motions_contact::<KinovaGen3, 7>(&ma, &mb, MOTION_STEP)
             .expect("a counted motion conflict always gets a witness");
         assert!(c.s > 0.0 && c.s < 1.0);
+        // The instant is the first of the grid at which the arms overlap, as a scan of every
+        // instant finds it (the search skips those the clearance rules out).
+        let fine = MOTION_STEP / CONFIRM;
+        let pieces =
+            (ma.sweep::<KinovaGen3>(fine).count()).max(mb.sweep::<KinovaGen3>(fine).count());
+        let count = pieces * CONTACT_SAMPLES;
+        let first = (0..count)
+            .map(|i| (i as f64 + 0.5) / count as f64)
+            .find(|&s| place(&ma, s).arm_hit(&place(&mb, s), 0.0).is_some());
+        assert_eq!(first, is_exact.then_some(c.s), "try {tried}");
         if is_exact {
             exact += 1;
             assert_eq!(c.margin, 0.0);
