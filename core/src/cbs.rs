@@ -241,7 +241,6 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let mut exhausted = [false; LEVELS as usize];
         // Whether the finest level's exhaustion proves nothing (a search ran out of memory).
         let mut unproven: Option<&'static str> = None;
-        let mut restart = 0u32;
         for round in 0u32.. {
             for (level, done) in exhausted.iter_mut().enumerate().take(levels) {
                 let Some(shift) = round.checked_sub(FIRST_ROUND[level]) else {
@@ -257,8 +256,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     0 => u64::MAX,
                     b => b.saturating_mul(1u64 << shift.min(40)),
                 };
-                let ended = self.tree(clock, out, restart, budget);
-                restart += 1;
+                let ended = self.tree(clock, out, shift, budget);
                 self.used_nodes = 0;
                 self.used_slots = 0;
                 self.open.clear();
@@ -295,7 +293,9 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         Status::NoSolution
     }
 
-    /// One constraint tree from the root of restart `restart`; `None` when it used its budget
+    /// One constraint tree from the root of restart `restart` (the tree's number within its
+    /// level: every level's first tree places the robots in index order, as level 0's does,
+    /// and its later ones in the same shuffled orders); `None` when it used its budget
     /// (`budget` Ω-A* expansions after the root's) without ending. The root is not counted: a
     /// fine level's root alone can take more than a small budget, and a tree cut off at its
     /// root would be work thrown away.
@@ -469,11 +469,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
 
     /// Fills in a node's conflicts from its paths.
     fn finish(&self, node: &mut CtNode) {
-        for i in 0..self.n {
-            for k in i + 1..self.n {
-                node.pairs[i][k] = self.pair_conflicts(node, i, k);
-            }
-        }
+        self.pair_conflicts(node, u32::MAX);
         node.conflicts = self.count(node);
     }
 
@@ -659,12 +655,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         if self.too_many_holders(&child) {
             return Ok(None);
         }
-        for k in 0..self.n {
-            if k != robot {
-                let (a, b) = (robot.min(k), robot.max(k));
-                child.pairs[a][b] = self.pair_conflicts(&child, a, b);
-            }
-        }
+        self.pair_conflicts(&mut child, 1 << robot);
         child.conflicts = self.count(&child);
         Ok(Some(child))
     }
@@ -691,35 +682,55 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         c
     }
 
-    /// Geometric conflicts of robots `i` and `k`: steps where they collide plus motions on
-    /// which they meet, as Ω-A* counts them except that a motion's is confirmed by a finer
-    /// sweep ([`motions_conflict_posed`]). Each arm is placed once per step.
-    fn pair_conflicts(&self, node: &CtNode, i: usize, k: usize) -> u16 {
-        let mut c = 0u16;
-        let (ri, rk) = (&self.pr.robots[i], &self.pr.robots[k]);
-        let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
-        let place = |t: usize| {
-            [
-                ArmPose::new::<M, D>(&ri.base, &ri.tool, &pi[t]),
-                ArmPose::new::<M, D>(&rk.base, &rk.tool, &pk[t]),
-            ]
-        };
-        let mut now = place(0);
-        for t in 0..self.h {
-            if now[0].arm_hit(&now[1], 0.0).is_some() {
-                c = c.saturating_add(1);
+    /// Fills in `node.pairs` for every pair with a robot in the bit set `of`: steps where the
+    /// two collide plus motions on which they meet, as Ω-A* counts them except that a
+    /// motion's is confirmed by a finer sweep ([`motions_conflict_posed`]). Each arm is placed
+    /// once per step, whatever the number of pairs.
+    fn pair_conflicts(&self, node: &mut CtNode, of: u32) {
+        let n = self.n;
+        let counted = |i: usize, k: usize| (of >> i | of >> k) & 1 != 0;
+        // Arms that are in some counted pair.
+        let placed: u32 = (0..n)
+            .filter(|&i| (0..n).any(|k| k != i && counted(i, k)))
+            .fold(0, |m, i| m | 1 << i);
+        let slots = node.slots;
+        let path = |i: usize| slot_of(self.paths, slots[i], self.h);
+        let place = |poses: &mut [ArmPose; MAX_ROBOTS], t: usize| {
+            for i in (0..n).filter(|i| placed >> i & 1 != 0) {
+                let r = &self.pr.robots[i];
+                poses[i] = ArmPose::new::<M, D>(&r.base, &r.tool, &path(i)[t]);
             }
-            if t + 1 < self.h {
-                let next = place(t + 1);
-                let (ma, mb) = (step_motion(ri, pi, t), step_motion(rk, pk, t));
-                let (ea, eb) = ([&now[0], &next[0]], [&now[1], &next[1]]);
-                if motions_conflict_posed::<M, D>(&ma, ea, &mb, eb, self.low.motion_step) {
-                    c = c.saturating_add(1);
-                }
-                now = next;
+        };
+        for i in 0..n {
+            for k in (i + 1..n).filter(|&k| counted(i, k)) {
+                node.pairs[i][k] = 0;
             }
         }
-        c
+        // The arms at steps t and t + 1: slots t % 2 and (t + 1) % 2.
+        let mut poses = [[ArmPose::EMPTY; MAX_ROBOTS]; 2];
+        place(&mut poses[0], 0);
+        for t in 0..self.h {
+            if t + 1 < self.h {
+                place(&mut poses[(t + 1) % 2], t + 1);
+            }
+            let (now, next) = (&poses[t % 2], &poses[(t + 1) % 2]);
+            for i in 0..n {
+                for k in (i + 1..n).filter(|&k| counted(i, k)) {
+                    let c = &mut node.pairs[i][k];
+                    if now[i].arm_hit(&now[k], 0.0).is_some() {
+                        *c = c.saturating_add(1);
+                    }
+                    if t + 1 < self.h {
+                        let (ri, rk) = (&self.pr.robots[i], &self.pr.robots[k]);
+                        let (ma, mb) = (step_motion(ri, path(i), t), step_motion(rk, path(k), t));
+                        let (ea, eb) = ([&now[i], &next[i]], [&now[k], &next[k]]);
+                        if motions_conflict_posed::<M, D>(&ma, ea, &mb, eb, self.low.motion_step) {
+                            *c = c.saturating_add(1);
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// The conflict to branch on: an assignment conflict if any, else the earliest geometric
