@@ -9,8 +9,8 @@
 //! docs/ARCHITECTURE.md, Completeness, for what is and is not kept). Each child replans only
 //! the constrained robot. A tree that uses its budget of Ω-A* expansions without ending is
 //! dropped for a new one from another root, with twice the budget
-//! ([`CbsParams::restart_expansions`]); a tree that ends without a plan moves the search to
-//! the next refinement level ([`crate::search::refine`]).
+//! ([`CbsParams::restart_expansions`]); a tree that ends without a plan leaves the search to
+//! the other refinement levels, which run interleaved with it ([`crate::search::refine`]).
 //!
 //! Memory: CT nodes, the OPEN list of the CT, the paths, the constraint scratch and the
 //! start-seed IK answers all live in caller storage ([`CbsStorage`]); one path costs
@@ -45,10 +45,11 @@ pub struct CbsParams {
     pub warm_start_seconds: f64,
     /// Random first-pose seeds per robot and trajectory in the warm start.
     pub warm_start_seeds: u32,
-    /// Ω-A* expansions the first constraint tree may take before the search restarts from a
-    /// new root (robots placed in another order, other warm-start seeds); each restart gets
-    /// twice the budget of the one before, so some tree always gets as long as it needs
-    /// (completeness as docs/ARCHITECTURE.md states it). 0: one tree, no restarts.
+    /// Ω-A* expansions (after its root) a level's first constraint tree may take before the
+    /// level restarts from a new root (robots placed in another order, other warm-start
+    /// seeds); each of the level's trees gets twice the budget of the one before, so some tree
+    /// always gets as long as it needs (completeness as docs/ARCHITECTURE.md states it). 0:
+    /// one tree per level, no restarts.
     pub restart_expansions: u64,
     /// Refinement levels searched, from level 0 ([`LEVELS`] by default, the most there are).
     /// With fewer, exhausting the last one ends in `NoSolution` with the reason
