@@ -393,18 +393,18 @@ impl Suspects {
 
     /// The capsules in question.
     fn capsules(&self) -> u32 {
-        let pairs = self.pairs.iter().enumerate();
-        pairs.fold(
-            self.obstacles,
-            |m, (i, &row)| {
-                if row != 0 {
-                    m | 1 << i | row
-                } else {
-                    m
-                }
-            },
-        )
+        let (rows, columns) = rows_and_columns(&self.pairs);
+        self.obstacles | rows | columns
     }
+}
+
+/// The capsules of each side still in some pair: the rows that are not empty, and the
+/// columns set in any row.
+fn rows_and_columns(pairs: &Pairs) -> (u32, u32) {
+    let live = pairs.iter().enumerate().filter(|(_, &row)| row != 0);
+    live.fold((0, 0), |(rows, columns), (i, &row)| {
+        (rows | 1 << i, columns | row)
+    })
 }
 
 /// The indices of the set bits of `m`, lowest first.
@@ -635,12 +635,7 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
     }
     let count = a.count.max(b.count);
     bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
-        let (rows, columns) = pairs
-            .iter()
-            .enumerate()
-            .fold((0u32, 0u32), |(r, c), (i, &row)| {
-                (if row != 0 { r | 1 << i } else { r }, c | row)
-            });
+        let (rows, columns) = rows_and_columns(pairs);
         let arm_a = ArmPose::new_only::<A, DA>(base_a, &a.tool, &a.at(s), rows);
         let arm_b = ArmPose::new_only::<B, DB>(base_b, &b.tool, &b.at(s), columns);
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
