@@ -686,7 +686,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// Fills in `node.pairs` for every pair with a robot in the bit set `of`: steps where the
     /// two collide plus motions on which they meet, as Ω-A* counts them except that a
     /// motion's is confirmed by a finer sweep ([`motions_conflict_posed`]). Each arm is placed
-    /// once per step, whatever the number of pairs.
+    /// once per step, whatever the number of pairs; the poses of two steps live on the stack
+    /// (`2 * MAX_ROBOTS` [`ArmPose`]s, about 27 KB).
     fn pair_conflicts(&self, node: &mut CtNode, of: u32) {
         let n = self.n;
         let counted = |i: usize, k: usize| (of >> i | of >> k) & 1 != 0;
