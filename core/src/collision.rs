@@ -614,10 +614,6 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
 ) -> bool {
     let ([a0, a1], [b0, b1]) = (a_ends, b_ends);
     let b_box = b0.aabb.union(&b1.aabb);
-    // Arms whose boxes over the motion stay farther apart than both can travel: no pair meets.
-    if !a0.aabb.union(&a1.aabb).near(&b_box, a.length + b.length) {
-        return false;
-    }
     let mut pairs: Pairs = [0; MAX_POSE_CAPSULES];
     for (i, row) in pairs.iter_mut().enumerate().take(a0.len) {
         let ti = a.travel(i);
