@@ -690,17 +690,13 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
     /// (`2 * MAX_ROBOTS` [`ArmPose`]s, about 27 KB).
     fn pair_conflicts(&self, node: &mut CtNode, of: u32) {
         let n = self.n;
+        // Every arm is in a counted pair (the callers ask for one robot's pairs or all).
         let counted = |i: usize, k: usize| (of >> i | of >> k) & 1 != 0;
-        // Arms that are in some counted pair.
-        let placed: u32 = (0..n)
-            .filter(|&i| (0..n).any(|k| k != i && counted(i, k)))
-            .fold(0, |m, i| m | 1 << i);
         let slots = node.slots;
         let path = |i: usize| slot_of(self.paths, slots[i], self.h);
         let place = |poses: &mut [ArmPose; MAX_ROBOTS], t: usize| {
-            for i in (0..n).filter(|i| placed >> i & 1 != 0) {
-                let r = &self.pr.robots[i];
-                poses[i] = ArmPose::new::<M, D>(&r.base, &r.tool, &path(i)[t]);
+            for (i, (pose, r)) in poses.iter_mut().zip(self.pr.robots.iter()).enumerate() {
+                *pose = ArmPose::new::<M, D>(&r.base, &r.tool, &path(i)[t]);
             }
         };
         for i in 0..n {
