@@ -503,7 +503,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             &[],
             self.pr.dt,
             self.low.motion_step,
-        );
+        )
+        .excluding(robot.excluded);
         for j in 0..self.pr.trajectories.len() {
             if left & (1 << j) == 0 {
                 continue;

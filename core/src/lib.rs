@@ -20,6 +20,7 @@ pub mod assign;
 pub mod baselines;
 pub mod cbs;
 pub mod collision;
+pub mod embody;
 pub mod geometry;
 pub mod ik;
 pub mod kinematics;

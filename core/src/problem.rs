@@ -49,14 +49,71 @@ pub struct Robot<const D: usize> {
     pub start: Start,
     /// The trajectory the robot must take (online planning keeps the first chunk's hands).
     pub assigned: Assigned,
+    /// First configurations the planners may not choose: starts from which no approach was
+    /// found ([`crate::embody`] fills it; [`StartExclusions::NONE`] otherwise).
+    pub excluded: StartExclusions<D>,
+}
+
+/// Most start configurations excluded per robot at once.
+pub const MAX_EXCLUDED_STARTS: usize = 4;
+
+/// Regions of a robot's configuration space its path may not begin in: the joint-space balls
+/// of radius `radius` (Euclidean, rad) around `configs[..len]`. Checked by
+/// [`crate::search::Validity::state`] at step 0, so every planner honours it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartExclusions<const D: usize> {
+    configs: [[f64; D]; MAX_EXCLUDED_STARTS],
+    len: u8,
+    /// Radius of every excluded ball.
+    pub radius: f64,
+}
+
+impl<const D: usize> StartExclusions<D> {
+    /// Nothing excluded.
+    pub const NONE: StartExclusions<D> = StartExclusions {
+        configs: [[0.0; D]; MAX_EXCLUDED_STARTS],
+        len: 0,
+        radius: 0.0,
+    };
+
+    /// The excluded centres.
+    pub fn configs(&self) -> &[[f64; D]] {
+        &self.configs[..usize::from(self.len)]
+    }
+
+    /// Excludes the ball around `q`; `false` (nothing changed) when full.
+    pub fn push(&mut self, q: [f64; D]) -> bool {
+        let Some(slot) = self.configs.get_mut(usize::from(self.len)) else {
+            return false;
+        };
+        *slot = q;
+        self.len += 1;
+        true
+    }
+
+    pub fn is_full(&self) -> bool {
+        usize::from(self.len) == MAX_EXCLUDED_STARTS
+    }
+
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Whether `q` lies in an excluded ball.
+    pub fn excludes(&self, q: &[f64; D]) -> bool {
+        self.configs().iter().any(|c| {
+            let d2: f64 = c.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            d2 <= self.radius * self.radius
+        })
+    }
 }
 
 /// Where a robot's path begins.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Start {
     /// Anywhere on the first pose's manifold: the planners sample start states (IK from
-    /// `initial` first, then random seeds); an approach from `initial` is planned apart
-    /// ([`crate::approach`]).
+    /// `initial` first, then random seeds); the approach from `initial` is planned with them
+    /// ([`crate::embody`], [`crate::approach`]).
     #[default]
     Sampled,
     /// Exactly at `initial`, at step 0: the path's first configuration is `initial` and pose 0

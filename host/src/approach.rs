@@ -1,58 +1,88 @@
-//! The approach to a plan from where the arms stand (`initial`), planned by the core
-//! ([`omcbsa_core::approach`]) and written into the solution's optional `approach` field.
+//! The approach from where the arms stand, in words: what a robot's `initial` touches (bad
+//! input) and why an approach was not found. The approach itself is planned by the core, with
+//! the plan ([`omcbsa_core::embody`], called by [`crate::planners::Storage`]).
 
-use omcbsa_core::approach::{plan_approach, ApproachError, ApproachParams};
-use omcbsa_core::model::KinovaGen3;
+use omcbsa_core::approach::{check_starts, ApproachError, Blocked, Touch};
+use omcbsa_core::model::Model;
 use omcbsa_core::problem::Problem;
 
-use crate::planners::DOF;
+use crate::error::InputError;
+use crate::format::ProblemFile;
 
-/// Most configurations of an approach (at dt = 0.1 s, 100 s of motion).
+/// Most configurations of an approach per robot (at dt = 0.1 s, 100 s of motion).
 pub const MAX_APPROACH: usize = 1024;
 
-/// Robot `i`'s approach from its `initial` to `paths[i][0]` (the same length for every
-/// robot), or why there is none, naming the robots. `names` are the robots' names.
-pub fn approach(
-    problem: &Problem<DOF>,
-    paths: &[Vec<[f64; DOF]>],
-    params: &ApproachParams,
-    names: &[String],
-) -> Result<Vec<Vec<[f64; DOF]>>, String> {
-    let n = paths.len();
-    let h = paths.first().map_or(0, Vec::len);
-    let flat: Vec<[f64; DOF]> = paths.iter().flatten().copied().collect();
-    let mut buf = vec![[0.0; DOF]; n * MAX_APPROACH];
-    let a = plan_approach::<KinovaGen3, DOF>(problem, &flat, h, params, &mut buf)
-        .map_err(|e| describe(e, names))?;
-    Ok((0..n)
-        .map(|i| buf[i * MAX_APPROACH..i * MAX_APPROACH + a].to_vec())
-        .collect())
+/// What capsule `c` of a robot of model `M` is: its link's name, or the tool.
+fn part<M: Model<D>, const D: usize>(c: usize) -> &'static str {
+    M::CAPSULES
+        .get(c)
+        .and_then(|cap| M::LINK_NAMES.get(usize::from(cap.link)))
+        .copied()
+        .unwrap_or("tool")
 }
 
-fn describe(e: ApproachError, names: &[String]) -> String {
+/// `touch` in words, naming obstacles and robots as `file` does.
+pub fn describe_touch<M: Model<D>, const D: usize>(file: &ProblemFile, touch: Touch) -> String {
+    match touch {
+        Touch::JointLimit { joint } => format!(
+            "joint {joint} ({}) is outside its limits",
+            M::JOINT_NAMES.get(joint).copied().unwrap_or("?")
+        ),
+        Touch::Obstacle { index } => format!(
+            "collides with obstacle {index} ({:?})",
+            file.obstacles.get(index).map_or("?", |o| o.name.as_str())
+        ),
+        Touch::Itself {
+            capsule,
+            other_capsule,
+        } => format!(
+            "collides with itself ({} with {})",
+            part::<M, D>(capsule),
+            part::<M, D>(other_capsule)
+        ),
+        Touch::Robot { robot } => format!(
+            "collides with robot {robot} ({:?}) at its initial configuration",
+            file.robots.get(robot).map_or("?", |r| r.name.as_str())
+        ),
+    }
+}
+
+/// Refuses a problem in which a robot's `initial` is outside its limits or collides: the error
+/// names the robot and what it touches.
+pub fn check_initial<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    problem: &Problem<D>,
+) -> Result<(), InputError> {
+    check_starts::<M, D>(problem).map_err(|Blocked { robot, touch }| {
+        InputError::one(
+            format!("robots[{robot}].initial"),
+            format!(
+                "robot {:?} cannot start here: it {}",
+                file.robots.get(robot).map_or("?", |r| r.name.as_str()),
+                describe_touch::<M, D>(file, touch)
+            ),
+        )
+    })
+}
+
+/// Why the last approach tried was not found, naming the robots as `names` do.
+pub fn describe_miss(e: ApproachError, names: &[String]) -> String {
     let name = |i: usize| format!("robot {i} ({:?})", names.get(i).map_or("?", |s| s.as_str()));
     match e {
-        ApproachError::StartCollides { robot, other: None } => format!(
-            "{} collides at its initial configuration (with an obstacle or itself)",
-            name(robot)
-        ),
-        ApproachError::StartCollides {
-            robot,
-            other: Some(o),
-        } => format!(
-            "{} and {} collide at their initial configurations",
-            name(robot),
-            name(o)
-        ),
+        ApproachError::Start(Blocked { robot, .. }) => {
+            format!("{} cannot start at its initial configuration", name(robot))
+        }
         ApproachError::TooLong { needed, capacity } => {
             format!("it needs {needed} configurations per robot, more than {capacity}")
         }
         ApproachError::Blocked { robot, other } => format!(
-            "the arms moving together and one at a time (every order tried) all collide; last: \
-             {} with {}",
+            "no approach found to the last starts tried (straight, one arm at a time, \
+             RRT-Connect); the straight bridges first collide: {} with {}",
             name(robot),
             other.map_or("an obstacle or itself".to_string(), name)
         ),
+        ApproachError::Timeout => "the deadline passed while planning the approach".to_string(),
+        ApproachError::OutOfMemory(pool) => format!("{pool} is full"),
         ApproachError::Invalid(why) => why.to_string(),
     }
 }

@@ -341,6 +341,7 @@ fn robot<M: Model<D>, const D: usize>(
         tool: tool?,
         start: Default::default(),
         assigned: Default::default(),
+        excluded: omcbsa_core::problem::StartExclusions::NONE,
     })
 }
 

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use crate::approach::approach;
+use crate::approach::{check_initial, describe_miss, MAX_APPROACH};
 use crate::error::InputError;
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
@@ -11,12 +11,13 @@ use crate::format::{
 use crate::load;
 use crate::models::ModelKind;
 use crate::validate::validate;
-use omcbsa_core::approach::ApproachParams;
+use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
     CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
     IkTracking, IkTrackingParams,
 };
 use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
+use omcbsa_core::embody::{solve_from_initial, Embodied};
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
 use omcbsa_core::pp::{Prioritized, Variant};
@@ -48,6 +49,10 @@ pub struct Capacities {
     pub constraints: usize,
     pub composite_nodes: usize,
     pub descartes_samples: usize,
+    /// RRT-Connect nodes of the approach (both trees; `robots * 56 + 4` bytes each).
+    pub approach_nodes: usize,
+    /// Waypoints of an approach kept before shortcutting.
+    pub approach_waypoints: usize,
 }
 
 impl Default for Capacities {
@@ -59,6 +64,8 @@ impl Default for Capacities {
             constraints: 1 << 12,
             composite_nodes: 1 << 16,
             descartes_samples: 12,
+            approach_nodes: 1 << 13,
+            approach_waypoints: 1 << 10,
         }
     }
 }
@@ -77,7 +84,27 @@ pub struct Outcome {
     pub assignment: Vec<Option<usize>>,
     /// Per robot: H configurations (only when solved).
     pub joint_paths: Vec<Vec<[f64; DOF]>>,
+    /// Per robot: the approach from `initial` to `joint_paths[i][0]` (only when solved and
+    /// every robot has `initial`; then the same length for every robot, possibly 0).
+    pub approach: Option<Vec<Vec<[f64; DOF]>>>,
+    pub approach_info: ApproachInfo,
     pub stats: Stats,
+}
+
+/// How the approach of a run was found.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ApproachInfo {
+    pub method: Method,
+    /// Configurations per robot.
+    pub steps: usize,
+    /// Seconds of motion (`(steps + 1) * dt` when there is one).
+    pub duration_s: f64,
+    /// Seconds spent planning approaches, included in the run's planning time.
+    pub planning_time_s: f64,
+    /// Planner runs (more than 1 when starts were excluded for want of an approach).
+    pub attempts: u32,
+    /// Why the last approach tried failed (when one did and the run is not solved).
+    pub last_miss: Option<ApproachError>,
 }
 
 /// `std::time::Instant` as the core's clock.
@@ -99,7 +126,20 @@ impl Clock for WallClock {
 pub struct Storage {
     /// Ω-CBSA's settings (the paper's by default).
     pub cbs_params: CbsParams,
+    /// The approach's settings.
+    pub approach_params: ApproachParams,
+    /// Whether runs plan the approach from `initial` (the default). Off, a planner runs alone
+    /// and its plan begins wherever it chose: the peer that measures what the approach costs.
+    pub with_approach: bool,
     caps: Capacities,
+    /// The problem being planned, which the approach loop annotates with excluded starts.
+    problem: Box<Problem<DOF>>,
+    tree: Vec<[f64; DOF]>,
+    tree_parent: Vec<u32>,
+    waypoints: Vec<[f64; DOF]>,
+    approach_out: Vec<[f64; DOF]>,
+    /// How the last [`Storage::solve_core`] ended, approach included.
+    last: Embodied,
     nodes: Vec<Node<DOF>>,
     open: Vec<OpenEntry>,
     table: Vec<Slot>,
@@ -122,7 +162,27 @@ impl Storage {
         let k = caps.descartes_samples * max_h;
         Storage {
             cbs_params: CbsParams::default(),
+            approach_params: ApproachParams::default(),
+            with_approach: true,
             caps,
+            problem: Box::new(Problem {
+                dt: 0.0,
+                robots: heapless::Vec::new(),
+                trajectories: heapless::Vec::new(),
+                obstacles: heapless::Vec::new(),
+                tolerance: Default::default(),
+            }),
+            tree: vec![[0.0; DOF]; caps.approach_nodes * MAX_ROBOTS],
+            tree_parent: vec![0; caps.approach_nodes],
+            waypoints: vec![[0.0; DOF]; caps.approach_waypoints * MAX_ROBOTS],
+            approach_out: vec![[0.0; DOF]; MAX_APPROACH * MAX_ROBOTS],
+            last: Embodied {
+                status: Status::Timeout,
+                approach: Default::default(),
+                attempts: 0,
+                last_miss: None,
+                approach_seconds: 0.0,
+            },
             nodes: vec![Node::default(); caps.search_nodes],
             open: vec![OpenEntry::default(); 2 * caps.search_nodes],
             table: vec![Slot::default(); (2 * caps.search_nodes).next_power_of_two()],
@@ -149,8 +209,9 @@ impl Storage {
         }
     }
 
-    /// Runs planner `name` on `problem`; this call allocates nothing but the returned
-    /// [`Outcome`]'s vectors, after the core call.
+    /// Runs planner `name` on `problem`, the approach from where the arms stand included
+    /// ([`omcbsa_core::embody`]); this call allocates nothing but the returned [`Outcome`]'s
+    /// vectors, after the core call.
     pub fn solve(
         &mut self,
         name: &str,
@@ -164,6 +225,10 @@ impl Storage {
         let h = problem.horizon();
         let n = problem.robots.len();
         let solved = status == Status::Solved;
+        let last = self.last;
+        let with_approach =
+            self.with_approach && solved && problem.robots.iter().all(|r| r.initial.is_some());
+        let a = last.approach.len;
         Ok(Outcome {
             status,
             planning_time_s,
@@ -175,12 +240,29 @@ impl Storage {
             } else {
                 Vec::new()
             },
+            approach: with_approach.then(|| {
+                (0..n)
+                    .map(|i| self.approach_out[i * MAX_APPROACH..i * MAX_APPROACH + a].to_vec())
+                    .collect()
+            }),
+            approach_info: ApproachInfo {
+                method: last.approach.method,
+                steps: a,
+                duration_s: if a > 0 || last.approach.method != Method::None {
+                    (a + 1) as f64 * problem.dt
+                } else {
+                    0.0
+                },
+                planning_time_s: last.approach_seconds,
+                attempts: last.attempts,
+                last_miss: last.last_miss.filter(|_| !solved),
+            },
             stats,
         })
     }
 
     /// The core call alone (no allocation happens in it): the status and the assignment; the
-    /// paths are left in this storage.
+    /// paths are left in this storage, the approach too ([`Storage::last`]).
     pub fn solve_core(
         &mut self,
         name: &str,
@@ -196,9 +278,23 @@ impl Storage {
                 self.width.len()
             ));
         }
+        copy_problem(&mut self.problem, problem);
         let mut out = Solution::new(&mut self.out);
+        let mut rest = Rest {
+            problem: &mut self.problem,
+            approach: ApproachStorage {
+                tree: &mut self.tree,
+                parent: &mut self.tree_parent,
+                waypoints: &mut self.waypoints,
+            },
+            approach_out: &mut self.approach_out,
+            params: &self.approach_params,
+            with_approach: self.with_approach,
+            clock,
+            timeout_s,
+        };
         let omega = OmegaParams::default();
-        let status = match name {
+        let last = match name {
             "omcbsa" => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let st = CbsStorage {
@@ -210,14 +306,12 @@ impl Storage {
                     starts: &mut self.starts,
                 };
                 let mut p = OmegaCbsa::new(self.cbs_params, ws, st);
-                Planner::<KinovaGen3, DOF>::solve(
-                    &mut p, problem, clock, timeout_s, &mut out, stats,
-                )
+                rest.run(&mut p, &mut out, stats)
             }
             // Ω-A* alone is prioritised planning with one robot.
-            "omega-astar" if problem.robots.len() != 1 => Status::InvalidProblem(
+            "omega-astar" if problem.robots.len() != 1 => rest.refuse(Status::InvalidProblem(
                 "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
-            ),
+            )),
             "pp" | "pp-single" | "omega-astar" => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let v = if name == "pp-single" {
@@ -226,17 +320,13 @@ impl Storage {
                     Variant::MultiGoal
                 };
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
-                Planner::<KinovaGen3, DOF>::solve(
-                    &mut p, problem, clock, timeout_s, &mut out, stats,
-                )
+                rest.run(&mut p, &mut out, stats)
             }
             "ik-tracking" => {
                 let mut p = IkTracking {
                     params: IkTrackingParams::default(),
                 };
-                Planner::<KinovaGen3, DOF>::solve(
-                    &mut p, problem, clock, timeout_s, &mut out, stats,
-                )
+                rest.run(&mut p, &mut out, stats)
             }
             "descartes" => {
                 let st = DescartesStorage {
@@ -250,9 +340,7 @@ impl Storage {
                     ..DescartesParams::default()
                 };
                 let mut p = Descartes::new(params, st);
-                Planner::<KinovaGen3, DOF>::solve(
-                    &mut p, problem, clock, timeout_s, &mut out, stats,
-                )
+                rest.run(&mut p, &mut out, stats)
             }
             "composite-astar" => {
                 let mut p = CompositeAstar::new(
@@ -260,9 +348,7 @@ impl Storage {
                     &mut self.composite,
                     &mut self.open,
                 );
-                Planner::<KinovaGen3, DOF>::solve(
-                    &mut p, problem, clock, timeout_s, &mut out, stats,
-                )
+                rest.run(&mut p, &mut out, stats)
             }
             other => {
                 return Err(format!(
@@ -271,7 +357,82 @@ impl Storage {
                 ))
             }
         };
-        Ok((status, out.assignment))
+        self.last = last;
+        Ok((last.status, out.assignment))
+    }
+
+    /// How the last [`Storage::solve_core`] ended: the approach (in this storage, robot `i`'s
+    /// from index `i * MAX_APPROACH`), the planner runs, the last approach missed.
+    pub fn last(&self) -> &Embodied {
+        &self.last
+    }
+}
+
+/// Copies `from` into `to` a part at a time (a whole problem is too large for a small stack).
+fn copy_problem(to: &mut Problem<DOF>, from: &Problem<DOF>) {
+    to.dt = from.dt;
+    to.tolerance = from.tolerance;
+    to.robots.clone_from(&from.robots);
+    to.obstacles.clone_from(&from.obstacles);
+    to.trajectories.clear();
+    for t in &from.trajectories {
+        // Capacities are the same, so nothing is dropped.
+        if to.trajectories.push(heapless::Vec::new()).is_ok() {
+            if let Some(last) = to.trajectories.last_mut() {
+                let _ = last.extend_from_slice(t);
+            }
+        }
+    }
+}
+
+/// What every planner's run shares: the problem, the approach's storage and the deadline.
+struct Rest<'a> {
+    problem: &'a mut Problem<DOF>,
+    approach: ApproachStorage<'a, DOF>,
+    approach_out: &'a mut [[f64; DOF]],
+    params: &'a ApproachParams,
+    with_approach: bool,
+    clock: &'a dyn Clock,
+    timeout_s: f64,
+}
+
+impl Rest<'_> {
+    fn run<P: Planner<KinovaGen3, DOF>>(
+        &mut self,
+        planner: &mut P,
+        out: &mut Solution<'_, DOF>,
+        stats: &mut Stats,
+    ) -> Embodied {
+        if !self.with_approach {
+            let status = planner.solve(self.problem, self.clock, self.timeout_s, out, stats);
+            return Embodied {
+                attempts: 1,
+                ..self.refuse(status)
+            };
+        }
+        let n = self.problem.robots.len();
+        solve_from_initial::<KinovaGen3, P, DOF>(
+            planner,
+            self.problem,
+            self.clock,
+            self.timeout_s,
+            out,
+            &mut self.approach,
+            // Robot `i`'s approach from `i * MAX_APPROACH`, as `Storage::solve` reads it.
+            &mut self.approach_out[..n * MAX_APPROACH],
+            self.params,
+            stats,
+        )
+    }
+
+    fn refuse(&self, status: Status) -> Embodied {
+        Embodied {
+            status,
+            approach: Default::default(),
+            attempts: 0,
+            last_miss: None,
+            approach_seconds: 0.0,
+        }
     }
 }
 
@@ -320,9 +481,31 @@ impl Outcome {
             Status::OutOfMemory(pool) => (FileStatus::OutOfMemory, format!("{pool} is full")),
             Status::InvalidProblem(why) => (FileStatus::InvalidProblem, why.to_string()),
         };
-        let stats = stats_map(&self.stats);
+        let message = match self.approach_info.last_miss {
+            Some(miss) if status != FileStatus::Solved => {
+                let names: Vec<String> = file.robots.iter().map(|r| r.name.clone()).collect();
+                format!(
+                    "{message}; after {} planner runs, the last approach tried: {}",
+                    self.approach_info.attempts,
+                    describe_miss(miss, &names)
+                )
+            }
+            _ => message,
+        };
+        let mut stats = stats_map(&self.stats);
+        let a = &self.approach_info;
+        stats.insert("approach_method".into(), a.method.name().into());
+        stats.insert("approach_steps".into(), a.steps.into());
+        stats.insert("approach_duration_s".into(), a.duration_s.into());
+        stats.insert(
+            "approach_planning_time_ms".into(),
+            (a.planning_time_s * 1e3).into(),
+        );
+        stats.insert("planner_runs".into(), a.attempts.into());
         SolutionFile {
-            approach: None,
+            approach: (status == FileStatus::Solved)
+                .then(|| self.approach.as_ref().map(|a| joint_paths_value(a)))
+                .flatten(),
             format: SOLUTION_FORMAT.to_string(),
             problem: file.name.clone(),
             planner: planner.to_string(),
@@ -357,7 +540,9 @@ pub fn plan_file(
 /// The checked core problem of a problem file.
 pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
     let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
-    load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)
+    let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
+    check_initial::<KinovaGen3, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
+    Ok(problem)
 }
 
 /// [`plan_file`] on a loaded problem with storage the caller keeps from run to run (made for
@@ -373,19 +558,6 @@ pub fn plan_loaded(
         .solve(name, problem, timeout_s)
         .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, name);
-    // When the problem says where every arm stands, the plan begins there.
-    if solution.status == FileStatus::Solved && problem.robots.iter().all(|r| r.initial.is_some()) {
-        let names: Vec<String> = file.robots.iter().map(|r| r.name.clone()).collect();
-        let params = ApproachParams::default();
-        match approach(&problem, &outcome.joint_paths, &params, &names) {
-            Ok(a) => solution.approach = Some(joint_paths_value(&a)),
-            Err(why) => {
-                solution.status = FileStatus::NoSolution;
-                solution.message = format!("no approach from the initial configurations: {why}");
-                solution.joint_paths = None;
-            }
-        }
-    }
     if solution.status == FileStatus::Solved {
         let report = validate::<KinovaGen3, DOF>(file, problem, &solution);
         if !report.is_valid() {

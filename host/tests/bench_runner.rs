@@ -113,6 +113,7 @@ fn options(planners: &[&str], out: &Path) -> BenchOptions {
         quick: false,
         out: Some(out.to_path_buf()),
         progress: false,
+        approach: true,
     }
 }
 

@@ -95,6 +95,7 @@ fn path_quality_of_a_hand_computed_plan() {
             tool: Tool::NONE,
             start: Default::default(),
             assigned: Default::default(),
+            excluded: omcbsa_core::problem::StartExclusions::NONE,
             // Tool at (0, 1); the trajectory starts at (1, 0): a start cost of sqrt(2).
             initial: Some([FRAC_PI_2]),
         })
@@ -107,6 +108,7 @@ fn path_quality_of_a_hand_computed_plan() {
             tool: Tool::NONE,
             start: Default::default(),
             assigned: Default::default(),
+            excluded: omcbsa_core::problem::StartExclusions::NONE,
             initial: Some([PI]),
         })
         .unwrap();
@@ -159,6 +161,7 @@ fn a_single_arm_without_obstacles_has_no_clearance_figures() {
             tool: Tool::NONE,
             start: Default::default(),
             assigned: Default::default(),
+            excluded: omcbsa_core::problem::StartExclusions::NONE,
             initial: None,
         })
         .unwrap();

@@ -212,3 +212,27 @@ fn validate_exit_codes() {
     );
     assert_eq!(run(&["validate", &paths[0]]).0, Some(2), "usage error");
 }
+
+/// Issue 22: an arm whose `initial` collides (here with the other arm, standing at the same
+/// spot) is bad input, exit 2, naming both robots; never `no_solution`.
+#[test]
+fn plan_refuses_a_start_in_collision_naming_the_robots() {
+    let path = [near_q0(0.0), near_q0(1.0), near_q0(2.0)];
+    let (a, b) = (at([0.0; 3]), at([0.05, 0.0, 0.0]));
+    let file = problem(
+        vec![robot("left", a, Some(Q0)), robot("right", b, Some(Q0))],
+        vec![trajectory_of("hand", &a, &path)],
+        0.1,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("p.json");
+    std::fs::write(&p, serde_json::to_string(&file).unwrap()).unwrap();
+    let out = omcbsa(&["plan", p.to_str().unwrap()], "");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("robots[0].initial"), "{err}");
+    assert!(
+        err.contains("\"left\"") && err.contains("\"right\""),
+        "{err}"
+    );
+}

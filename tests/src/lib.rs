@@ -12,6 +12,8 @@ use omcbsa_core::problem::Problem;
 use omcbsa_core::tool::Tool;
 use serde_json::{json, Value};
 
+pub mod approach_scenes;
+
 /// A pose as the file format writes it.
 pub fn pose_json(f: &Frame) -> Value {
     let q = omcbsa_core::nalgebra::UnitQuaternion::from_matrix(&f.rot);
@@ -237,6 +239,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
         tool: Tool::NONE,
         start: Default::default(),
         assigned: Default::default(),
+        excluded: omcbsa_core::problem::StartExclusions::NONE,
     };
     let mut alt = vec![[0.0; DOF]; p0.len()];
     omcbsa_core::tracking::track::<KinovaGen3, DOF>(

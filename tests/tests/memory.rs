@@ -230,3 +230,62 @@ fn online_chunks_allocate_nothing() {
         assert_eq!(kept, whole, "{name} kept the assignment");
     }
 }
+
+/// The approach allocates nothing either: RRT-Connect joining arms whose hands cross
+/// (straight bridges collide in every order), and the whole loop of planning from where the
+/// arms stand.
+#[test]
+fn the_approach_allocates_nothing() {
+    use omcbsa_core::approach::{plan_approach, ApproachParams, ApproachStorage, Method};
+    use omcbsa_core::model::KinovaGen3;
+    use omcbsa_core::search::NoDeadline;
+    let (file, goals) = (0..400)
+        .find_map(approach_scenes::crossing_scene)
+        .expect("a crossing scene");
+    let problem = core_problem(&file);
+    let handle = std::thread::Builder::new()
+        .stack_size(PLANNER_STACK)
+        .spawn(move || {
+            let (mut tree, mut parent, mut waypoints) =
+                (vec![[0.0; 7]; 8192], vec![0u32; 4096], vec![[0.0; 7]; 1024]);
+            let mut out = vec![[0.0; 7]; 2048];
+            let params = ApproachParams::default();
+            let (rrt, n_rrt) = allocations(|| {
+                let mut st = ApproachStorage {
+                    tree: &mut tree,
+                    parent: &mut parent,
+                    waypoints: &mut waypoints,
+                };
+                plan_approach::<KinovaGen3, 7>(
+                    &problem,
+                    &goals,
+                    1,
+                    &params,
+                    params.rrt_samples * 64,
+                    &mut st,
+                    &NoDeadline,
+                    &mut out,
+                )
+            });
+            let mut storage = Storage::new(Capacities::default(), problem.horizon());
+            let runs = ["omcbsa", "pp", "pp-single"].map(|name| {
+                let mut stats = Stats::default();
+                let clock = WallClock::start();
+                let (r, n) =
+                    allocations(|| storage.solve_core(name, &problem, &clock, 30.0, &mut stats));
+                (name, r.expect("known planner").0, n)
+            });
+            (rrt.map(|a| a.method), n_rrt, runs)
+        })
+        .expect("spawn");
+    let (rrt, n_rrt, runs) = handle.join().expect("no stack overflow");
+    assert_eq!(rrt, Ok(Method::Rrt));
+    assert_eq!(n_rrt, 0, "RRT-Connect allocated {n_rrt} times");
+    for (name, status, n) in runs {
+        assert_eq!(status, Status::Solved, "{name}");
+        assert_eq!(
+            n, 0,
+            "{name} allocated {n} times while planning with the approach"
+        );
+    }
+}

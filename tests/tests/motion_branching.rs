@@ -98,6 +98,8 @@ fn arms_planned_apart_meet_only_between_steps() {
         planning_time_s: 0.0,
         assignment: vec![Some(0), Some(1)],
         joint_paths: paths.to_vec(),
+        approach: None,
+        approach_info: Default::default(),
         stats: Default::default(),
     }
     .to_solution_file(&file, "planned apart");

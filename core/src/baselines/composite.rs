@@ -165,6 +165,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
             self.pr.dt,
             self.p.low.motion_step,
         )
+        .excluding(robot.excluded)
     }
 
     fn target(&self, r: usize, j: usize, t: usize) -> Frame {

@@ -134,7 +134,8 @@ impl<const D: usize> Descartes<'_, D> {
                 &[],
                 problem.dt,
                 self.params.motion_step,
-            );
+            )
+            .excluding(robot.excluded);
             stats.low_level_calls += 1;
             let traj = orders.trajectory_of(r);
             let end = match traj {

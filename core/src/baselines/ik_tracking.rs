@@ -105,7 +105,8 @@ impl IkTracking {
                 &[],
                 problem.dt,
                 self.params.motion_step,
-            );
+            )
+            .excluding(robot.excluded);
             let path = &mut rest[..h];
             stats.low_level_calls += 1;
             let ok = match orders.trajectory_of(r) {

@@ -341,7 +341,8 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             q.points,
             q.dt,
             p.motion_step,
-        );
+        )
+        .excluding(q.robot.excluded);
         Ctx {
             q,
             p,
@@ -489,14 +490,26 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 let Some(c) = self.valid.state(&q, 0) else {
                     continue;
                 };
-                self.add(ws, start_node(q, g0, c, j as u8), stats)?;
+                let g = g0 + self.approach_length(&q);
+                self.add(ws, start_node(q, g, c, j as u8), stats)?;
             }
         }
         Ok(())
     }
 
-    /// `g` of an initial state: how far the tool centre point at `initial` is from the first
-    /// pose (0 without `initial`).
+    /// Joint-space distance from `initial` to a start state (0 without `initial`): the length
+    /// of the straight approach to it, so that of two starts on one manifold the one nearer
+    /// where the arm stands is tried first.
+    fn approach_length(&self, q: &[f64; D]) -> f64 {
+        self.q.robot.initial.map_or(0.0, |init| {
+            let d2: f64 = init.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            libm::sqrt(d2)
+        })
+    }
+
+    /// The part of an initial state's `g` shared by every start of trajectory `j`: how far the
+    /// tool centre point at `initial` is from the first pose (0 without `initial`), as in the
+    /// paper; [`Ctx::approach_length`] adds the state's own distance from `initial`.
     fn start_cost(&self, j: usize) -> f64 {
         match &self.q.robot.initial {
             Some(init) => {

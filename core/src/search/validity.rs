@@ -7,7 +7,7 @@ use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Model};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
-use crate::problem::MAX_ROBOTS;
+use crate::problem::{StartExclusions, MAX_ROBOTS};
 use crate::tool::Tool;
 
 use super::{OtherArm, OthersMode, PointConstraint};
@@ -24,6 +24,8 @@ pub struct Validity<'q, M, const D: usize> {
     pub step_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
     pub motion_step: f64,
+    /// Configurations refused at step 0 ([`Validity::excluding`]).
+    pub excluded: StartExclusions<D>,
     /// The other robots' link capsules at the two steps asked for last (`usize::MAX`: none
     /// yet): every successor of one expansion is checked at the same steps, so this saves all
     /// but the first placing.
@@ -56,9 +58,16 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
             points,
             step_limit,
             motion_step,
+            excluded: StartExclusions::NONE,
             others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
             _model: core::marker::PhantomData,
         }
+    }
+
+    /// The same checker refusing `excluded`'s configurations at step 0 (a robot's
+    /// [`crate::problem::Robot::excluded`]).
+    pub fn excluding(self, excluded: StartExclusions<D>) -> Self {
+        Validity { excluded, ..self }
     }
 
     /// Places the other robots at step `t` in the cache (slot `t % 2`) unless already there.
@@ -91,6 +100,9 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         // Written so that NaN is refused too.
         let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
         if !q.iter().zip(M::LOWER.iter().zip(&M::UPPER)).all(within) {
+            return None;
+        }
+        if t == 0 && self.excluded.excludes(q) {
             return None;
         }
         let pose = ArmPose::new::<M, D>(&self.base, &self.tool, q);

@@ -91,6 +91,8 @@ pub struct BenchOptions {
     pub out: Option<PathBuf>,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Plan the approach from `initial` (the default); off only to measure what it costs.
+    pub approach: bool,
 }
 
 impl Default for BenchOptions {
@@ -102,6 +104,7 @@ impl Default for BenchOptions {
             quick: false,
             out: None,
             progress: true,
+            approach: true,
         }
     }
 }
@@ -180,7 +183,14 @@ pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, E
             PLANNERS.join(", ")
         )));
     }
-    run_bench_with(suite_dir, opts, &solve_with_planners)
+    let approach = opts.approach;
+    run_bench_with(
+        suite_dir,
+        opts,
+        &move |name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64| {
+            solve_with_planners(name, file, problem, timeout_s, approach)
+        },
+    )
 }
 
 thread_local! {
@@ -194,11 +204,13 @@ fn solve_with_planners(
     file: &ProblemFile,
     problem: &Problem<7>,
     timeout_s: f64,
+    approach: bool,
 ) -> Result<SolutionFile, String> {
     STORAGE.with(|cell| {
         let mut slot = cell.borrow_mut();
         let storage =
             slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
+        storage.with_approach = approach;
         storage
             .solve(name, problem, timeout_s)
             .map(|outcome| outcome.to_solution_file(file, name))
@@ -421,7 +433,18 @@ fn run_one(
     };
     row.status = solution.status.as_str().to_string();
     row.time_s = solution.planning_time_s;
-    row.expansions = solution.stats.get("expansions").and_then(|v| v.as_u64());
+    let stat = |k: &str| solution.stats.get(k);
+    row.expansions = stat("expansions").and_then(|v| v.as_u64());
+    row.planner_runs = stat("planner_runs").and_then(|v| v.as_u64());
+    if solution.status == Status::Solved {
+        row.approach_steps = stat("approach_steps").and_then(|v| v.as_u64());
+        row.approach_duration_s = stat("approach_duration_s").and_then(|v| v.as_f64());
+        row.approach_time_ms = stat("approach_planning_time_ms").and_then(|v| v.as_f64());
+        row.approach_method = stat("approach_method")
+            .and_then(|v| v.as_str())
+            .unwrap_or_default()
+            .to_string();
+    }
     row.message = solution.message.clone();
     if solution.status == Status::Solved {
         if let Err(e) = save_solution(out_dir, &entry.name, planner, &solution) {

@@ -43,6 +43,15 @@ pub struct Row {
     pub min_arm_clearance_m: Option<f64>,
     pub min_obstacle_clearance_m: Option<f64>,
     pub path_cost: Option<f64>,
+    /// The approach from `initial` to the plan (solved runs): configurations per robot,
+    /// seconds of motion, planning time (included in `time_s`), and how it was found
+    /// (`none`, `together`, `ordered`, `rrt-connect`).
+    pub approach_steps: Option<u64>,
+    pub approach_duration_s: Option<f64>,
+    pub approach_time_ms: Option<f64>,
+    pub approach_method: String,
+    /// Planner runs: more than 1 when starts were excluded because no approach reached them.
+    pub planner_runs: Option<u64>,
     /// Why a run failed, or what the validator found wrong with a "success".
     pub message: String,
 }

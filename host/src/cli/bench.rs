@@ -29,6 +29,10 @@ pub struct Args {
     /// Output directory (default SUITE_DIR/bench, or SUITE_DIR/bench-quick).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Plan without the approach from `initial`: each planner alone, its plan beginning where
+    /// it chose. Only to measure what the approach costs (the peer of a default run).
+    #[arg(long)]
+    no_approach: bool,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -48,6 +52,7 @@ pub fn run(args: &Args) -> ExitCode {
         quick: args.quick,
         out: args.out.clone(),
         progress: true,
+        approach: !args.no_approach,
     };
     match run_bench(&args.suite_dir, &opts) {
         Ok(report) => {

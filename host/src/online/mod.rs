@@ -179,10 +179,12 @@ impl Embodier {
         };
         load::model_of(&file)?;
         let mut problem = load::problem::<KinovaGen3, DOF>(&file)?;
+        crate::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
         let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
+        storage.approach_params = options.approach;
         Ok(Embodier {
             robots,
             template: problem,
@@ -344,13 +346,8 @@ impl Embodier {
         let outcome = self.solve(&problem, start_step)?;
         let h = problem.horizon();
         let n = self.robots.len();
-        let approach = crate::approach::approach(
-            &problem,
-            &outcome.joint_paths,
-            &self.options.approach,
-            &self.names,
-        )
-        .map_err(OnlineError::Approach)?;
+        // Planned with the chunk, from `initial` (every robot has one online).
+        let approach = outcome.approach.clone().unwrap_or_default();
         let a = approach.first().map_or(0, Vec::len);
         if a > self.options.max_approach_len {
             return Err(OnlineError::Approach(format!(

@@ -1,0 +1,299 @@
+//! RRT-Connect (Kuffner and LaValle, 2000) on the composite configuration space of the arms,
+//! then random shortcutting, as OMPL's `RRTConnect` plus its path simplifier do.
+//!
+//! Two trees grow from the start (where the arms stand) and from the goal (the plan's first
+//! configurations) in caller storage: each node is one composite configuration. Each round
+//! draws a sample, extends one tree one step towards it and then pulls the other tree towards
+//! the new node until it is reached or blocked; the trees swap roles every round.
+//!
+//! - Distance is the time the move takes at full speed, `max |dq_j| / v_j` over every arm and
+//!   joint, so one step of [`ApproachParams::rrt_step`] seconds is a motion all arms make in
+//!   that time.
+//! - A sample draws each arm, with even odds, uniformly within its limits (a continuous joint
+//!   within half a turn past its start and goal) or on its own straight bridge. The uniform
+//!   draw of every arm at once has positive density everywhere, so the planner keeps
+//!   RRT-Connect's probabilistic completeness: if an approach with some clearance exists, the
+//!   chance of missing it goes to 0 as the sample budget grows.
+//! - Deterministic: the samples come from [`Rng`] with the caller's seed, and the deadline is
+//!   the only thing that depends on the clock (it ends the search, never changes it).
+
+use core::f64::consts::PI;
+
+use crate::model::Model;
+use crate::problem::MAX_ROBOTS;
+use crate::rng::Rng;
+use crate::search::Deadline;
+
+use super::fleet::Fleet;
+use super::{ApproachError, ApproachParams, ApproachStorage};
+
+/// How an RRT-Connect search ended without a path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Miss {
+    /// Every sample of the budget was drawn.
+    Budget,
+    Failed(ApproachError),
+}
+
+enum Extend {
+    Trapped,
+    Advanced(usize),
+    Reached(usize),
+}
+
+/// The two trees: tree `t`'s node `k` is node `t * cap + k` of the storage, its
+/// configurations `q[(t * cap + k) * n..][..n]`.
+struct Trees<'s, 'a, const D: usize> {
+    st: &'s mut ApproachStorage<'a, D>,
+    n: usize,
+    cap: usize,
+    len: [usize; 2],
+}
+
+impl<const D: usize> Trees<'_, '_, D> {
+    fn config(&self, t: usize, k: usize) -> &[[f64; D]] {
+        let at = (t * self.cap + k) * self.n;
+        &self.st.tree[at..at + self.n]
+    }
+
+    fn push(&mut self, t: usize, q: &[[f64; D]], parent: u32) -> Result<usize, ApproachError> {
+        let k = self.len[t];
+        if k == self.cap {
+            return Err(ApproachError::OutOfMemory("approach tree"));
+        }
+        let at = (t * self.cap + k) * self.n;
+        self.st.tree[at..at + self.n].copy_from_slice(q);
+        self.st.parent[t * self.cap + k] = parent;
+        self.len[t] += 1;
+        Ok(k)
+    }
+
+    /// Copies tree `t`'s node `k` to waypoint `at`.
+    fn copy_to_waypoint(&mut self, at: usize, t: usize, k: usize) {
+        let from = (t * self.cap + k) * self.n;
+        let (n, st) = (self.n, &mut *self.st);
+        st.waypoints[at * n..(at + 1) * n].copy_from_slice(&st.tree[from..from + n]);
+    }
+
+    fn parent(&self, t: usize, k: usize) -> Option<usize> {
+        let p = self.st.parent[t * self.cap + k];
+        (p != u32::MAX).then_some(p as usize)
+    }
+}
+
+/// Seconds at full speed from `a` to `b` (the arms moving together).
+fn distance<M: Model<D>, const D: usize>(a: &[[f64; D]], b: &[[f64; D]]) -> f64 {
+    let mut d = 0.0f64;
+    for (qa, qb) in a.iter().zip(b) {
+        for j in 0..D {
+            d = d.max(libm::fabs(qb[j] - qa[j]) / M::VELOCITY[j]);
+        }
+    }
+    d
+}
+
+/// Plans from `start` to `goal` (composite, `fleet.n` robots each) and writes the shortcut
+/// path's waypoints, start and goal included, to `st.waypoints`. Returns how many.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn connect<M: Model<D>, const D: usize>(
+    fleet: &Fleet<'_, M, D>,
+    start: &[[f64; D]],
+    goal: &[[f64; D]],
+    params: &ApproachParams,
+    samples: u32,
+    seed: u64,
+    st: &mut ApproachStorage<'_, D>,
+    deadline: &dyn Deadline,
+) -> Result<usize, Miss> {
+    let n = fleet.n;
+    let cap = (st.tree.len() / n).min(st.parent.len()) / 2;
+    if cap < 2 || st.waypoints.len() / n < 2 {
+        return Err(Miss::Failed(ApproachError::OutOfMemory("approach tree")));
+    }
+    let mut trees = Trees {
+        st,
+        n,
+        cap,
+        len: [0, 0],
+    };
+    let fail = Miss::Failed;
+    trees.push(0, start, u32::MAX).map_err(fail)?;
+    trees.push(1, goal, u32::MAX).map_err(fail)?;
+    let mut rng = Rng::new(seed);
+    let mut sample = [[0.0; D]; MAX_ROBOTS];
+    let mut grow = 0;
+    for _ in 0..samples {
+        if deadline.expired() {
+            return Err(fail(ApproachError::Timeout));
+        }
+        draw::<M, D>(fleet, start, goal, &mut rng, &mut sample[..n]);
+        if let Extend::Advanced(k) | Extend::Reached(k) =
+            extend(fleet, &mut trees, grow, &sample[..n], params).map_err(fail)?
+        {
+            let target: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
+                if i < n {
+                    trees.config(grow, k)[i]
+                } else {
+                    [0.0; D]
+                }
+            });
+            let other = 1 - grow;
+            loop {
+                match extend(fleet, &mut trees, other, &target[..n], params).map_err(fail)? {
+                    Extend::Advanced(_) => continue,
+                    Extend::Trapped => break,
+                    Extend::Reached(r) => {
+                        let (from_start, from_goal) = if grow == 0 { (k, r) } else { (r, k) };
+                        let m = trace(&mut trees, from_start, from_goal).map_err(fail)?;
+                        let m =
+                            shortcut(fleet, trees.st, n, m, params.shortcuts, &mut rng, deadline);
+                        return Ok(m);
+                    }
+                }
+            }
+        }
+        grow = 1 - grow;
+    }
+    Err(Miss::Budget)
+}
+
+/// A sample: each active arm uniform within its bounds or on its own bridge, even odds; the
+/// others at their start (they are not checked).
+fn draw<M: Model<D>, const D: usize>(
+    fleet: &Fleet<'_, M, D>,
+    start: &[[f64; D]],
+    goal: &[[f64; D]],
+    rng: &mut Rng,
+    out: &mut [[f64; D]],
+) {
+    for (i, q) in out.iter_mut().enumerate() {
+        let (s, g) = (&start[i], &goal[i]);
+        if !fleet.is_active(i) {
+            *q = *s;
+        } else if rng.next_f64() < 0.5 {
+            let f = rng.next_f64();
+            *q = core::array::from_fn(|j| s[j] + f * (g[j] - s[j]));
+        } else {
+            *q = core::array::from_fn(|j| {
+                let lo = if M::LOWER[j].is_finite() {
+                    M::LOWER[j]
+                } else {
+                    s[j].min(g[j]) - PI
+                };
+                let hi = if M::UPPER[j].is_finite() {
+                    M::UPPER[j]
+                } else {
+                    s[j].max(g[j]) + PI
+                };
+                rng.uniform(lo, hi)
+            });
+        }
+    }
+}
+
+/// One step of tree `t` from its node nearest `target` towards it.
+fn extend<M: Model<D>, const D: usize>(
+    fleet: &Fleet<'_, M, D>,
+    trees: &mut Trees<'_, '_, D>,
+    t: usize,
+    target: &[[f64; D]],
+    params: &ApproachParams,
+) -> Result<Extend, ApproachError> {
+    let n = trees.n;
+    let (mut near, mut best) = (0, f64::INFINITY);
+    for k in 0..trees.len[t] {
+        let d = distance::<M, D>(trees.config(t, k), target);
+        if d < best {
+            (near, best) = (k, d);
+        }
+    }
+    let from = trees.config(t, near);
+    let reach = best <= params.rrt_step;
+    let f = if reach { 1.0 } else { params.rrt_step / best };
+    let new: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
+        if i >= n {
+            [0.0; D]
+        } else if reach {
+            target[i]
+        } else {
+            core::array::from_fn(|j| from[i][j] + f * (target[i][j] - from[i][j]))
+        }
+    });
+    if fleet.state_blocked(&new[..n]).is_some() || fleet.motion_blocked(from, &new[..n]).is_some() {
+        return Ok(Extend::Trapped);
+    }
+    let k = trees.push(t, &new[..n], near as u32)?;
+    Ok(if reach {
+        Extend::Reached(k)
+    } else {
+        Extend::Advanced(k)
+    })
+}
+
+/// Writes the path start -> `from_start` (tree 0), `from_goal` -> goal (tree 1) to the
+/// waypoints (the two meeting nodes are the same configuration: it is written once).
+fn trace<const D: usize>(
+    trees: &mut Trees<'_, '_, D>,
+    from_start: usize,
+    from_goal: usize,
+) -> Result<usize, ApproachError> {
+    let n = trees.n;
+    let cap = trees.st.waypoints.len() / n;
+    let depth = |t: usize, mut k: usize| {
+        let mut d = 1;
+        while let Some(p) = trees.parent(t, k) {
+            (k, d) = (p, d + 1);
+        }
+        d
+    };
+    let (ds, dg) = (depth(0, from_start), depth(1, from_goal));
+    let m = ds + dg - 1;
+    if m > cap {
+        return Err(ApproachError::OutOfMemory("approach waypoints"));
+    }
+    // The start side backwards from the meeting node, then the goal side forwards from the
+    // node after it.
+    let (mut at, mut k) = (ds, Some(from_start));
+    while let Some(node) = k {
+        at -= 1;
+        trees.copy_to_waypoint(at, 0, node);
+        k = trees.parent(0, node);
+    }
+    let (mut at, mut k) = (ds, trees.parent(1, from_goal));
+    while let Some(node) = k {
+        trees.copy_to_waypoint(at, 1, node);
+        at += 1;
+        k = trees.parent(1, node);
+    }
+    Ok(m)
+}
+
+/// Random shortcutting: `tries` times, two waypoints `a < b - 1` are drawn and, when the
+/// straight composite motion between them is free, the ones between are dropped. Returns the
+/// waypoints left.
+fn shortcut<M: Model<D>, const D: usize>(
+    fleet: &Fleet<'_, M, D>,
+    st: &mut ApproachStorage<'_, D>,
+    n: usize,
+    mut m: usize,
+    tries: u32,
+    rng: &mut Rng,
+    deadline: &dyn Deadline,
+) -> usize {
+    let w = &mut *st.waypoints;
+    for _ in 0..tries {
+        if m < 3 || deadline.expired() {
+            break;
+        }
+        let a = (rng.next_u64() % (m as u64 - 2)) as usize;
+        let b = a + 2 + (rng.next_u64() % (m - a - 2) as u64) as usize;
+        if fleet
+            .motion_blocked(&w[a * n..(a + 1) * n], &w[b * n..(b + 1) * n])
+            .is_none()
+        {
+            w.copy_within(b * n..m * n, (a + 1) * n);
+            m -= b - a - 1;
+        }
+    }
+    m
+}
