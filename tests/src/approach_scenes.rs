@@ -25,11 +25,11 @@ pub const TUCKED: [f64; DOF] = [
     std::f64::consts::FRAC_PI_2,
 ];
 
-/// Plans the approach of `problem` from `initial` to `goals` with the core's planner:
-/// `rrt_samples` 0 keeps it to the straight bridges (together, then one at a time).
 /// Per robot, its approach.
 pub type Paths = Vec<Vec<[f64; DOF]>>;
 
+/// Plans the approach of `problem` from `initial` to `goals` with the core's planner:
+/// `rrt_samples` 0 keeps it to the straight bridges (together, then one at a time).
 pub fn approach(
     problem: &Problem<DOF>,
     goals: &[[f64; DOF]],
