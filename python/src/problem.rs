@@ -36,10 +36,11 @@ pub struct Problem {
     pub file: ProblemFile,
 }
 
-/// Checks a problem file (every rule a file alone can break).
+/// Checks a problem file (every rule a file alone can break, and arms standing clear).
 pub fn check(file: ProblemFile) -> Result<ProblemFile, InputError> {
     let ModelKind::KinovaGen3 = load::model_of(&file)?;
-    load::problem::<KinovaGen3, DOF>(&file)?;
+    let problem = load::problem::<KinovaGen3, DOF>(&file)?;
+    omcbsa::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
     Ok(file)
 }
 

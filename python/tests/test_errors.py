@@ -31,6 +31,8 @@ CASES = [
      "`initial`, `tcp`, `tool`"),
     ("obstacle size", lambda p: p["obstacles"][0].pop("half_extents"),
      "obstacles[0].half_extents: missing (shape box needs it)"),
+    ("initial collides", lambda p: p["robots"][0].update(initial=[0.0, 2.2, 0.0, 2.5, 0.0, 2.0, 0.0]),
+     'robots[0].initial: robot "arm_0" cannot start here: it collides with itself'),
 ]
 
 

@@ -9,7 +9,7 @@ mod workspace;
 
 pub use omega_astar::{
     manifold_moves, plan, Found, OmegaParams, OtherArm, OthersMode, PointConstraint, Query,
-    SearchError, SearchStats, StartCache, StartIk, MAX_MOVES,
+    SearchError, SearchStats, StartCache, StartIk, MAX_MOVES, REFERENCE_DT,
 };
 pub use open::{OpenEntry, OpenList};
 pub use validity::Validity;

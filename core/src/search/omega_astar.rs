@@ -51,6 +51,31 @@ pub struct OmegaParams {
     pub seed: u64,
 }
 
+/// The step (s) the null-space step and the duplicate grid are tuned for: the benchmark
+/// suite's.
+pub const REFERENCE_DT: f64 = 0.2;
+
+impl OmegaParams {
+    /// These settings for steps of `dt` s. Below [`REFERENCE_DT`], the null-space step and the
+    /// duplicate grid shrink in proportion, so that the search moves along the null space at
+    /// the same speed (rad/s) whatever the rate: at 50 Hz, 0.2 rad would be seven times what a
+    /// Gen3 joint may move in a step, every null-space move would break the velocity limit,
+    /// and only the IK projection would be left (IK tracking). Longer steps keep the settings.
+    pub fn at_step(&self, dt: f64) -> OmegaParams {
+        let s = dt / REFERENCE_DT;
+        // Negated so that NaN keeps the settings (the planners refuse such a dt anyway).
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(s > 0.0 && s < 1.0) {
+            return *self;
+        }
+        OmegaParams {
+            epsilon: self.epsilon * s,
+            resolution: self.resolution * s,
+            ..*self
+        }
+    }
+}
+
 impl Default for OmegaParams {
     fn default() -> Self {
         OmegaParams {
@@ -282,6 +307,7 @@ pub fn plan<M: Model<D>, const D: usize>(
             "hold requested without an initial configuration",
         ));
     }
+    let params = &params.at_step(query.dt);
     let ctx = Ctx::<M, D>::new(query, params, h);
     ws.reset();
     let mask = if query.trajectories.len() == 32 {
