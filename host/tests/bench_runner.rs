@@ -63,6 +63,8 @@ fn write_suite(dir: &Path, n: usize) {
             known_solvable: k % 3 != 0,
             seed: k as u64,
             witness: None,
+            stance: None,
+            straight_bridge_collides: None,
         });
     }
     let index = SuiteIndex {

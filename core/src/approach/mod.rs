@@ -3,11 +3,14 @@
 //! Planners choose each robot's first configuration on its first pose's manifold, generally
 //! away from where the arm stands. The approach joins them: robot `i`'s timeline is `initial`,
 //! `approach[i][0..A]`, then its path, at `dt` spacing, the same `A` for every robot. All arms
-//! move at once; an arm may wait while another passes. Three planners are tried, cheapest
+//! move at once; an arm may wait while another passes. Four planners are tried, cheapest
 //! first, and the first that finds a collision-free approach wins ([`Method`]):
 //! 1. all arms together along their straight joint-space bridges;
 //! 2. one arm at a time along its bridge, in up to [`ApproachParams::max_orders`] orders;
-//! 3. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
+//! 3. one arm at a time again, each arm whose straight bridge is blocked along an RRT-Connect
+//!    path in its own space around the others standing, in up to
+//!    [`ApproachParams::rrt_orders`] orders;
+//! 4. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
 //!    has some clearance ([`crate::embody`] grows the budget until the deadline).
 //!
@@ -17,7 +20,8 @@
 //! and acceleration limits. Deterministic for a given [`ApproachParams::seed`].
 //!
 //! Memory: [`ApproachStorage`] is the caller's. A tree node costs `robots * D * 8 + 4` bytes;
-//! a full tree ends the search with [`ApproachError::OutOfMemory`].
+//! a full tree ends that search as a spent sample budget does (the budget is the lesser of the
+//! two).
 
 mod fleet;
 mod rrt;
@@ -44,6 +48,9 @@ pub struct ApproachParams {
     pub motion_step: f64,
     /// Most priority orders tried when the arms cannot all move together.
     pub max_orders: usize,
+    /// Most priority orders tried one arm at a time with RRT-Connect per arm, before
+    /// RRT-Connect on the composite space.
+    pub rrt_orders: usize,
     /// RRT-Connect's longest edge, in seconds of motion at full speed.
     pub rrt_step: f64,
     /// RRT-Connect's samples in a first attempt ([`crate::embody`] doubles it on each retry).
@@ -65,6 +72,7 @@ impl Default for ApproachParams {
             acceleration: 1.0,
             motion_step: crate::motion::MOTION_STEP,
             max_orders: 24,
+            rrt_orders: 6,
             rrt_step: 0.25,
             rrt_samples: 400,
             shortcuts: 64,
@@ -84,6 +92,8 @@ pub enum Method {
     Together,
     /// One arm at a time along its straight bridge.
     Ordered,
+    /// One arm at a time, each along an RRT-Connect path around the others standing.
+    OrderedRrt,
     /// RRT-Connect on the composite space, shortcut.
     Rrt,
 }
@@ -94,6 +104,7 @@ impl Method {
             Method::None => "none",
             Method::Together => "together",
             Method::Ordered => "ordered",
+            Method::OrderedRrt => "ordered-rrt",
             Method::Rrt => "rrt-connect",
         }
     }
@@ -257,10 +268,32 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
             break;
         }
     }
+    // One arm at a time, each around the others standing (RRT-Connect in its own space when
+    // its straight bridge is blocked): cheap where one composite search would be slow.
+    let mut order = identity(n);
+    for _ in 0..params.rrt_orders {
+        let m = one_at_a_time(
+            &fleet,
+            starts,
+            goals,
+            &order[..n],
+            params,
+            samples,
+            storage,
+            deadline,
+        )?;
+        if let Some(m) = m {
+            return timed(m, Method::OrderedRrt, storage, out);
+        }
+        if !next_permutation(&mut order[..n]) {
+            break;
+        }
+    }
     match rrt::connect(
         &fleet,
         starts,
         goals,
+        u32::MAX,
         params,
         samples,
         params.seed,
@@ -299,6 +332,7 @@ pub fn blocked_alone<M: Model<D>, const D: usize>(
             &alone,
             starts,
             goals,
+            1 << i,
             params,
             samples,
             params.seed,
@@ -311,4 +345,65 @@ pub fn blocked_alone<M: Model<D>, const D: usize>(
         }
     }
     Ok(blocked)
+}
+
+/// Moves the arms to their goals one at a time in `order`, each along its straight bridge or,
+/// when that is blocked, an RRT-Connect path of that arm alone around the others standing.
+/// Writes the waypoints and returns how many; `None` when some arm's path was not found.
+#[allow(clippy::too_many_arguments)]
+fn one_at_a_time<M: Model<D>, const D: usize>(
+    fleet: &Fleet<'_, M, D>,
+    starts: &[[f64; D]],
+    goals: &[[f64; D]],
+    order: &[u8],
+    params: &ApproachParams,
+    samples: u32,
+    st: &mut ApproachStorage<'_, D>,
+    deadline: &dyn Deadline,
+) -> Result<Option<usize>, ApproachError> {
+    let n = fleet.n;
+    st.waypoints[..n].copy_from_slice(starts);
+    let mut m = 1;
+    for &r in order {
+        let r = usize::from(r);
+        if starts[r] == goals[r] {
+            continue;
+        }
+        let from = (m - 1) * n;
+        if st.waypoints.len() < from + 2 * n {
+            return Err(ApproachError::OutOfMemory("approach waypoints"));
+        }
+        let mut at = [[0.0; D]; MAX_ROBOTS];
+        at[..n].copy_from_slice(&st.waypoints[from..from + n]);
+        let mut target = at;
+        target[r] = goals[r];
+        if fleet.motion_blocked(&at[..n], &target[..n]).is_none() {
+            st.waypoints[from + n..from + 2 * n].copy_from_slice(&target[..n]);
+            m += 1;
+            continue;
+        }
+        let mut sub = ApproachStorage {
+            tree: &mut *st.tree,
+            parent: &mut *st.parent,
+            waypoints: &mut st.waypoints[from..],
+        };
+        let seed = params.seed ^ (r as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let path = rrt::connect(
+            fleet,
+            &at[..n],
+            &target[..n],
+            1 << r,
+            params,
+            samples,
+            seed,
+            &mut sub,
+            deadline,
+        );
+        match path {
+            Ok(k) => m += k - 1,
+            Err(Miss::Budget) => return Ok(None),
+            Err(Miss::Failed(e)) => return Err(e),
+        }
+    }
+    Ok(Some(m))
 }

@@ -56,10 +56,12 @@ impl<const D: usize> Trees<'_, '_, D> {
         &self.st.tree[at..at + self.n]
     }
 
-    fn push(&mut self, t: usize, q: &[[f64; D]], parent: u32) -> Result<usize, ApproachError> {
+    /// Adds a node to tree `t`. A full tree ends the search as a spent budget does: the
+    /// budget is the lesser of the samples and the room in the trees.
+    fn push(&mut self, t: usize, q: &[[f64; D]], parent: u32) -> Result<usize, Miss> {
         let k = self.len[t];
         if k == self.cap {
-            return Err(ApproachError::OutOfMemory("approach tree"));
+            return Err(Miss::Budget);
         }
         let at = (t * self.cap + k) * self.n;
         self.st.tree[at..at + self.n].copy_from_slice(q);
@@ -93,12 +95,15 @@ fn distance<M: Model<D>, const D: usize>(a: &[[f64; D]], b: &[[f64; D]]) -> f64 
 }
 
 /// Plans from `start` to `goal` (composite, `fleet.n` robots each) and writes the shortcut
-/// path's waypoints, start and goal included, to `st.waypoints`. Returns how many.
+/// path's waypoints, start and goal included, to `st.waypoints`. Returns how many. Only the
+/// robots in the bit set `free` are sampled; the others keep their start (they are still
+/// checked, as obstacles when `start` and `goal` agree on them).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn connect<M: Model<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     start: &[[f64; D]],
     goal: &[[f64; D]],
+    free: u32,
     params: &ApproachParams,
     samples: u32,
     seed: u64,
@@ -117,8 +122,8 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
         len: [0, 0],
     };
     let fail = Miss::Failed;
-    trees.push(0, start, u32::MAX).map_err(fail)?;
-    trees.push(1, goal, u32::MAX).map_err(fail)?;
+    trees.push(0, start, u32::MAX)?;
+    trees.push(1, goal, u32::MAX)?;
     let mut rng = Rng::new(seed);
     let mut sample = [[0.0; D]; MAX_ROBOTS];
     let mut grow = 0;
@@ -126,9 +131,9 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
         if deadline.expired() {
             return Err(fail(ApproachError::Timeout));
         }
-        draw::<M, D>(fleet, start, goal, &mut rng, &mut sample[..n]);
+        draw::<M, D>(fleet, start, goal, free, &mut rng, &mut sample[..n]);
         if let Extend::Advanced(k) | Extend::Reached(k) =
-            extend(fleet, &mut trees, grow, &sample[..n], params).map_err(fail)?
+            extend(fleet, &mut trees, grow, &sample[..n], params)?
         {
             let target: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
                 if i < n {
@@ -139,7 +144,7 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
             });
             let other = 1 - grow;
             loop {
-                match extend(fleet, &mut trees, other, &target[..n], params).map_err(fail)? {
+                match extend(fleet, &mut trees, other, &target[..n], params)? {
                     Extend::Advanced(_) => continue,
                     Extend::Trapped => break,
                     Extend::Reached(r) => {
@@ -157,18 +162,19 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
     Err(Miss::Budget)
 }
 
-/// A sample: each active arm uniform within its bounds or on its own bridge, even odds; the
-/// others at their start (they are not checked).
+/// A sample: each active arm in `free` uniform within its bounds or on its own bridge, even
+/// odds; the others at their start.
 fn draw<M: Model<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     start: &[[f64; D]],
     goal: &[[f64; D]],
+    free: u32,
     rng: &mut Rng,
     out: &mut [[f64; D]],
 ) {
     for (i, q) in out.iter_mut().enumerate() {
         let (s, g) = (&start[i], &goal[i]);
-        if !fleet.is_active(i) {
+        if !fleet.is_active(i) || free & (1 << i) == 0 {
             *q = *s;
         } else if rng.next_f64() < 0.5 {
             let f = rng.next_f64();
@@ -198,7 +204,7 @@ fn extend<M: Model<D>, const D: usize>(
     t: usize,
     target: &[[f64; D]],
     params: &ApproachParams,
-) -> Result<Extend, ApproachError> {
+) -> Result<Extend, Miss> {
     let n = trees.n;
     let (mut near, mut best) = (0, f64::INFINITY);
     for k in 0..trees.len[t] {

@@ -11,6 +11,7 @@ use super::family::{Family, Hand};
 use super::frames::{at, v3};
 use super::layout::{Layout, NamedObstacle};
 use super::myopic::ik_tracking_solves;
+use super::standing::{clear_of, stand_anywhere, stand_clear, witness_approach};
 use super::trap::traps;
 use super::witness::{random_motion, shuffle, task_witness, Gen3, Placed, Scene, Q, RETRACT};
 use super::{Error, Spec, SuiteEntry, HARD_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR};
@@ -19,6 +20,7 @@ use crate::format::{
     TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::{load, pose, validate};
+use omcbsa_core::approach::ApproachError;
 
 /// Time between poses: `velocity * dt` is 0.24 to 0.28 rad, above the planners' 0.2 rad
 /// null-space step.
@@ -42,7 +44,7 @@ struct Sample {
 }
 
 pub fn generate(spec: &Spec) -> Result<Generated, Error> {
-    let samples = if spec.family == Family::Random {
+    let samples = if matches!(spec.family, Family::Random | Family::Approach) {
         RANDOM_SAMPLES
     } else {
         TASK_SAMPLES
@@ -58,9 +60,13 @@ pub fn generate(spec: &Spec) -> Result<Generated, Error> {
         let Some(sample) = sample(spec, &mut rng) else {
             continue;
         };
-        let (generated, problem) = files(spec, &sample, &mut rng)?;
+        let Some((generated, problem)) = files(spec, &sample, &mut rng)? else {
+            continue;
+        };
         let known = generated.witness.is_some();
-        if known && !ik_tracking_solves(&problem) {
+        // The approach family keeps only arms whose straight bridges collide.
+        let hard = spec.stance.is_none() || generated.entry.straight_bridge_collides == Some(true);
+        if known && hard && !ik_tracking_solves(&problem) {
             return Ok(generated);
         }
         if fallback.as_ref().is_none_or(|f| f.witness.is_none()) {
@@ -168,12 +174,13 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
 }
 
 /// The problem file (trajectories shuffled) and, if the witness passes the validator, the
-/// witness solution; and the problem as the planners get it.
+/// witness solution; and the problem as the planners get it. `None` when no place was found
+/// for every arm to stand clear.
 fn files(
     spec: &Spec,
     sample: &Sample,
     rng: &mut Rng,
-) -> Result<(Generated, Box<Problem<7>>), Error> {
+) -> Result<Option<(Generated, Box<Problem<7>>)>, Error> {
     let n = sample.layout.bases.len();
     let hands = &sample.hands;
     // listed[j] = the hand listed j-th; never the identity when it could be.
@@ -186,23 +193,39 @@ fn files(
         assignment[hands[k].arm] = Some(j);
     }
     let holds = hands.len() < n;
-    let robots = (sample.layout.bases.iter().enumerate())
-        .map(|(i, base)| RobotSpec {
-            name: format!("arm_{i}"),
-            model: "kinova_gen3".to_string(),
-            base: rounded(base),
-            // Holding arms hold their witness configuration; every arm needs an initial one
-            // then, and the others get the retract pose.
-            initial: holds.then(|| {
-                let q = match (&sample.witness, assignment[i]) {
-                    (Some(paths), None) => paths[i][0],
-                    _ => RETRACT,
-                };
-                q.iter().map(|&x| round(x)).collect()
-            }),
-            tcp: Some(rounded(&tcp())),
-            tool: None,
+    let starts: Vec<Option<Q>> = (0..n)
+        .map(|i| sample.witness.as_ref().map(|paths| paths[i][0]))
+        .collect();
+    // Holding arms hold their witness configuration; every arm needs an initial one then, and
+    // the others get the retract pose. The approach family stands every arm somewhere hard.
+    let initial: Vec<Option<Q>> = (0..n)
+        .map(|i| match (spec.stance, starts[i], assignment[i]) {
+            (Some(stance), Some(start), _) => Some(stance.initial(i, &start, &RETRACT)),
+            (_, Some(start), None) => Some(start),
+            _ => holds.then_some(RETRACT),
         })
+        .collect();
+    let mut obstacles = sample.layout.obstacles.clone();
+    if let (Some(stance), Some(paths)) = (spec.stance, &sample.witness) {
+        for i in 0..n {
+            if let (Some(q), Some(start)) = (initial[i], starts[i]) {
+                let post = stance
+                    .post(&sample.layout.bases[i], &q, &start, &tcp())
+                    .filter(|o| clear_of(o, &sample.layout.bases, paths));
+                obstacles.extend(post.map(|o| (format!("post_{i}"), o)));
+            }
+        }
+    }
+    let robot_spec = |i: usize, base: &Frame, initial: &Option<Q>| RobotSpec {
+        name: format!("arm_{i}"),
+        model: "kinova_gen3".to_string(),
+        base: rounded(base),
+        initial: initial.map(|q| q.iter().map(|&x| round(x)).collect()),
+        tcp: Some(rounded(&tcp())),
+        tool: None,
+    };
+    let robots = (sample.layout.bases.iter().enumerate())
+        .map(|(i, base)| robot_spec(i, base, &initial[i]))
         .collect();
     let trajectories = (listed.iter().enumerate())
         .map(|(j, &k)| TrajectorySpec {
@@ -216,20 +239,63 @@ fn files(
         dt: DT,
         robots,
         trajectories,
-        obstacles: sample.layout.obstacles.iter().map(obstacle_spec).collect(),
+        obstacles: obstacles.iter().map(obstacle_spec).collect(),
         tolerance: ToleranceSpec::default(),
     };
+    let mut problem = problem;
     // A problem the loader refuses is a bug of the generator.
-    let core = load::problem::<Gen3, 7>(&problem)
+    let generation = |message: String| Error::Generation {
+        problem: spec.name.clone(),
+        message,
+    };
+    let mut core = load::problem::<Gen3, 7>(&problem)
         .map(Box::new)
-        .map_err(|e| Error::Generation {
-            problem: spec.name.clone(),
-            message: e.to_string(),
-        })?;
+        .map_err(|e| generation(e.to_string()))?;
+    // Where the arms stand: clear of everything, with an approach to the witness.
+    let mut approach = None;
+    let mut straight_bridge_collides = None;
+    if initial.iter().any(Option::is_some) {
+        if !stand_clear(&mut core, &starts) && !stand_anywhere(&mut core, rng, 1000) {
+            // No witness start to fall back on and no free configuration found.
+            // Nowhere found for an arm to stand: the sample is not used.
+            return Ok(None);
+        }
+        if let Some(paths) = &sample.witness {
+            for _ in 0..=n {
+                match witness_approach(&core, paths, true) {
+                    Ok(a) => {
+                        approach = Some(a);
+                        break;
+                    }
+                    Err(ApproachError::Blocked { robot, other }) => {
+                        for r in [Some(robot), other].into_iter().flatten() {
+                            core.robots[r].initial = starts[r];
+                        }
+                    }
+                    Err(_) => break,
+                }
+            }
+            straight_bridge_collides = Some(witness_approach(&core, paths, false).is_err());
+        }
+        for (i, r) in problem.robots.iter_mut().enumerate() {
+            r.initial = core.robots[i]
+                .initial
+                .map(|q| q.iter().map(|&x| round(x)).collect());
+        }
+        load::problem::<Gen3, 7>(&problem).map_err(|e| generation(e.to_string()))?;
+    }
     let witness = match &sample.witness {
         Some(paths) => {
             let solution = SolutionFile {
-                approach: None,
+                approach: approach.as_ref().map(|a| {
+                    a.iter()
+                        .map(|p| {
+                            p.iter()
+                                .map(|q| q.iter().map(|&x| round(x)).collect())
+                                .collect()
+                        })
+                        .collect()
+                }),
                 format: SOLUTION_FORMAT.to_string(),
                 problem: spec.name.clone(),
                 planner: "witness".to_string(),
@@ -249,8 +315,11 @@ fn files(
                 ),
                 stats: Map::new(),
             };
-            validate::validate::<Gen3, 7>(&problem, &core, &solution)
-                .is_valid()
+            // A witness of a problem that gives every `initial` needs its approach.
+            let needs_approach = core.robots.iter().all(|r| r.initial.is_some());
+            let core = load::problem::<Gen3, 7>(&problem).map_err(|e| generation(e.to_string()))?;
+            (validate::validate::<Gen3, 7>(&problem, &core, &solution).is_valid()
+                && (approach.is_some() || !needs_approach))
                 .then_some(solution)
         }
         None => None,
@@ -265,18 +334,20 @@ fn files(
         horizon: hands[0].poses.len(),
         known_solvable: witness.is_some(),
         seed: spec.seed,
+        stance: spec.stance.map(|s| s.name().to_string()),
+        straight_bridge_collides,
         witness: witness
             .as_ref()
             .map(|_| format!("{WITNESS_DIR}/{}.json", spec.name)),
     };
-    Ok((
+    Ok(Some((
         Generated {
             entry,
             problem,
             witness,
         },
         core,
-    ))
+    )))
 }
 
 /// Nine decimals: nanometres and nanoradians, far below every tolerance, and short files.

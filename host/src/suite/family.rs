@@ -25,16 +25,20 @@ pub enum Family {
     Bimanual,
     /// Smooth random joint motions mapped to the hands.
     Random,
+    /// The random family's motions, with every arm standing where a straight bridge to its
+    /// hand collides (see `standing`): the approach is the hard part.
+    Approach,
 }
 
 impl Family {
-    pub const ALL: [Family; 6] = [
+    pub const ALL: [Family; 7] = [
         Family::Sweep,
         Family::BoxFlip,
         Family::ClothRotation,
         Family::Pushing,
         Family::Bimanual,
         Family::Random,
+        Family::Approach,
     ];
 
     pub fn name(self) -> &'static str {
@@ -45,6 +49,7 @@ impl Family {
             Family::Pushing => "pushing",
             Family::Bimanual => "bimanual",
             Family::Random => "random",
+            Family::Approach => "approach",
         }
     }
 
@@ -67,7 +72,9 @@ impl Family {
             Family::ClothRotation => on(&[Ring, FacingRows], &[2, 3, 4, 5, 6]),
             Family::Pushing => on(&[Row, FacingRows, Ring], &[2, 3, 4, 5, 6]),
             Family::Bimanual => on(&[Torso], &[2, 3, 4, 5, 6]),
-            Family::Random => on(&[Row, FacingRows, Ring, Torso], &[2, 3, 4, 5, 6]),
+            Family::Random | Family::Approach => {
+                on(&[Row, FacingRows, Ring, Torso], &[2, 3, 4, 5, 6])
+            }
         }
     }
 
@@ -107,7 +114,7 @@ impl Family {
             Family::ClothRotation => cloth(layout, rng, &steps),
             Family::Pushing => pushing(layout, rng, &steps),
             Family::Bimanual => bimanual(layout, rng, &steps),
-            Family::Random => return None,
+            Family::Random | Family::Approach => return None,
         };
         Some(hands)
     }

@@ -28,6 +28,7 @@ mod frames;
 mod layout;
 mod myopic;
 mod refine_family;
+mod standing;
 mod trap;
 mod witness;
 
@@ -42,6 +43,7 @@ use omcbsa_core::rng::Rng;
 pub use family::Family;
 pub use layout::LayoutKind;
 pub use refine_family::{gen_refine, RefineOptions};
+pub use standing::Stance;
 pub use trap::Tightness;
 
 /// The index file of a suite directory.
@@ -112,6 +114,13 @@ pub struct SuiteEntry {
     /// The witness solution file, relative to the suite directory, when known solvable.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub witness: Option<String>,
+    /// The approach family: how the arms stand (`tucked`, `crossed`, `far_side`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stance: Option<String>,
+    /// When every arm has `initial` and there is a witness: whether the straight bridge of
+    /// all arms together from `initial` to the witness's first configurations collides.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub straight_bridge_collides: Option<bool>,
 }
 
 #[derive(Debug)]
@@ -159,6 +168,8 @@ struct Spec {
     robots: usize,
     seed: u64,
     traps: Tightness,
+    /// How the approach family's arms stand.
+    stance: Option<Stance>,
 }
 
 fn specs(opts: &GenOptions, traps: Tightness) -> Vec<Spec> {
@@ -169,6 +180,7 @@ fn specs(opts: &GenOptions, traps: Tightness) -> Vec<Spec> {
             let (layout, robots) = cells[k % cells.len()];
             let seed = Rng::new(opts.seed ^ ((f as u64) << 32 | k as u64)).next_u64();
             let name = format!("{}_{}_{robots}arms_{k:03}", family.name(), layout.name());
+            let stance = (family == Family::Approach).then(|| Stance::ALL[k % Stance::ALL.len()]);
             specs.push(Spec {
                 name,
                 family,
@@ -176,6 +188,7 @@ fn specs(opts: &GenOptions, traps: Tightness) -> Vec<Spec> {
                 robots,
                 seed,
                 traps,
+                stance,
             });
         }
     }

@@ -1,0 +1,188 @@
+//! Where a problem's arms stand (`initial`), and the witness's approach from there.
+//!
+//! A problem that gives `initial` is planned from it, so its witness must reach its first
+//! configurations from it too. `initial` is checked as the loader checks it (limits and
+//! collisions, `approach::check_initial`), and an approach from it to the witness's first
+//! configurations is planned with the core's own approach planner and kept in the witness
+//! file, which the validator then checks whole. An arm that cannot stand where it was put, or
+//! whose approach is not found, stands at its witness's first configuration instead.
+//!
+//! The approach family ([`super::Family::Approach`]) puts every arm where a straight bridge to
+//! its hand collides: folded at Kinova's retract pose, turned a quarter turn across its
+//! neighbour, or half a turn to the far side of a post that stands between it and its hand.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use omcbsa_core::approach::{
+    check_starts, plan_approach, ApproachError, ApproachParams, ApproachStorage,
+};
+use omcbsa_core::geometry::{Obstacle, Shape};
+use omcbsa_core::model::Frame;
+use omcbsa_core::problem::Problem;
+use omcbsa_core::rng::Rng;
+use omcbsa_core::search::NoDeadline;
+
+use super::frames::{at, v3};
+use super::witness::{Gen3, Q};
+
+/// How the approach family's arms stand, by problem.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stance {
+    /// Folded at Kinova's retract pose.
+    Tucked,
+    /// Turned a quarter turn (joint 1) from the witness's start, across a neighbour.
+    Crossed,
+    /// Turned half a turn, with a post where the straight bridge's hand passes.
+    FarSide,
+}
+
+impl Stance {
+    pub const ALL: [Stance; 3] = [Stance::Tucked, Stance::Crossed, Stance::FarSide];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stance::Tucked => "tucked",
+            Stance::Crossed => "crossed",
+            Stance::FarSide => "far_side",
+        }
+    }
+
+    /// Arm `i`'s `initial` for a witness starting at `start`.
+    pub fn initial(self, i: usize, start: &Q, retract: &Q) -> Q {
+        let mut q = *start;
+        match self {
+            Stance::Tucked => return *retract,
+            Stance::Crossed => q[0] += if i % 2 == 0 { FRAC_PI_2 } else { -FRAC_PI_2 },
+            Stance::FarSide => q[0] += PI,
+        }
+        q
+    }
+
+    /// The post of a far-side arm on `base`: a thin column under where its tool passes half
+    /// way along the straight bridge from `initial` to `start`, up to that height.
+    pub fn post(self, base: &Frame, initial: &Q, start: &Q, tcp: &Frame) -> Option<Obstacle> {
+        if self != Stance::FarSide {
+            return None;
+        }
+        let mid: Q = std::array::from_fn(|j| 0.5 * (initial[j] + start[j]));
+        use omcbsa_core::model::Model;
+        let hand = base.compose(&Gen3::fk(&mid)).compose(tcp).pos;
+        let top = hand.z - 0.02;
+        (top > 0.1).then(|| Obstacle {
+            shape: Shape::Box {
+                half_extents: [0.03, 0.03, 0.5 * top],
+            },
+            pose: at(v3(hand.x, hand.y, 0.5 * top)),
+        })
+    }
+}
+
+/// Whether every arm (on `bases`, with a tool frame `tcp` and no tool) stays clear of
+/// `obstacle` along its witness path, steps and motions, by the planners' checks.
+pub fn clear_of(obstacle: &Obstacle, bases: &[Frame], paths: &[Vec<Q>]) -> bool {
+    use omcbsa_core::motion::{motion_is_free, ArmMotion, MOTION_STEP};
+    use omcbsa_core::tool::Tool;
+    let obstacles = [*obstacle];
+    bases.iter().zip(paths).all(|(base, path)| {
+        path.windows(2).all(|w| {
+            let m = ArmMotion {
+                base,
+                tool: &Tool::NONE,
+                from: &w[0],
+                to: &w[1],
+            };
+            motion_is_free::<Gen3, 7>(&m, &obstacles, MOTION_STEP)
+        })
+    })
+}
+
+/// RRT-Connect samples the witness's approach may use.
+const WITNESS_SAMPLES: u32 = 6400;
+
+/// The approach from `problem`'s `initial` to the first configurations of `paths` (per robot,
+/// all the same length), with the core's planner; `rrt` false keeps it to the straight bridge
+/// of all arms together. Per robot, its configurations.
+pub fn witness_approach(
+    problem: &Problem<7>,
+    paths: &[Vec<Q>],
+    rrt: bool,
+) -> Result<Vec<Vec<Q>>, ApproachError> {
+    let n = paths.len();
+    let h = paths.first().map_or(0, Vec::len);
+    let flat: Vec<Q> = paths.iter().flatten().copied().collect();
+    let nodes = 1 << 12;
+    let (mut tree, mut parent, mut waypoints) = (
+        vec![[0.0; 7]; nodes * n],
+        vec![0u32; nodes],
+        vec![[0.0; 7]; 512 * n],
+    );
+    let mut storage = ApproachStorage {
+        tree: &mut tree,
+        parent: &mut parent,
+        waypoints: &mut waypoints,
+    };
+    let cap = crate::approach::MAX_APPROACH;
+    let mut out = vec![[0.0; 7]; cap * n];
+    let params = ApproachParams {
+        max_orders: if rrt {
+            ApproachParams::default().max_orders
+        } else {
+            0
+        },
+        rrt_orders: if rrt {
+            ApproachParams::default().rrt_orders
+        } else {
+            0
+        },
+        ..ApproachParams::default()
+    };
+    let samples = if rrt { WITNESS_SAMPLES } else { 0 };
+    let a = plan_approach::<Gen3, 7>(
+        problem,
+        &flat,
+        h,
+        &params,
+        samples,
+        &mut storage,
+        &NoDeadline,
+        &mut out,
+    )?;
+    Ok((0..n)
+        .map(|i| out[i * cap..i * cap + a.len].to_vec())
+        .collect())
+}
+
+/// Moves arms that cannot stand at their `initial` (limits, collisions, as the loader checks)
+/// to their `fallback` configuration until all can: the arm found blocked, else the arm it
+/// touches. Returns `false` when some arm still cannot stand and has nowhere else to go.
+pub fn stand_clear(problem: &mut Problem<7>, fallback: &[Option<Q>]) -> bool {
+    use omcbsa_core::approach::Touch;
+    while let Err(b) = check_starts::<Gen3, 7>(problem) {
+        let other = match b.touch {
+            Touch::Robot { robot } => Some(robot),
+            _ => None,
+        };
+        let movable = [Some(b.robot), other]
+            .into_iter()
+            .flatten()
+            .find(|&i| fallback[i].is_some() && problem.robots[i].initial != fallback[i]);
+        let Some(i) = movable else {
+            return false;
+        };
+        problem.robots[i].initial = fallback[i];
+    }
+    true
+}
+
+/// For a problem without a witness: moves each arm that cannot stand to random
+/// configurations (from `rng`) until all can, at most `tries` moves. Returns whether they can.
+pub fn stand_anywhere(problem: &mut Problem<7>, rng: &mut Rng, tries: usize) -> bool {
+    use omcbsa_core::model::Model;
+    for _ in 0..tries {
+        let Err(b) = check_starts::<Gen3, 7>(problem) else {
+            return true;
+        };
+        problem.robots[b.robot].initial = Some(rng.configuration(&Gen3::LOWER, &Gen3::UPPER));
+    }
+    check_starts::<Gen3, 7>(problem).is_ok()
+}
