@@ -61,14 +61,28 @@ impl Rule {
     }
 }
 
+/// Which part of a robot's timeline a step number counts in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Phase {
+    /// The joint paths: step `t` is `joint_paths[i][t]`.
+    #[default]
+    Path,
+    /// The approach: step 0 is `initial`, step `k` is `approach[i][k - 1]`, step `A + 1` is
+    /// `joint_paths[i][0]`.
+    Approach,
+}
+
 /// One broken rule.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Violation {
     pub rule: Rule,
     /// The robot (index into `robots`) the violation is about, if one.
     pub robot: Option<usize>,
-    /// The step (0-based), or for a motion the step it starts from.
+    /// The step (0-based) in `phase`, or for a motion the step it starts from.
     pub step: Option<usize>,
+    /// What `step` counts.
+    pub phase: Phase,
     /// What failed, naming joints, links, obstacles and trajectories.
     pub detail: String,
     /// For a collision, the links in contact as `(robot, link)` with `link` an index into
@@ -86,8 +100,11 @@ impl fmt::Display for Violation {
         if let Some(r) = self.robot {
             write!(f, ", robot {r}")?;
         }
-        if let Some(t) = self.step {
-            write!(f, ", step {t}")?;
+        match (self.step, self.phase) {
+            (Some(t), Phase::Path) => write!(f, ", step {t}")?,
+            (Some(t), Phase::Approach) => write!(f, ", approach step {t}")?,
+            (None, Phase::Approach) => write!(f, ", approach")?,
+            (None, Phase::Path) => {}
         }
         write!(f, ": {}", self.detail)
     }
@@ -137,6 +154,7 @@ impl Report {
             rule,
             robot,
             step,
+            phase: Phase::Path,
             detail,
             links: Vec::new(),
         });
@@ -152,6 +170,7 @@ impl Report {
             rule: Rule::Collision,
             robot: Some(contact.robot()),
             step: Some(step),
+            phase: Phase::Path,
             detail,
             links: contact.links::<M, D>(),
         });
@@ -278,18 +297,17 @@ fn check_approach<M: Model<D>, const D: usize>(
     check_velocity::<M, D>(problem.dt, &timelines, &mut sub);
     check_collisions::<M, D>(file, problem, &timelines, &mut sub);
     for v in sub.violations {
-        let at = v.step.map_or(String::new(), |t| format!(" step {t}"));
-        report.add(
-            v.rule,
-            v.robot,
-            None,
-            format!(
-                "approach{at} (0 = initial, {} = joint_paths[0]): {}",
-                a + 1,
-                v.detail
-            ),
-        );
+        if report.violations.len() == MAX_VIOLATIONS {
+            report.omitted += 1;
+            continue;
+        }
+        report.violations.push(Violation {
+            phase: Phase::Approach,
+            detail: format!("(0 = initial, {} = joint_paths[0]) {}", a + 1, v.detail),
+            ..v
+        });
     }
+    report.omitted += sub.omitted;
 }
 
 /// Rule 5, the assignment: one entry per robot, existing trajectories, each exactly once.

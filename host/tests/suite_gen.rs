@@ -16,7 +16,7 @@ use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{NoClock, Stats, Status};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
-/// Two problems per family: 12 problems, every family, several layouts and arm counts.
+/// Two problems per family: 14 problems, every family, several layouts and arm counts.
 fn small() -> GenOptions {
     GenOptions {
         per_family: 2,
@@ -51,11 +51,11 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
     assert!(fa.contains_key(INDEX_FILE));
 
     let index = read_index(a.path()).unwrap();
-    assert_eq!(index.problems.len(), 12);
-    assert_eq!(report.problems, 12);
+    assert_eq!(index.problems.len(), 14);
+    assert_eq!(report.problems, 14);
     let families: std::collections::BTreeSet<_> =
         index.problems.iter().map(|e| e.family.as_str()).collect();
-    assert_eq!(families.len(), 6, "{families:?}");
+    assert_eq!(families.len(), 7, "{families:?}");
     for entry in &index.problems {
         let text = load::read_text(&a.path().join(&entry.file)).unwrap();
         let file = load::parse_problem(&text).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
@@ -75,6 +75,26 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
         assert!((2..=6).contains(&entry.robots));
         assert!((20..=40).contains(&entry.horizon));
         assert_eq!(entry.known_solvable, entry.witness.is_some());
+        // Issue 22: every arm can stand where the problem puts it (the loader's own check).
+        omcbsa::approach::check_initial::<KinovaGen3, 7>(&file, &problem)
+            .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+        // The approach family stands every arm where the straight bridge collides.
+        if entry.family == "approach" {
+            assert!(entry.stance.is_some(), "{}", entry.name);
+            assert_eq!(
+                problem
+                    .robots
+                    .iter()
+                    .filter(|r| r.initial.is_some())
+                    .count(),
+                entry.robots,
+                "{}",
+                entry.name
+            );
+            if entry.known_solvable {
+                assert_eq!(entry.straight_bridge_collides, Some(true), "{}", entry.name);
+            }
+        }
     }
     assert_eq!(
         report.known_solvable,
@@ -102,6 +122,10 @@ fn witnesses_solve_their_problems_and_ik_tracking_solves_at_most_half() {
         let witness: SolutionFile = load::parse_solution(&text).unwrap();
         let report = validate::<KinovaGen3, 7>(&file, &problem, &witness);
         assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
+        // Arms that stand somewhere reach the witness by its approach (validated with it).
+        if problem.robots.iter().all(|r| r.initial.is_some()) {
+            assert!(witness.approach.is_some(), "{}: no approach", entry.name);
+        }
         let listed: Vec<Option<usize>> = (0..file.robots.len()).map(Some).collect();
         if file.trajectories.len() >= 2 {
             assert_ne!(
@@ -128,7 +152,7 @@ fn witnesses_solve_their_problems_and_ik_tracking_solves_at_most_half() {
 fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
     let opts = RefineOptions {
         problems: 2,
-        max_candidates: 96,
+        max_candidates: 192,
         traps: Tightness::TIGHT,
         ..RefineOptions::default()
     };
@@ -149,6 +173,10 @@ fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
         let witness: SolutionFile = load::parse_solution(&text).unwrap();
         let report = validate::<KinovaGen3, 7>(&file, &problem, &witness);
         assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
+        // Arms that stand somewhere reach the witness by its approach (validated with it).
+        if problem.robots.iter().all(|r| r.initial.is_some()) {
+            assert!(witness.approach.is_some(), "{}: no approach", entry.name);
+        }
         let mut stats = Stats::default();
         let (status, _) = storage
             .solve_core("omcbsa", &problem, &NoClock, f64::INFINITY, &mut stats)

@@ -429,3 +429,29 @@ fn rule_4_grippers_passing_through_each_other() {
         report.summary()
     );
 }
+
+/// Issue 22: a finding in the approach is reported at its step of the approach (0 =
+/// `initial`), with its phase, so that the viewer and `--json` readers can place it.
+#[test]
+fn a_finding_in_the_approach_names_its_approach_step() {
+    use omcbsa::validate::Phase;
+    let (problem, mut solution) = two_robots();
+    // Robot 0 jumps from `initial` (Q0) to its first approach configuration.
+    solution.approach = Some(vec![
+        vec![near_q0(5.0).to_vec(), near_q0(0.0).to_vec()],
+        vec![Q0.to_vec(), Q0.to_vec()],
+    ]);
+    let report = check(&problem, &solution);
+    let v = report
+        .violations
+        .iter()
+        .find(|v| v.rule == Rule::Velocity)
+        .unwrap_or_else(|| panic!("{}", report.summary()));
+    assert_eq!(
+        (v.robot, v.step, v.phase),
+        (Some(0), Some(0), Phase::Approach)
+    );
+    assert!(v.to_string().contains("approach step 0"), "{v}");
+    let json = serde_json::to_value(v).unwrap();
+    assert_eq!(json["phase"], "approach");
+}

@@ -300,3 +300,73 @@ fn invalid_solution_page_marks_the_clashing_links() {
         "the page logged JavaScript errors"
     );
 }
+
+/// Issue 22: the page plays the approach before the path. The slider covers both, the
+/// counter names the approach, frame 0 is `initial` and frame `lead` the path's step 0, and a
+/// finding in the approach is shown at its frame.
+#[test]
+fn the_approach_is_played_before_the_path() {
+    use omcbsa::online::policy::RETRACT;
+    let mut problem = box_flip().unwrap().problem;
+    for r in &mut problem.robots {
+        r.initial = Some(RETRACT.to_vec());
+    }
+    let solution = omcbsa::planners::plan_file(&problem, "omcbsa", 10.0).unwrap();
+    let approach = solution.approach.clone().expect("an approach from initial");
+    let a = approach[0].len();
+    assert!(a > 2, "the arms stand folded away from the box");
+    // A broken approach: robot 1 jumps at its configuration a / 2.
+    let mut broken = solution.clone();
+    broken.approach.as_mut().unwrap()[1][a / 2][0] += 0.5;
+    let dir = tempfile::tempdir().unwrap();
+    let (good, bad) = (dir.path().join("good.html"), dir.path().join("bad.html"));
+    write_html(&problem, Some(&solution), None, &good).unwrap();
+    write_html(&problem, Some(&broken), None, &bad).unwrap();
+
+    let mut browser = Browser::start();
+    browser.open(&good);
+    assert_eq!(browser.eval("omcbsaView.lead"), json!(a + 1));
+    assert_eq!(browser.eval("omcbsaView.steps"), json!(a + 1 + STEPS));
+    let angles = |browser: &mut Browser, t: usize| -> Vec<Vec<f64>> {
+        browser.eval(&format!("omcbsaView.setStep({t})"));
+        serde_json::from_value(browser.eval("omcbsaView.jointAngles()")).unwrap()
+    };
+    let counter = |browser: &mut Browser| -> String {
+        let c = browser.eval("document.getElementById('counter').textContent");
+        c.as_str().unwrap().to_string()
+    };
+    let paths = solution.joint_paths.as_ref().unwrap();
+    for (t, expect) in [(0, RETRACT.to_vec()), (a + 1, paths[0][0].clone())] {
+        let drawn = angles(&mut browser, t);
+        for (j, (&d, &q)) in drawn[0].iter().zip(&expect).enumerate() {
+            assert!(
+                same_angle(d, q),
+                "frame {t} joint {j}: drawn {d}, planned {q}"
+            );
+        }
+    }
+    angles(&mut browser, 1);
+    assert!(counter(&mut browser).starts_with(&format!("approach 1 / {}", a + 1)));
+    angles(&mut browser, a + 3);
+    assert!(counter(&mut browser).starts_with("step 2 /"));
+    let phase = browser.eval("document.getElementById('phase').textContent");
+    assert!(phase.as_str().unwrap().starts_with("approach"), "{phase}");
+
+    browser.open(&bad);
+    let first = browser.eval(
+        "(() => { const li = document.getElementById('violations').children[0]; li.click(); \
+         return [li.textContent, omcbsaView.step()]; })()",
+    );
+    let text = first[0].as_str().unwrap();
+    assert!(text.contains("approach step"), "{text}");
+    let frame = first[1].as_u64().unwrap() as usize;
+    assert!(
+        frame > 0 && frame <= a + 1,
+        "a finding in the approach at frame {frame}"
+    );
+    assert_eq!(
+        browser.errors(),
+        Vec::<String>::new(),
+        "the page logged JavaScript errors"
+    );
+}

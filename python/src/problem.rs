@@ -497,6 +497,8 @@ pub struct Violation {
     pub rule: String,
     pub robot: Option<usize>,
     pub step: Option<usize>,
+    /// What `step` counts: `path` (joint_paths) or `approach` (0 = initial).
+    pub phase: String,
     pub detail: String,
     text: String,
 }
@@ -557,6 +559,10 @@ pub fn validate(py: Python<'_>, problem: &Problem, solution: &Solution) -> PyRes
                     rule,
                     robot: v.robot,
                     step: v.step,
+                    phase: serde_json::to_value(v.phase)
+                        .ok()
+                        .and_then(|p| p.as_str().map(str::to_string))
+                        .unwrap_or_default(),
                     detail: v.detail.clone(),
                     text: v.to_string(),
                 },

@@ -144,6 +144,9 @@ function start(THREE, OrbitControls, data, meshes, view) {
 
   // ---- panel: what is shown, who tracks what, what the validator found
   const steps = Math.max(1, data.steps);
+  // Frames before `lead` are the approach from where the arms stand (0 = initial).
+  const lead = data.lead || 0;
+  const label = (t) => t < lead ? "approach " + t + " / " + lead : "step " + (t - lead) + " / " + (steps - lead - 1);
   el("title").textContent = data.name;
   const sol = data.solution;
   el("status").innerHTML = sol === null
@@ -157,19 +160,28 @@ function start(THREE, OrbitControls, data, meshes, view) {
     escape(r.name) + " &rarr; " +
     (r.trajectory === null ? "holds" : escape(data.trajectories[r.trajectory].name)) + "</li>").join("");
   const violations = sol === null ? [] : sol.violations;
+  // A finding's frame on the timeline: approach steps count from `initial` (frame 0).
+  const frameOf = (v) => v.step === null ? null : (v.phase === "approach" ? v.step : v.step + lead);
   el("violations").innerHTML = violations.map((v, k) =>
-    '<li data-k="' + k + '">' + escape(v.rule) + (v.step === null ? "" : ", step " + v.step) +
+    '<li data-k="' + k + '">' + escape(v.rule) +
+    (v.step === null ? "" : (v.phase === "approach" ? ", approach step " : ", step ") + v.step) +
     ": " + escape(v.detail) + "</li>").join("");
   for (const li of el("violations").children) {
     li.onclick = () => {
-      const v = violations[+li.dataset.k];
-      if (v.step !== null) setStep(v.step);
+      const t = frameOf(violations[+li.dataset.k]);
+      if (t !== null) setStep(t);
     };
   }
 
   // ---- stepping
   const slider = el("slider");
   slider.max = String(steps - 1);
+  if (lead > 0) {
+    // The approach's part of the track in amber, with its name under it.
+    const f = (100 * lead / Math.max(1, steps - 1)).toFixed(2) + "%";
+    slider.style.background = "linear-gradient(to right, #f0b429 0 " + f + ", #c9d3e0 " + f + " 100%)";
+    el("phase").textContent = "approach: " + (lead * data.dt).toFixed(1) + " s, then the path";
+  }
   let step = 0;
   function setStep(t) {
     step = Math.min(steps - 1, Math.max(0, Math.round(t)));
@@ -185,7 +197,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
       });
     }
     // Collisions at this step (or on the motion leaving it): their links in red.
-    const now = violations.filter((v) => v.step === step && v.links && v.links.length);
+    const now = violations.filter((v) => frameOf(v) === step && v.links && v.links.length);
     for (const v of now) {
       for (const [r, l] of v.links) {
         const m = arms[r].links[l].userData.material;
@@ -194,16 +206,17 @@ function start(THREE, OrbitControls, data, meshes, view) {
       }
     }
     for (const li of el("violations").children) {
-      li.classList.toggle("now", violations[+li.dataset.k].step === step);
+      li.classList.toggle("now", frameOf(violations[+li.dataset.k]) === step);
     }
-    el("clash").textContent = now.length ? "step " + step + ": " + now.map((v) => v.detail).join("; ") : "";
+    el("clash").textContent = now.length ? label(step).split(" /")[0] + ": " + now.map((v) => v.detail).join("; ") : "";
     for (const { t, target } of targets) {
-      const p = t.poses[Math.min(step, t.poses.length - 1)];
+      const p = t.poses[Math.min(Math.max(0, step - lead), t.poses.length - 1)];
       if (!p) continue;
       target.position.set(p[0], p[1], p[2]);
       target.quaternion.set(p[3], p[4], p[5], p[6]);
     }
-    el("counter").textContent = "step " + step + " / " + (steps - 1) + "  (" + (step * data.dt).toFixed(2) + " s)";
+    el("counter").textContent = label(step) + "  (" + (step * data.dt).toFixed(2) + " s)";
+    el("counter").classList.toggle("approach", step < lead);
     world.updateMatrixWorld(true);
   }
   slider.addEventListener("input", () => setStep(+slider.value));
@@ -273,6 +286,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
 
   Object.assign(view, {
     steps,
+    lead,
     arms: () => world.children.filter((o) => o.name === "arm").length,
     step: () => step,
     setStep,

@@ -49,8 +49,9 @@ pub fn generate(spec: &Spec) -> Result<Generated, Error> {
     } else {
         TASK_SAMPLES
     };
-    // The first sample with a witness, else the last one without.
-    let mut fallback: Option<Generated> = None;
+    // The first sample with a witness (of the approach family, whose straight bridge
+    // collides if any does), else the last one without.
+    let mut fallback: Option<(Generated, bool)> = None;
     let mut solvable = 0;
     for k in 0..samples {
         let mut rng = Rng::new(
@@ -64,19 +65,24 @@ pub fn generate(spec: &Spec) -> Result<Generated, Error> {
             continue;
         };
         let known = generated.witness.is_some();
-        // The approach family keeps only arms whose straight bridges collide.
+        // The approach family wants arms whose straight bridges collide.
         let hard = spec.stance.is_none() || generated.entry.straight_bridge_collides == Some(true);
         if known && hard && !ik_tracking_solves(&problem) {
             return Ok(generated);
         }
-        if fallback.as_ref().is_none_or(|f| f.witness.is_none()) {
-            fallback = Some(generated);
+        let better = match &fallback {
+            None => true,
+            Some((f, f_hard)) => known && (f.witness.is_none() || (hard && !f_hard)),
+        };
+        if better {
+            fallback = Some((generated, hard));
         }
-        solvable += usize::from(known);
+        solvable += usize::from(known && hard);
         if solvable == HARD_SAMPLES {
             break;
         }
     }
+    let fallback = fallback.map(|(g, _)| g);
     fallback.ok_or_else(|| Error::NoMotion {
         problem: spec.name.clone(),
         samples,

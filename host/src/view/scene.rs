@@ -19,7 +19,11 @@ type FrameData = [f32; 12];
 pub struct Scene<'a> {
     pub name: &'a str,
     pub dt: f64,
+    /// Frames of the timeline: the approach's (`lead`), then the path's.
     pub steps: usize,
+    /// Timeline index of the path's step 0: frames `0..lead` are the approach, frame 0 being
+    /// `initial` (0 when the solution has no approach).
+    pub lead: usize,
     /// Absent when only the problem is shown.
     pub solution: Option<SolutionInfo<'a>>,
     pub links: &'static [&'static str],
@@ -134,8 +138,26 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
     problem: &Problem<D>,
     solution: Option<(&'a SolutionFile, &'a Report)>,
 ) -> Scene<'a> {
-    let steps = problem.horizon();
-    let paths = solution.and_then(|(s, _)| planned_paths::<D>(s, problem.robots.len(), steps));
+    let h = problem.horizon();
+    let paths = solution.and_then(|(s, _)| planned_paths::<D>(s, problem.robots.len(), h));
+    // The approach, played before the path: `initial`, then its configurations.
+    let approach = paths
+        .as_ref()
+        .and_then(|_| solution.and_then(|(s, _)| approach_timelines::<D>(s, problem)));
+    let lead = approach
+        .as_ref()
+        .and_then(|a| a.first())
+        .map_or(0, Vec::len);
+    let steps = lead + h;
+    let paths = paths.map(|paths| match approach {
+        Some(approach) => (approach.into_iter().zip(paths))
+            .map(|(mut a, p)| {
+                a.extend(p);
+                a
+            })
+            .collect(),
+        None => paths,
+    });
     let assignment = |i: usize| {
         solution
             .and_then(|(s, _)| s.assignment.get(i).copied().flatten())
@@ -178,6 +200,7 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
         name: &file.name,
         dt: file.dt,
         steps,
+        lead,
         solution: solution.map(|(s, report)| SolutionInfo {
             planner: &s.planner,
             status: s.status.as_str(),
@@ -221,6 +244,28 @@ fn planned_paths<const D: usize>(
             p.iter()
                 .map(|q| <[f64; D]>::try_from(q.as_slice()).ok())
                 .collect()
+        })
+        .collect()
+}
+
+/// Per robot, `initial` then the solution's approach, when the solution has an approach of
+/// the problem's shape and every robot has `initial`; `None` otherwise.
+fn approach_timelines<const D: usize>(
+    solution: &SolutionFile,
+    problem: &Problem<D>,
+) -> Option<Vec<Vec<[f64; D]>>> {
+    let approach = solution.approach.as_ref()?;
+    let a = approach.first().map_or(0, Vec::len);
+    if approach.len() != problem.robots.len() || approach.iter().any(|p| p.len() != a) {
+        return None;
+    }
+    (approach.iter().zip(&problem.robots))
+        .map(|(list, robot)| {
+            let mut timeline = vec![robot.initial?];
+            for q in list {
+                timeline.push(<[f64; D]>::try_from(q.as_slice()).ok()?);
+            }
+            Some(timeline)
         })
         .collect()
 }
