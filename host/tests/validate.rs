@@ -435,7 +435,7 @@ fn rule_4_grippers_passing_through_each_other() {
 #[test]
 fn a_finding_in_the_approach_names_its_approach_step() {
     use omcbsa::validate::Phase;
-    let (problem, mut solution) = two_robots();
+    let (problem, mut solution) = common::two_robots();
     // Robot 0 jumps from `initial` (Q0) to its first approach configuration.
     solution.approach = Some(vec![
         vec![near_q0(5.0).to_vec(), near_q0(0.0).to_vec()],
