@@ -40,7 +40,7 @@ def main():
             times[group][1].append(float(other["time_s"]))
     lines = [
         "| family | planner | both solved | median with approach (ms) | median without (ms) "
-        "| ratio | approaches: together / ordered / rrt-connect / none |",
+        "| ratio | approaches: together / ordered / ordered-rrt / rrt-connect / none |",
         "|---|---|---:|---:|---:|---:|---|",
     ]
     for group in sorted(times):
@@ -49,7 +49,7 @@ def main():
         m = methods[group]
         lines.append(
             f"| {group[0]} | {group[1]} | {len(w)} | {mw:.2f} | {mwo:.2f} | {mw / mwo:.2f} "
-            f"| {m['together']} / {m['ordered']} / {m['rrt-connect']} / {m['none']} |"
+            f"| {m['together']} / {m['ordered']} / {m['ordered-rrt']} / {m['rrt-connect']} / {m['none']} |"
         )
     text = "\n".join(lines) + "\n"
     if args.out:

@@ -137,3 +137,46 @@ fn bad_setups_and_chunks_name_the_field() {
     let err = e.push_chunk(0, &chunk.hands).unwrap_err();
     assert!(err.to_string().contains("hands[2]: 15 poses"), "{err}");
 }
+
+/// Issue 22, item 7: a chunk that comes after the plan ran out (the arms hold at its end) is
+/// planned from the hold with an approach, as the first chunk is, and the whole sent timeline
+/// (the hold and that approach included) validates.
+#[test]
+fn a_chunk_after_a_hold_is_reached_by_an_approach() {
+    let policy = BoxFlipPolicy::default();
+    let mut e = embodier(&policy);
+    let mut rec = RunRecord::default();
+    run(&policy, &mut e, &mut rec, 0..1);
+    // The policy goes quiet; it comes back six chunks later, the box turned on.
+    let end = e.end();
+    let chunk = policy.chunk(6);
+    let due = e.timeline_index(chunk.start_step).unwrap();
+    assert!(due > end + 4, "the chunk starts well after the plan's end");
+    rec.send(&e, end);
+    e.commit_until(end);
+    let hold: Vec<_> = (0..3)
+        .map(|i| e.configuration(i, end - 1).unwrap())
+        .collect();
+    let report = e
+        .push_chunk(chunk.start_step, &chunk.hands)
+        .unwrap_or_else(|err| panic!("{err}"));
+    assert!(report.index >= due);
+    // The arms leave the hold before the chunk's first pose: an approach, not one step.
+    let moved =
+        (end..report.index).any(|t| (0..3).any(|i| e.configuration(i, t).unwrap() != hold[i]));
+    assert!(moved, "no approach between the hold and the chunk");
+    rec.chunk(
+        report.start_step,
+        &trimmed(&chunk.hands, report.start_step - chunk.start_step),
+    );
+    rec.send(&e, e.end());
+    let (problem, solution) = rec.files(&policy.setup(), &e).unwrap();
+    let core = omcbsa::load::problem::<KinovaGen3, DOF>(&problem).unwrap();
+    let report = validate::<KinovaGen3, DOF>(&problem, &core, &solution);
+    assert!(report.is_valid(), "{}", report.summary());
+}
+
+/// `hands` without their first `skip` poses.
+fn trimmed(hands: &[Vec<omcbsa::format::Pose>], skip: u64) -> Vec<Vec<omcbsa::format::Pose>> {
+    hands.iter().map(|h| h[skip as usize..].to_vec()).collect()
+}

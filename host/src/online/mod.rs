@@ -10,6 +10,8 @@
 //!
 //! - The first chunk chooses the assignment (which arm takes which hand) and its start
 //!   states; an approach from `initial` to them is planned ([`omcbsa_core::approach`]).
+//! - A chunk that starts after the plan's end (the policy was late; the arms hold at the
+//!   plan's last configuration) is planned from the hold with an approach, as the first is.
 //! - Every later chunk `push_chunk(s, poses)` is planned from the configuration every arm has
 //!   at step `s - 1` under the current plan (exactly there, not at sampled IK seeds), so that
 //!   reaching the chunk's first pose is one step within the velocity limits, collision-checked
@@ -113,6 +115,10 @@ pub struct ChunkReport {
 /// refinement level (10-235 ms). `omcbsa bench-online /tmp/suite --stride 3`: 3-arm p99 39.5
 /// ms with 0.6, 9.2 ms with 0.3 (README, "Online embodiment").
 const CHUNK_RESOLUTION: f64 = 0.3;
+
+/// Plans of a chunk after a hold (see `Embodier::chunk_after_hold`), each dropping the poses
+/// the approach before could not reach in time.
+const MAX_HOLD_TRIES: usize = 3;
 
 /// Plans policy chunks as they arrive (see the module documentation).
 pub struct Embodier {
@@ -391,6 +397,9 @@ impl Embodier {
             });
         }
         let index = index as usize;
+        if index > self.end() {
+            return self.chunk_after_hold(start_step, index, hands);
+        }
         let pins: Vec<[f64; DOF]> = (0..self.robots.len())
             .map(|i| self.configuration(i, index - 1).unwrap_or([0.0; DOF]))
             .collect();
@@ -418,6 +427,62 @@ impl Embodier {
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
             stats: outcome.stats,
+        })
+    }
+
+    /// A chunk that starts after the plan's end (the policy was late and the arms hold at the
+    /// plan's last configuration): planned from where the arms hold with an approach, as the
+    /// first chunk is (issue 22), rather than one step from the hold. The approach must end by
+    /// the chunk's first step; the chunk's first poses that it cannot reach in time are
+    /// dropped, as a late chunk's are, and the rest planned again.
+    fn chunk_after_hold(
+        &mut self,
+        start_step: u64,
+        index: usize,
+        hands: &[Trajectory],
+    ) -> Result<ChunkReport, OnlineError> {
+        let n = self.robots.len();
+        let end = self.end();
+        let hold: Vec<[f64; DOF]> = (0..n)
+            .map(|i| self.configuration(i, end - 1).unwrap_or([0.0; DOF]))
+            .collect();
+        let h = hands.first().map_or(0, |t| t.len());
+        let (mut skip, mut planning_time_s) = (0, 0.0);
+        // A few tries: each drops the poses the last approach could not reach in time.
+        for _ in 0..MAX_HOLD_TRIES {
+            if skip >= h {
+                break;
+            }
+            let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
+            let problem = self.problem(rest, Start::Sampled, Some(&hold));
+            let outcome = self.solve(&problem, start_step + skip as u64)?;
+            planning_time_s += outcome.planning_time_s;
+            let approach = outcome.approach.clone().unwrap_or_default();
+            let a = approach.first().map_or(0, Vec::len);
+            let first = index + skip;
+            if end + a > first {
+                // The approach is longer than the hold: drop what it cannot reach in time.
+                skip += end + a - first;
+                continue;
+            }
+            let keep = first - a - self.window_start;
+            for (i, w) in self.window.iter_mut().enumerate() {
+                w.resize(keep, hold[i]);
+                w.extend_from_slice(&approach[i]);
+                w.extend_from_slice(&outcome.joint_paths[i]);
+            }
+            return Ok(ChunkReport {
+                start_step: start_step + skip as u64,
+                index: first,
+                end: self.end(),
+                planning_time_s,
+                stats: outcome.stats,
+            });
+        }
+        Err(OnlineError::NotPlanned {
+            start_step,
+            status: "the approach from where the arms hold takes longer than the chunk lasts"
+                .to_string(),
         })
     }
 

@@ -12,6 +12,8 @@ use crate::format::{
     SOLUTION_FORMAT,
 };
 use crate::planners::DOF;
+use crate::pose;
+use omcbsa_core::model::{Frame, KinovaGen3, Model};
 
 /// Records the sent timeline and the poses it tracks, as the run goes.
 #[derive(Clone, Debug, Default)]
@@ -46,6 +48,28 @@ impl RunRecord {
         }
     }
 
+    /// Where the robot holding hand `j` put its tool centre point at timeline index `index`
+    /// (the identity when no robot holds it or nothing was sent there).
+    fn planned_hand(&self, setup: &Setup, embodier: &Embodier, j: usize, index: usize) -> Pose {
+        let robot = embodier
+            .assignment()
+            .and_then(|a| a.iter().position(|&h| h == Some(j)));
+        let found = robot.and_then(|i| {
+            let q = self.sent.get(i)?.get(index)?;
+            let spec = setup.robots.get(i)?;
+            let base = pose::to_frame(&spec.base).ok()?;
+            let tcp = spec
+                .tcp
+                .as_ref()
+                .map_or(Ok(Frame::IDENTITY), pose::to_frame)
+                .ok()?;
+            Some(pose::from_frame(
+                &base.compose(&KinovaGen3::fk(q)).compose(&tcp),
+            ))
+        });
+        found.unwrap_or(Pose::IDENTITY)
+    }
+
     /// The problem (poses of the steps sent) and the solution (approach and paths sent).
     /// `None` before the first chunk's first step was sent.
     pub fn files(&self, setup: &Setup, embodier: &Embodier) -> Option<(ProblemFile, SolutionFile)> {
@@ -63,12 +87,14 @@ impl RunRecord {
             trajectories: (0..hands)
                 .map(|j| TrajectorySpec {
                     name: format!("hand_{j}"),
-                    // A step no chunk planned (a late chunk's dropped steps) is where the
-                    // arms held the step before (see `Embodier::push_chunk`): its pose too.
+                    // A step no chunk gave a pose for (a late chunk's dropped steps, a hold
+                    // and the approach after it) tracks where the plan put the hand.
                     poses: (first..first + h as u64)
-                        .scan(None, |held, s| {
-                            *held = self.poses.get(&s).map(|p| p[j]).or(*held);
-                            Some(held.unwrap_or(Pose::IDENTITY))
+                        .map(|s| match self.poses.get(&s) {
+                            Some(p) => p[j],
+                            None => {
+                                self.planned_hand(setup, embodier, j, a + 1 + (s - first) as usize)
+                            }
                         })
                         .collect(),
                 })
