@@ -11,7 +11,8 @@
 //! - The first chunk chooses the assignment (which arm takes which hand) and its start
 //!   states; an approach from `initial` to them is planned ([`omcbsa_core::approach`]).
 //! - A chunk that starts after the plan's end (the policy was late; the arms hold at the
-//!   plan's last configuration) is planned from the hold with an approach, as the first is.
+//!   plan's last configuration) and cannot be reached in one step from the hold is planned
+//!   from the hold with an approach, as the first is.
 //! - Every later chunk `push_chunk(s, poses)` is planned from the configuration every arm has
 //!   at step `s - 1` under the current plan (exactly there, not at sampled IK seeds), so that
 //!   reaching the chunk's first pose is one step within the velocity limits, collision-checked
@@ -397,9 +398,22 @@ impl Embodier {
             });
         }
         let index = index as usize;
-        if index > self.end() {
-            return self.chunk_after_hold(start_step, index, hands);
+        let planned = self.continue_from(start_step, index, hands);
+        if planned.is_err() && index > self.end() {
+            // The arms hold, too far from the chunk for one step: an approach may reach it.
+            return self.chunk_after_hold(start_step, index, hands).or(planned);
         }
+        planned
+    }
+
+    /// Plans a chunk from the configurations the arms have one step before it (holding at
+    /// the plan's end when it starts later).
+    fn continue_from(
+        &mut self,
+        start_step: u64,
+        index: usize,
+        hands: &[Trajectory],
+    ) -> Result<ChunkReport, OnlineError> {
         let pins: Vec<[f64; DOF]> = (0..self.robots.len())
             .map(|i| self.configuration(i, index - 1).unwrap_or([0.0; DOF]))
             .collect();
@@ -431,8 +445,8 @@ impl Embodier {
     }
 
     /// A chunk that starts after the plan's end (the policy was late and the arms hold at the
-    /// plan's last configuration): planned from where the arms hold with an approach, as the
-    /// first chunk is (issue 22), rather than one step from the hold. The approach must end by
+    /// plan's last configuration) that cannot be reached in one step from the hold: planned
+    /// from where the arms hold with an approach, as the first chunk is (issue 22). The approach must end by
     /// the chunk's first step; the chunk's first poses that it cannot reach in time are
     /// dropped, as a late chunk's are, and the rest planned again.
     fn chunk_after_hold(
