@@ -15,15 +15,7 @@ use serde_json::Value;
 use crate::{cuboid, frame, problem_json, robot_json, tool, trajectory_json};
 
 /// Kinova's retract configuration, the arms' usual resting pose.
-pub const TUCKED: [f64; DOF] = [
-    0.0,
-    -0.35,
-    std::f64::consts::PI,
-    -2.54,
-    0.0,
-    -0.87,
-    std::f64::consts::FRAC_PI_2,
-];
+pub use omcbsa::online::policy::RETRACT as TUCKED;
 
 /// Per robot, its approach.
 pub type Paths = Vec<Vec<[f64; DOF]>>;
