@@ -195,7 +195,8 @@ impl<const D: usize> Ends<D> {
 
 /// Plans the approach of every robot of `problem` from its `initial` (a robot without one
 /// starts where its path does) to its path's first configuration, `paths[i * h]` for a horizon
-/// `h`: straight together, then one at a time, then RRT-Connect with `samples` samples.
+/// `h`: straight together, one at a time, one at a time with RRT-Connect per arm, then
+/// RRT-Connect on the composite space, with `samples` samples.
 /// Writes robot `i`'s approach to `out[i * cap..i * cap + A]` with `cap = out.len() / robots`.
 #[allow(clippy::too_many_arguments)]
 pub fn plan_approach<M: Model<D>, const D: usize>(
