@@ -4,6 +4,7 @@
 use std::time::Instant;
 
 use crate::approach::{check_initial, describe_miss, MAX_APPROACH};
+use crate::assignment::AssignmentRule;
 use crate::error::InputError;
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
@@ -554,8 +555,32 @@ pub fn plan_loaded(
     name: &str,
     timeout_s: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
-    let outcome = storage
-        .solve(name, problem, timeout_s)
+    plan_assigned(
+        storage,
+        file,
+        problem,
+        name,
+        timeout_s,
+        &AssignmentRule::Free,
+    )
+}
+
+/// [`plan_loaded`] under an assignment rule, checked here (errors at `assignment`).
+pub fn plan_assigned(
+    storage: &mut Storage,
+    file: &ProblemFile,
+    problem: &Problem<DOF>,
+    name: &str,
+    timeout_s: f64,
+    rule: &AssignmentRule,
+) -> Result<SolutionFile, InputOrPlanError> {
+    rule.check(
+        "assignment",
+        problem.robots.len(),
+        problem.trajectories.len(),
+    )
+    .map_err(InputOrPlanError::Input)?;
+    let outcome = crate::assignment::solve(storage, name, problem, rule, timeout_s)
         .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, name);
     if solution.status == FileStatus::Solved {

@@ -19,6 +19,7 @@ pyo3::create_exception!(
     PyRuntimeError,
     "A chunk was not planned (a pose no arm can reach, a missed deadline, no plan within the \
      time, no approach); the plan made before is kept. `kind` says which: `unreachable`, \
+     `blocked` (`robot`, `hand` and `step` say where; the message says by what), \
      `deadline_missed`, `not_planned` or `approach`."
 );
 
@@ -44,6 +45,12 @@ fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
         OnlineError::DeadlineMissed { start_step, .. } => {
             ("deadline_missed", None, Some(*start_step), None)
         }
+        OnlineError::Blocked {
+            robot_index,
+            hand,
+            step,
+            ..
+        } => ("blocked", *hand, Some(*step), Some(*robot_index)),
         OnlineError::NotPlanned { start_step, .. } => {
             ("not_planned", None, Some(*start_step), None)
         }
@@ -217,6 +224,7 @@ impl Embodier {
         let d = PyDict::new(py);
         d.set_item("start_step", r.start_step)?;
         d.set_item("index", r.index)?;
+        d.set_item("dropped", r.dropped)?;
         d.set_item("end", r.end)?;
         d.set_item("planning_time_s", r.planning_time_s)?;
         d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;

@@ -165,6 +165,16 @@ pub fn check_starts<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Result
     }
 }
 
+/// The first robot whose configuration `q[i]` is outside its limits or touches an obstacle,
+/// itself or another robot's `q` (every robot of `problem`, one configuration each).
+pub fn configurations_blocked<M: Model<D>, const D: usize>(
+    problem: &Problem<D>,
+    q: &[[f64; D]],
+) -> Option<Blocked> {
+    let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
+    fleet.state_blocked(&q[..fleet.n.min(q.len())])
+}
+
 /// Where each robot stands and where its path begins: `paths[i * h]` (a robot without
 /// `initial` starts there too).
 struct Ends<const D: usize> {

@@ -22,9 +22,12 @@
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
 pub mod bench;
+pub(crate) mod diagnose;
+pub mod episodes;
 mod error;
 pub mod policy;
 pub mod record;
+mod recover;
 pub mod run;
 
 pub use error::OnlineError;
@@ -36,6 +39,7 @@ use omcbsa_core::planner::{Stats, Status};
 use omcbsa_core::problem::{Assigned, Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
 use omcbsa_core::rng::Rng;
 
+use crate::assignment::{self, nearest, AssignmentRule};
 use crate::error::{Errors, InputError};
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
@@ -79,6 +83,14 @@ pub struct OnlineOptions {
     pub approach: ApproachParams,
     /// Pool sizes of the planner (allocated once, in [`Embodier::new`]).
     pub capacities: Capacities,
+    /// Which arm takes which hand: fixed, preferred, or chosen by the first chunk (`Free`:
+    /// the arms with the first chunk's poses deepest in their reach are tried first, see
+    /// [`crate::assignment::nearest`]).
+    pub assignment: AssignmentRule,
+    /// When a chunk cannot be planned with the assignment kept, plan it with a new one from
+    /// where the arms stand (an approach; the poses it cannot reach in time are dropped). Off
+    /// by default: a hand holding an object cannot change arms.
+    pub reassign: bool,
 }
 
 impl Default for OnlineOptions {
@@ -93,6 +105,8 @@ impl Default for OnlineOptions {
                 path_slots: 1 << 11,
                 ..Capacities::default()
             },
+            assignment: AssignmentRule::Free,
+            reassign: false,
         }
     }
 }
@@ -100,7 +114,12 @@ impl Default for OnlineOptions {
 /// What one planned chunk changed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChunkReport {
+    /// The first policy step planned: the chunk's, an earlier one when the steps before it
+    /// were planned again (a dead end), a later one when the approach after a hold could not
+    /// reach its first poses in time (`dropped` of them).
     pub start_step: u64,
+    /// The chunk's first poses that no arm tracks (reached by an approach instead).
+    pub dropped: usize,
     /// Timeline index of the chunk's first pose: the plan from here on is new.
     pub index: usize,
     /// Timeline index one past the plan's last configuration.
@@ -127,6 +146,7 @@ pub struct Embodier {
     /// The setup as a core problem without trajectories.
     template: Problem<DOF>,
     names: Vec<String>,
+    setup: Setup,
     options: OnlineOptions,
     storage: Storage,
     /// Per robot, its configurations from timeline index `window_start` on.
@@ -139,6 +159,10 @@ pub struct Embodier {
     assignment: Option<Vec<Option<usize>>>,
     /// Timeline indices below this were sent to the arms.
     committed: usize,
+    /// Per hand, the poses the policy sent for steps `policy_start..` not yet sent to the
+    /// arms (the latest chunk's where chunks overlap): what a re-plan tracks.
+    policy: Vec<Vec<omcbsa_core::model::Frame>>,
+    policy_start: u64,
 }
 
 impl Embodier {
@@ -196,6 +220,7 @@ impl Embodier {
             robots,
             template: problem,
             names: setup.robots.iter().map(|r| r.name.clone()).collect(),
+            setup: setup.clone(),
             options,
             storage,
             window: Vec::new(),
@@ -204,6 +229,8 @@ impl Embodier {
             approach_len: 0,
             assignment: None,
             committed: 0,
+            policy: Vec::new(),
+            policy_start: 0,
         })
     }
 
@@ -265,6 +292,7 @@ impl Embodier {
             });
             self.window_start += drop;
         }
+        self.forget_sent_poses();
     }
 
     /// Plans a chunk: `hands[j][k]` is hand `j`'s pose at policy step `start_step + k`. The
@@ -350,7 +378,15 @@ impl Embodier {
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
         let problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
-        let outcome = self.solve(&problem, start_step)?;
+        let rule = match &self.options.assignment {
+            AssignmentRule::Free => nearest::<KinovaGen3, DOF>(&problem)
+                .map_or(AssignmentRule::Free, AssignmentRule::Preferred),
+            given => {
+                given.check("assignment", self.robots.len(), hands.len())?;
+                given.clone()
+            }
+        };
+        let outcome = self.solve_under(&problem, start_step, &rule)?;
         let h = problem.horizon();
         let n = self.robots.len();
         // Planned with the chunk, from `initial` (every robot has one online).
@@ -375,8 +411,10 @@ impl Embodier {
         self.approach_len = a;
         self.offset = Some((a + 1) as i64 - start_step as i64);
         self.assignment = Some(outcome.assignment.clone());
+        self.remember(start_step, hands);
         Ok(ChunkReport {
             start_step,
+            dropped: 0,
             index: a + 1,
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
@@ -398,12 +436,23 @@ impl Embodier {
             });
         }
         let index = index as usize;
-        let planned = self.continue_from(start_step, index, hands);
+        let clock = std::time::Instant::now();
+        let mut planned = self.continue_from(start_step, index, hands);
+        if planned.is_err() {
+            // A dead end where the last chunk left the arms: re-plan from where they are now.
+            planned = self.replan_unsent(start_step, index, hands).or(planned);
+        }
         if planned.is_err() && index > self.end() {
             // The arms hold, too far from the chunk for one step: an approach may reach it.
-            return self.chunk_after_hold(start_step, index, hands).or(planned);
+            planned = self.chunk_after_hold(start_step, index, hands).or(planned);
         }
-        planned
+        if planned.is_err() && self.options.reassign {
+            planned = self.reassign(start_step, index, hands).or(planned);
+        }
+        let mut report = planned?;
+        self.remember(start_step, hands);
+        report.planning_time_s = clock.elapsed().as_secs_f64();
+        Ok(report)
     }
 
     /// Plans a chunk from the configurations the arms have one step before it (holding at
@@ -437,6 +486,7 @@ impl Embodier {
         }
         Ok(ChunkReport {
             start_step,
+            dropped: 0,
             index,
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
@@ -485,8 +535,11 @@ impl Embodier {
                 w.extend_from_slice(&approach[i]);
                 w.extend_from_slice(&outcome.joint_paths[i]);
             }
+            // Unchanged unless it was planned free (`reassign`).
+            self.assignment = Some(outcome.assignment.clone());
             return Ok(ChunkReport {
                 start_step: start_step + skip as u64,
+                dropped: skip,
                 index: first,
                 end: self.end(),
                 planning_time_s,
@@ -529,15 +582,44 @@ impl Embodier {
         problem: &Problem<DOF>,
         start_step: u64,
     ) -> Result<crate::planners::Outcome, OnlineError> {
-        let outcome = self
-            .storage
-            .solve(&self.options.planner, problem, self.options.chunk_timeout_s)
-            .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
+        self.solve_under(problem, start_step, &AssignmentRule::Free)
+    }
+
+    /// [`Embodier::solve`] with the robots' assignment set by `rule` (a checked one); `Free`
+    /// keeps the problem's.
+    fn solve_under(
+        &mut self,
+        problem: &Problem<DOF>,
+        start_step: u64,
+        rule: &AssignmentRule,
+    ) -> Result<crate::planners::Outcome, OnlineError> {
+        let timeout = self.options.chunk_timeout_s;
+        let name = &self.options.planner;
+        let outcome = match rule {
+            AssignmentRule::Free => self.storage.solve(name, problem, timeout),
+            _ => assignment::solve(&mut self.storage, name, problem, rule, timeout),
+        }
+        .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
         if outcome.status == Status::Solved {
             return Ok(outcome);
         }
         if let Some(e) = self.unreachable(problem, start_step) {
             return Err(e);
+        }
+        let first = usize::from(problem.robots.first().map(|r| r.start) == Some(Start::AtInitial));
+        if self.assignment.is_some() {
+            if let Some(b) =
+                diagnose::first_blocking::<KinovaGen3, DOF>(problem, first, &self.setup)
+            {
+                return Err(OnlineError::Blocked {
+                    start_step,
+                    robot: self.names[b.robot].clone(),
+                    robot_index: b.robot,
+                    hand: b.hand,
+                    step: start_step + (b.step - first) as u64,
+                    what: b.what,
+                });
+            }
         }
         let status = match outcome.status {
             Status::Solved => unreachable!("handled above"),

@@ -369,7 +369,7 @@ fn rounded(frame: &Frame) -> Pose {
     }
 }
 
-fn obstacle_spec((name, o): &NamedObstacle) -> ObstacleSpec {
+pub(crate) fn obstacle_spec((name, o): &NamedObstacle) -> ObstacleSpec {
     let (shape, half_extents, radius, half_length) = match o.shape {
         Shape::Box { half_extents } => (ShapeKind::Box, Some(half_extents.map(round)), None, None),
         Shape::Sphere { radius } => (ShapeKind::Sphere, None, Some(round(radius)), None),
