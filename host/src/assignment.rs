@@ -80,17 +80,33 @@ impl AssignmentRule {
     }
 }
 
-/// Plans `problem` with planner `name` under `rule` (checked) within `timeout_s` in all.
+/// Plans `problem` with planner `name` under `rule` (checked) within `timeout_s` in all. The
+/// robots' assignment is set in place for the call and restored after it (a problem is
+/// hundreds of kilobytes: no copy on the stack).
 pub fn solve(
     storage: &mut Storage,
     name: &str,
-    problem: &Problem<DOF>,
+    problem: &mut Problem<DOF>,
     rule: &AssignmentRule,
     timeout_s: f64,
 ) -> Result<Outcome, String> {
-    let mut p = problem.clone();
-    AssignmentRule::apply(rule.list(), &mut p);
-    let first = storage.solve(name, &p, timeout_s)?;
+    let kept: Vec<Assigned> = problem.robots.iter().map(|r| r.assigned).collect();
+    let outcome = solve_under(storage, name, problem, rule, timeout_s);
+    for (r, a) in problem.robots.iter_mut().zip(kept) {
+        r.assigned = a;
+    }
+    outcome
+}
+
+fn solve_under(
+    storage: &mut Storage,
+    name: &str,
+    p: &mut Problem<DOF>,
+    rule: &AssignmentRule,
+    timeout_s: f64,
+) -> Result<Outcome, String> {
+    AssignmentRule::apply(rule.list(), p);
+    let first = storage.solve(name, p, timeout_s)?;
     let AssignmentRule::Preferred(_) = rule else {
         return Ok(first);
     };
@@ -98,8 +114,8 @@ pub fn solve(
     if first.status == Status::Solved || left <= 0.0 {
         return Ok(first);
     }
-    AssignmentRule::apply(None, &mut p);
-    let mut free = storage.solve(name, &p, left)?;
+    AssignmentRule::apply(None, p);
+    let mut free = storage.solve(name, p, left)?;
     free.planning_time_s += first.planning_time_s;
     Ok(free)
 }

@@ -580,8 +580,17 @@ pub fn plan_assigned(
         problem.trajectories.len(),
     )
     .map_err(InputOrPlanError::Input)?;
-    let outcome = crate::assignment::solve(storage, name, problem, rule, timeout_s)
-        .map_err(InputOrPlanError::Plan)?;
+    let outcome = match rule {
+        AssignmentRule::Free => storage.solve(name, problem, timeout_s),
+        _ => crate::assignment::solve(
+            storage,
+            name,
+            &mut Box::new(problem.clone()),
+            rule,
+            timeout_s,
+        ),
+    }
+    .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, name);
     if solution.status == FileStatus::Solved {
         let report = validate::<KinovaGen3, DOF>(file, problem, &solution);

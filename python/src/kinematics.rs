@@ -8,7 +8,7 @@ use omcbsa::format::Pose;
 use omcbsa::ik::solve as solve_ik;
 use omcbsa::models::ModelKind;
 use omcbsa::{load, pose};
-use omcbsa_core::model::{KinovaGen3, Model};
+use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use pyo3::prelude::*;
 
 use crate::convert::{field_error, flat, index_path, input_error};
@@ -38,16 +38,48 @@ fn configuration<M: Model<D>, const D: usize>(
     Ok(q.unwrap_or([0.0; D]))
 }
 
+/// An optional pose argument (shape (7,): position + quaternion xyzw) as a frame; the
+/// identity when left out.
+fn frame_arg(
+    py: Python<'_>,
+    arg: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+    name: &str,
+) -> PyResult<Frame> {
+    let Some(arg) = arg else {
+        return Ok(Frame::IDENTITY);
+    };
+    let a = arg.as_array();
+    if a.shape() != [7] {
+        return Err(field_error(
+            py,
+            name,
+            format!("expected a pose of shape (7,), got shape {:?}", a.shape()),
+        ));
+    }
+    let v = flat(py, &a, 7, name, "(7,)")?;
+    let p = Pose {
+        position: [v[0], v[1], v[2]],
+        quat_xyzw: [v[3], v[4], v[5], v[6]],
+    };
+    pose::to_frame(&p).map_err(|e| input_error(py, &InputError::from(e.within(name))))
+}
+
 /// Forward kinematics: `q` of shape (..., 7) joint values -> poses of shape (..., 7),
-/// position + quaternion xyzw (w >= 0) of the tool frame in the model's base frame. A value
-/// outside the joint limits raises `ValueError` naming it (`q[2][5]`).
+/// position + quaternion xyzw (w >= 0) of the tool frame in the model's base frame; with
+/// `base` (the robot's pose in the world) and `tcp` (the tool centre point in the tool
+/// frame), each pose (7,), of the tool centre point in the world: `base * fk(q) * tcp`. A
+/// value outside the joint limits raises `ValueError` naming it (`q[2][5]`).
 #[pyfunction]
+#[pyo3(signature = (model_name, q, base=None, tcp=None))]
 pub fn fk<'py>(
     py: Python<'py>,
     model_name: &str,
     q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    base: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    tcp: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let ModelKind::KinovaGen3 = model(py, model_name)?;
+    let (base, tcp) = (frame_arg(py, base, "base")?, frame_arg(py, tcp, "tcp")?);
     let q = q.as_array();
     let shape = q.shape().to_vec();
     let values = flat(py, &q, DOF, "q", "(..., 7)")?;
@@ -58,7 +90,7 @@ pub fn fk<'py>(
                 let mut out = Vec::with_capacity(values.len());
                 for (k, row) in values.chunks_exact(DOF).enumerate() {
                     let q = configuration::<KinovaGen3, DOF>(row, "q", lead, k)?;
-                    let p = pose::from_frame(&KinovaGen3::fk(&q));
+                    let p = pose::from_frame(&base.compose(&KinovaGen3::fk(&q)).compose(&tcp));
                     out.extend_from_slice(&p.position);
                     out.extend_from_slice(&p.quat_xyzw);
                 }
@@ -76,17 +108,24 @@ type IkAnswer<'py> = (Bound<'py, PyArrayDyn<f64>>, Bound<'py, PyArrayDyn<bool>>)
 /// frame in the model's base frame -> (`q` of shape (..., 7), `ok` of shape (...)). Each pose
 /// is solved from its seed (`seeds`: None, one configuration (7,), or one per pose) and then
 /// from random starts drawn from `seed`, as `omcbsa ik` does; a pose with no solution gets
-/// `ok` False and NaN joint values. A bad pose or seed raises `ValueError` naming it.
+/// `ok` False and NaN joint values. With `base` and `tcp` (as for `fk`), the poses are of the
+/// tool centre point in the world. A bad pose or seed raises `ValueError` naming it.
 #[pyfunction]
-#[pyo3(signature = (model_name, poses, seeds=None, seed=0))]
+#[pyo3(signature = (model_name, poses, seeds=None, seed=0, base=None, tcp=None))]
 pub fn ik<'py>(
     py: Python<'py>,
     model_name: &str,
     poses: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     seeds: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     seed: u64,
+    base: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    tcp: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
 ) -> PyResult<IkAnswer<'py>> {
     let ModelKind::KinovaGen3 = model(py, model_name)?;
+    let (base_inv, tcp_inv) = (
+        frame_arg(py, base, "base")?.inverse(),
+        frame_arg(py, tcp, "tcp")?.inverse(),
+    );
     let poses = poses.as_array();
     let shape = poses.shape().to_vec();
     let values = flat(py, &poses, 7, "poses", "(..., 7)")?;
@@ -122,6 +161,7 @@ pub fn ik<'py>(
                     };
                     let target = pose::to_frame(&p)
                         .map_err(|e| InputError::from(e.within(&index_path("poses", &lead, k))))?;
+                    let target = base_inv.compose(&target).compose(&tcp_inv);
                     let start = match &seeds {
                         Some(s) if s.len() == DOF => {
                             Some(configuration::<KinovaGen3, DOF>(s, "seeds", &[], 0)?)

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use omcbsa::online::bench::{
     bench_online, episode_table, run_episode, table, Chunking, EpisodeRow,
 };
-use omcbsa::online::episodes::family;
+use omcbsa::online::bimanual::{family, MAX_ARMS};
 use omcbsa::online::OnlineOptions;
 use omcbsa_core::problem::MAX_STEPS;
 
@@ -32,7 +32,7 @@ pub struct Args {
     /// Episodes of each task per arm count (--family).
     #[arg(long, default_value_t = 10)]
     episodes: usize,
-    /// Arm counts, comma-separated (default 2,3,4,6 on a suite, 2,3,4 on the family).
+    /// Arm counts, comma-separated (default 2,3,4,6 on a suite and on the family).
     #[arg(long, value_delimiter = ',')]
     arms: Vec<usize>,
     /// Later chunks to attempt per arm count, at least (suite).
@@ -49,6 +49,10 @@ pub struct Args {
     /// steps before a chunk's first step (0: just in time).
     #[arg(long, default_value_t = 0)]
     lead: usize,
+    /// A chunk that has no plan under the assignment may take a new one from where the arms
+    /// stand (the Embodier's `reassign`).
+    #[arg(long)]
+    reassign: bool,
     /// omcbsa or pp.
     #[arg(long, default_value = "omcbsa")]
     planner: String,
@@ -65,12 +69,11 @@ pub fn run(args: &Args) -> ExitCode {
         );
     }
     if args.chunk_len >= MAX_STEPS {
-        return bad_input(format!(
-            "--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"
-        ));
+        return bad_input(format!("--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"));
     }
     let options = OnlineOptions {
         planner: args.planner.clone(),
+        reassign: args.reassign,
         ..OnlineOptions::default()
     };
     match (&args.suite, args.family.as_deref()) {
@@ -103,11 +106,13 @@ pub fn run(args: &Args) -> ExitCode {
                 return bad_input("--hz must be a positive rate");
             }
             let arms = match args.arms.as_slice() {
-                [] => vec![2, 3, 4],
+                [] => vec![2, 3, 4, 6],
                 a => a.to_vec(),
             };
-            if let Some(n) = arms.iter().find(|&&n| !(2..=4).contains(&n)) {
-                return bad_input(format!("--arms {n}: the bimanual family has 2 to 4 arms"));
+            if let Some(n) = arms.iter().find(|&&n| !(2..=MAX_ARMS).contains(&n)) {
+                return bad_input(format!(
+                    "--arms {n}: the bimanual family has 2 to {MAX_ARMS} arms"
+                ));
             }
             bimanual(
                 args,

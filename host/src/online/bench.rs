@@ -161,6 +161,8 @@ pub struct EpisodeRun {
     pub later: Vec<f64>,
     /// Planning time of the first chunk (assignment and approach), s.
     pub first: Option<f64>,
+    /// Chunks planned by a recovery (see `super::Recovery`).
+    pub recovered: usize,
     /// Every chunk planned and the whole sent timeline valid under the validator.
     pub embodied: bool,
     /// The first error, as the Embodier gave it.
@@ -173,7 +175,7 @@ pub struct EpisodeRun {
 /// arms). Afterwards the
 /// whole sent timeline is checked by the validator, in windows of at most `MAX_STEPS`.
 pub fn run_episode(
-    episode: &super::episodes::Episode,
+    episode: &super::bimanual::Episode,
     options: &OnlineOptions,
     chunking: Chunking,
 ) -> Result<EpisodeRun, String> {
@@ -200,6 +202,7 @@ pub fn run_episode(
         run.chunks += 1;
         match e.push_chunk(start as u64, &hands) {
             Ok(r) => {
+                run.recovered += usize::from(r.recovery.is_some());
                 // A chunk whose first poses were dropped (an approach after a hold) is not
                 // embodied.
                 if r.dropped == 0 {
@@ -254,6 +257,7 @@ pub struct EpisodeRow {
     pub embodied: usize,
     pub chunks: usize,
     pub planned: usize,
+    pub recovered: usize,
     pub later: Vec<f64>,
     pub first: Vec<f64>,
 }
@@ -264,6 +268,7 @@ impl EpisodeRow {
         self.embodied += usize::from(run.embodied);
         self.chunks += run.chunks;
         self.planned += run.planned;
+        self.recovered += run.recovered;
         self.later.extend(&run.later);
         self.first.extend(run.first);
     }
@@ -272,8 +277,8 @@ impl EpisodeRow {
 /// The rows as a markdown table (`None` chunking: the reference, whole windows).
 pub fn episode_table(rows: &[EpisodeRow]) -> String {
     let mut s = String::from(
-        "| arms | chunks (len / stride) | episodes | embodied | chunks | planned | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
-         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| arms | chunks (len / stride) | episodes | embodied | chunks | planned | recovered | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
+         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in rows {
         let mut later = r.later.clone();
@@ -286,13 +291,14 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
                 format!("{} / {} (lead {})", c.len, c.stride, c.lead)
             });
         s += &format!(
-            "| {} | {} | {} | {:.1} % | {} | {:.1} % | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
             r.arms,
             chunking,
             r.episodes,
             100.0 * r.embodied as f64 / r.episodes.max(1) as f64,
             r.chunks,
             100.0 * r.planned as f64 / r.chunks.max(1) as f64,
+            r.recovered,
             quantile_ms(&later, 0.5),
             quantile_ms(&later, 0.99),
             quantile_ms(&later, 1.0),

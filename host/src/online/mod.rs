@@ -22,8 +22,9 @@
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
 pub mod bench;
+pub mod bimanual;
 pub(crate) mod diagnose;
-pub mod episodes;
+mod embody;
 mod error;
 pub mod policy;
 pub mod record;
@@ -120,6 +121,9 @@ pub struct ChunkReport {
     pub start_step: u64,
     /// The chunk's first poses that no arm tracks (reached by an approach instead).
     pub dropped: usize,
+    /// How the chunk was planned when it could not be from where the last chunk left the
+    /// arms (see [`recover`]): `None` when it could.
+    pub recovery: Option<Recovery>,
     /// Timeline index of the chunk's first pose: the plan from here on is new.
     pub index: usize,
     /// Timeline index one past the plan's last configuration.
@@ -127,6 +131,27 @@ pub struct ChunkReport {
     /// Wall time of the planner call, s.
     pub planning_time_s: f64,
     pub stats: Stats,
+}
+
+/// How a chunk was planned that could not be from where the last chunk left the arms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recovery {
+    /// The part of the plan not yet sent was planned again with the chunk.
+    ReplannedUnsent,
+    /// The arms hold at the plan's end and an approach reaches the chunk.
+    AfterHold,
+    /// A new assignment, from where the arms stand ([`OnlineOptions::reassign`]).
+    Reassigned,
+}
+
+impl Recovery {
+    pub fn name(self) -> &'static str {
+        match self {
+            Recovery::ReplannedUnsent => "replanned_unsent",
+            Recovery::AfterHold => "after_hold",
+            Recovery::Reassigned => "reassigned",
+        }
+    }
 }
 
 /// Ω-A*'s duplicate grid for chunks, rad: finer than a whole plan's 0.6. A chunk starts from
@@ -377,7 +402,7 @@ impl Embodier {
         start_step: u64,
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
-        let problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
+        let mut problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
         let rule = match &self.options.assignment {
             AssignmentRule::Free => nearest::<KinovaGen3, DOF>(&problem)
                 .map_or(AssignmentRule::Free, AssignmentRule::Preferred),
@@ -386,7 +411,7 @@ impl Embodier {
                 given.clone()
             }
         };
-        let outcome = self.solve_under(&problem, start_step, &rule)?;
+        let outcome = self.solve_under(&mut problem, start_step, &rule)?;
         let h = problem.horizon();
         let n = self.robots.len();
         // Planned with the chunk, from `initial` (every robot has one online).
@@ -415,6 +440,7 @@ impl Embodier {
         Ok(ChunkReport {
             start_step,
             dropped: 0,
+            recovery: None,
             index: a + 1,
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
@@ -437,19 +463,31 @@ impl Embodier {
         }
         let index = index as usize;
         let clock = std::time::Instant::now();
-        let mut planned = self.continue_from(start_step, index, hands);
-        if planned.is_err() {
-            // A dead end where the last chunk left the arms: re-plan from where they are now.
-            planned = self.replan_unsent(start_step, index, hands).or(planned);
-        }
-        if planned.is_err() && index > self.end() {
+        let first = self.continue_from(start_step, index, hands);
+        let mut planned = first.clone();
+        // A dead end where the last chunk left the arms: re-plan from where they are now.
+        let ways: [(Recovery, bool); 3] = [
+            (Recovery::ReplannedUnsent, true),
             // The arms hold, too far from the chunk for one step: an approach may reach it.
-            planned = self.chunk_after_hold(start_step, index, hands).or(planned);
+            (Recovery::AfterHold, index > self.end()),
+            (Recovery::Reassigned, self.options.reassign),
+        ];
+        for (way, allowed) in ways {
+            if planned.is_ok() || !allowed {
+                continue;
+            }
+            planned = match way {
+                Recovery::ReplannedUnsent => self.replan_unsent(start_step, index, hands),
+                Recovery::AfterHold => self.chunk_after_hold(start_step, index, hands),
+                Recovery::Reassigned => self.reassign(start_step, index, hands),
+            }
+            .map(|r| ChunkReport {
+                recovery: Some(way),
+                ..r
+            });
         }
-        if planned.is_err() && self.options.reassign {
-            planned = self.reassign(start_step, index, hands).or(planned);
-        }
-        let mut report = planned?;
+        // The error of the plain try names where the chunk is blocked.
+        let mut report = planned.or(first)?;
         self.remember(start_step, hands);
         report.planning_time_s = clock.elapsed().as_secs_f64();
         Ok(report)
@@ -475,8 +513,8 @@ impl Embodier {
             });
             with_pin
         });
-        let problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
-        let outcome = self.solve(&problem, start_step)?;
+        let mut problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
+        let outcome = self.solve(&mut problem, start_step)?;
         let keep = index - self.window_start;
         for (w, path) in self.window.iter_mut().zip(&outcome.joint_paths) {
             // A chunk after the plan's end: the arms hold until it starts.
@@ -487,6 +525,7 @@ impl Embodier {
         Ok(ChunkReport {
             start_step,
             dropped: 0,
+            recovery: None,
             index,
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
@@ -518,8 +557,8 @@ impl Embodier {
                 break;
             }
             let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
-            let problem = self.problem(rest, Start::Sampled, Some(&hold));
-            let outcome = self.solve(&problem, start_step + skip as u64)?;
+            let mut problem = self.problem(rest, Start::Sampled, Some(&hold));
+            let outcome = self.solve(&mut problem, start_step + skip as u64)?;
             planning_time_s += outcome.planning_time_s;
             let approach = outcome.approach.clone().unwrap_or_default();
             let a = approach.first().map_or(0, Vec::len);
@@ -540,6 +579,7 @@ impl Embodier {
             return Ok(ChunkReport {
                 start_step: start_step + skip as u64,
                 dropped: skip,
+                recovery: None,
                 index: first,
                 end: self.end(),
                 planning_time_s,
@@ -560,8 +600,10 @@ impl Embodier {
         trajectories: impl Iterator<Item = Trajectory>,
         start: Start,
         pins: Option<&[[f64; DOF]]>,
-    ) -> Problem<DOF> {
-        let mut problem = self.template.clone();
+    ) -> Box<Problem<DOF>> {
+        // Boxed: a problem is hundreds of kilobytes, and a caller's thread may have a small
+        // stack.
+        let mut problem = Box::new(self.template.clone());
         problem.trajectories = trajectories.collect();
         problem.robots = (self.robots.iter().enumerate())
             .map(|(i, r)| Robot {
@@ -579,7 +621,7 @@ impl Embodier {
 
     fn solve(
         &mut self,
-        problem: &Problem<DOF>,
+        problem: &mut Problem<DOF>,
         start_step: u64,
     ) -> Result<crate::planners::Outcome, OnlineError> {
         self.solve_under(problem, start_step, &AssignmentRule::Free)
@@ -589,7 +631,7 @@ impl Embodier {
     /// keeps the problem's.
     fn solve_under(
         &mut self,
-        problem: &Problem<DOF>,
+        problem: &mut Problem<DOF>,
         start_step: u64,
         rule: &AssignmentRule,
     ) -> Result<crate::planners::Outcome, OnlineError> {
@@ -597,7 +639,14 @@ impl Embodier {
         let name = &self.options.planner;
         let outcome = match rule {
             AssignmentRule::Free => self.storage.solve(name, problem, timeout),
-            _ => assignment::solve(&mut self.storage, name, problem, rule, timeout),
+            // Kept in the problem, where the diagnosis below sees it too.
+            AssignmentRule::Fixed(list) => {
+                AssignmentRule::apply(Some(list), problem);
+                self.storage.solve(name, problem, timeout)
+            }
+            AssignmentRule::Preferred(_) => {
+                assignment::solve(&mut self.storage, name, problem, rule, timeout)
+            }
         }
         .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
         if outcome.status == Status::Solved {
@@ -607,7 +656,8 @@ impl Embodier {
             return Err(e);
         }
         let first = usize::from(problem.robots.first().map(|r| r.start) == Some(Start::AtInitial));
-        if self.assignment.is_some() {
+        let assigned = (problem.robots.iter()).all(|r| r.assigned != Assigned::Free);
+        if assigned {
             if let Some(b) =
                 diagnose::first_blocking::<KinovaGen3, DOF>(problem, first, &self.setup)
             {

@@ -9,7 +9,8 @@
 //!   bring them together over the table, the peg's hand closing in on the socket's.
 //!
 //! Two Gen3s face each other across a table, as the benchmark's two arms do; a third and a
-//! fourth stand at the table's sides (they may take a hand, or hold still). Every arm starts at
+//! fourth stand at the table's sides, a fifth and a sixth at two opposite corners (they may
+//! take a hand, or hold still). Every arm starts at
 //! Kinova's retract posture, so the first chunk needs an approach. Object positions, the
 //! meeting point and the grasp yaw are drawn from a seeded generator; every keyframe is
 //! checked reachable (IK) by the arm the task was drawn for, and an episode is drawn again
@@ -39,6 +40,8 @@ pub const EPISODE_STEPS: usize = 420;
 const FACING_X: f64 = 0.6;
 /// The side arms stand this far from the table's centre.
 const SIDE_Y: f64 = 0.7;
+/// The corner arms (a fifth and a sixth) stand this far from the table's centre.
+const CORNER: f64 = 0.85;
 /// Tool centre point beyond Kinova's tool frame (fingertips), m.
 const TCP_LENGTH: f64 = 0.12;
 /// Downward slope of the taking hand's pointing direction (about 31 degrees).
@@ -175,14 +178,17 @@ fn sample(keys: &[Key], step: f64) -> Frame {
     }
 }
 
-/// The arms: two facing across the table, then the side arms.
+/// The arms: two facing across the table, then the side arms, then two at opposite corners.
 fn bases(arms: usize) -> Vec<Frame> {
     let up = v3(0.0, 0.0, 1.0);
+    let corner = CORNER / std::f64::consts::SQRT_2;
     [
         aligned(v3(FACING_X, 0.0, 0.0), up, v3(-1.0, 0.0, 0.0)),
         aligned(v3(-FACING_X, 0.0, 0.0), up, v3(1.0, 0.0, 0.0)),
         aligned(v3(0.0, -SIDE_Y, 0.0), up, v3(0.0, 1.0, 0.0)),
         aligned(v3(0.0, SIDE_Y, 0.0), up, v3(0.0, -1.0, 0.0)),
+        aligned(v3(corner, corner, 0.0), up, v3(-1.0, -1.0, 0.0)),
+        aligned(v3(-corner, -corner, 0.0), up, v3(1.0, 1.0, 0.0)),
     ]
     .into_iter()
     .take(arms)
@@ -213,7 +219,10 @@ fn reachable(base: &Frame, keys: &[Key], rng: &mut Rng) -> bool {
     })
 }
 
-/// Episode `seed` of `task` on `arms` arms (2 to 4) at `hz` policy steps per second.
+/// Most arms an episode has.
+pub const MAX_ARMS: usize = 6;
+
+/// Episode `seed` of `task` on `arms` arms (2 to [`MAX_ARMS`]) at `hz` policy steps per second.
 pub fn episode(task: Task, arms: usize, seed: u64, hz: f64) -> Option<Episode> {
     let bases = bases(arms);
     let mut rng = Rng::new(0xb1a7 ^ seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ task as u64);
@@ -228,7 +237,7 @@ pub fn episode(task: Task, arms: usize, seed: u64, hz: f64) -> Option<Episode> {
             .map(|k| from_frame(&sample(keys, k as f64 * BASE_HZ / hz)))
             .collect()
     };
-    let names = ["east", "west", "south", "north"];
+    let names = ["east", "west", "south", "north", "north_east", "south_west"];
     let setup = Setup {
         robots: (bases.iter().zip(names))
             .map(|(b, name)| RobotSpec {
