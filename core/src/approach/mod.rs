@@ -75,7 +75,7 @@ impl Default for ApproachParams {
             rrt_orders: 6,
             rrt_step: 0.25,
             rrt_samples: 400,
-            shortcuts: 64,
+            shortcuts: 16,
             seed: 0x0a99_7a0c,
             exclusion_radius: 0.5,
         }
@@ -247,8 +247,15 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
     }
     let (robot, other) = together.unwrap_or((0, None));
     // One at a time, in priority orders: waypoint k has the first k of the order at their goals.
+    // Not when an arm's straight bridge hits an obstacle or the arm itself (`other` is None:
+    // those are checked first, for every moving arm): no order changes that.
+    let orders = if other.is_none() {
+        0
+    } else {
+        params.max_orders
+    };
     let mut order = identity(n);
-    for _ in 0..params.max_orders {
+    for _ in 0..orders {
         if deadline.expired() {
             return Err(ApproachError::Timeout);
         }
