@@ -239,3 +239,24 @@ fn long_episode() {
         Err(OnlineError::Input(_))
     ));
 }
+
+/// A chunk shorter than what the policy sent before is planned with the poses sent past its
+/// end (lookahead): the plan keeps reaching as far as the policy has said.
+#[test]
+fn a_short_chunk_is_planned_with_the_poses_sent_past_its_end() {
+    on_big_stack(lookahead);
+}
+
+fn lookahead() {
+    let ep = episode(Task::Insertion, 2, 2, HZ).unwrap();
+    let mut e = Embodier::new(&ep.setup, OnlineOptions::default()).unwrap();
+    let part =
+        |a: usize, b: usize| -> Vec<_> { ep.hands.iter().map(|h| h[a..b].to_vec()).collect() };
+    e.push_chunk(0, &part(0, 48)).unwrap();
+    let end = e.timeline_index(47).unwrap() + 1;
+    assert_eq!(e.end(), end);
+    e.commit_until(e.timeline_index(16).unwrap());
+    let report = e.push_chunk(16, &part(16, 32)).unwrap();
+    assert_eq!(report.end, end, "the plan stops at the short chunk's end");
+    assert_eq!(e.end(), end);
+}

@@ -463,7 +463,14 @@ impl Embodier {
         }
         let index = index as usize;
         let clock = std::time::Instant::now();
-        let first = self.continue_from(start_step, index, hands);
+        // Lookahead: the poses an earlier chunk sent past this one's end are planned too.
+        let longer = self.with_sent_tail(start_step, hands);
+        let first = match &longer {
+            Some(l) => self
+                .continue_from(start_step, index, l)
+                .or_else(|_| self.continue_from(start_step, index, hands)),
+            None => self.continue_from(start_step, index, hands),
+        };
         let mut planned = first.clone();
         // A dead end where the last chunk left the arms: re-plan from where they are now.
         let ways: [(Recovery, bool); 3] = [

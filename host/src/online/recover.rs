@@ -18,7 +18,7 @@ use super::{ChunkReport, Embodier, OnlineError};
 
 impl Embodier {
     /// Keeps the poses of a planned chunk that starts at policy step `start_step` (replacing
-    /// what older chunks sent for those steps and after).
+    /// what older chunks sent for those steps).
     pub(super) fn remember(&mut self, start_step: u64, hands: &[Trajectory]) {
         let policy_end = self.policy_start + self.policy.first().map_or(0, Vec::len) as u64;
         if self.policy.len() != hands.len()
@@ -29,10 +29,12 @@ impl Embodier {
             self.policy = vec![Vec::new(); hands.len()];
             self.policy_start = start_step;
         }
-        let keep = (start_step - self.policy_start) as usize;
+        // The chunk replaces what was sent for its steps; what was sent past its end stays
+        // (it is planned with the chunk: lookahead).
+        let from = (start_step - self.policy_start) as usize;
         for (kept, new) in self.policy.iter_mut().zip(hands) {
-            kept.truncate(keep);
-            kept.extend_from_slice(new);
+            let to = (from + new.len()).min(kept.len());
+            kept.splice(from..to, new.iter().copied());
         }
     }
 
@@ -49,6 +51,37 @@ impl Embodier {
             }
             self.policy_start += drop as u64;
         }
+    }
+
+    /// The chunk followed by the poses an earlier chunk sent for the steps after it (as many
+    /// as the storage's horizon allows): everything the policy sent that is not yet sent to
+    /// the arms. `None` when nothing was sent past the chunk.
+    pub(super) fn with_sent_tail(
+        &self,
+        start_step: u64,
+        hands: &[Trajectory],
+    ) -> Option<Vec<Trajectory>> {
+        let h = hands.first().map_or(0, |t| t.len());
+        let after = (start_step + h as u64).checked_sub(self.policy_start)?;
+        let after = usize::try_from(after).ok()?;
+        let sent = self.policy.first().map_or(0, Vec::len);
+        // The pinned step before the chunk takes one place of the horizon.
+        let room = self.options.max_chunk_len.saturating_sub(h + 1);
+        let extra = sent.saturating_sub(after).min(room);
+        if extra == 0 || self.policy.len() != hands.len() {
+            return None;
+        }
+        Some(
+            (hands.iter().zip(&self.policy))
+                .map(|(new, kept)| {
+                    let mut t = new.clone();
+                    for f in &kept[after..after + extra] {
+                        let _ = t.push(*f);
+                    }
+                    t
+                })
+                .collect(),
+        )
     }
 
     /// Plans again, from the last configuration sent to the arms, the steps not yet sent
