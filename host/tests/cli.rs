@@ -236,3 +236,57 @@ fn plan_refuses_a_start_in_collision_naming_the_robots() {
         "{err}"
     );
 }
+
+#[test]
+fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
+    let out = omcbsa(
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--arms",
+            "2",
+            "--episodes",
+            "1",
+            "--chunk-len",
+            "64",
+            "--stride",
+            "16",
+        ],
+        "",
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        table.contains("| 2 | 64 / 16 (lead 0) | 2 | 100.0 %"),
+        "{table}"
+    );
+    assert!(table.contains("whole windows (reference)"), "{table}");
+    for bad in [
+        &["bench-online", "--family", "bimanual", "--arms", "7"][..],
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--chunk-len",
+            "8",
+            "--stride",
+            "16",
+        ],
+        &["bench-online", "--family", "shelves"],
+        &["bench-online", "/nonexistent", "--hz", "50"],
+        &["bench-online"],
+    ] {
+        let out = omcbsa(bad, "");
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("error"),
+            "{bad:?}"
+        );
+    }
+}

@@ -26,9 +26,10 @@ pub struct Args {
     /// a suite.
     #[arg(long)]
     family: Option<String>,
-    /// Policy rate of the family's episodes, Hz.
-    #[arg(long, default_value_t = 50.0)]
-    hz: f64,
+    /// Policy rate of the family's episodes, Hz [default: 50] (a suite's problems keep their
+    /// own dt).
+    #[arg(long)]
+    hz: Option<f64>,
     /// Episodes of each task per arm count (--family).
     #[arg(long, default_value_t = 10)]
     episodes: usize,
@@ -77,6 +78,9 @@ pub fn run(args: &Args) -> ExitCode {
         ..OnlineOptions::default()
     };
     match (&args.suite, args.family.as_deref()) {
+        (Some(_), None) if args.hz.is_some() => {
+            bad_input("--hz is for --family: a suite's problems keep their own dt")
+        }
         (Some(suite), None) => {
             let arms = match args.arms.as_slice() {
                 [] => vec![2, 3, 4, 6],
@@ -102,7 +106,8 @@ pub fn run(args: &Args) -> ExitCode {
             }
         }
         (None, Some("bimanual")) => {
-            if !(args.hz.is_finite() && args.hz > 0.0) {
+            let hz = args.hz.unwrap_or(50.0);
+            if !(hz.is_finite() && hz > 0.0) {
                 return bad_input("--hz must be a positive rate");
             }
             let arms = match args.arms.as_slice() {
@@ -147,7 +152,7 @@ fn bimanual(args: &Args, arms: &[usize], options: &OnlineOptions, chunking: Chun
     };
     let mut rows = Vec::new();
     for &n in arms {
-        let episodes = family(&[n], args.episodes, args.hz);
+        let episodes = family(&[n], args.episodes, args.hz.unwrap_or(50.0));
         let mut online = EpisodeRow {
             arms: n,
             chunking: Some(chunking),
