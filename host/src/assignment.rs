@@ -80,6 +80,10 @@ impl AssignmentRule {
     }
 }
 
+/// Share of the time a preferred assignment is tried for, before the planner chooses freely in
+/// the rest: a preference with no plan in sight must not use up the deadline.
+const PREFERRED_SHARE: f64 = 0.5;
+
 /// Plans `problem` with planner `name` under `rule` (checked) within `timeout_s` in all. The
 /// robots' assignment is set in place for the call and restored after it (a problem is
 /// hundreds of kilobytes: no copy on the stack).
@@ -106,10 +110,10 @@ fn solve_under(
     timeout_s: f64,
 ) -> Result<Outcome, String> {
     AssignmentRule::apply(rule.list(), p);
-    let first = storage.solve(name, p, timeout_s)?;
     let AssignmentRule::Preferred(_) = rule else {
-        return Ok(first);
+        return storage.solve(name, p, timeout_s);
     };
+    let first = storage.solve(name, p, PREFERRED_SHARE * timeout_s)?;
     let left = timeout_s - first.planning_time_s;
     if first.status == Status::Solved || left <= 0.0 {
         return Ok(first);
