@@ -78,6 +78,11 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
         // Issue 22: every arm can stand where the problem puts it (the loader's own check).
         omcbsa::approach::check_initial::<KinovaGen3, 7>(&file, &problem)
             .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+        // ... and the validator's.
+        if let Some(contacts) = omcbsa::validate::initial_contacts::<KinovaGen3, 7>(&file, &problem)
+        {
+            assert!(contacts.is_empty(), "{}: {contacts:?}", entry.name);
+        }
         // The approach family stands every arm where the straight bridge collides.
         if entry.family == "approach" {
             assert!(entry.stance.is_some(), "{}", entry.name);
