@@ -298,3 +298,56 @@ impl ArmBus {
         .map_err(|e| e.to_string())
     }
 }
+
+impl crate::link::ArmLink for ArmBus {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn frames_sent(&self) -> usize {
+        self.frames_sent
+    }
+
+    fn configure(
+        &mut self,
+        cfg: &ExecConfig,
+        start: &Command,
+        span: &Span,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(), String> {
+        ArmBus::configure(self, cfg, start, span, stop)
+    }
+
+    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String> {
+        ArmBus::enable(self, cfg)
+    }
+
+    fn poll(&mut self) -> Result<(), String> {
+        ArmBus::poll(self).map_err(|e| e.to_string())
+    }
+
+    fn check_feedback(
+        &self,
+        now: Instant,
+        cfg: &ExecConfig,
+        target: &Command,
+    ) -> Result<f64, Fault> {
+        ArmBus::check_feedback(self, now, cfg, target)
+    }
+
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
+        ArmBus::send_cycle(self, cmd, cia402::CW_ENABLE_OPERATION).map_err(|e| e.to_string())
+    }
+
+    fn quick_stop(&mut self, hold: &Command) -> Result<(), String> {
+        ArmBus::quick_stop(self, hold)
+    }
+
+    fn finish(&mut self, hold: &Command) -> Result<(), String> {
+        ArmBus::finish(self, hold)
+    }
+
+    fn abort(&mut self) -> Result<(), String> {
+        ArmBus::abort(self)
+    }
+}

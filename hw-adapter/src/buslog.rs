@@ -173,7 +173,12 @@ pub fn fault_onset(log: &[Logged], fault: &Fault, cfg: &ExecConfig) -> Option<f6
                     .then_some(f.t)
             })
         }
-        Fault::CommandRefused(_) | Fault::Bus(_) => None,
+        // Not CAN faults: the Kortex mocks' records measure these.
+        Fault::CommandRefused(_)
+        | Fault::Bus(_)
+        | Fault::ArmRefused(_)
+        | Fault::ActuatorFault { .. }
+        | Fault::Unanswered { .. } => None,
     }
 }
 

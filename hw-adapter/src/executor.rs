@@ -4,11 +4,11 @@
 use crate::arm::{cycle_frames, SetupOverride, Span};
 use crate::cia402;
 use crate::interpolate::plan_generator;
+use crate::link::ArmPort;
 use crate::live::{self, RunInfo, StreamHandle};
 use crate::log::LogEntry;
 use crate::plan::{JointLimits, Plan, PlanValidator, JOINTS};
 use crate::stream::Generator;
-use crate::transport::Transport;
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -37,6 +37,9 @@ pub struct ExecConfig {
     pub heartbeat_timeout: Duration,
     /// A node whose TPDO is older than this is a fault.
     pub feedback_timeout: Duration,
+    /// Per-cycle accounting (Kortex): a cycle's command still unanswered this many periods
+    /// after it was sent is a fault.
+    pub late_cycles: u32,
     /// Largest allowed |target - actual|, rad.
     pub following_error_bound: f64,
     /// Largest allowed distance of an arm's start position from the plan's first waypoint, rad.
@@ -68,6 +71,7 @@ impl Default for ExecConfig {
             heartbeat_ms: 100,
             heartbeat_timeout: Duration::from_millis(350),
             feedback_timeout: Duration::from_millis(50),
+            late_cycles: 2,
             following_error_bound: 0.05,
             start_tolerance: 1e-3,
             send_timeout: Duration::from_millis(2),
@@ -110,6 +114,21 @@ pub enum Fault {
     },
     /// The runtime limit check refused a command (it was not sent).
     CommandRefused(String),
+    /// The arm answered with an error frame (Kortex): what it refused, and why.
+    ArmRefused(String),
+    /// An actuator, or the base, reports a fault in the cyclic feedback (Kortex; joint 0: the base).
+    ActuatorFault {
+        joint: u8,
+        bank_a: u32,
+        bank_b: u32,
+    },
+    /// The command of control cycle `cycle` still had no answer `waited` after it was sent,
+    /// `periods` periods or more: its answer is late or lost (per-cycle accounting).
+    Unanswered {
+        cycle: u64,
+        waited: Duration,
+        periods: u32,
+    },
     Bus(String),
 }
 
@@ -162,6 +181,32 @@ impl fmt::Display for Fault {
                 (target - actual).abs()
             ),
             Fault::CommandRefused(e) => write!(f, "command refused by the limit check: {e}"),
+            Fault::ArmRefused(e) => write!(f, "{e}"),
+            Fault::ActuatorFault {
+                joint: 0,
+                bank_a,
+                bank_b,
+            } => write!(
+                f,
+                "the base reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
+            ),
+            Fault::ActuatorFault {
+                joint,
+                bank_a,
+                bank_b,
+            } => write!(
+                f,
+                "actuator {joint} reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
+            ),
+            Fault::Unanswered {
+                cycle,
+                waited,
+                periods,
+            } => write!(
+                f,
+                "the command of cycle {cycle} had no answer after {waited:?} ({periods} periods \
+                 or more): the arm's feedback is late or lost"
+            ),
             Fault::Bus(e) => write!(f, "bus error: {e}"),
         }
     }
@@ -315,21 +360,23 @@ pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
 pub struct Executor {
     plan: Plan,
     limits: [JointLimits; JOINTS],
-    /// One bus per plan arm, in plan order.
-    buses: Vec<Box<dyn Transport>>,
+    /// One port per plan arm, in plan order.
+    buses: Vec<ArmPort>,
     config: ExecConfig,
     progress: Option<ProgressFn>,
 }
 
 impl Executor {
-    /// `arms` pairs each plan arm's name with its bus; every plan arm needs exactly one bus
-    /// (none in a dry run).
-    pub fn new(
+    /// `arms` pairs each plan arm's name with its bus or Kortex connection ([`ArmPort`]);
+    /// every plan arm needs exactly one (none in a dry run).
+    pub fn new<P: Into<ArmPort>>(
         plan: Plan,
         limits: [JointLimits; JOINTS],
-        mut arms: Vec<(String, Box<dyn Transport>)>,
+        arms: Vec<(String, P)>,
         config: ExecConfig,
     ) -> Result<Self, ExecError> {
+        let mut arms: Vec<(String, ArmPort)> =
+            arms.into_iter().map(|(n, p)| (n, p.into())).collect();
         plan.check_shape().map_err(ExecError::InvalidPlan)?;
         let mut buses = Vec::with_capacity(plan.arms.len());
         if !config.dry_run {
@@ -409,8 +456,8 @@ impl Executor {
     /// configuration and its bus; the handle's pushes take the arms in this order. A dry run
     /// is not supported here. Each push may queue at most [`ExecConfig::online_horizon`] of
     /// motion ahead.
-    pub fn online(
-        arms: Vec<(String, [f64; JOINTS], Box<dyn Transport>)>,
+    pub fn online<P: Into<ArmPort>>(
+        arms: Vec<(String, [f64; JOINTS], P)>,
         dt: f64,
         time_scale: f64,
         limits: [JointLimits; JOINTS],
@@ -443,7 +490,7 @@ impl Executor {
             } else {
                 1
             });
-        let buses = arms.into_iter().map(|a| a.2).collect();
+        let buses = arms.into_iter().map(|a| a.2.into()).collect();
         // Online segments are not known in advance: they may use the joints' whole range.
         let span: Span = std::array::from_fn(|j| match limits[j].position {
             Some((lo, hi)) => (to_counts(lo), to_counts(hi)),

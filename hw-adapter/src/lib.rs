@@ -1,8 +1,12 @@
-//! omcbsa hardware adapter: streams a multi-arm joint-space plan to Kinova Gen3 arms over CAN
-//! (CANopen CiA 301 / CiA 402 cyclic synchronous position), one bus per arm.
+//! omcbsa hardware adapter: streams a multi-arm joint-space plan to Kinova Gen3 arms, over CAN
+//! (CANopen CiA 301 / CiA 402 cyclic synchronous position, one bus per arm) or over Ethernet
+//! with Kinova's Kortex protocol, all arms behind one loop.
 //!
+//! - [`link`]: [`link::ArmLink`], one arm as the loop drives it, CAN or Kortex.
 //! - [`transport`]: the [`Transport`] trait and its SLCAN, SocketCAN and in-process mock buses.
 //! - [`canopen`], [`cia402`]: the protocol.
+//! - [`kortex`]: Kortex messages, framing, sessions, and the Gen3 as a [`link::ArmLink`];
+//!   [`cycles`]: per-cycle accounting of feedback.
 //! - [`interpolate`]: waypoints to control-rate commands within joint limits.
 //! - [`stream`]: the frame generator: commands cycle by cycle from a queue of waypoints that
 //!   may be replaced while the arms move.
@@ -16,9 +20,12 @@ pub mod arm;
 pub mod buslog;
 pub mod canopen;
 pub mod cia402;
+pub mod cycles;
 pub mod executor;
 pub mod frame;
 pub mod interpolate;
+pub mod kortex;
+pub mod link;
 pub mod live;
 pub mod log;
 pub mod mock;
