@@ -11,6 +11,7 @@
 //! - [`stream`]: the frame generator: commands cycle by cycle from a queue of waypoints that
 //!   may be replaced while the arms move.
 //! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
+//! - [`mock_gen3`]: spawns the Python mock Gen3 on Kortex and reads what it received.
 //! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
 //!   logs (candump), and fault reaction times measured from them.
@@ -29,6 +30,7 @@ pub mod link;
 pub mod live;
 pub mod log;
 pub mod mock;
+pub mod mock_gen3;
 pub mod plan;
 pub mod priority;
 pub mod record;

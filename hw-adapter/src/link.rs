@@ -55,7 +55,7 @@ pub trait ArmLink: Send {
 /// What carries one arm's commands, opened: a CAN bus or a Kortex connection.
 pub enum ArmPort {
     Can(Box<dyn Transport>),
-    Kortex(kortex::Connection),
+    Kortex(Box<kortex::Connection>),
 }
 
 impl From<Box<dyn Transport>> for ArmPort {
@@ -66,7 +66,7 @@ impl From<Box<dyn Transport>> for ArmPort {
 
 impl From<kortex::Connection> for ArmPort {
     fn from(c: kortex::Connection) -> Self {
-        ArmPort::Kortex(c)
+        ArmPort::Kortex(Box::new(c))
     }
 }
 
@@ -83,7 +83,7 @@ impl ArmPort {
     ) -> Box<dyn ArmLink> {
         match self {
             ArmPort::Can(t) => Box::new(ArmBus::new(name, t, clock, cfg, log)),
-            ArmPort::Kortex(c) => Box::new(kortex::KortexArm::new(name, c, clock, cfg, log)),
+            ArmPort::Kortex(c) => Box::new(kortex::KortexArm::new(name, *c, clock, cfg, log)),
         }
     }
 }
@@ -105,7 +105,7 @@ pub fn check_spec(spec: &str) -> Result<(), String> {
 pub fn open(spec: &str, credentials: &kortex::Credentials) -> Result<ArmPort, String> {
     if spec.starts_with("kortex:") {
         let s = kortex::KortexSpec::parse(spec)?;
-        Ok(ArmPort::Kortex(kortex::Connection::open(&s, credentials)?))
+        Ok(kortex::Connection::open(&s, credentials)?.into())
     } else {
         Ok(ArmPort::Can(
             transport::open(spec).map_err(|e| e.to_string())?,

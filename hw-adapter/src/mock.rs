@@ -34,10 +34,13 @@ pub fn venv_python() -> Result<PathBuf, String> {
 }
 
 /// The venv's python, first creating the venv with `hw-adapter/mock/setup_venv.sh` if it is
-/// missing (the script's output goes to this process's output).
+/// missing, or lacks the Kortex mock's generated message code (the script's output goes to
+/// this process's output).
 pub fn ensure_venv() -> Result<PathBuf, String> {
     if let Ok(python) = venv_python() {
-        return Ok(python);
+        if crate::mock_gen3::proto_code_ready(&python) {
+            return Ok(python);
+        }
     }
     let setup = script_path().with_file_name("setup_venv.sh");
     let status = Command::new("bash")

@@ -439,7 +439,7 @@ mod tests {
 
     #[test]
     fn positions_go_out_in_degrees_within_0_to_360_and_come_back_on_the_nearest_turn() {
-        for rad in [0.0, 1.0, -1.0, 3.1, -3.1, 6.2, -6.283, 2.09, -2.57] {
+        for rad in [0.0, 1.0, -1.0, 3.1, -3.1, 6.2, -6.2, 2.09, -2.57] {
             let counts = rad_to_counts(rad).unwrap();
             let deg = wire_degrees(counts);
             assert!((0.0..360.0).contains(&deg), "{rad} -> {deg}");

@@ -128,15 +128,9 @@ impl Header {
 }
 
 /// Message ids: 1 to 65535, then 1 again (0 is never used).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct MessageIds {
     last: u16,
-}
-
-impl Default for MessageIds {
-    fn default() -> Self {
-        Self { last: 0 }
-    }
 }
 
 impl MessageIds {
