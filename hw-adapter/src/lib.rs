@@ -11,6 +11,7 @@
 //! - [`stream`]: the frame generator: commands cycle by cycle from a queue of waypoints that
 //!   may be replaced while the arms move.
 //! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
+//! - [`fleet`]: mock arms of either kind, started and checked alike.
 //! - [`mock_gen3`]: spawns the Python mock Gen3 on Kortex and reads what it received.
 //! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
@@ -23,6 +24,7 @@ pub mod canopen;
 pub mod cia402;
 pub mod cycles;
 pub mod executor;
+pub mod fleet;
 pub mod frame;
 pub mod interpolate;
 pub mod kortex;

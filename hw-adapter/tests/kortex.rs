@@ -6,6 +6,7 @@
 mod common;
 
 use common::{three_arm_plan, AcceptAll};
+use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::kortex::channel::Channel;
 use omcbsa_hw::kortex::header::{uid, Header};
@@ -34,16 +35,25 @@ fn record_path(tag: &str, name: &str) -> PathBuf {
     ))
 }
 
-fn spawn(plan: &Plan, cfg: &ExecConfig, tag: &str, extra: &[Vec<String>]) -> Vec<MockGen3> {
+/// Mock Gen3s for the arms of `plan`, each at its start, mock i with the flags `extra[i]`.
+fn spawn(plan: &Plan, tag: &str, extra: &[Vec<String>]) -> Fleet {
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
-    mock_gen3::spawn_for_plan(&python, plan, cfg.period, |n| record_path(tag, n), extra)
-        .unwrap_or_else(|e| panic!("{e}"))
+    let arms: Vec<_> = (plan.arms.iter())
+        .map(|a| (a.name.clone(), a.joint_path[0]))
+        .collect();
+    Fleet::spawn(
+        MockKind::Kortex,
+        &python,
+        &arms,
+        |n| record_path(tag, n),
+        extra,
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn records(mocks: Vec<MockGen3>) -> Vec<Vec<Value>> {
-    (mocks.into_iter())
-        .map(|m| m.finish().unwrap_or_else(|e| panic!("{e}")))
-        .collect()
+fn records(mocks: Fleet) -> Vec<Vec<Value>> {
+    let records = mocks.finish().unwrap_or_else(|e| panic!("{e}"));
+    records.into_iter().map(|(_, r)| r).collect()
 }
 
 #[test]
@@ -56,8 +66,8 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
         log_path: Some(log.clone()),
         ..mock_gen3::exec_config()
     };
-    let mocks = spawn(&plan, &cfg, "ok", &[]);
-    let conns = mock_gen3::connect_all(&mocks).unwrap();
+    let mocks = spawn(&plan, "ok", &[]);
+    let conns = mocks.ports().unwrap();
     let report = Executor::new(plan.clone(), limits, conns, cfg.clone())
         .unwrap()
         .run(&AcceptAll)
@@ -87,14 +97,14 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
 fn fault_run(tag: &str, flags: &[&str]) -> (Fault, Vec<mock_gen3::Stop>) {
     let _one = serial();
     let plan = three_arm_plan(8);
-    let cfg = mock_gen3::exec_config();
+    let cfg = mock_gen3::fault_config();
     let extra = vec![
         vec![],
         flags.iter().map(|s| s.to_string()).collect(),
         vec![],
     ];
-    let mocks = spawn(&plan, &cfg, tag, &extra);
-    let conns = mock_gen3::connect_all(&mocks).unwrap();
+    let mocks = spawn(&plan, tag, &extra);
+    let conns = mocks.ports().unwrap();
     let err = Executor::new(plan, JointLimits::kinova_gen3(), conns, cfg)
         .unwrap()
         .run(&AcceptAll)
