@@ -11,6 +11,7 @@
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
 //!   logs (candump), and fault reaction times measured from them.
 //! - [`priority`]: real-time scheduling of the arm threads.
+//! - [`watchdog`]: per-cycle accounting of the answers to each cycle, independent of the transport.
 
 pub mod arm;
 pub mod buslog;
@@ -27,6 +28,7 @@ pub mod priority;
 pub mod record;
 pub mod stream;
 pub mod transport;
+pub mod watchdog;
 
 pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
 pub use frame::CanFrame;
