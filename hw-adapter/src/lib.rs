@@ -11,7 +11,7 @@
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
 //!   logs (candump), and fault reaction times measured from them.
 //! - [`priority`]: real-time scheduling of the arm threads.
-//! - [`watchdog`]: per-cycle accounting of the answers to each cycle, independent of the transport.
+//! - [`watch`]: the fault-detection settings of a run; [`watchdog`]: per-cycle accounting of the answers to each cycle, independent of the transport.
 
 pub mod arm;
 pub mod buslog;
@@ -28,6 +28,7 @@ pub mod priority;
 pub mod record;
 pub mod stream;
 pub mod transport;
+pub mod watch;
 pub mod watchdog;
 
 pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
@@ -36,3 +37,4 @@ pub use live::{Event, StreamHandle, StreamProgress};
 pub use plan::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 pub use stream::PushError;
 pub use transport::{Transport, TransportError};
+pub use watch::WatchSettings;

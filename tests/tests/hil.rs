@@ -39,7 +39,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
     for (arm, streamed) in plan.arms.iter().zip(&report.arms) {
         assert_eq!(streamed.name, arm.name);
         assert_eq!(streamed.cycles_sent, report.cycles + settle);
-        assert!(streamed.max_following_error < exec_config().following_error_bound);
+        assert!(streamed.max_following_error < exec_config().watch.following_error_bound);
         let received = record::read(&dir.join(format!("mock-{}.jsonl", arm.name))).unwrap();
         let targets = record::targets(&received).unwrap();
         let (first, last) = (
