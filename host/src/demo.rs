@@ -22,7 +22,9 @@ use omcbsa_hw::executor::Progress;
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::mock::{exec_config, open_buses, spawn_for_plan};
 use omcbsa_hw::record::check_followed;
-use omcbsa_hw::{ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use omcbsa_hw::{
+    ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report, WatchSettings,
+};
 use serde_json::Map;
 
 use crate::execute::CheckedSolution;
@@ -224,10 +226,26 @@ pub fn run_on_mock_arms(
     record_dir: &Path,
     progress: impl Fn(Progress) + Send + Sync + 'static,
 ) -> Result<Report, MockRunError> {
+    let watch = WatchSettings::default();
+    run_on_mock_arms_watched(python, plan, validator, record_dir, &watch, progress)
+}
+
+/// [`run_on_mock_arms`] with the fault detection `watch` (the command line's options).
+pub fn run_on_mock_arms_watched(
+    python: &Path,
+    plan: Plan,
+    validator: &dyn PlanValidator,
+    record_dir: &Path,
+    watch: &WatchSettings,
+    progress: impl Fn(Progress) + Send + Sync + 'static,
+) -> Result<Report, MockRunError> {
     let record = |name: &str| record_dir.join(format!("mock-{name}.jsonl"));
     let mocks = spawn_for_plan(python, &plan, record, &[]).map_err(MockRunError::Mocks)?;
     let buses = open_buses(&mocks).map_err(|e| MockRunError::Mocks(e.to_string()))?;
-    let config = exec_config();
+    let config = ExecConfig {
+        watch: watch.clone(),
+        ..exec_config()
+    };
     let limits = JointLimits::kinova_gen3();
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)

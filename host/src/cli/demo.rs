@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::demo::{box_flip, run_on_mock_arms, MockRunError, DT, ROBOTS, STEPS};
+use omcbsa::demo::{box_flip, run_on_mock_arms_watched, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::{plan_file, InputOrPlanError};
@@ -14,6 +14,7 @@ use omcbsa_hw::record::TOLERANCE;
 use serde::Serialize;
 
 use super::execute::{failure, progress_printer};
+use super::watch::WatchArgs;
 use super::{bad_input, negative, note, positive_seconds, print};
 
 /// The README's main command: three Kinova Gen3 arms around a box, hands on three of its faces
@@ -30,6 +31,8 @@ pub struct Args {
     /// Planning time limit, seconds.
     #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
+    #[command(flatten)]
+    watch: WatchArgs,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -37,7 +40,9 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
+    let watch = args.watch.settings().map_err(bad_input)?;
     print("demo: 3 Kinova Gen3 arms around a box, hands on three faces while it flips")?;
+    print(&watch)?;
     let problem = box_flip().map_err(failed)?.problem;
     print(format_args!(
         "problem {:?}: {} robots, {} trajectories of {STEPS} poses every {DT} s",
@@ -70,12 +75,20 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
         plan.arms.len()
     ))?;
     let names = ROBOTS.map(String::from).to_vec();
-    let report = run_on_mock_arms(&python, plan, &checked, &args.out, progress_printer(names))
-        .map_err(|e| match e {
-            MockRunError::Exec(e) => failure(e),
-            e @ MockRunError::Mocks(_) => bad_input(e),
-            e @ MockRunError::Record { .. } => failed(e),
-        })?;
+    let dir = &args.out;
+    let report = run_on_mock_arms_watched(
+        &python,
+        plan,
+        &checked,
+        dir,
+        &watch,
+        progress_printer(names),
+    )
+    .map_err(|e| match e {
+        MockRunError::Exec(e) => failure(e),
+        e @ MockRunError::Mocks(_) => bad_input(e),
+        e @ MockRunError::Record { .. } => failed(e),
+    })?;
     print(&report)?;
     summary(&checked, &report)?;
     print(format_args!(
