@@ -21,7 +21,10 @@ use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
 use omcbsa_hw::executor::Progress;
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
-use omcbsa_hw::{ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use omcbsa_hw::mock::exec_config;
+use omcbsa_hw::{
+    ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report, WatchSettings,
+};
 use serde_json::Map;
 
 use crate::execute::CheckedSolution;
@@ -225,13 +228,30 @@ pub fn run_on_mock_arms(
     record_dir: &Path,
     progress: impl Fn(Progress) + Send + Sync + 'static,
 ) -> Result<Report, MockRunError> {
+    let watch = WatchSettings::default();
+    run_on_mock_arms_watched(python, kind, plan, validator, record_dir, &watch, progress)
+}
+
+/// [`run_on_mock_arms`] with the fault detection `watch` (the command line's options).
+pub fn run_on_mock_arms_watched(
+    python: &Path,
+    kind: MockKind,
+    plan: Plan,
+    validator: &dyn PlanValidator,
+    record_dir: &Path,
+    watch: &WatchSettings,
+    progress: impl Fn(Progress) + Send + Sync + 'static,
+) -> Result<Report, MockRunError> {
     let record = |name: &str| record_dir.join(format!("mock-{name}.jsonl"));
     let starts: Vec<_> = (plan.arms.iter())
         .map(|a| (a.name.clone(), a.joint_path[0]))
         .collect();
     let mocks = Fleet::spawn(kind, python, &starts, record, &[]).map_err(MockRunError::Mocks)?;
     let ports = mocks.ports().map_err(MockRunError::Mocks)?;
-    let config = kind.exec_config();
+    let config = ExecConfig {
+        watch: watch.clone(),
+        ..exec_config()
+    };
     let limits = JointLimits::kinova_gen3();
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)

@@ -3,12 +3,14 @@
 
 use crate::arm::{cycle_frames, SetupOverride, Span};
 use crate::cia402;
-use crate::interpolate::plan_generator;
+use crate::interpolate::{peak_speeds, plan_generator};
 use crate::link::ArmPort;
 use crate::live::{self, RunInfo, StreamHandle};
 use crate::log::LogEntry;
 use crate::plan::{JointLimits, Plan, PlanValidator, JOINTS};
 use crate::stream::Generator;
+use crate::watch::WatchSettings;
+use crate::watchdog::CycleFault;
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -31,17 +33,12 @@ pub struct ExecConfig {
     pub sdo_timeout: Duration,
     /// Time the drives get, after enabling, to report "operation enabled" by TPDO and heartbeat.
     pub startup_timeout: Duration,
-    /// Heartbeat producer time configured in every drive (0x1017), ms.
-    pub heartbeat_ms: u16,
-    /// Heartbeat consumer time: a node silent for longer is a fault.
-    pub heartbeat_timeout: Duration,
-    /// A node whose TPDO is older than this is a fault.
+    /// Fault detection: per-cycle accounting, heartbeat, following error ([`WatchSettings`]).
+    pub watch: WatchSettings,
+    /// Backstops on the wall clock, behind the per-cycle accounting: a SYNC unanswered for
+    /// longer is a fault, and so is an arm that keeps the others waiting longer on the common
+    /// schedule (its thread stalled, its bus full).
     pub feedback_timeout: Duration,
-    /// Per-cycle accounting (Kortex): a cycle's command still unanswered this many periods
-    /// after it was sent is a fault.
-    pub late_cycles: u32,
-    /// Largest allowed |target - actual|, rad.
-    pub following_error_bound: f64,
     /// Largest allowed distance of an arm's start position from the plan's first waypoint, rad.
     pub start_tolerance: f64,
     /// Largest wait for room on a bus when sending one frame.
@@ -68,11 +65,8 @@ impl Default for ExecConfig {
             log_path: None,
             sdo_timeout: Duration::from_millis(100),
             startup_timeout: Duration::from_secs(1),
-            heartbeat_ms: 100,
-            heartbeat_timeout: Duration::from_millis(350),
+            watch: WatchSettings::default(),
             feedback_timeout: Duration::from_millis(50),
-            late_cycles: 2,
-            following_error_bound: 0.05,
             start_tolerance: 1e-3,
             send_timeout: Duration::from_millis(2),
             settle_cycles: 50,
@@ -103,6 +97,11 @@ pub enum Fault {
         node: u8,
         silent_for: Duration,
     },
+    /// The per-cycle accounting: a SYNC unanswered by its deadline, or answered late.
+    Answer {
+        node: u8,
+        fault: CycleFault,
+    },
     DriveState {
         node: u8,
         statusword: u16,
@@ -121,13 +120,6 @@ pub enum Fault {
         joint: u8,
         bank_a: u32,
         bank_b: u32,
-    },
-    /// The command of control cycle `cycle` still had no answer `waited` after it was sent,
-    /// `periods` periods or more: its answer is late or lost (per-cycle accounting).
-    Unanswered {
-        cycle: u64,
-        waited: Duration,
-        periods: u32,
     },
     Bus(String),
 }
@@ -149,7 +141,11 @@ impl fmt::Display for Fault {
             } => {
                 write!(
                     f,
-                    "node {node} sent EMCY error code {code:#06x} (error register {register:#04x})"
+                    "node {node} sent EMCY error code {code:#06x}{} (error register {register:#04x})",
+                    match *code {
+                        cia402::EMCY_FOLLOWING_ERROR => ", following error beyond its window",
+                        _ => "",
+                    }
                 )
             }
             Fault::HeartbeatLost { node, silent_for } => {
@@ -165,6 +161,7 @@ impl fmt::Display for Fault {
                     silent(silent_for)
                 )
             }
+            Fault::Answer { node, fault } => write!(f, "node {node}: {fault}"),
             Fault::DriveState { node, statusword } => {
                 write!(
                     f,
@@ -197,15 +194,6 @@ impl fmt::Display for Fault {
             } => write!(
                 f,
                 "actuator {joint} reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
-            ),
-            Fault::Unanswered {
-                cycle,
-                waited,
-                periods,
-            } => write!(
-                f,
-                "the command of cycle {cycle} had no answer after {waited:?} ({periods} periods \
-                 or more): the arm's feedback is late or lost"
             ),
             Fault::Bus(e) => write!(f, "bus error: {e}"),
         }
@@ -261,6 +249,8 @@ impl fmt::Display for FaultReport {
 pub enum ExecError {
     #[error("invalid plan: {0}")]
     InvalidPlan(String),
+    #[error("invalid watchdog settings: {0}")]
+    Settings(String),
     #[error("arms and buses do not match: {0}")]
     Buses(String),
     #[error("refusing to start: the plan does not validate: {0}")]
@@ -378,6 +368,7 @@ impl Executor {
         let mut arms: Vec<(String, ArmPort)> =
             arms.into_iter().map(|(n, p)| (n, p.into())).collect();
         plan.check_shape().map_err(ExecError::InvalidPlan)?;
+        config.watch.check().map_err(ExecError::Settings)?;
         let mut buses = Vec::with_capacity(plan.arms.len());
         if !config.dry_run {
             for a in &plan.arms {
@@ -436,6 +427,7 @@ impl Executor {
             time_scale: timing.time_scale,
             total_cycles: Some(timing.cycles as u64 + 1 + self.config.settle_cycles as u64),
             spans,
+            speeds: peak_speeds(&self.plan, timing.step_time),
         };
         let progress = self.progress;
         live::start(
@@ -468,6 +460,7 @@ impl Executor {
                 "online execution streams to buses; it has no dry run".into(),
             ));
         }
+        config.watch.check().map_err(ExecError::Settings)?;
         if !(time_scale.is_finite() && time_scale >= 1.0) {
             return Err(ExecError::InvalidPlan(format!(
                 "time scale must be a number >= 1, got {time_scale}"
@@ -500,6 +493,8 @@ impl Executor {
             time_scale,
             total_cycles: None,
             spans: vec![span; names.len()],
+            // Likewise their speeds: up to the joints' limits.
+            speeds: vec![limits.map(|l| l.velocity); names.len()],
         };
         live::start(names, generator, buses, config, None, false, info)
     }

@@ -8,7 +8,6 @@ use crate::mock::{self, MockArm, MockArmOptions};
 use crate::mock_gen3::{self, MockGen3};
 use crate::plan::{JointLimits, JOINTS};
 use crate::record;
-use crate::ExecConfig;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -22,14 +21,6 @@ pub enum MockKind {
 }
 
 impl MockKind {
-    /// The executor settings its mocks keep up with.
-    pub fn exec_config(self) -> ExecConfig {
-        match self {
-            MockKind::Can => mock::exec_config(),
-            MockKind::Kortex => mock_gen3::exec_config(),
-        }
-    }
-
     /// How many motion commands (with the settle cycles) a record shows.
     pub fn motion_commands(self, record: &[Value]) -> Result<usize, String> {
         Ok(match self {
@@ -80,7 +71,7 @@ impl Fleet {
         record: impl Fn(&str) -> PathBuf,
         extra: &[Vec<String>],
     ) -> Result<Self, String> {
-        let period = kind.exec_config().period;
+        let period = mock::exec_config().period;
         let paths: Vec<PathBuf> = arms.iter().map(|(n, _)| record(n)).collect();
         for p in &paths {
             // A stale record from an earlier run must not pass for this run's.

@@ -5,8 +5,7 @@
 //! - [`link`]: [`link::ArmLink`], one arm as the loop drives it, CAN or Kortex.
 //! - [`transport`]: the [`Transport`] trait and its SLCAN, SocketCAN and in-process mock buses.
 //! - [`canopen`], [`cia402`]: the protocol.
-//! - [`kortex`]: Kortex messages, framing, sessions, and the Gen3 as a [`link::ArmLink`];
-//!   [`cycles`]: per-cycle accounting of feedback.
+//! - [`kortex`]: Kortex messages, framing, sessions, and the Gen3 as a [`link::ArmLink`].
 //! - [`interpolate`]: waypoints to control-rate commands within joint limits.
 //! - [`stream`]: the frame generator: commands cycle by cycle from a queue of waypoints that
 //!   may be replaced while the arms move.
@@ -17,12 +16,12 @@
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
 //!   logs (candump), and fault reaction times measured from them.
 //! - [`priority`]: real-time scheduling of the arm threads.
+//! - [`watch`]: the fault-detection settings of a run; [`watchdog`]: per-cycle accounting of the answers to each cycle, independent of the transport.
 
 pub mod arm;
 pub mod buslog;
 pub mod canopen;
 pub mod cia402;
-pub mod cycles;
 pub mod executor;
 pub mod fleet;
 pub mod frame;
@@ -38,6 +37,8 @@ pub mod priority;
 pub mod record;
 pub mod stream;
 pub mod transport;
+pub mod watch;
+pub mod watchdog;
 
 pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
 pub use frame::CanFrame;
@@ -45,3 +46,4 @@ pub use live::{Event, StreamHandle, StreamProgress};
 pub use plan::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 pub use stream::PushError;
 pub use transport::{Transport, TransportError};
+pub use watch::WatchSettings;

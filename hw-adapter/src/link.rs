@@ -8,6 +8,7 @@ use crate::executor::{ExecConfig, Fault};
 use crate::interpolate::Command;
 use crate::kortex;
 use crate::log::LogSink;
+use crate::plan::JOINTS;
 use crate::transport::{self, Transport};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -20,13 +21,13 @@ pub trait ArmLink: Send {
     /// Frames (CAN frames or Kortex frames) sent so far.
     fn frames_sent(&self) -> usize;
     /// Phase 1: checks the arm and reads back what must hold before any motion (start
-    /// position within [`ExecConfig::start_tolerance`] of `start`, every command within `span`),
-    /// enabling nothing. Returns `Ok` early, sending nothing more, once `stop` is raised.
+    /// position within [`ExecConfig::start_tolerance`] of `start`, every command within `span`;
+    /// `speed`: the joints' peak speeds, rad/s), enabling nothing. Returns `Ok` early, sending
+    /// nothing more, once `stop` is raised.
     fn configure(
         &mut self,
         cfg: &ExecConfig,
-        start: &Command,
-        span: &Span,
+        plan: (&Command, &Span, &[f64; JOINTS]),
         stop: &AtomicBool,
     ) -> Result<(), String>;
     /// Phase 2: puts the arm where it follows one command per cycle; sends no motion command.
@@ -41,6 +42,11 @@ pub trait ArmLink: Send {
         cfg: &ExecConfig,
         target: &Command,
     ) -> Result<f64, Fault>;
+    /// Whether the next cycle may be sent, by the per-cycle accounting ([`crate::watchdog`]):
+    /// called when it is due.
+    fn check_cycle(&self) -> Result<(), Fault>;
+    /// The first cycle this arm's answers do not yet allow any arm to send.
+    fn clear_until(&self) -> u64;
     /// Sends one control cycle's command.
     fn send_cycle(&mut self, cmd: &Command) -> Result<(), String>;
     /// Stops the arm at once after a fault (here or on another arm), holding `hold`. Tries every

@@ -16,7 +16,7 @@ use crate::plan::JOINTS;
 use crate::priority;
 use crate::stream::{Generator, PushError};
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Barrier, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -82,6 +82,10 @@ struct Shared {
     names: Vec<String>,
     /// Cycles each arm has sent (`usize::MAX` once it has finished).
     sent: Vec<AtomicUsize>,
+    /// Per arm, the first cycle its per-cycle accounting does not yet allow
+    /// ([`ArmBus::clear_until`]; `u64::MAX` once it has finished): no arm sends a cycle that
+    /// another arm's drives have not earned, so that a fault stops every arm at the same cycle.
+    clear: Vec<AtomicU64>,
     /// The first fault: arm, fault, cycle, when detected.
     fault: Mutex<Option<(String, Fault, usize, Instant)>>,
     cycle: Mutex<Cycle>,
@@ -151,6 +155,9 @@ pub(crate) struct RunInfo {
     /// Per arm and joint, the range (bus counts) every command stays in: each drive's
     /// software position limits (0x607D) must cover it before any drive is enabled.
     pub spans: Vec<Span>,
+    /// Per arm and joint, the peak commanded speed, rad/s (the drives' following-error
+    /// windows).
+    pub speeds: Vec<[f64; JOINTS]>,
 }
 
 /// A stream to the arms while it runs: push segments, watch it, finish it.
@@ -185,6 +192,7 @@ pub(crate) fn start(
         realtime_refused: Mutex::new(None),
         finishing: AtomicBool::new(finishing),
         sent: buses.iter().map(|_| AtomicUsize::new(0)).collect(),
+        clear: buses.iter().map(|_| AtomicU64::new(0)).collect(),
         names: names.clone(),
         fault: Mutex::new(None),
         cycle: Mutex::new(Cycle {
@@ -202,8 +210,9 @@ pub(crate) fn start(
         .zip(names)
         .zip(first)
         .zip(info.spans.clone())
+        .zip(info.speeds.clone())
         .enumerate())
-    .map(|(me, (((bus, name), first), span))| {
+    .map(|(me, ((((bus, name), first), span), speed))| {
         let mut bus = bus.into_link(name, clock, &config, log.clone());
         let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
         let total = info.total_cycles;
@@ -215,7 +224,7 @@ pub(crate) fn start(
             stream_arm(
                 me,
                 bus.as_mut(),
-                (first, span),
+                (first, span, speed),
                 &shared,
                 &config,
                 progress,
@@ -303,19 +312,19 @@ impl StreamHandle {
     }
 }
 
-/// One arm's whole run, on its own thread, from the command it holds first and the range
-/// its commands stay in.
+/// One arm's whole run, on its own thread, from the command it holds first, the range its
+/// commands stay in and its joints' peak speeds.
 fn stream_arm(
     me: usize,
     bus: &mut dyn ArmLink,
-    (first, span): (Command, Span),
+    (first, span, speed): (Command, Span, [f64; JOINTS]),
     shared: &Shared,
     cfg: &ExecConfig,
     progress: Option<&(dyn Fn(Progress) + Send + Sync)>,
     total: Option<u64>,
 ) -> ArmEnd {
     // No drive of any arm is enabled unless every arm's drives are configured.
-    let configured = bus.configure(cfg, &first, &span, &shared.startup_failed);
+    let configured = bus.configure(cfg, (&first, &span, &speed), &shared.startup_failed);
     if let Some(end) = startup_phase_end(bus, configured, shared) {
         return end;
     }
@@ -336,9 +345,16 @@ fn stream_arm(
         let mut step = || -> Result<Option<(Command, Option<u64>)>, Fault> {
             // Feedback is read while waiting too, so that a fault is seen when its frame
             // arrives rather than at the next cycle.
+            // Once the cycle is due, the per-cycle accounting says whether it may be sent.
             let mut watch = || -> Result<f64, Fault> {
                 bus.poll().map_err(Fault::Bus)?;
-                bus.check_feedback(Instant::now(), cfg, &prev1)
+                let now = Instant::now();
+                let fe = bus.check_feedback(now, cfg, &prev1)?;
+                if now >= due {
+                    bus.check_cycle()?;
+                }
+                shared.clear[me].store(bus.clear_until(), Ordering::SeqCst);
+                Ok(fe)
             };
             wait_turn(me, k, due, shared, cfg, &mut watch)?;
             let fe = watch()?;
@@ -391,6 +407,7 @@ fn stream_arm(
         return ArmEnd::Stopped(stop, bus.frames_sent());
     }
     shared.sent[me].store(usize::MAX, Ordering::SeqCst);
+    shared.clear[me].store(u64::MAX, Ordering::SeqCst);
     match bus.finish(&prev1) {
         Ok(()) => ArmEnd::Completed {
             cycles: k,
@@ -432,9 +449,10 @@ fn startup_phase_end(
     }
 }
 
-/// Waits until cycle `k` is due and every arm has sent cycle `k - 1`, calling `watch` (this
-/// arm's feedback check) every [`FAULT_POLL`]; returns early if a fault is raised here or on
-/// another arm. An arm that keeps the others waiting longer than the feedback timeout is a fault.
+/// Waits until cycle `k` is due, every arm has sent cycle `k - 1` and every arm's accounting
+/// allows cycle `k`, calling `watch` (this arm's feedback check) every [`FAULT_POLL`]; returns
+/// early if a fault is raised here or on another arm. An arm that keeps the others waiting
+/// longer than the feedback timeout is a fault.
 fn wait_turn(
     me: usize,
     k: usize,
@@ -450,10 +468,9 @@ fn wait_turn(
         }
         watch()?;
         let now = Instant::now();
-        let behind = shared
-            .sent
-            .iter()
-            .position(|c| c.load(Ordering::SeqCst) < k);
+        let behind = (shared.sent.iter())
+            .position(|c| c.load(Ordering::SeqCst) < k)
+            .or_else(|| (shared.clear.iter()).position(|c| c.load(Ordering::SeqCst) <= k as u64));
         if now >= due && behind.is_none() {
             return Ok(());
         }

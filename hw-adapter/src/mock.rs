@@ -69,23 +69,20 @@ pub struct MockArmOptions {
     pub extra_args: Vec<String>,
 }
 
-/// Executor settings for the mocks: feedback and send deadlines generous enough for three
-/// Python processes sharing a busy 2-core machine (a mock that falls behind answers its SYNCs
-/// late, and leaves its pty's buffer full for a while: a stall of a few hundred ms was seen
-/// with several builds running), and a 4 ms control period: seven `canopen` nodes per arm in
-/// Python cost about 0.5 ms of CPU per cycle, so three mocks at 500 Hz alone would need most of
-/// the machine (real drives have their own processors). The send deadline stays under the
-/// feedback deadline, which is how long the other arms wait for a late one on the common
-/// schedule.
+/// Executor settings for the mocks: the command line's defaults (the same fault detection,
+/// [`crate::WatchSettings::default`]) but for the control period, 4 ms: seven `canopen` nodes
+/// per arm in Python cost about 0.5 ms of CPU per cycle, so three mocks at 500 Hz alone would
+/// need most of the machine (real drives have their own processors). Detection bounds are in
+/// periods, so they hold at any period.
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
-        period: Duration::from_millis(4),
-        feedback_timeout: Duration::from_secs(1),
-        heartbeat_timeout: Duration::from_millis(500),
-        send_timeout: Duration::from_millis(500),
+        period: MOCK_PERIOD,
         ..ExecConfig::default()
     }
 }
+
+/// The control period of runs on the mock arms.
+pub const MOCK_PERIOD: Duration = Duration::from_millis(10);
 
 /// A running mock arm; killed when dropped.
 pub struct MockArm {

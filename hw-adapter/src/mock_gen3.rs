@@ -1,13 +1,13 @@
 //! The Python mock Gen3 on Kortex (`hw-adapter/mock/mock_gen3.py`), for tests and `omcbsa demo
 //! --transport kortex`: starting it (it prints `PORTS <tcp> <udp>`, free loopback ports), and
-//! what its record shows: the commands it took, checked against the streamed trajectory, and
+//! what its record shows (runs on it use the CAN mocks' settings, [`crate::mock::exec_config`]:
+//! the command line's fault detection at a 10 ms period): the commands it took, checked against the streamed trajectory, and
 //! how soon every arm was stopped after a fault's first sign.
 
 use crate::interpolate::{check_command, Command};
 use crate::kortex::{self, Connection, Credentials, KortexSpec};
 use crate::plan::{JointLimits, JOINTS};
 use crate::record::{self, TOLERANCE};
-use crate::ExecConfig;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -32,30 +32,6 @@ pub fn credentials() -> Credentials {
     Credentials {
         username: "admin".into(),
         password: "mock-secret-7351".into(),
-    }
-}
-
-/// Executor settings for the Kortex mocks: an 8 ms period (with several builds running, three
-/// Python mocks on a 2-core machine were seen to answer a 4 ms cycle more than 2 periods late;
-/// 1 kHz stays the default of `execute`), and answers owed within 25 periods (200 ms): a
-/// planner or build beside the mocks starves them for tens of ms at times, as the CAN mocks'
-/// 1 s feedback deadline allows for. Tests of the fault reactions use [`fault_config`].
-pub fn exec_config() -> ExecConfig {
-    ExecConfig {
-        period: Duration::from_millis(8),
-        late_cycles: 25,
-        feedback_timeout: Duration::from_secs(1),
-        send_timeout: Duration::from_millis(500),
-        ..ExecConfig::default()
-    }
-}
-
-/// [`exec_config`] with the per-cycle accounting of `execute` (answers owed within 2 periods):
-/// the detector under test in the fault reaction tests, which run one set of mocks at a time.
-pub fn fault_config() -> ExecConfig {
-    ExecConfig {
-        late_cycles: ExecConfig::default().late_cycles,
-        ..exec_config()
     }
 }
 

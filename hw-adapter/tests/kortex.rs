@@ -11,8 +11,9 @@ use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::kortex::channel::Channel;
 use omcbsa_hw::kortex::header::{uid, Header};
 use omcbsa_hw::kortex::proto::{self, base, base_cyclic};
-use omcbsa_hw::mock::venv_python;
+use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::mock_gen3::{self, MockGen3};
+use omcbsa_hw::watchdog::CycleFault;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, JointLimits, Plan};
 use prost::Message;
 use serde_json::Value;
@@ -64,7 +65,7 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let log = record_path("ok", "log");
     let cfg = ExecConfig {
         log_path: Some(log.clone()),
-        ..mock_gen3::exec_config()
+        ..exec_config()
     };
     let mocks = spawn(&plan, "ok", &[]);
     let conns = mocks.ports().unwrap();
@@ -97,7 +98,7 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
 fn fault_run(tag: &str, flags: &[&str]) -> (Fault, Vec<mock_gen3::Stop>) {
     let _one = serial();
     let plan = three_arm_plan(8);
-    let cfg = mock_gen3::fault_config();
+    let cfg = exec_config();
     let extra = vec![
         vec![],
         flags.iter().map(|s| s.to_string()).collect(),
@@ -140,7 +141,13 @@ fn assert_stopped_within_3_cycles(stops: &[mock_gen3::Stop]) {
 fn a_mock_that_goes_silent_stops_every_arm_within_3_cycles() {
     let (fault, stops) = fault_run("silent", &["--silent-at=100"]);
     assert!(
-        matches!(fault, Fault::Unanswered { periods: 2, .. }),
+        matches!(
+            fault,
+            Fault::Answer {
+                node: 1,
+                fault: CycleFault::Missing { .. }
+            }
+        ),
         "{fault}"
     );
     assert_stopped_within_3_cycles(&stops);
@@ -148,12 +155,18 @@ fn a_mock_that_goes_silent_stops_every_arm_within_3_cycles() {
 
 #[test]
 fn a_mock_that_answers_5_periods_late_stops_every_arm_within_3_cycles() {
-    let late = format!(
-        "--late-ms={}",
-        5 * mock_gen3::exec_config().period.as_millis()
-    );
+    let late = format!("--late-ms={}", 5 * exec_config().period.as_millis());
     let (fault, stops) = fault_run("late", &["--late-at=100", &late]);
-    assert!(matches!(fault, Fault::Unanswered { .. }), "{fault}");
+    assert!(
+        matches!(
+            fault,
+            Fault::Answer {
+                fault: CycleFault::Missing { .. } | CycleFault::Late { .. },
+                ..
+            }
+        ),
+        "{fault}"
+    );
     assert_stopped_within_3_cycles(&stops);
 }
 

@@ -40,7 +40,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
     for (arm, streamed) in plan.arms.iter().zip(&report.arms) {
         assert_eq!(streamed.name, arm.name);
         assert_eq!(streamed.cycles_sent, report.cycles + settle);
-        assert!(streamed.max_following_error < exec_config().following_error_bound);
+        assert!(streamed.max_following_error < exec_config().watch.following_error_bound);
         let received = record::read(&dir.join(format!("mock-{}.jsonl", arm.name))).unwrap();
         let targets = record::targets(&received).unwrap();
         let (first, last) = (
@@ -101,7 +101,7 @@ fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     println!("{report}");
-    let settle = MockKind::Kortex.exec_config().settle_cycles;
+    let settle = omcbsa_hw::mock::exec_config().settle_cycles;
     for (arm, streamed) in plan.arms.iter().zip(&report.arms) {
         assert_eq!(streamed.cycles_sent, report.cycles + settle);
         let received = record::read(&dir.join(format!("mock-{}.jsonl", arm.name))).unwrap();

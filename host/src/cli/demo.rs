@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::demo::{box_flip, run_on_mock_arms, MockRunError, DT, ROBOTS, STEPS};
+use omcbsa::demo::{box_flip, run_on_mock_arms_watched, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::{plan_file, InputOrPlanError};
@@ -15,6 +15,7 @@ use omcbsa_hw::record::TOLERANCE;
 use serde::Serialize;
 
 use super::execute::{failure, progress_printer};
+use super::watch::WatchArgs;
 use super::{bad_input, negative, note, positive_seconds, print};
 
 /// The README's main command: three Kinova Gen3 arms around a box, hands on three of its faces
@@ -36,6 +37,8 @@ pub struct Args {
     /// TCP and UDP).
     #[arg(long, value_enum, default_value = "can")]
     transport: TransportArg,
+    #[command(flatten)]
+    watch: WatchArgs,
 }
 
 /// `--transport` of the commands that start their own mock arms.
@@ -59,7 +62,9 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
+    let watch = args.watch.settings().map_err(bad_input)?;
     print("demo: 3 Kinova Gen3 arms around a box, hands on three faces while it flips")?;
+    print(&watch)?;
     let problem = box_flip().map_err(failed)?.problem;
     print(format_args!(
         "problem {:?}: {} robots, {} trajectories of {STEPS} poses every {DT} s",
@@ -98,13 +103,13 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
     let names = ROBOTS.map(String::from).to_vec();
     let kind = MockKind::from(args.transport);
     let progress = progress_printer(names);
-    let report = run_on_mock_arms(&python, kind, plan, &checked, &args.out, progress).map_err(
-        |e| match e {
+    let dir = &args.out;
+    let report = run_on_mock_arms_watched(&python, kind, plan, &checked, dir, &watch, progress)
+        .map_err(|e| match e {
             MockRunError::Exec(e) => failure(e),
             e @ MockRunError::Mocks(_) => bad_input(e),
             e @ MockRunError::Record { .. } => failed(e),
-        },
-    )?;
+        })?;
     print(&report)?;
     summary(&checked, &report)?;
     if kind == MockKind::Can {

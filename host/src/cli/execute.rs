@@ -13,6 +13,7 @@ use omcbsa_hw::kortex::Credentials;
 use omcbsa_hw::link::{self, ArmPorts};
 use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
 
+use super::watch::WatchArgs;
 use super::{bad_input, negative, note, print};
 
 /// Streams a solution to the arms, one CAN bus or Kortex connection per arm, at the control
@@ -52,6 +53,8 @@ pub struct Args {
     /// Refused by the system (no CAP_SYS_NICE), the run goes on at normal priority and says so.
     #[arg(long, value_name = "PRIO|off", default_value = "50", value_parser = parse_priority)]
     rt_priority: RtPriority,
+    #[command(flatten)]
+    watch: WatchArgs,
 }
 
 /// `--rt-priority`: a `SCHED_FIFO` priority, or none.
@@ -72,8 +75,8 @@ fn parse_priority(s: &str) -> Result<RtPriority, String> {
 
 /// The control rates `--rate` accepts, Hz. At most 1 kHz: the Gen3's own control rate, and
 /// about what a 1 Mbit/s bus carries with 8 frames per arm and cycle. At least 100 Hz: cyclic
-/// synchronous position needs cycles of a few ms, and each drive's feedback (one TPDO per
-/// SYNC) must be fresher than the feedback timeout (50 ms).
+/// synchronous position needs cycles of a few ms, and the per-cycle accounting reacts within a
+/// few periods.
 pub const RATE_RANGE: std::ops::RangeInclusive<f64> = 100.0..=1000.0;
 
 fn parse_arm(s: &str) -> Result<(String, String), String> {
@@ -99,6 +102,10 @@ pub fn run(args: &Args) -> ExitCode {
             RATE_RANGE.end(),
         ));
     }
+    let watch = match args.watch.settings() {
+        Ok(w) => w,
+        Err(e) => return bad_input(e),
+    };
     let (checked, plan) = match load_plan(args) {
         Ok(loaded) => loaded,
         Err(e) => return bad_input(e),
@@ -121,8 +128,12 @@ pub fn run(args: &Args) -> ExitCode {
         dry_run: args.dry_run,
         log_path: args.log.clone(),
         realtime_priority: args.rt_priority.0,
+        watch,
         ..ExecConfig::default()
     };
+    if let Err(code) = print(&config.watch) {
+        return code;
+    }
     match stream(plan, ports, config, &checked) {
         Ok(_) => ExitCode::SUCCESS,
         Err(code) => code,

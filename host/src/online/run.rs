@@ -12,7 +12,9 @@ use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::mock::{bus_log_path, exec_config, script_path, MockArm, MockArmOptions};
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::stream::Generator;
-use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, Transport, JOINTS};
+use omcbsa_hw::{
+    Event, Executor, JointLimits, Report, StreamHandle, Transport, WatchSettings, JOINTS,
+};
 
 use super::policy::BoxFlipPolicy;
 use super::record::RunRecord;
@@ -36,6 +38,8 @@ pub struct RunScript {
     /// the room later chunks may need.
     pub time_margin: f64,
     pub options: OnlineOptions,
+    /// Fault detection (the command line's watchdog options).
+    pub watch: WatchSettings,
 }
 
 impl Default for RunScript {
@@ -48,6 +52,7 @@ impl Default for RunScript {
             unreachable_chunk: None,
             time_margin: 2.0,
             options: OnlineOptions::default(),
+            watch: WatchSettings::default(),
         }
     }
 }
@@ -142,9 +147,7 @@ pub fn run_on_mock_arms(
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
         online_horizon: Duration::from_secs(120),
-        // A minute-long run of three Python mocks on a loaded machine sees a mock stall for
-        // over a second at times (heartbeats, limits and following error stay watched).
-        feedback_timeout: Duration::from_secs(3),
+        watch: script.watch.clone(),
         ..exec_config()
     };
     let handle =

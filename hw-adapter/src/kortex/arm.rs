@@ -4,8 +4,9 @@
 //! 2. phase 2 ([`ArmLink::enable`]): SetServoingMode(LOW_LEVEL_SERVOING), then one Refresh that
 //!    commands every actuator where it was measured (the seed);
 //! 3. one BaseCyclic.Refresh on UDP per control cycle, frame_id and command_id stepping by one
-//!    (wrapping at 65535), positions in degrees in [0, 360); each answer matched to its command
-//!    by message id, an answer late by [`ExecConfig::late_cycles`] periods being a fault;
+//!    (wrapping at 65535), positions in degrees in [0, 360); each actuator's answer matched to
+//!    the cycle it names (its command_id) by the per-cycle accounting ([`crate::watchdog`]: an
+//!    answer missing when cycle k + m is due, or more than m periods stale, is a fault);
 //!    KeepAlive on a link idle for more than [`KEEP_ALIVE_AFTER`];
 //! 4. leaving: SetServoingMode(SINGLE_LEVEL_SERVOING), then CloseSession on both links; after
 //!    a fault, ApplyEmergencyStop first.
@@ -17,14 +18,14 @@ use super::channel::Channel;
 use super::header::uid;
 use super::proto::{self, base, base_cyclic, common};
 use super::Connection;
-use crate::arm::Span;
+use crate::arm::{answer_fault, Span};
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
-use crate::cycles::CycleLedger;
 use crate::executor::{ExecConfig, Fault};
 use crate::interpolate::Command;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
 use crate::plan::JOINTS;
+use crate::watchdog::{CycleAccount, MAX_MISSED_CYCLES};
 use prost::Message;
 use std::f64::consts::{PI, TAU};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -55,26 +56,17 @@ pub fn from_wire(deg: f32, near: f64) -> f64 {
     near + if d > PI { d - TAU } else { d }
 }
 
-/// What a cycle's command is remembered by until its answer comes.
-#[derive(Clone, Copy, Debug)]
-struct Sent {
-    message_id: u16,
-    frame_id: u16,
-    targets: Command,
-}
-
 pub struct KortexArm {
     name: String,
     conn: Connection,
     clock: Instant,
     log: Option<LogSink>,
     frames_sent: usize,
-    period: Duration,
-    late_cycles: u32,
     rpc_timeout: Duration,
-    /// The last frame_id sent.
+    /// The last frame_id sent (the seed's before the first cycle).
     frame_id: u16,
-    ledger: CycleLedger<Sent>,
+    /// Per actuator, the cycles answered; each cycle's targets kept until then.
+    account: CycleAccount<Command>,
     /// The last feedback: positions (degrees as received) and the targets of the cycle it answers.
     answered: Option<([f32; JOINTS], Command)>,
     /// The first fault seen in what the arm sent.
@@ -98,11 +90,11 @@ impl KortexArm {
             clock,
             log,
             frames_sent: 0,
-            period: cfg.period,
-            late_cycles: cfg.late_cycles,
             rpc_timeout: cfg.sdo_timeout.max(Duration::from_millis(500)),
             frame_id: 0,
-            ledger: CycleLedger::default(),
+            // The executor refuses settings out of range before any arm is set up.
+            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
+                .expect("m clamped into its range"),
             answered: None,
             fault: None,
             measured: None,
@@ -205,7 +197,7 @@ impl KortexArm {
 
     /// The positions of a Feedback from the arm, with its faults: seven actuators, each
     /// fault-free, the base fault-free.
-    fn feedback(payload: &[u8]) -> Result<(u16, [f32; JOINTS]), Fault> {
+    fn feedback(payload: &[u8]) -> Result<(u16, [f32; JOINTS], [u32; JOINTS]), Fault> {
         let f = base_cyclic::Feedback::decode(payload)
             .map_err(|e| Fault::ArmRefused(format!("cannot decode the arm's Feedback: {e}")))?;
         if let Some(b) = f
@@ -225,6 +217,7 @@ impl KortexArm {
             )));
         }
         let mut pos = [0.0; JOINTS];
+        let mut ids = [0; JOINTS];
         for (j, a) in f.actuators.iter().enumerate() {
             if a.fault_bank_a != 0 || a.fault_bank_b != 0 {
                 return Err(Fault::ActuatorFault {
@@ -234,8 +227,9 @@ impl KortexArm {
                 });
             }
             pos[j] = a.position;
+            ids[j] = a.command_id;
         }
-        Ok((f.frame_id as u16, pos))
+        Ok((f.frame_id as u16, pos, ids))
     }
 
     fn keep_alive(&mut self) -> Result<(), String> {
@@ -244,6 +238,50 @@ impl KortexArm {
             if link.session != 0 && link.last_sent.elapsed() > KEEP_ALIVE_AFTER {
                 self.send(udp, uid::KEEP_ALIVE, &[], "idle link")?;
             }
+        }
+        Ok(())
+    }
+
+    /// A Feedback with `frame_id` answering, per actuator, the frame its command id names:
+    /// each actuator's answer goes to the per-cycle accounting; the feedback of the newest
+    /// cycle is kept for the following error.
+    fn answered(
+        &mut self,
+        frame_id: u16,
+        pos: [f32; JOINTS],
+        ids: [u32; JOINTS],
+    ) -> Result<(), Fault> {
+        let sent = self.account.sent();
+        // The cycle a frame_id names: frame_ids step by one from the seed's, so counting back
+        // from the last one sent (a frame_id ahead of it names no cycle sent: the account's
+        // Unsent fault).
+        let cycle = |id: u32| {
+            let back = u64::from(self.frame_id.wrapping_sub(id as u16));
+            let id_fits = id <= u32::from(u16::MAX);
+            match sent.checked_sub(1 + back) {
+                Some(c) if id_fits => Ok(c),
+                _ => Err(Fault::ArmRefused(format!(
+                    "the arm answered frame {id}, which was not sent (last frame {})",
+                    self.frame_id
+                ))),
+            }
+        };
+        if ids.iter().any(|&id| id != u32::from(frame_id)) {
+            return Err(Fault::ArmRefused(format!(
+                "the feedback of frame {frame_id} carries command ids {ids:?}"
+            )));
+        }
+        let c = cycle(u32::from(frame_id))?;
+        let mut targets = None;
+        for j in 0..JOINTS {
+            targets = self
+                .account
+                .answer(j, c)
+                .map_err(answer_fault)?
+                .map(|(_, t)| *t);
+        }
+        if let Some(t) = targets {
+            self.answered = Some((pos, t));
         }
         Ok(())
     }
@@ -283,8 +321,7 @@ impl ArmLink for KortexArm {
     fn configure(
         &mut self,
         cfg: &ExecConfig,
-        start: &Command,
-        _span: &Span,
+        (start, _, _): (&Command, &Span, &[f64; JOINTS]),
         stop: &AtomicBool,
     ) -> Result<(), String> {
         let empty = common::Empty {}.encode_to_vec();
@@ -298,7 +335,7 @@ impl ArmLink for KortexArm {
         }
         self.call(false, uid::CLEAR_FAULTS, &empty, "before motion")?;
         let payload = self.call(true, uid::REFRESH_FEEDBACK, &empty, "start position")?;
-        let (_, measured) = Self::feedback(&payload)
+        let (_, measured, _) = Self::feedback(&payload)
             .map_err(|f| format!("{}: at start-up: {f}", self.conn.spec))?;
         for j in 0..JOINTS {
             let want = counts_to_rad(start[j]);
@@ -323,6 +360,7 @@ impl ArmLink for KortexArm {
         let seed = self.measured.ok_or("enable before configure")?;
         self.set_servoing(base::ServoingMode::LowLevelServoing)?;
         self.frame_id = 0;
+        self.account.reset();
         let payload = Self::refresh_payload(self.frame_id, &seed);
         let answer = self.call(true, uid::REFRESH, &payload, "seed: hold where measured")?;
         Self::feedback(&answer).map_err(|f| format!("{}: seeding: {f}", self.conn.spec))?;
@@ -336,25 +374,11 @@ impl ArmLink for KortexArm {
             }
         }
         while let Some(f) = self.conn.udp.recv()? {
-            let id = f.header.message_id;
-            let Some(sent) = self.ledger.answered_where(|_, s| s.message_id == id) else {
-                // A KeepAlive's answer, or one already given up on.
-                if let Err(e) = super::codec::response_payload(f) {
-                    self.fault.get_or_insert(Fault::ArmRefused(e.to_string()));
-                }
-                continue;
-            };
             let answer = super::codec::response_payload(f)
                 .map_err(|e| Fault::ArmRefused(e.to_string()))
                 .and_then(|p| Self::feedback(&p));
-            match answer {
-                Ok((frame_id, _)) if frame_id != sent.frame_id => {
-                    self.fault.get_or_insert(Fault::ArmRefused(format!(
-                        "the arm answered frame {} with the feedback of frame {frame_id}",
-                        sent.frame_id
-                    )));
-                }
-                Ok((_, pos)) => self.answered = Some((pos, sent.targets)),
+            match answer.and_then(|(frame_id, pos, ids)| self.answered(frame_id, pos, ids)) {
+                Ok(()) => {}
                 Err(fault) => {
                     self.fault.get_or_insert(fault);
                 }
@@ -365,19 +389,12 @@ impl ArmLink for KortexArm {
 
     fn check_feedback(
         &self,
-        now: Instant,
+        _now: Instant,
         cfg: &ExecConfig,
         _target: &Command,
     ) -> Result<f64, Fault> {
         if let Some(f) = &self.fault {
             return Err(f.clone());
-        }
-        if let Some(u) = self.ledger.overdue(now, self.period, self.late_cycles) {
-            return Err(Fault::Unanswered {
-                cycle: u.seq,
-                waited: u.waited,
-                periods: self.late_cycles,
-            });
         }
         let mut worst: f64 = 0.0;
         if let Some((pos, targets)) = &self.answered {
@@ -385,7 +402,7 @@ impl ArmLink for KortexArm {
                 let target = targets[j] as f64 / COUNTS_PER_RAD;
                 let actual = from_wire(pos[j], target);
                 let err = (actual - target).abs();
-                if err > cfg.following_error_bound {
+                if err > cfg.watch.following_error_bound {
                     return Err(Fault::FollowingError {
                         node: j as u8 + 1,
                         actual,
@@ -398,6 +415,14 @@ impl ArmLink for KortexArm {
         Ok(worst)
     }
 
+    fn check_cycle(&self) -> Result<(), Fault> {
+        self.account.check_send().map_err(answer_fault)
+    }
+
+    fn clear_until(&self) -> u64 {
+        self.account.clear_until()
+    }
+
     fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
         self.frame_id = self.frame_id.wrapping_add(1);
         let degrees = cmd.map(wire_degrees);
@@ -407,13 +432,8 @@ impl ArmLink for KortexArm {
         } else {
             String::new()
         };
-        let message_id = self.send(true, uid::REFRESH, &payload, &what)?;
-        let sent = Sent {
-            message_id,
-            frame_id: self.frame_id,
-            targets: *cmd,
-        };
-        self.ledger.sent(Instant::now(), sent);
+        self.send(true, uid::REFRESH, &payload, &what)?;
+        self.account.sent_cycle(*cmd);
         Ok(())
     }
 
