@@ -246,12 +246,13 @@ pub fn run_on_mock_arms_watched(
     let starts: Vec<_> = (plan.arms.iter())
         .map(|a| (a.name.clone(), a.joint_path[0]))
         .collect();
-    let mocks = Fleet::spawn(kind, python, &starts, record, &[]).map_err(MockRunError::Mocks)?;
-    let ports = mocks.ports().map_err(MockRunError::Mocks)?;
     let config = ExecConfig {
         watch: watch.clone(),
         ..exec_config()
     };
+    let mocks = Fleet::spawn(kind, python, config.period, &starts, record, &[])
+        .map_err(MockRunError::Mocks)?;
+    let ports = mocks.ports().map_err(MockRunError::Mocks)?;
     let limits = JointLimits::kinova_gen3();
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)

@@ -10,6 +10,7 @@ use crate::plan::{JointLimits, JOINTS};
 use crate::record;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// Which mock arms, and so which transport.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,15 +64,16 @@ pub enum Fleet {
 
 impl Fleet {
     /// Starts one mock per `(name, start)`, recording to `record(name)` (a CAN mock logs its
-    /// bus next to it), mock i with the further flags `extra[i]` (fault injection).
+    /// bus next to it), mock i with the further flags `extra[i]` (fault injection); a Kortex
+    /// mock steps its actuators once per command of `period`.
     pub fn spawn(
         kind: MockKind,
         python: &Path,
+        period: Duration,
         arms: &[(String, [f64; JOINTS])],
         record: impl Fn(&str) -> PathBuf,
         extra: &[Vec<String>],
     ) -> Result<Self, String> {
-        let period = mock::exec_config().period;
         let paths: Vec<PathBuf> = arms.iter().map(|(n, _)| record(n)).collect();
         for p in &paths {
             // A stale record from an earlier run must not pass for this run's.

@@ -45,6 +45,7 @@ fn spawn(plan: &Plan, tag: &str, extra: &[Vec<String>]) -> Fleet {
     Fleet::spawn(
         MockKind::Kortex,
         &python,
+        exec_config().period,
         &arms,
         |n| record_path(tag, n),
         extra,
