@@ -84,3 +84,25 @@ fn omcbsa_demo_plans_streams_and_summarises() {
     let size = std::fs::metadata(&page).unwrap().len();
     assert!(size < 5_000_000, "plan.html is {size} bytes");
 }
+
+#[test]
+fn omcbsa_demo_streams_to_three_mock_gen3s_on_kortex() {
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
+        .args(["demo", "--transport", "kortex", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stdout}\n{stderr}");
+    for line in [
+        "starting 3 mock arms (Gen3 on Kortex over loopback TCP and UDP)",
+        "executed: 3 arms",
+        "mock arms' records    every command as planned",
+    ] {
+        assert!(stdout.contains(line), "{line:?} missing from\n{stdout}");
+    }
+    // The Kortex mocks have no CAN bus logs to point to.
+    assert!(!stdout.contains("bus logs"), "{stdout}");
+}
