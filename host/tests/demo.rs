@@ -2,6 +2,7 @@
 //! arms; the venv of hw-adapter/mock/setup_venv.sh, which the demo creates if it is missing).
 
 use std::process::Command;
+use std::sync::{Mutex, MutexGuard};
 
 use omcbsa::demo::{box_flip, NAME, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
@@ -34,8 +35,17 @@ fn demo_problem_is_made_from_a_valid_witness_and_planned_by_omcbsa() {
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
 }
 
+/// One demo streaming at a time: two sets of three Python mocks beside two planners starve the
+/// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
+static STREAMING: Mutex<()> = Mutex::new(());
+
+fn streaming() -> MutexGuard<'static, ()> {
+    STREAMING.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 #[test]
 fn omcbsa_demo_plans_streams_and_summarises() {
+    let _one = streaming();
     let out = tempfile::tempdir().unwrap();
     let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
         .args(["demo", "--out"])
@@ -87,6 +97,7 @@ fn omcbsa_demo_plans_streams_and_summarises() {
 
 #[test]
 fn omcbsa_demo_streams_to_three_mock_gen3s_on_kortex() {
+    let _one = streaming();
     let out = tempfile::tempdir().unwrap();
     let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
         .args(["demo", "--transport", "kortex", "--out"])

@@ -15,8 +15,17 @@ use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::record::{self, TOLERANCE};
 use omcbsa_hw::JOINTS;
 
+/// One set of mocks at a time: two sets of three Python mocks beside two planners starve the
+/// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
+static STREAMING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn streaming() -> std::sync::MutexGuard<'static, ()> {
+    STREAMING.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 #[test]
 fn planned_three_arm_solution_streams_to_three_mock_arms() {
+    let _one = streaming();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
     let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
@@ -83,6 +92,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
 /// waypoints sent first and last.
 #[test]
 fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
+    let _one = streaming();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
     let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
