@@ -35,6 +35,21 @@ fn demo_problem_is_made_from_a_valid_witness_and_planned_by_omcbsa() {
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
 }
 
+/// Runs `omcbsa demo --out OUT args...`, which must succeed; its stdout and stderr.
+fn run_demo(out: &std::path::Path, args: &[&str]) -> (String, String) {
+    let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
+        .arg("demo")
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout).to_string();
+    let stderr = String::from_utf8_lossy(&run.stderr).to_string();
+    assert!(run.status.success(), "{stdout}\n{stderr}");
+    (stdout, stderr)
+}
+
 /// One demo streaming at a time: two sets of three Python mocks beside two planners starve the
 /// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
 static STREAMING: Mutex<()> = Mutex::new(());
@@ -47,14 +62,7 @@ fn streaming() -> MutexGuard<'static, ()> {
 fn omcbsa_demo_plans_streams_and_summarises() {
     let _one = streaming();
     let out = tempfile::tempdir().unwrap();
-    let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
-        .args(["demo", "--out"])
-        .arg(out.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stdout}\n{stderr}");
+    let (stdout, stderr) = run_demo(out.path(), &[]);
     for line in [
         "planned with Ω-CBSA in",
         "validated: valid",
@@ -99,14 +107,7 @@ fn omcbsa_demo_plans_streams_and_summarises() {
 fn omcbsa_demo_streams_to_three_mock_gen3s_on_kortex() {
     let _one = streaming();
     let out = tempfile::tempdir().unwrap();
-    let run = Command::new(env!("CARGO_BIN_EXE_omcbsa"))
-        .args(["demo", "--transport", "kortex", "--out"])
-        .arg(out.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stdout}\n{stderr}");
+    let (stdout, _) = run_demo(out.path(), &["--transport", "kortex"]);
     for line in [
         "starting 3 mock arms (Gen3 on Kortex over loopback TCP and UDP)",
         "executed: 3 arms",

@@ -12,7 +12,7 @@ use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Process, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// The mock script in this crate's source tree.
 pub fn script_path() -> PathBuf {
@@ -111,16 +111,12 @@ impl MockGen3 {
     /// Waits for the mock to exit (it does once its client has closed the TCP connection)
     /// and returns its record.
     pub fn finish(mut self) -> Result<Vec<Value>, String> {
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while self.child.try_wait().ok().flatten().is_none() {
-            if Instant::now() > deadline {
-                return Err(format!(
-                    "mock Gen3 {:?} did not exit after its connection was closed",
-                    self.name
-                ));
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        crate::mock::wait_exit(&mut self.child).map_err(|()| {
+            format!(
+                "mock Gen3 {:?} did not exit after its connection was closed",
+                self.name
+            )
+        })?;
         record::read(&self.record)
     }
 }
