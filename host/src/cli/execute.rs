@@ -17,9 +17,9 @@ use super::watch::WatchArgs;
 use super::{bad_input, negative, note, print};
 
 /// Streams a solution to the arms, one CAN bus or Kortex connection per arm, at the control
-/// rate: refuses to start unless the solution validates against the problem. Exit code 0 done, 1 stopped by a fault
-/// (every arm quick-stopped; the report says why), 2 bad input, a bus that cannot be opened or
-/// an arm that does not answer at start-up (nothing moved).
+/// rate: refuses to start unless the solution validates against the problem. Exit code 0 done,
+/// 1 stopped by a fault (every arm quick-stopped; the report says why), 2 bad input, a bus that
+/// cannot be opened or an arm that does not answer at start-up (nothing moved).
 #[derive(clap::Args)]
 pub struct Args {
     /// Problem file (omcbsa.problem.v1).
