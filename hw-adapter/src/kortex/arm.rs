@@ -5,7 +5,7 @@
 //!    commands every actuator where it was measured (the seed);
 //! 3. one BaseCyclic.Refresh on UDP per control cycle, frame_id and command_id stepping by one
 //!    (wrapping at 65535), positions in degrees in [0, 360); each actuator's answer matched to
-//!    the cycle it names (its command_id) by the per-cycle accounting ([`crate::watchdog`]: an
+//!    the cycle its command_id names ([`cycle_of`]) by the per-cycle accounting ([`crate::watchdog`]: an
 //!    answer missing when cycle k + m is due, or more than m periods stale, is a fault);
 //!    KeepAlive on a link idle for more than [`KEEP_ALIVE_AFTER`];
 //! 4. leaving: SetServoingMode(SINGLE_LEVEL_SERVOING), then CloseSession on both links; after
@@ -48,6 +48,14 @@ pub fn wire_degrees(counts: i32) -> f32 {
     } else {
         deg
     }
+}
+
+/// The cycle (0 = the first after the seed) whose command carried frame_id `frame`, given
+/// `sent` cycles sent, the last with frame_id `last`: frame_ids step by one (wrapping at 65535)
+/// from the seed's, so counting back from the last one. `None`: no cycle sent carried it.
+pub fn cycle_of(sent: u64, last: u16, frame: u32) -> Option<u64> {
+    let frame = u16::try_from(frame).ok()?;
+    sent.checked_sub(1 + u64::from(last.wrapping_sub(frame)))
 }
 
 /// Degrees from the wire, in radians on the turn nearest `near` (rad).
@@ -242,36 +250,26 @@ impl KortexArm {
         Ok(())
     }
 
-    /// A Feedback with `frame_id` answering, per actuator, the frame its command id names:
-    /// each actuator's answer goes to the per-cycle accounting; the feedback of the newest
-    /// cycle is kept for the following error.
+    /// A Feedback of `frame_id`, each actuator's command_id naming the same frame: every
+    /// actuator's answer to that cycle goes to the per-cycle accounting (one source per
+    /// actuator); the feedback of a cycle still kept is kept for the following error.
     fn answered(
         &mut self,
         frame_id: u16,
         pos: [f32; JOINTS],
         ids: [u32; JOINTS],
     ) -> Result<(), Fault> {
-        let sent = self.account.sent();
-        // The cycle a frame_id names: frame_ids step by one from the seed's, so counting back
-        // from the last one sent (a frame_id ahead of it names no cycle sent: the account's
-        // Unsent fault).
-        let cycle = |id: u32| {
-            let back = u64::from(self.frame_id.wrapping_sub(id as u16));
-            let id_fits = id <= u32::from(u16::MAX);
-            match sent.checked_sub(1 + back) {
-                Some(c) if id_fits => Ok(c),
-                _ => Err(Fault::ArmRefused(format!(
-                    "the arm answered frame {id}, which was not sent (last frame {})",
-                    self.frame_id
-                ))),
-            }
-        };
         if ids.iter().any(|&id| id != u32::from(frame_id)) {
             return Err(Fault::ArmRefused(format!(
                 "the feedback of frame {frame_id} carries command ids {ids:?}"
             )));
         }
-        let c = cycle(u32::from(frame_id))?;
+        let last = self.frame_id;
+        let c = cycle_of(self.account.sent(), last, u32::from(frame_id)).ok_or_else(|| {
+            Fault::ArmRefused(format!(
+                "the arm answered frame {frame_id}, which was not sent (last frame {last})"
+            ))
+        })?;
         let mut targets = None;
         for j in 0..JOINTS {
             targets = self
@@ -468,5 +466,19 @@ mod tests {
         }
         // Just below a whole turn stays below 360 after rounding to f32.
         assert_eq!(wire_degrees(rad_to_counts(-1e-7).unwrap()), 0.0);
+    }
+
+    #[test]
+    fn answers_name_their_cycle_by_frame_id_across_the_wrap_at_65535() {
+        // The seed was frame 0: cycle c carries frame (c + 1) mod 65536.
+        assert_eq!(cycle_of(3, 3, 3), Some(2));
+        assert_eq!(cycle_of(3, 3, 1), Some(0));
+        assert_eq!(cycle_of(3, 3, 0), None, "the seed is no cycle");
+        assert_eq!(cycle_of(3, 3, 4), None, "not sent yet");
+        assert_eq!(cycle_of(3, 3, 70000), None, "no frame_id");
+        // 65536 cycles: the last carries frame 0 again (65535 wrapped), the one before 65535.
+        assert_eq!(cycle_of(65536, 0, 0), Some(65535));
+        assert_eq!(cycle_of(65536, 0, 65535), Some(65534));
+        assert_eq!(cycle_of(65537, 1, 65535), Some(65534));
     }
 }
