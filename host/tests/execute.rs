@@ -150,7 +150,7 @@ fn arm_names_must_be_the_problems_robots() {
     );
     let (code, text) = execute(dir.path(), &demo, &demo.witness, &["--arm", "north"]);
     assert_eq!(code, 2, "{text}");
-    assert!(text.contains("expected NAME=BUS"), "{text}");
+    assert!(text.contains("expected NAME=SPEC"), "{text}");
 }
 
 #[test]

@@ -13,7 +13,9 @@ makes on its PDO configuration (CiA 301: mapping only while the PDO is invalid, 
 of the right size, at most 64 bits), the CiA 402 state machine in cyclic synchronous position
 mode, the joint model (first order), and the drive's own limit checks (Gen3 position limits in
 0x607D, velocity and acceleration over the interpolation period 0x60C2; a violating command is
-refused, recorded and answered with an EMCY).
+refused, recorded and answered with an EMCY), and its following-error monitoring as CiA 402 has
+it (|target - actual| beyond the window 0x6065 for the time-out 0x6066: statusword bit 13, fault,
+EMCY 0x8611).
 
 Every frame received from the host is recorded and written, as JSON lines, to --record at exit;
 --bus-log writes every frame in both directions as a candump log (python-can's writer; R = from
@@ -24,7 +26,8 @@ Fault injection (all on node 3 unless said otherwise): --stop-after-syncs N (eve
 silent), --late-after-syncs N with --late-ms D (every answer delayed), --emcy-at-sync N (EMCY and
 fault), --fault-at-sync N (statusword fault bit, no EMCY), --nmt-stop-at-sync N (the node leaves
 operational for stopped), --heartbeat-stop-at-sync N (the node stops its heartbeat),
---lag-after-syncs N (every joint stops following its target).
+--lag-after-syncs N (every joint stops following its target; the drives' following-error
+monitoring faults them).
 """
 
 import argparse
@@ -52,6 +55,8 @@ ACCELERATION_LIMITS = [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0]
 # Float slack of the mock's own checks (the host's check is exact on the same counts).
 SLACK = 1e-9
 FAULTY_NODE = 3
+# Longest the bus log is written for at a time while the host streams, s.
+LOG_BUDGET = 0.0005
 
 MODE_CSP = 8
 SYNC_ID = 0x080
@@ -67,6 +72,9 @@ ABORT_DEVICE_STATE = 0x08000022
 EMCY_INJECTED = 0x2310  # continuous over-current
 EMCY_REFERENCE_LIMIT = 0x8612  # a command beyond the drive's limits
 EMCY_PDO_LENGTH = 0x8210  # PDO not processed: length error
+EMCY_FOLLOWING_ERROR = 0x8611  # CiA 402: following error
+SW_FOLLOWING_ERROR = 0x2000  # statusword bit 13 in cyclic synchronous position mode
+FOLLOWING_ERROR_OFF = 0xFFFFFFFF  # a window of 0xFFFFFFFF switches the check off
 
 # CiA 402 states: statusword value (bits 0-6, with "voltage enabled" and "quick stop" as a drive
 # reports them).
@@ -137,13 +145,20 @@ class SlcanAdapterBus(can.BusABC):
             with self.lock:
                 self.unlogged.append((t, ident, data, rx))
 
-    def write_log(self):
+    def write_log(self, budget=None):
+        """Writes the frames not yet logged; with a `budget` (s), only as many as fit in it, so
+        that a backlog (the set-up's SDO traffic) never keeps the drives from the next SYNC."""
         if self.log is not None:
+            end = None if budget is None else time.monotonic() + budget
             with self.lock:
+                done = 0
                 for t, ident, data, rx in self.unlogged:
                     self.log.on_message_received(can.Message(
                         timestamp=t, arbitration_id=ident, data=data, is_extended_id=False, is_rx=rx))
-                self.unlogged.clear()
+                    done += 1
+                    if end is not None and done % 8 == 0 and time.monotonic() >= end:
+                        break
+                del self.unlogged[:done]
 
     def _recv_internal(self, timeout):
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -156,8 +171,8 @@ class SlcanAdapterBus(can.BusABC):
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
             ready, _, _ = select.select([self.fd], [], [], 0)
             if not ready:
-                # caught up with the host: time to log
-                self.write_log()
+                # caught up with the host: time to log, a little at a time
+                self.write_log(LOG_BUDGET)
                 ready, _, _ = select.select([self.fd], [], [], left)
             if not ready:
                 return None, False
@@ -225,14 +240,20 @@ class Drive:
             0x6060: lambda sub, v: self.write_mode(v),
             0x607D: self.write_parameter,
             0x60C2: self.write_parameter,
+            0x6065: self.write_parameter,
+            0x6066: self.write_parameter,
         }
-        self.params = None  # (mode, interpolation period s, (min, max) counts) from the OD
+        # (mode, interpolation period s, (min, max) counts, (following error window counts,
+        # time-out s)) from the OD
+        self.params = None
         self.state = SWITCH_ON_DISABLED
         self.position = position
         self.target = round(position * COUNTS_PER_RAD)
         self.history = [self.target, self.target]  # the two previous applied targets
         self.new_target = None  # the target (counts) applied since the last SYNC
         self.pending = None  # a synchronous RPDO's values, applied at the next SYNC
+        self.beyond_since = None  # the SYNC from which |target - actual| is beyond the window
+        self.following_error = False
         self.syncs_since_tpdo = 0
         self.last_tpdo = None
         self.pdo_stale = True
@@ -266,14 +287,17 @@ class Drive:
         return self.node.nmt.state == "OPERATIONAL"
 
     def statusword(self):
-        return self.state | (REMOTE if self.state != FAULT else 0)
+        word = self.state | (REMOTE if self.state != FAULT else 0)
+        return word | (SW_FOLLOWING_ERROR if self.following_error else 0)
 
     def parameters(self):
         """Mode of operation in effect, interpolation period (0x60C2) in seconds, software
-        position limits (0x607D) in counts; read from the OD after a write to them."""
+        position limits (0x607D) in counts, following error window (0x6065, counts) and time-out
+        (0x6066, in seconds); read from the OD after a write to them."""
         if self.params is None:
             period = self.get(0x60C2, 1) * 10.0 ** self.get(0x60C2, 2)
-            self.params = (self.get(0x6061), period, (self.get(0x607D, 1), self.get(0x607D, 2)))
+            self.params = (self.get(0x6061), period, (self.get(0x607D, 1), self.get(0x607D, 2)),
+                           (self.get(0x6065), self.get(0x6066) / 1000.0))
         return self.params
 
     def on_read(self, index, subindex, od):
@@ -368,6 +392,7 @@ class Drive:
         if s == FAULT:
             if cw & 0x80:  # fault reset
                 self.state = SWITCH_ON_DISABLED
+                self.following_error = False
         elif cw & 0x02 == 0:  # disable voltage
             self.state = SWITCH_ON_DISABLED
         elif cw & 0x04 == 0:  # quick stop
@@ -384,6 +409,7 @@ class Drive:
                 self.target = round(self.position * COUNTS_PER_RAD)
                 self.history = [self.target, self.target]
                 self.put(0x607A, self.target)
+                self.beyond_since = None
                 self.state = OPERATION_ENABLED
 
     def fault(self, code=None):
@@ -453,7 +479,7 @@ class Drive:
             self.apply(*self.pending)
             self.pending = None
         arm = self.arm
-        mode, period, limits = self.parameters()
+        mode, period, limits, following = self.parameters()
         counts = self.new_target
         if self.state == OPERATION_ENABLED and counts is not None and mode == MODE_CSP:
             broken = self.check(counts, period, limits)
@@ -466,9 +492,27 @@ class Drive:
         self.new_target = None
         if self.state == OPERATION_ENABLED and not arm.lagging():
             self.position += (self.target / COUNTS_PER_RAD - self.position) * arm.follow(period)
+        if self.state == OPERATION_ENABLED and mode == MODE_CSP:
+            self.watch_following_error(period, *following)
         if self.id == FAULTY_NODE:
             self.inject(arm.syncs)
         self.transmit_tpdo()
+
+    def watch_following_error(self, period, window, time_out):
+        """CiA 402 following error: |target - actual| beyond the window (0x6065, counts) for at
+        least the time-out (0x6066, ms), timed on the drive's own clock (its SYNCs), sets
+        statusword bit 13 and faults with EMCY 0x8611."""
+        error = abs(self.target - round(self.position * COUNTS_PER_RAD))
+        if window == FOLLOWING_ERROR_OFF or error <= window:
+            self.beyond_since = None
+            return
+        syncs = self.arm.syncs
+        if self.beyond_since is None:
+            self.beyond_since = syncs
+        if (syncs - self.beyond_since) * period >= time_out:
+            self.arm.log(kind="following_error", node=self.id, sync=syncs, error=error, window=window)
+            self.following_error = True
+            self.fault(EMCY_FOLLOWING_ERROR)
 
     def inject(self, sync):
         args = self.arm.args
@@ -624,6 +668,9 @@ def main(argv):
         os.setpriority(os.PRIO_PROCESS, 0, -10)
     except PermissionError:
         pass
+    # The drives answer from the main thread; the library's heartbeat threads must not keep it
+    # waiting for the interpreter lock for the default 5 ms.
+    sys.setswitchinterval(0.0002)
     master, slave = os.openpty()
     tty.setraw(slave)
     path = os.ttyname(slave)

@@ -17,7 +17,7 @@ use crate::interpolate::Command;
 use crate::log::{LogEntry, LogSink};
 use crate::plan::JOINTS;
 use crate::transport::{Transport, TransportError};
-use std::collections::VecDeque;
+use crate::watchdog::{CycleAccount, CycleFault, MAX_MISSED_CYCLES};
 use std::time::{Duration, Instant};
 
 /// CANopen node id of joint `j` (0-based).
@@ -31,13 +31,19 @@ struct NodeState {
     heartbeat: Option<(Instant, u8)>,
     /// Last TPDO1: position actual (counts), statusword.
     tpdo: Option<(i32, u16)>,
-    /// TPDO1s received since the SYNC clock was reset: each answers one SYNC, in order.
-    answered: usize,
     /// The targets in force at the SYNC the last TPDO1 answers (None: it answered none). The
     /// following error is the distance to these, not to a target sent after the drive
     /// measured (feedback that arrives late is no following error).
     answered_target: Option<i32>,
     emcy: Option<Emcy>,
+}
+
+/// A breach of the accounting as a fault of the node (source j is joint j).
+pub(crate) fn answer_fault(fault: CycleFault) -> Fault {
+    Fault::Answer {
+        node: node_id(fault.source()),
+        fault,
+    }
 }
 
 /// The frames of one control cycle: an RPDO1 per joint (target, controlword), then SYNC; with a
@@ -71,10 +77,11 @@ pub struct ArmBus {
     /// Frames sent so far.
     pub frames_sent: usize,
     nodes: [NodeState; JOINTS],
-    /// Send times of the SYNCs not yet answered by every node, oldest first, with the targets
-    /// of their cycle; and how many SYNCs before them every node has answered.
-    syncs: VecDeque<(Instant, Option<Command>)>,
-    syncs_done: usize,
+    /// Per-cycle accounting of the SYNCs and each node's TPDO1 answers (source j = joint j),
+    /// with each SYNC's send time and the targets of its cycle (none for start-up SYNCs).
+    account: CycleAccount<(Instant, Option<Command>)>,
+    /// The first answer the accounting found late.
+    late: Option<CycleFault>,
     sdo_reply: Option<(u8, SdoReply)>,
 }
 
@@ -94,8 +101,10 @@ impl ArmBus {
             log,
             frames_sent: 0,
             nodes: [NodeState::default(); JOINTS],
-            syncs: VecDeque::new(),
-            syncs_done: 0,
+            // The executor refuses settings out of range before any bus is set up.
+            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
+                .expect("m clamped into its range"),
+            late: None,
             sdo_reply: None,
         }
     }
@@ -103,7 +112,7 @@ impl ArmBus {
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
         if frame.id() == canopen::SYNC_ID {
-            self.syncs.push_back((Instant::now(), None));
+            self.account.sent_cycle((Instant::now(), None));
         }
         self.frames_sent += 1;
         if let Some(log) = &self.log {
@@ -120,11 +129,8 @@ impl ArmBus {
     /// Starts counting SYNC answers afresh: from here, every SYNC sent is owed a TPDO1 by every
     /// node (they are operational with TPDO1 on every SYNC).
     fn reset_sync_clock(&mut self) {
-        self.syncs.clear();
-        self.syncs_done = 0;
-        for n in &mut self.nodes {
-            n.answered = 0;
-        }
+        self.account.reset();
+        self.late = None;
     }
 
     /// Handles every frame received so far.
@@ -147,19 +153,14 @@ impl ArmBus {
             Message::Tpdo1 { node: n, data } => {
                 if let (Some(j), Some(feedback)) = (node(n), cia402::parse_tpdo1(data.data())) {
                     self.nodes[j].tpdo = Some(feedback);
-                    let sent = self.syncs_done + self.syncs.len();
-                    let n = &mut self.nodes[j];
                     // The SYNC this TPDO1 answers, if one is owed.
-                    n.answered_target = (n.answered < sent)
-                        .then(|| self.syncs[n.answered - self.syncs_done].1)
-                        .flatten()
-                        .map(|cmd| cmd[j]);
-                    n.answered = (n.answered + 1).min(sent);
-                    let all = self.nodes.iter().map(|n| n.answered).min().unwrap_or(0);
-                    while self.syncs_done < all {
-                        self.syncs.pop_front();
-                        self.syncs_done += 1;
-                    }
+                    self.nodes[j].answered_target = match self.account.answer_next(j) {
+                        Ok(answered) => answered.and_then(|(_, (_, cmd))| cmd.map(|c| c[j])),
+                        Err(late) => {
+                            self.late.get_or_insert(late);
+                            None
+                        }
+                    };
                 }
             }
             // Error code 0 is "error reset / no error".
@@ -182,6 +183,10 @@ impl ArmBus {
         cfg: &ExecConfig,
         target: &Command,
     ) -> Result<f64, Fault> {
+        if let Some(fault) = self.late {
+            return Err(answer_fault(fault));
+        }
+        let consumer_time = cfg.watch.heartbeat_consumer_time();
         let mut worst: f64 = 0.0;
         for (j, n) in self.nodes.iter().enumerate() {
             let node = node_id(j);
@@ -193,7 +198,7 @@ impl ArmBus {
                 });
             }
             match n.heartbeat {
-                Some((t, _)) if now.duration_since(t) > cfg.heartbeat_timeout => {
+                Some((t, _)) if now.duration_since(t) > consumer_time => {
                     return Err(Fault::HeartbeatLost {
                         node,
                         silent_for: now.duration_since(t),
@@ -219,10 +224,11 @@ impl ArmBus {
                     silent_for: Duration::MAX,
                 });
             };
-            // The oldest SYNC the drive has not answered: feedback late by more than the timeout
-            // is a fault even while TPDOs keep coming (a backlog), and a wait with no SYNC
-            // sent is no silence.
-            if let Some(&(t, _)) = self.syncs.get(n.answered - self.syncs_done) {
+            // Backstop on the wall clock (the accounting counts SYNCs sent): the oldest SYNC the
+            // drive has not answered, late by more than the timeout even while TPDOs keep coming
+            // (a backlog); a wait with no SYNC sent is no silence.
+            let owed = self.account.owed(j).and_then(|k| self.account.record(k));
+            if let Some(&(t, _)) = owed {
                 if now.duration_since(t) > cfg.feedback_timeout {
                     return Err(Fault::FeedbackLost {
                         node,
@@ -238,7 +244,7 @@ impl ArmBus {
             }
             let goal = n.answered_target.unwrap_or(target[j]);
             let err = counts_to_rad(goal - pos).abs();
-            if err > cfg.following_error_bound {
+            if err > cfg.watch.following_error_bound {
                 return Err(Fault::FollowingError {
                     node,
                     actual: counts_to_rad(pos),
@@ -250,11 +256,23 @@ impl ArmBus {
         Ok(worst)
     }
 
+    /// Whether the next cycle may be sent, by the per-cycle accounting: call it when the
+    /// cycle is due (a node that has not answered SYNC k by then, with k + m the next, is a
+    /// fault).
+    pub fn check_cycle(&self) -> Result<(), Fault> {
+        self.account.check_send().map_err(answer_fault)
+    }
+
+    /// The first cycle this arm's answers do not yet allow to be sent.
+    pub fn clear_until(&self) -> u64 {
+        self.account.clear_until()
+    }
+
     pub fn send_cycle(&mut self, cmd: &Command, controlword: u16) -> Result<(), TransportError> {
         for (f, what) in cycle_frames(cmd, controlword) {
             self.send(&f, what)?;
         }
-        if let Some(sync) = self.syncs.back_mut() {
+        if let Some(sync) = self.account.last_mut() {
             sync.1 = Some(*cmd);
         }
         Ok(())
@@ -296,5 +314,65 @@ impl ArmBus {
             "NMT stop all nodes (start-up aborted)".into(),
         )
         .map_err(|e| e.to_string())
+    }
+}
+
+impl crate::link::ArmLink for ArmBus {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn frames_sent(&self) -> usize {
+        self.frames_sent
+    }
+
+    fn configure(
+        &mut self,
+        cfg: &ExecConfig,
+        plan: (&Command, &Span, &[f64; JOINTS]),
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(), String> {
+        ArmBus::configure(self, cfg, plan, stop)
+    }
+
+    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String> {
+        ArmBus::enable(self, cfg)
+    }
+
+    fn poll(&mut self) -> Result<(), String> {
+        ArmBus::poll(self).map_err(|e| e.to_string())
+    }
+
+    fn check_feedback(
+        &self,
+        now: Instant,
+        cfg: &ExecConfig,
+        target: &Command,
+    ) -> Result<f64, Fault> {
+        ArmBus::check_feedback(self, now, cfg, target)
+    }
+
+    fn check_cycle(&self) -> Result<(), Fault> {
+        ArmBus::check_cycle(self)
+    }
+
+    fn clear_until(&self) -> u64 {
+        ArmBus::clear_until(self)
+    }
+
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
+        ArmBus::send_cycle(self, cmd, cia402::CW_ENABLE_OPERATION).map_err(|e| e.to_string())
+    }
+
+    fn quick_stop(&mut self, hold: &Command) -> Result<(), String> {
+        ArmBus::quick_stop(self, hold)
+    }
+
+    fn finish(&mut self, hold: &Command) -> Result<(), String> {
+        ArmBus::finish(self, hold)
+    }
+
+    fn abort(&mut self) -> Result<(), String> {
+        ArmBus::abort(self)
     }
 }

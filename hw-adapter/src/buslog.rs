@@ -4,9 +4,11 @@
 //! and when each arm's quick stop reached its drives.
 
 use crate::canopen::{self, Message, NMT_STATE_OPERATIONAL, SYNC_ID};
-use crate::cia402::{self, counts_to_rad};
-use crate::executor::{ExecConfig, Fault};
+use crate::cia402;
+use crate::executor::Fault;
 use crate::frame::CanFrame;
+use crate::plan::JOINTS;
+use crate::watch::WatchSettings;
 use std::collections::VecDeque;
 use std::path::Path;
 
@@ -72,12 +74,29 @@ fn is_sync(f: &Logged) -> bool {
     f.from_host && f.frame.id() == SYNC_ID && f.frame.data().is_empty()
 }
 
-/// When `fault` became visible on the faulty arm's bus `log`, by the executor's own rules in
-/// `cfg`: the EMCY, the first TPDO with the drive out of "operation enabled", the first
-/// heartbeat out of operational, the first TPDO off its target by more than the bound; for a
-/// silence, the moment it outlasted its timeout. `None` if the log does not show it (or the
-/// fault is not about a drive).
-pub fn fault_onset(log: &[Logged], fault: &Fault, cfg: &ExecConfig) -> Option<f64> {
+/// The first sign of a fault on the faulty arm's bus, and the grace the rules give before the
+/// stop bound (in periods) starts counting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sign {
+    /// When the fault first showed, s (the mock's time stamps).
+    pub t: f64,
+    /// The heartbeat consumer time for a lost heartbeat, the drive's following-error time-out
+    /// for a lag it reports itself; else 0.
+    pub grace: f64,
+}
+
+/// The first sign of `fault` on the faulty arm's bus `log`, from the frames alone where they
+/// tell (not from when the executor's thresholds fire): the EMCY; for the drive's following
+/// error (EMCY 0x8611), the first TPDO off its target by more than the window written to
+/// 0x6065, with the time-out written to 0x6066 as grace; the first TPDO with the drive out of
+/// "operation enabled"; the first heartbeat out of operational; for a lost heartbeat, the last
+/// heartbeat, with the consumer time of `watch` as grace; for a SYNC unanswered or answered
+/// late, the first SYNC of the run of SYNCs the node left unanswered until the next SYNC that
+/// the stop ended; for the executor's own following-error check, the first TPDO off its target
+/// by more than its bound. `None` if the log does not show it (or the fault is not about a
+/// drive).
+pub fn first_sign(log: &[Logged], fault: &Fault, watch: &WatchSettings) -> Option<Sign> {
+    let now = |t| Sign { t, grace: 0.0 };
     let from = |node: u8| {
         log.iter()
             .filter(move |f| !f.from_host)
@@ -105,88 +124,164 @@ pub fn fault_onset(log: &[Logged], fault: &Fault, cfg: &ExecConfig) -> Option<f6
         })
     };
     match *fault {
-        Fault::Emcy { node, .. } => from(node).find_map(|(t, m)| match m {
-            Message::Emcy(e) if e.code != 0 => Some(t),
-            _ => None,
-        }),
+        Fault::Emcy {
+            code: cia402::EMCY_FOLLOWING_ERROR,
+            ..
+        } => {
+            let (window, time_out) = following_error_settings(log);
+            let t = (1..=JOINTS as u8)
+                .filter_map(|node| beyond(log, node, |_| window[usize::from(node) - 1]))
+                .min_by(f64::total_cmp)?;
+            Some(Sign {
+                t,
+                grace: time_out.iter().copied().max()? as f64 * 1e-3,
+            })
+        }
+        Fault::Emcy { node, .. } => from(node)
+            .find_map(|(t, m)| match m {
+                Message::Emcy(e) if e.code != 0 => Some(t),
+                _ => None,
+            })
+            .map(now),
         Fault::DriveState { node, .. } => feedback(node)
             .skip_while(|(_, (_, sw))| !cia402::operation_enabled(*sw))
             .find(|(_, (_, sw))| !cia402::operation_enabled(*sw))
-            .map(|(t, _)| t),
+            .map(|(t, _)| now(t)),
         Fault::NmtState { node, .. } => heartbeats(node)
             .skip_while(|(_, s)| *s != NMT_STATE_OPERATIONAL)
             .find(|(_, s)| *s != NMT_STATE_OPERATIONAL)
-            .map(|(t, _)| t),
+            .map(|(t, _)| now(t)),
         Fault::HeartbeatLost { node, .. } => {
-            let timeout = cfg.heartbeat_timeout.as_secs_f64();
+            let consumer = watch.heartbeat_consumer_time().as_secs_f64();
             // watched from the node's first operational heartbeat on
             let beats: Vec<f64> = heartbeats(node)
                 .skip_while(|(_, s)| *s != NMT_STATE_OPERATIONAL)
                 .map(|(t, _)| t)
                 .collect();
-            let gap = beats.windows(2).find(|w| w[1] - w[0] > timeout);
+            let gap = beats.windows(2).find(|w| w[1] - w[0] > consumer);
             gap.map(|w| w[0])
                 .or(beats.last().copied())
-                .map(|t| t + timeout)
+                .map(|t| Sign { t, grace: consumer })
         }
-        Fault::FeedbackLost { node, .. } => {
-            // From the NMT start on, each TPDO of `node` answers the oldest SYNC not yet
-            // answered; the first SYNC answered late, or never, by more than the timeout.
-            let timeout = cfg.feedback_timeout.as_secs_f64();
-            let start = log.iter().position(|f| {
-                f.from_host
-                    && f.frame.id() == canopen::NMT_ID
-                    && matches!(f.frame.data(), [1, n] if *n == 0 || *n == node)
-            })?;
-            let tpdo = canopen::tpdo1_cob_id(node);
-            let mut owed = VecDeque::new();
-            for f in &log[start..] {
-                if is_sync(f) {
-                    owed.push_back(f.t);
-                } else if !f.from_host && u32::from(f.frame.id()) == tpdo {
-                    match owed.pop_front() {
-                        Some(s) if f.t - s > timeout => return Some(s + timeout),
-                        _ => {}
-                    }
-                }
-            }
-            owed.front().map(|s| s + timeout)
+        Fault::FeedbackLost { node, .. } | Fault::Answer { node, .. } => {
+            unanswered_since(log, node).map(now)
         }
         Fault::FollowingError { node, .. } => {
-            let rpdo = canopen::rpdo1_cob_id(node);
-            let mut target = None;
-            log.iter().find_map(|f| {
-                if f.from_host && u32::from(f.frame.id()) == rpdo {
-                    // RPDO1 has TPDO1's layout: a position (the target), then a 16-bit word
-                    target = cia402::parse_tpdo1(f.frame.data()).map(|(counts, _)| counts);
-                    return None;
-                }
-                let (Message::Tpdo1 { node: n, data }, Some(goal)) =
-                    (canopen::decode(&f.frame), target)
-                else {
-                    return None;
-                };
-                let (pos, _) = cia402::parse_tpdo1(data.data())?;
-                (n == node
-                    && !f.from_host
-                    && counts_to_rad(goal - pos).abs() > cfg.following_error_bound)
-                    .then_some(f.t)
-            })
+            let bound = (watch.following_error_bound * cia402::COUNTS_PER_RAD) as u32;
+            beyond(log, node, |_| bound).map(now)
         }
-        Fault::CommandRefused(_) | Fault::Bus(_) => None,
+        // Not CAN faults: the Kortex mocks' records measure these.
+        Fault::CommandRefused(_)
+        | Fault::Bus(_)
+        | Fault::ArmRefused(_)
+        | Fault::ActuatorFault { .. } => None,
     }
 }
 
-/// When an arm's quick stop reached its drives: the SYNC after its first quick-stop RPDO.
-pub fn quick_stop_time(log: &[Logged]) -> Option<f64> {
-    let first_stop = log.iter().position(|f| {
+/// Per node (joint j at index j), the following error window and time-out last written to it
+/// by SDO (0 where none was).
+fn following_error_settings(log: &[Logged]) -> ([u32; JOINTS], [u16; JOINTS]) {
+    let (mut window, mut time_out) = ([0; JOINTS], [0; JOINTS]);
+    for f in log.iter().filter(|f| f.from_host) {
+        let id = usize::from(f.frame.id());
+        let (d, node) = (f.frame.data(), id.wrapping_sub(0x601));
+        // an expedited SDO download (0x23: 4 bytes, 0x2B: 2 bytes) to a joint's node
+        if !(node < JOINTS && d.len() == 8 && matches!(d[0], 0x23 | 0x2B)) {
+            continue;
+        }
+        let value = u32::from_le_bytes([d[4], d[5], d[6], d[7]]);
+        match u16::from_le_bytes([d[1], d[2]]) {
+            cia402::FOLLOWING_ERROR_WINDOW => window[node] = value,
+            cia402::FOLLOWING_ERROR_TIME_OUT => time_out[node] = value as u16,
+            _ => {}
+        }
+    }
+    (window, time_out)
+}
+
+/// The first TPDO of `node` whose position is off by more than `bound` (counts) from the
+/// target the drive applied at the SYNC it answers (the last RPDO before that SYNC).
+fn beyond(log: &[Logged], node: u8, bound: impl Fn(u8) -> u32) -> Option<f64> {
+    let (rpdo, tpdo) = (canopen::rpdo1_cob_id(node), canopen::tpdo1_cob_id(node));
+    let (mut sent, mut applied) = (None, None);
+    log.iter().find_map(|f| {
+        let id = u32::from(f.frame.id());
+        if f.from_host && id == rpdo {
+            // RPDO1 has TPDO1's layout: a position (the target), then a 16-bit word
+            sent = cia402::parse_tpdo1(f.frame.data()).map(|(counts, _)| counts);
+        } else if is_sync(f) {
+            applied = sent.or(applied);
+        } else if !f.from_host && id == tpdo {
+            let (pos, _) = cia402::parse_tpdo1(f.frame.data())?;
+            let goal = applied?;
+            return (goal.abs_diff(pos) > bound(node)).then_some(f.t);
+        }
+        None
+    })
+}
+
+/// The first SYNC of the last run of SYNCs that `node` left unanswered until the next SYNC
+/// (from the NMT start on, each TPDO1 of `node` answers the oldest SYNC not yet answered),
+/// up to the first quick stop.
+fn unanswered_since(log: &[Logged], node: u8) -> Option<f64> {
+    let start = log.iter().position(|f| {
+        f.from_host
+            && f.frame.id() == canopen::NMT_ID
+            && matches!(f.frame.data(), [1, n] if *n == 0 || *n == node)
+    })?;
+    let end = quick_stop_index(log).unwrap_or(log.len());
+    let tpdo = canopen::tpdo1_cob_id(node);
+    // (send time, answered before the next SYNC) of each SYNC, and the ones owed
+    let mut syncs: Vec<(f64, bool)> = Vec::new();
+    let mut owed = VecDeque::new();
+    for (i, f) in log.iter().enumerate().skip(start) {
+        if is_sync(f) {
+            // the stop's SYNC ends the search
+            if i > end {
+                break;
+            }
+            owed.push_back(syncs.len());
+            syncs.push((f.t, false));
+        } else if !f.from_host && u32::from(f.frame.id()) == tpdo {
+            if let Some(k) = owed.pop_front() {
+                // in time if no later SYNC had been sent yet
+                syncs[k].1 = k + 1 == syncs.len();
+            }
+        }
+    }
+    let last_in_time = syncs.iter().rposition(|s| s.1);
+    syncs.get(last_in_time.map_or(0, |i| i + 1)).map(|s| s.0)
+}
+
+/// The index of an arm's first quick-stop RPDO.
+fn quick_stop_index(log: &[Logged]) -> Option<usize> {
+    log.iter().position(|f| {
         f.from_host
             && matches!(f.frame.id(), 0x201..=0x27F)
             // RPDO1 has TPDO1's layout: target position, then the controlword
             && cia402::parse_tpdo1(f.frame.data())
                 .is_some_and(|(_, cw)| cw == cia402::CW_QUICK_STOP)
-    })?;
+    })
+}
+
+/// When an arm's quick stop reached its drives: the SYNC after its first quick-stop RPDO.
+pub fn quick_stop_time(log: &[Logged]) -> Option<f64> {
+    let first_stop = quick_stop_index(log)?;
     log[first_stop..].iter().find(|f| is_sync(f)).map(|f| f.t)
+}
+
+/// Targets the arm's drives received after its quick stop: RPDOs with any controlword but
+/// the quick stop's, after the first quick-stop RPDO (none if there was no stop).
+pub fn targets_after_stop(log: &[Logged]) -> usize {
+    let Some(first_stop) = quick_stop_index(log) else {
+        return 0;
+    };
+    (log[first_stop..].iter())
+        .filter(|f| f.from_host && matches!(f.frame.id(), 0x201..=0x27F))
+        .filter(|f| {
+            cia402::parse_tpdo1(f.frame.data()).is_none_or(|(_, cw)| cw != cia402::CW_QUICK_STOP)
+        })
+        .count()
 }
 
 #[cfg(test)]
@@ -230,24 +325,32 @@ mod tests {
     }
 
     #[test]
-    fn onsets_and_stops_from_frames() {
-        let cfg = ExecConfig {
-            heartbeat_timeout: Duration::from_millis(500),
-            feedback_timeout: Duration::from_millis(250),
+    fn first_signs_and_stops_from_frames() {
+        let watch = WatchSettings {
             following_error_bound: 0.05,
-            ..ExecConfig::default()
+            ..WatchSettings::default()
         };
         let enabled = cia402::rpdo1_payload(0, 0x0237);
         let faulted = cia402::rpdo1_payload(0, 0x0008);
         let far = cia402::rpdo1_payload(1_000_000, 0x0237); // 0.1 rad
+        let window = 500_000u32.to_le_bytes(); // 0.05 rad
         let log = [
+            frame(
+                0.8,
+                true,
+                0x603,
+                &[0x23, 0x65, 0x60, 0, window[0], window[1], window[2], 0],
+            ),
+            frame(0.85, true, 0x603, &[0x2B, 0x66, 0x60, 0, 10, 0, 0, 0]),
             frame(0.9, true, 0x000, &[1, 0]),
             frame(1.0, false, 0x703, &[0x05]),
             frame(1.1, true, 0x203, &cia402::rpdo1_payload(0, 0x0F)),
             frame(1.2, true, 0x080, &[]),
             frame(1.3, false, 0x183, &enabled),
             frame(1.4, false, 0x183, &far),
+            frame(1.45, true, 0x080, &[]),
             frame(1.5, false, 0x083, &[0x10, 0x23, 1, 0, 0, 0, 0, 0]),
+            frame(1.55, true, 0x080, &[]),
             frame(1.6, false, 0x183, &faulted),
             frame(1.7, false, 0x703, &[0x04]),
             frame(
@@ -258,66 +361,75 @@ mod tests {
             ),
             frame(1.9, true, 0x080, &[]),
         ];
-        let onset = |f: Fault| fault_onset(&log, &f, &cfg);
+        let sign = |f: Fault| first_sign(&log, &f, &watch);
+        let at = |t| Some(Sign { t, grace: 0.0 });
+        let emcy = |node, code| Fault::Emcy {
+            node,
+            code,
+            register: 1,
+        };
+        assert_eq!(sign(emcy(3, 0x2310)), at(1.5));
+        assert_eq!(sign(emcy(2, 0x2310)), None);
+        // the drive's own following error: the first TPDO beyond the window it was given,
+        // with its time-out as grace
         assert_eq!(
-            onset(Fault::Emcy {
-                node: 3,
-                code: 0x2310,
-                register: 1
-            }),
-            Some(1.5)
+            sign(emcy(3, cia402::EMCY_FOLLOWING_ERROR)),
+            Some(Sign {
+                t: 1.4,
+                grace: 0.01
+            })
         );
-        assert_eq!(
-            onset(Fault::Emcy {
-                node: 2,
-                code: 0x2310,
-                register: 1
-            }),
-            None
-        );
-        assert_eq!(
-            onset(Fault::DriveState {
-                node: 3,
-                statusword: 8
-            }),
-            Some(1.6)
-        );
-        assert_eq!(
-            onset(Fault::NmtState {
-                node: 3,
-                state: "stopped"
-            }),
-            Some(1.7)
-        );
-        let hb = onset(Fault::HeartbeatLost {
+        let drive = Fault::DriveState {
+            node: 3,
+            statusword: 8,
+        };
+        assert_eq!(sign(drive), at(1.6));
+        let nmt = Fault::NmtState {
+            node: 3,
+            state: "stopped",
+        };
+        assert_eq!(sign(nmt), at(1.7));
+        let lost = Fault::HeartbeatLost {
             node: 3,
             silent_for: Duration::ZERO,
+        };
+        // 0.7 s between the two heartbeats: the sign is the first, the consumer time grace
+        let consumer = watch.heartbeat_consumer_time().as_secs_f64();
+        let hb = Some(Sign {
+            t: 1.0,
+            grace: consumer,
         });
-        // 0.7 s between the two heartbeats: lost 0.5 s after the first
-        assert_eq!(hb, Some(1.0 + 0.5));
+        assert_eq!(sign(lost.clone()), hb);
         // no heartbeat after the one at 1.0
-        let last_only = fault_onset(
-            &log[..8],
-            &Fault::HeartbeatLost {
-                node: 3,
-                silent_for: Duration::ZERO,
-            },
-            &cfg,
-        );
-        assert_eq!(last_only, Some(1.0 + 0.5));
+        assert_eq!(first_sign(&log[..10], &lost, &watch), hb);
         let fe = Fault::FollowingError {
             node: 3,
             actual: 0.1,
             target: 0.0,
         };
-        assert_eq!(onset(fe), Some(1.4));
-        // the SYNC at 1.9 is never answered; the one at 1.2 is
-        let fl = onset(Fault::FeedbackLost {
+        assert_eq!(sign(fe), at(1.4));
+        // SYNC 1.2 answered in time (1.3); 1.45 answered only after 1.55 was sent; 1.55 never
+        let cycle = crate::watchdog::CycleFault::Missing {
+            source: 2,
+            cycle: 1,
+            next: 3,
+        };
+        let answer = Fault::Answer {
+            node: 3,
+            fault: cycle,
+        };
+        assert_eq!(sign(answer), at(1.45));
+        let silent = Fault::FeedbackLost {
             node: 3,
             silent_for: Duration::ZERO,
-        });
-        assert_eq!(fl, Some(1.9 + 0.25));
+        };
+        assert_eq!(first_sign(&log[..9], &silent, &watch), at(1.45));
+        assert_eq!(first_sign(&log[..7], &silent, &watch), None);
         assert_eq!(quick_stop_time(&log), Some(1.9));
-        assert_eq!(quick_stop_time(&log[..10]), None);
+        assert_eq!(quick_stop_time(&log[..14]), None);
+        assert_eq!(targets_after_stop(&log), 0);
+        let mut more = log.to_vec();
+        more.push(frame(2.0, true, 0x201, &cia402::rpdo1_payload(5, 0x0F)));
+        assert_eq!(targets_after_stop(&more), 1);
     }
 }

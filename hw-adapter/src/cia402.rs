@@ -27,6 +27,12 @@ pub const POSITION_ACTUAL: u16 = 0x6064;
 pub const TARGET_POSITION: u16 = 0x607A;
 /// Software position limit: sub 1 minimum, sub 2 maximum (counts).
 pub const SOFTWARE_POSITION_LIMIT: u16 = 0x607D;
+/// Following error window (counts, u32; 0xFFFFFFFF switches the check off) and time-out (ms,
+/// u16): the drive faults once |target - actual| has stayed beyond the window that long.
+pub const FOLLOWING_ERROR_WINDOW: u16 = 0x6065;
+pub const FOLLOWING_ERROR_TIME_OUT: u16 = 0x6066;
+/// EMCY error code of a following error (CiA 402).
+pub const EMCY_FOLLOWING_ERROR: u16 = 0x8611;
 /// Interpolation time period: sub 1 value, sub 2 index (the period is value * 10^index s).
 pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
 pub const HEARTBEAT_PRODUCER_TIME: u16 = 0x1017;
@@ -66,6 +72,8 @@ pub const CW_QUICK_STOP: u16 = 0x0002;
 
 /// Statusword bit 3.
 pub const SW_FAULT: u16 = 0x0008;
+/// Statusword bit 13 in cyclic synchronous position mode: following error.
+pub const SW_FOLLOWING_ERROR: u16 = 0x2000;
 const SW_STATE_MASK: u16 = 0x006F;
 const SW_OPERATION_ENABLED: u16 = 0x0027;
 
@@ -113,8 +121,14 @@ pub fn parse_tpdo1(data: &[u8]) -> Option<(i32, u16)> {
 
 /// The SDO writes that configure one drive for CSP streaming, in order (CiA 301 §7.5.2.35
 /// procedure for changing a PDO mapping: invalidate, clear, map, set count, validate);
-/// `period` is the interpolation time period ([`interpolation_time_period`]).
-pub fn startup_config(node: u8, heartbeat_ms: u16, period: (u8, i8)) -> Vec<(u16, u8, SdoValue)> {
+/// `period` is the interpolation time period ([`interpolation_time_period`]), `following` the
+/// following error window (counts) and time-out (ms).
+pub fn startup_config(
+    node: u8,
+    heartbeat_ms: u16,
+    period: (u8, i8),
+    following: (u32, u16),
+) -> Vec<(u16, u8, SdoValue)> {
     vec![
         (MODES_OF_OPERATION, 0, SdoValue::U8(MODE_CSP)),
         (COB_ID_SYNC, 0, SdoValue::U32(u32::from(SYNC_ID))),
@@ -142,6 +156,8 @@ pub fn startup_config(node: u8, heartbeat_ms: u16, period: (u8, i8)) -> Vec<(u16
         (TPDO1_MAPPING, 0, SdoValue::U8(2)),
         (TPDO1_COMM, 2, SdoValue::U8(EVERY_SYNC)),
         (TPDO1_COMM, 1, SdoValue::U32(tpdo1_cob_id(node))),
+        (FOLLOWING_ERROR_WINDOW, 0, SdoValue::U32(following.0)),
+        (FOLLOWING_ERROR_TIME_OUT, 0, SdoValue::U16(following.1)),
         (HEARTBEAT_PRODUCER_TIME, 0, SdoValue::U16(heartbeat_ms)),
     ]
 }

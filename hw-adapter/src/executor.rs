@@ -3,12 +3,14 @@
 
 use crate::arm::{cycle_frames, SetupOverride, Span};
 use crate::cia402;
-use crate::interpolate::plan_generator;
+use crate::interpolate::{peak_speeds, plan_generator};
+use crate::link::ArmPort;
 use crate::live::{self, RunInfo, StreamHandle};
 use crate::log::LogEntry;
 use crate::plan::{JointLimits, Plan, PlanValidator, JOINTS};
 use crate::stream::Generator;
-use crate::transport::Transport;
+use crate::watch::WatchSettings;
+use crate::watchdog::CycleFault;
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -31,14 +33,12 @@ pub struct ExecConfig {
     pub sdo_timeout: Duration,
     /// Time the drives get, after enabling, to report "operation enabled" by TPDO and heartbeat.
     pub startup_timeout: Duration,
-    /// Heartbeat producer time configured in every drive (0x1017), ms.
-    pub heartbeat_ms: u16,
-    /// Heartbeat consumer time: a node silent for longer is a fault.
-    pub heartbeat_timeout: Duration,
-    /// A node whose TPDO is older than this is a fault.
+    /// Fault detection: per-cycle accounting, heartbeat, following error ([`WatchSettings`]).
+    pub watch: WatchSettings,
+    /// Backstops on the wall clock, behind the per-cycle accounting: a SYNC unanswered for
+    /// longer is a fault, and so is an arm that keeps the others waiting longer on the common
+    /// schedule (its thread stalled, its bus full).
     pub feedback_timeout: Duration,
-    /// Largest allowed |target - actual|, rad.
-    pub following_error_bound: f64,
     /// Largest allowed distance of an arm's start position from the plan's first waypoint, rad.
     pub start_tolerance: f64,
     /// Largest wait for room on a bus when sending one frame.
@@ -65,10 +65,8 @@ impl Default for ExecConfig {
             log_path: None,
             sdo_timeout: Duration::from_millis(100),
             startup_timeout: Duration::from_secs(1),
-            heartbeat_ms: 100,
-            heartbeat_timeout: Duration::from_millis(350),
+            watch: WatchSettings::default(),
             feedback_timeout: Duration::from_millis(50),
-            following_error_bound: 0.05,
             start_tolerance: 1e-3,
             send_timeout: Duration::from_millis(2),
             settle_cycles: 50,
@@ -99,6 +97,11 @@ pub enum Fault {
         node: u8,
         silent_for: Duration,
     },
+    /// The per-cycle accounting: a SYNC unanswered by its deadline, or answered late.
+    Answer {
+        node: u8,
+        fault: CycleFault,
+    },
     DriveState {
         node: u8,
         statusword: u16,
@@ -110,6 +113,14 @@ pub enum Fault {
     },
     /// The runtime limit check refused a command (it was not sent).
     CommandRefused(String),
+    /// The arm answered with an error frame (Kortex): what it refused, and why.
+    ArmRefused(String),
+    /// An actuator, or the base, reports a fault in the cyclic feedback (Kortex; joint 0: the base).
+    ActuatorFault {
+        joint: u8,
+        bank_a: u32,
+        bank_b: u32,
+    },
     Bus(String),
 }
 
@@ -130,7 +141,11 @@ impl fmt::Display for Fault {
             } => {
                 write!(
                     f,
-                    "node {node} sent EMCY error code {code:#06x} (error register {register:#04x})"
+                    "node {node} sent EMCY error code {code:#06x}{} (error register {register:#04x})",
+                    match *code {
+                        cia402::EMCY_FOLLOWING_ERROR => ", following error beyond its window",
+                        _ => "",
+                    }
                 )
             }
             Fault::HeartbeatLost { node, silent_for } => {
@@ -146,6 +161,7 @@ impl fmt::Display for Fault {
                     silent(silent_for)
                 )
             }
+            Fault::Answer { node, fault } => write!(f, "node {node}: {fault}"),
             Fault::DriveState { node, statusword } => {
                 write!(
                     f,
@@ -162,6 +178,23 @@ impl fmt::Display for Fault {
                 (target - actual).abs()
             ),
             Fault::CommandRefused(e) => write!(f, "command refused by the limit check: {e}"),
+            Fault::ArmRefused(e) => write!(f, "{e}"),
+            Fault::ActuatorFault {
+                joint: 0,
+                bank_a,
+                bank_b,
+            } => write!(
+                f,
+                "the base reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
+            ),
+            Fault::ActuatorFault {
+                joint,
+                bank_a,
+                bank_b,
+            } => write!(
+                f,
+                "actuator {joint} reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
+            ),
             Fault::Bus(e) => write!(f, "bus error: {e}"),
         }
     }
@@ -216,6 +249,8 @@ impl fmt::Display for FaultReport {
 pub enum ExecError {
     #[error("invalid plan: {0}")]
     InvalidPlan(String),
+    #[error("invalid watchdog settings: {0}")]
+    Settings(String),
     #[error("arms and buses do not match: {0}")]
     Buses(String),
     #[error("refusing to start: the plan does not validate: {0}")]
@@ -315,22 +350,25 @@ pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
 pub struct Executor {
     plan: Plan,
     limits: [JointLimits; JOINTS],
-    /// One bus per plan arm, in plan order.
-    buses: Vec<Box<dyn Transport>>,
+    /// One port per plan arm, in plan order.
+    buses: Vec<ArmPort>,
     config: ExecConfig,
     progress: Option<ProgressFn>,
 }
 
 impl Executor {
-    /// `arms` pairs each plan arm's name with its bus; every plan arm needs exactly one bus
-    /// (none in a dry run).
-    pub fn new(
+    /// `arms` pairs each plan arm's name with its bus or Kortex connection ([`ArmPort`]);
+    /// every plan arm needs exactly one (none in a dry run).
+    pub fn new<P: Into<ArmPort>>(
         plan: Plan,
         limits: [JointLimits; JOINTS],
-        mut arms: Vec<(String, Box<dyn Transport>)>,
+        arms: Vec<(String, P)>,
         config: ExecConfig,
     ) -> Result<Self, ExecError> {
+        let mut arms: Vec<(String, ArmPort)> =
+            arms.into_iter().map(|(n, p)| (n, p.into())).collect();
         plan.check_shape().map_err(ExecError::InvalidPlan)?;
+        config.watch.check().map_err(ExecError::Settings)?;
         let mut buses = Vec::with_capacity(plan.arms.len());
         if !config.dry_run {
             for a in &plan.arms {
@@ -389,6 +427,7 @@ impl Executor {
             time_scale: timing.time_scale,
             total_cycles: Some(timing.cycles as u64 + 1 + self.config.settle_cycles as u64),
             spans,
+            speeds: peak_speeds(&self.plan, timing.step_time),
         };
         let progress = self.progress;
         live::start(
@@ -409,8 +448,8 @@ impl Executor {
     /// configuration and its bus; the handle's pushes take the arms in this order. A dry run
     /// is not supported here. Each push may queue at most [`ExecConfig::online_horizon`] of
     /// motion ahead.
-    pub fn online(
-        arms: Vec<(String, [f64; JOINTS], Box<dyn Transport>)>,
+    pub fn online<P: Into<ArmPort>>(
+        arms: Vec<(String, [f64; JOINTS], P)>,
         dt: f64,
         time_scale: f64,
         limits: [JointLimits; JOINTS],
@@ -421,6 +460,7 @@ impl Executor {
                 "online execution streams to buses; it has no dry run".into(),
             ));
         }
+        config.watch.check().map_err(ExecError::Settings)?;
         if !(time_scale.is_finite() && time_scale >= 1.0) {
             return Err(ExecError::InvalidPlan(format!(
                 "time scale must be a number >= 1, got {time_scale}"
@@ -443,7 +483,7 @@ impl Executor {
             } else {
                 1
             });
-        let buses = arms.into_iter().map(|a| a.2).collect();
+        let buses = arms.into_iter().map(|a| a.2.into()).collect();
         // Online segments are not known in advance: they may use the joints' whole range.
         let span: Span = std::array::from_fn(|j| match limits[j].position {
             Some((lo, hi)) => (to_counts(lo), to_counts(hi)),
@@ -453,6 +493,8 @@ impl Executor {
             time_scale,
             total_cycles: None,
             spans: vec![span; names.len()],
+            // Likewise their speeds: up to the joints' limits.
+            speeds: vec![limits.map(|l| l.velocity); names.len()],
         };
         live::start(names, generator, buses, config, None, false, info)
     }

@@ -125,6 +125,21 @@ pub fn min_time_scale<'a>(
     s_min
 }
 
+/// Per arm (in plan order) and joint, the peak speed of the interpolated path, rad/s, with
+/// waypoints `step_time` apart.
+pub fn peak_speeds(plan: &Plan, step_time: f64) -> Vec<[f64; JOINTS]> {
+    (plan.arms.iter())
+        .map(|a| {
+            let path = &a.joint_path;
+            std::array::from_fn(|j| {
+                (0..path.len().saturating_sub(1))
+                    .map(|i| segment(path, j, i).max_slope() / step_time)
+                    .fold(0.0, f64::max)
+            })
+        })
+        .collect()
+}
+
 /// How `plan` (whose shape must be valid) is timed at `period`: the uniform slow-down, with
 /// the duration rounded up to whole control periods so that the last command lands exactly on
 /// the last waypoint, and the resulting time per step.

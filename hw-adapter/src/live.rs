@@ -4,20 +4,19 @@
 //! the arms move) are the same loop; a run ends once it is told to finish and the queue is
 //! done, after the settle cycles.
 
-use crate::arm::{ArmBus, Span};
-use crate::cia402;
+use crate::arm::Span;
 use crate::executor::{
     ArmReport, ArmStop, ExecConfig, ExecError, Fault, FaultReport, Progress, ProgressFn, Report,
     STOP_BOUND_PERIODS,
 };
 use crate::interpolate::Command;
+use crate::link::{ArmLink, ArmPort};
 use crate::log::LogSink;
 use crate::plan::JOINTS;
 use crate::priority;
 use crate::stream::{Generator, PushError};
-use crate::transport::Transport;
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Barrier, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -83,6 +82,10 @@ struct Shared {
     names: Vec<String>,
     /// Cycles each arm has sent (`usize::MAX` once it has finished).
     sent: Vec<AtomicUsize>,
+    /// Per arm, the first cycle its per-cycle accounting does not yet allow
+    /// ([`ArmBus::clear_until`]; `u64::MAX` once it has finished): no arm sends a cycle that
+    /// another arm's drives have not earned, so that a fault stops every arm at the same cycle.
+    clear: Vec<AtomicU64>,
     /// The first fault: arm, fault, cycle, when detected.
     fault: Mutex<Option<(String, Fault, usize, Instant)>>,
     cycle: Mutex<Cycle>,
@@ -152,6 +155,9 @@ pub(crate) struct RunInfo {
     /// Per arm and joint, the range (bus counts) every command stays in: each drive's
     /// software position limits (0x607D) must cover it before any drive is enabled.
     pub spans: Vec<Span>,
+    /// Per arm and joint, the peak commanded speed, rad/s (the drives' following-error
+    /// windows).
+    pub speeds: Vec<[f64; JOINTS]>,
 }
 
 /// A stream to the arms while it runs: push segments, watch it, finish it.
@@ -167,7 +173,7 @@ pub struct StreamHandle {
 pub(crate) fn start(
     names: Vec<String>,
     generator: Generator,
-    buses: Vec<Box<dyn Transport>>,
+    buses: Vec<ArmPort>,
     config: ExecConfig,
     progress: Option<ProgressFn>,
     finishing: bool,
@@ -186,6 +192,7 @@ pub(crate) fn start(
         realtime_refused: Mutex::new(None),
         finishing: AtomicBool::new(finishing),
         sent: buses.iter().map(|_| AtomicUsize::new(0)).collect(),
+        clear: buses.iter().map(|_| AtomicU64::new(0)).collect(),
         names: names.clone(),
         fault: Mutex::new(None),
         cycle: Mutex::new(Cycle {
@@ -203,9 +210,10 @@ pub(crate) fn start(
         .zip(names)
         .zip(first)
         .zip(info.spans.clone())
+        .zip(info.speeds.clone())
         .enumerate())
-    .map(|(me, (((bus, name), first), span))| {
-        let mut bus = ArmBus::new(name, bus, clock, &config, log.clone());
+    .map(|(me, ((((bus, name), first), span), speed))| {
+        let mut bus = bus.into_link(name, clock, &config, log.clone());
         let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
         let total = info.total_cycles;
         std::thread::spawn(move || {
@@ -215,8 +223,8 @@ pub(crate) fn start(
             let progress = progress.as_deref().map(|p| p.as_ref());
             stream_arm(
                 me,
-                &mut bus,
-                (first, span),
+                bus.as_mut(),
+                (first, span, speed),
                 &shared,
                 &config,
                 progress,
@@ -304,19 +312,19 @@ impl StreamHandle {
     }
 }
 
-/// One arm's whole run, on its own thread, from the command it holds first and the range
-/// its commands stay in.
+/// One arm's whole run, on its own thread, from the command it holds first, the range its
+/// commands stay in and its joints' peak speeds.
 fn stream_arm(
     me: usize,
-    bus: &mut ArmBus,
-    (first, span): (Command, Span),
+    bus: &mut dyn ArmLink,
+    (first, span, speed): (Command, Span, [f64; JOINTS]),
     shared: &Shared,
     cfg: &ExecConfig,
     progress: Option<&(dyn Fn(Progress) + Send + Sync)>,
     total: Option<u64>,
 ) -> ArmEnd {
     // No drive of any arm is enabled unless every arm's drives are configured.
-    let configured = bus.configure(cfg, &first, &span, &shared.startup_failed);
+    let configured = bus.configure(cfg, (&first, &span, &speed), &shared.startup_failed);
     if let Some(end) = startup_phase_end(bus, configured, shared) {
         return end;
     }
@@ -337,9 +345,16 @@ fn stream_arm(
         let mut step = || -> Result<Option<(Command, Option<u64>)>, Fault> {
             // Feedback is read while waiting too, so that a fault is seen when its frame
             // arrives rather than at the next cycle.
+            // Once the cycle is due, the per-cycle accounting says whether it may be sent.
             let mut watch = || -> Result<f64, Fault> {
-                bus.poll().map_err(|e| Fault::Bus(e.to_string()))?;
-                bus.check_feedback(Instant::now(), cfg, &prev1)
+                bus.poll().map_err(Fault::Bus)?;
+                let now = Instant::now();
+                let fe = bus.check_feedback(now, cfg, &prev1)?;
+                if now >= due {
+                    bus.check_cycle()?;
+                }
+                shared.clear[me].store(bus.clear_until(), Ordering::SeqCst);
+                Ok(fe)
             };
             wait_turn(me, k, due, shared, cfg, &mut watch)?;
             let fe = watch()?;
@@ -349,8 +364,7 @@ fn stream_arm(
             max_fe = max_fe.max(fe);
             // Checked against the limits by the generator.
             let (cmd, end) = shared.command(me, k as u64)?;
-            bus.send_cycle(&cmd, cia402::CW_ENABLE_OPERATION)
-                .map_err(|e| Fault::Bus(e.to_string()))?;
+            bus.send_cycle(&cmd).map_err(Fault::Bus)?;
             Ok(Some((cmd, end)))
         };
         let fault = match step() {
@@ -361,7 +375,7 @@ fn stream_arm(
                 if let Some(p) = progress {
                     if k.is_multiple_of(progress_every) || done {
                         p(Progress {
-                            arm: &bus.name,
+                            arm: bus.name(),
                             cycle: k + 1,
                             cycles: total.map_or(0, |t| t as usize),
                         });
@@ -378,37 +392,38 @@ fn stream_arm(
         };
         // A fault here or on another arm: quick stop, and nothing after it.
         let detected = match fault {
-            Some(f) => shared.raise(&bus.name, f, k),
+            Some(f) => shared.raise(bus.name(), f, k),
             None => lock(&shared.fault)
                 .as_ref()
                 .map_or_else(Instant::now, |f| f.3),
         };
         let error = bus.quick_stop(&prev1).err();
         let stop = ArmStop {
-            arm: bus.name.clone(),
+            arm: bus.name().to_string(),
             cycles_sent: k,
             latency: detected.elapsed(),
             error,
         };
-        return ArmEnd::Stopped(stop, bus.frames_sent);
+        return ArmEnd::Stopped(stop, bus.frames_sent());
     }
     shared.sent[me].store(usize::MAX, Ordering::SeqCst);
+    shared.clear[me].store(u64::MAX, Ordering::SeqCst);
     match bus.finish(&prev1) {
         Ok(()) => ArmEnd::Completed {
             cycles: k,
-            frames: bus.frames_sent,
+            frames: bus.frames_sent(),
             max_following_error: max_fe,
             max_lateness: max_late,
         },
         Err(e) => {
-            let detected = shared.raise(&bus.name, Fault::Bus(e.clone()), k);
+            let detected = shared.raise(bus.name(), Fault::Bus(e.clone()), k);
             let stop = ArmStop {
-                arm: bus.name.clone(),
+                arm: bus.name().to_string(),
                 cycles_sent: k,
                 latency: detected.elapsed(),
                 error: Some(e),
             };
-            ArmEnd::Stopped(stop, bus.frames_sent)
+            ArmEnd::Stopped(stop, bus.frames_sent())
         }
     }
 }
@@ -416,7 +431,7 @@ fn stream_arm(
 /// Waits for every arm to finish a start-up phase with `result`; the arm's end if this arm or
 /// another failed (an arm that did not fail stops its nodes).
 fn startup_phase_end(
-    bus: &mut ArmBus,
+    bus: &mut dyn ArmLink,
     result: Result<(), String>,
     shared: &Shared,
 ) -> Option<ArmEnd> {
@@ -434,9 +449,10 @@ fn startup_phase_end(
     }
 }
 
-/// Waits until cycle `k` is due and every arm has sent cycle `k - 1`, calling `watch` (this
-/// arm's feedback check) every [`FAULT_POLL`]; returns early if a fault is raised here or on
-/// another arm. An arm that keeps the others waiting longer than the feedback timeout is a fault.
+/// Waits until cycle `k` is due, every arm has sent cycle `k - 1` and every arm's accounting
+/// allows cycle `k`, calling `watch` (this arm's feedback check) every [`FAULT_POLL`]; returns
+/// early if a fault is raised here or on another arm. An arm that keeps the others waiting
+/// longer than the feedback timeout is a fault.
 fn wait_turn(
     me: usize,
     k: usize,
@@ -452,10 +468,9 @@ fn wait_turn(
         }
         watch()?;
         let now = Instant::now();
-        let behind = shared
-            .sent
-            .iter()
-            .position(|c| c.load(Ordering::SeqCst) < k);
+        let behind = (shared.sent.iter())
+            .position(|c| c.load(Ordering::SeqCst) < k)
+            .or_else(|| (shared.clear.iter()).position(|c| c.load(Ordering::SeqCst) <= k as u64));
         if now >= due && behind.is_none() {
             return Ok(());
         }

@@ -34,10 +34,13 @@ pub fn venv_python() -> Result<PathBuf, String> {
 }
 
 /// The venv's python, first creating the venv with `hw-adapter/mock/setup_venv.sh` if it is
-/// missing (the script's output goes to this process's output).
+/// missing, or lacks the Kortex mock's generated message code (the script's output goes to
+/// this process's output).
 pub fn ensure_venv() -> Result<PathBuf, String> {
     if let Ok(python) = venv_python() {
-        return Ok(python);
+        if crate::mock_gen3::proto_code_ready(&python) {
+            return Ok(python);
+        }
     }
     let setup = script_path().with_file_name("setup_venv.sh");
     let status = Command::new("bash")
@@ -66,23 +69,20 @@ pub struct MockArmOptions {
     pub extra_args: Vec<String>,
 }
 
-/// Executor settings for the mocks: feedback and send deadlines generous enough for three
-/// Python processes sharing a busy 2-core machine (a mock that falls behind answers its SYNCs
-/// late, and leaves its pty's buffer full for a while: a stall of a few hundred ms was seen
-/// with several builds running), and a 4 ms control period: seven `canopen` nodes per arm in
-/// Python cost about 0.5 ms of CPU per cycle, so three mocks at 500 Hz alone would need most of
-/// the machine (real drives have their own processors). The send deadline stays under the
-/// feedback deadline, which is how long the other arms wait for a late one on the common
-/// schedule.
+/// Executor settings for the mocks: the command line's defaults (the same fault detection,
+/// [`crate::WatchSettings::default`]) but for the control period, 4 ms: seven `canopen` nodes
+/// per arm in Python cost about 0.5 ms of CPU per cycle, so three mocks at 500 Hz alone would
+/// need most of the machine (real drives have their own processors). Detection bounds are in
+/// periods, so they hold at any period.
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
-        period: Duration::from_millis(4),
-        feedback_timeout: Duration::from_secs(1),
-        heartbeat_timeout: Duration::from_millis(500),
-        send_timeout: Duration::from_millis(500),
+        period: MOCK_PERIOD,
         ..ExecConfig::default()
     }
 }
+
+/// The control period of runs on the mock arms.
+pub const MOCK_PERIOD: Duration = Duration::from_millis(10);
 
 /// A running mock arm; killed when dropped.
 pub struct MockArm {
@@ -153,21 +153,29 @@ impl MockArm {
     /// Waits for the mock to exit (it does once its pty is closed) and returns its record
     /// (empty without one).
     pub fn finish(mut self) -> Result<Vec<Value>, String> {
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while self.child.try_wait().ok().flatten().is_none() {
-            if Instant::now() > deadline {
-                return Err(format!(
-                    "mock arm {:?} did not exit after its pty was closed",
-                    self.name
-                ));
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        wait_exit(&mut self.child).map_err(|()| {
+            format!(
+                "mock arm {:?} did not exit after its pty was closed",
+                self.name
+            )
+        })?;
         match &self.record {
             Some(path) => record::read(path),
             None => Ok(Vec::new()),
         }
     }
+}
+
+/// Waits up to 5 s for a mock's process to exit.
+pub(crate) fn wait_exit(child: &mut Child) -> Result<(), ()> {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while child.try_wait().ok().flatten().is_none() {
+        if Instant::now() > deadline {
+            return Err(());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    Ok(())
 }
 
 impl Drop for MockArm {

@@ -39,7 +39,7 @@ fn access(index: u16, sub: u8, kind: &str, bits: usize) -> Value {
 /// Every object access of the executor's start-up and streaming.
 fn executor_accesses() -> Vec<Value> {
     let mut out = Vec::new();
-    for (index, sub, value) in cia402::startup_config(1, 100, (2, -3)) {
+    for (index, sub, value) in cia402::startup_config(1, 100, (2, -3), (10_000, 10)) {
         out.push(access(index, sub, "write", 8 * value.size()));
         if let (RPDO1_MAPPING | TPDO1_MAPPING, 1.., SdoValue::U32(entry)) = (index, sub, value) {
             let kind = if index == RPDO1_MAPPING {

@@ -7,6 +7,7 @@ use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::online::policy::RETRACT;
 use omcbsa::planners::plan_file;
+use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, script_path, venv_python, MockArm, MockArmOptions};
 use omcbsa_hw::{Executor, JointLimits, Transport};
 
@@ -45,7 +46,7 @@ fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
     }
     let dir = std::env::temp_dir().join(format!("omcbsa-approach-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    run_on_mock_arms(&python, plan.clone(), &checked, &dir, |_| {})
+    run_on_mock_arms(&python, MockKind::Can, plan.clone(), &checked, &dir, |_| {})
         .unwrap_or_else(|e| panic!("{e}"));
 
     // The same plan with arm 1 standing 0.2 rad off on joint 3.

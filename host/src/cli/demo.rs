@@ -4,22 +4,25 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::demo::{box_flip, run_on_mock_arms, MockRunError, DT, ROBOTS, STEPS};
+use omcbsa::demo::{box_flip, run_on_mock_arms_watched, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::{plan_file, InputOrPlanError};
 use omcbsa::view::write_html;
+use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::record::TOLERANCE;
 use serde::Serialize;
 
 use super::execute::{failure, progress_printer};
+use super::watch::WatchArgs;
 use super::{bad_input, negative, note, positive_seconds, print};
 
 /// The README's main command: three Kinova Gen3 arms around a box, hands on three of its faces
 /// while it flips. Plans it with Ω-CBSA, validates the plan, writes problem.json and
-/// solution.json, starts three Python mock arms (on SLCAN pseudo-terminals, creating their
-/// venv if needed) and streams the plan to them. Exit code 0 done, 1 not solved or stopped by
+/// solution.json, starts three Python mock arms (creating their venv if needed: on SLCAN
+/// pseudo-terminals, or mock Gen3s on Kortex over loopback TCP and UDP with `--transport
+/// kortex`) and streams the plan to them. Exit code 0 done, 1 not solved or stopped by
 /// a fault, 2 the mock arms or the output directory are not available.
 #[derive(clap::Args)]
 pub struct Args {
@@ -30,6 +33,28 @@ pub struct Args {
     /// Planning time limit, seconds.
     #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
+    /// How the mock arms are reached: can (CiA 402 over SLCAN) or kortex (Kinova's Kortex over
+    /// TCP and UDP).
+    #[arg(long, value_enum, default_value = "can")]
+    transport: TransportArg,
+    #[command(flatten)]
+    watch: WatchArgs,
+}
+
+/// `--transport` of the commands that start their own mock arms.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum TransportArg {
+    Can,
+    Kortex,
+}
+
+impl From<TransportArg> for MockKind {
+    fn from(t: TransportArg) -> Self {
+        match t {
+            TransportArg::Can => MockKind::Can,
+            TransportArg::Kortex => MockKind::Kortex,
+        }
+    }
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -37,7 +62,9 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
+    let watch = args.watch.settings().map_err(bad_input)?;
     print("demo: 3 Kinova Gen3 arms around a box, hands on three faces while it flips")?;
+    print(&watch)?;
     let problem = box_flip().map_err(failed)?.problem;
     print(format_args!(
         "problem {:?}: {} robots, {} trajectories of {STEPS} poses every {DT} s",
@@ -66,11 +93,18 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
     let python = ensure_venv().map_err(bad_input)?;
     let plan = checked.plan(&ROBOTS).map_err(failed)?;
     print(format_args!(
-        "starting {} mock arms, each at its first configuration",
-        plan.arms.len()
+        "starting {} mock arms ({}), each at its first configuration",
+        plan.arms.len(),
+        match args.transport {
+            TransportArg::Can => "CiA 402 over SLCAN",
+            TransportArg::Kortex => "Gen3 on Kortex over loopback TCP and UDP",
+        }
     ))?;
     let names = ROBOTS.map(String::from).to_vec();
-    let report = run_on_mock_arms(&python, plan, &checked, &args.out, progress_printer(names))
+    let kind = MockKind::from(args.transport);
+    let progress = progress_printer(names);
+    let dir = &args.out;
+    let report = run_on_mock_arms_watched(&python, kind, plan, &checked, dir, &watch, progress)
         .map_err(|e| match e {
             MockRunError::Exec(e) => failure(e),
             e @ MockRunError::Mocks(_) => bad_input(e),
@@ -78,10 +112,12 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
         })?;
     print(&report)?;
     summary(&checked, &report)?;
-    print(format_args!(
-        "  bus logs              {}/mock-*.log (candump -L: every frame, both directions)",
-        args.out.display()
-    ))?;
+    if kind == MockKind::Can {
+        print(format_args!(
+            "  bus logs              {}/mock-*.log (candump -L: every frame, both directions)",
+            args.out.display()
+        ))?;
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -16,6 +16,7 @@ pub mod online;
 pub mod plan;
 pub mod validate;
 pub mod view;
+pub mod watch;
 
 use std::fmt::Display;
 use std::io::{self, Write};

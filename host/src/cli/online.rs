@@ -11,6 +11,8 @@ use omcbsa::view::write_html;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::Event;
 
+use super::demo::TransportArg;
+use super::watch::WatchArgs;
 use super::{bad_input, negative, note, print};
 
 /// Online embodiment on three Python mock arms: a scripted box-flip policy emits chunks of
@@ -35,6 +37,12 @@ pub struct Args {
     /// Where the mock arms write their records.
     #[arg(long, default_value = "online-out")]
     out: PathBuf,
+    /// How the mock arms are reached: can (CiA 402 over SLCAN) or kortex (Kinova's Kortex over
+    /// TCP and UDP).
+    #[arg(long, value_enum, default_value = "can")]
+    transport: TransportArg,
+    #[command(flatten)]
+    watch: WatchArgs,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -49,9 +57,11 @@ fn online(args: &Args) -> Result<ExitCode, ExitCode> {
         .map_err(|e| bad_input(format!("--out {}: {e}", args.out.display())))?;
     let python = ensure_venv().map_err(|e| bad_input(format!("mock arms: {e}")))?;
     let mut script = RunScript {
+        watch: args.watch.settings().map_err(bad_input)?,
         chunks: args.chunks,
         late_chunk: args.late_chunk,
         unreachable_chunk: args.unreachable_chunk,
+        transport: args.transport.into(),
         ..RunScript::default()
     };
     script.options.planner = args.planner.clone();
@@ -59,6 +69,7 @@ fn online(args: &Args) -> Result<ExitCode, ExitCode> {
         "online: box flip policy, {} chunks of {} poses every {} poses, 3 mock arms",
         script.chunks, script.policy.chunk_len, script.policy.stride
     ))?;
+    print(&script.watch)?;
     // Progress lines are best effort: a closed stdout must not stop the arms mid-run.
     let outcome = run_on_mock_arms(&script, &python, &args.out, &mut |l| {
         let _ = print(l);

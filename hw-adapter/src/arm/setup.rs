@@ -1,7 +1,8 @@
 //! Setting up one arm's drives before any motion, in two phases that every arm finishes before
 //! the next begins (the executor waits for all arms in between):
 //! 1. [`ArmBus::configure`]: per drive, by SDO, check the device type, write the CSP
-//!    configuration (mode, SYNC, interpolation period, PDO mappings, heartbeat), and read back
+//!    configuration (mode, SYNC, interpolation period, PDO mappings, following error window
+//!    and time-out, heartbeat), and read back
 //!    what must hold before enabling: the mode in effect, the start position, the software
 //!    position limits. Nothing is enabled, so a refusal anywhere leaves every arm disabled.
 //! 2. [`ArmBus::enable`]: NMT start, the CiA 402 enable sequence, and SYNCs until every drive
@@ -126,13 +127,13 @@ impl ArmBus {
     }
 
     /// Phase 1: checks and configures every drive and reads back what must hold before
-    /// enabling (see the module). Returns `Ok` early, having sent nothing more, once `stop` is
+    /// enabling (see the module); `speed` is each joint's peak commanded speed, rad/s, for its
+    /// following-error window. Returns `Ok` early, having sent nothing more, once `stop` is
     /// raised: another arm failed, and its error is the one to report.
     pub fn configure(
         &mut self,
         cfg: &ExecConfig,
-        start: &Command,
-        span: &Span,
+        (start, span, speed): (&Command, &Span, &[f64; JOINTS]),
         stop: &AtomicBool,
     ) -> Result<(), String> {
         let period = cia402::interpolation_time_period(cfg.period).ok_or_else(|| {
@@ -145,7 +146,10 @@ impl ArmBus {
         let timeout = cfg.sdo_timeout;
         for j in 0..JOINTS {
             let node = node_id(j);
-            let mut writes = cia402::startup_config(node, cfg.heartbeat_ms, period);
+            let window = cfg.watch.following_error_window(speed[j], cfg.period);
+            let following = (window, cfg.watch.following_error_timeout_ms);
+            let mut writes =
+                cia402::startup_config(node, cfg.watch.heartbeat_ms, period, following);
             if let Some(o) =
                 (cfg.setup_override.as_ref()).filter(|o| o.arm == self.name && o.node == node)
             {

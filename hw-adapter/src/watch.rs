@@ -1,0 +1,158 @@
+//! The fault-detection settings of a run: one set, taken by `omcbsa execute`, `demo` and
+//! `online` (the command line's defaults are [`WatchSettings::default`]) and by the tests that
+//! measure the reactions.
+//!
+//! - Per-cycle accounting ([`crate::watchdog`]): a drive that has not answered SYNC k when SYNC
+//!   k + m is due, or whose answer is more than m periods stale, is a fault.
+//! - Heartbeat: the producer time written into every drive (0x1017) and the consumer time
+//!   derived from it, `factor` times it (CiA 301 practice: 1.5 to 2).
+//! - Following error, the CiA 402 way: every drive watches its own following error against the
+//!   window (0x6065) for the time-out (0x6066) and raises the fault itself (statusword bit 13,
+//!   EMCY 0x8611). The window of each joint is its plan's peak speed times twice the time the
+//!   drive's actual position trails its target (the drive's lag plus a period); a lag that
+//!   grows at speed v crosses it after W / v, and the drive reports it after the time-out.
+//!   The executor's own bound on |target - actual| stays as a second line.
+
+use std::fmt;
+use std::time::Duration;
+
+use crate::cia402::COUNTS_PER_RAD;
+use crate::watchdog::{DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
+
+/// The smallest following-error window, rad: a joint at rest still has encoder noise and
+/// rounding, and a window of a few counts would fault on them.
+pub const MIN_FOLLOWING_ERROR_WINDOW: f64 = 1e-3;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct WatchSettings {
+    /// m: a drive that has not answered SYNC k when SYNC k + m is due is a fault.
+    pub missed_cycles: u32,
+    /// Heartbeat producer time written into every drive (0x1017), ms.
+    pub heartbeat_ms: u16,
+    /// Heartbeat consumer time / producer time.
+    pub heartbeat_factor: f64,
+    /// Following error time-out written into every drive (0x6066), ms.
+    pub following_error_timeout_ms: u16,
+    /// How long a drive's actual position trails its target in normal motion (its position
+    /// loop's lag), for the following-error window.
+    pub drive_lag: Duration,
+    /// The executor's own check, second line: largest allowed |target - actual|, rad.
+    pub following_error_bound: f64,
+}
+
+impl Default for WatchSettings {
+    fn default() -> Self {
+        Self {
+            missed_cycles: DEFAULT_MISSED_CYCLES,
+            heartbeat_ms: 100,
+            heartbeat_factor: 1.5,
+            following_error_timeout_ms: 10,
+            drive_lag: Duration::from_millis(10),
+            following_error_bound: 0.05,
+        }
+    }
+}
+
+impl WatchSettings {
+    /// A node silent for longer than this is a fault.
+    pub fn heartbeat_consumer_time(&self) -> Duration {
+        Duration::from_millis(u64::from(self.heartbeat_ms)).mul_f64(self.heartbeat_factor)
+    }
+
+    /// The following-error window (0x6065, counts) of a joint whose commands move at up to
+    /// `speed` rad/s, streamed every `period`.
+    pub fn following_error_window(&self, speed: f64, period: Duration) -> u32 {
+        let trail = 2.0 * (self.drive_lag + period).as_secs_f64();
+        let rad = (speed.abs() * trail).max(MIN_FOLLOWING_ERROR_WINDOW);
+        // Far below u32::MAX counts for any joint speed within the limits.
+        (rad * COUNTS_PER_RAD).ceil().min(f64::from(u32::MAX - 1)) as u32
+    }
+
+    /// Every setting within its range, or what is wrong with which.
+    pub fn check(&self) -> Result<(), String> {
+        if !(1..=MAX_MISSED_CYCLES).contains(&self.missed_cycles) {
+            return Err(format!(
+                "missed cycles must be within [1, {MAX_MISSED_CYCLES}], got {}",
+                self.missed_cycles
+            ));
+        }
+        if self.heartbeat_ms == 0 {
+            return Err("heartbeat producer time must be at least 1 ms".into());
+        }
+        if !(self.heartbeat_factor.is_finite() && (1.0..=10.0).contains(&self.heartbeat_factor)) {
+            return Err(format!(
+                "heartbeat factor must be within [1, 10] (CiA 301 practice: 1.5 to 2), got {}",
+                self.heartbeat_factor
+            ));
+        }
+        if self.following_error_timeout_ms == 0 {
+            return Err("following error time-out must be at least 1 ms".into());
+        }
+        if self.drive_lag > Duration::from_secs(1) {
+            return Err(format!(
+                "drive lag must be at most 1 s, got {:?}",
+                self.drive_lag
+            ));
+        }
+        if !(self.following_error_bound.is_finite() && self.following_error_bound > 0.0) {
+            return Err(format!(
+                "following error bound must be a positive number of rad, got {}",
+                self.following_error_bound
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One line, as the commands print it at start.
+impl fmt::Display for WatchSettings {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "watchdog: fault when a drive has not answered SYNC k at SYNC k+{}; heartbeat {} ms, \
+             consumer {:?} ({}x); drive following-error time-out {} ms, window = peak speed x \
+             2 x (drive lag {:?} + period), at least {} rad; executor's bound {} rad",
+            self.missed_cycles,
+            self.heartbeat_ms,
+            self.heartbeat_consumer_time(),
+            self.heartbeat_factor,
+            self.following_error_timeout_ms,
+            self.drive_lag,
+            MIN_FOLLOWING_ERROR_WINDOW,
+            self.following_error_bound
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn consumer_time_and_window_follow_the_settings() {
+        let w = WatchSettings::default();
+        w.check().unwrap();
+        assert_eq!(w.heartbeat_consumer_time(), Duration::from_millis(150));
+        let period = Duration::from_millis(4);
+        // 0.5 rad/s x 2 x 14 ms = 14 mrad
+        assert_eq!(w.following_error_window(0.5, period), 140_000);
+        // a joint at rest gets the smallest window
+        assert_eq!(w.following_error_window(0.0, period), 10_000);
+    }
+
+    #[test]
+    fn settings_out_of_range_are_named() {
+        let bad = |f: fn(&mut WatchSettings)| {
+            let mut w = WatchSettings::default();
+            f(&mut w);
+            w.check().unwrap_err()
+        };
+        assert!(bad(|w| w.missed_cycles = 0).contains("missed cycles"));
+        assert!(bad(|w| w.heartbeat_ms = 0).contains("heartbeat producer"));
+        assert!(bad(|w| w.heartbeat_factor = 0.5).contains("heartbeat factor"));
+        assert!(bad(|w| w.heartbeat_factor = f64::NAN).contains("heartbeat factor"));
+        assert!(bad(|w| w.following_error_timeout_ms = 0).contains("time-out"));
+        assert!(bad(|w| w.drive_lag = Duration::from_secs(5)).contains("drive lag"));
+        assert!(bad(|w| w.following_error_bound = -1.0).contains("bound"));
+    }
+}
