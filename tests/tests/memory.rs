@@ -292,3 +292,29 @@ fn the_approach_allocates_nothing() {
         );
     }
 }
+
+/// Both models' kinematics and IK allocate nothing (the core has no allocator at all on
+/// `thumbv7em-none-eabihf`; here the count shows it for the host build too).
+#[test]
+fn both_models_kinematics_allocate_nothing() {
+    use omcbsa_core::ik::{ik_multi_start, IkParams, MultiStart};
+    use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
+    use omcbsa_core::rng::Rng;
+    fn run<M: Model<7>>() -> usize {
+        let q = [0.3, -0.4, 0.2, -1.8, 0.1, 1.6, 0.5];
+        let mut frames = [Frame::IDENTITY; 16];
+        let mut out = [[0.0; 7]; 2];
+        let (solved, n) = allocations(|| {
+            let target = M::fk(&q);
+            M::link_frames(&q, &mut frames);
+            let _ = M::jacobian(&q);
+            let params = IkParams::default();
+            let mut rng = Rng::new(3);
+            ik_multi_start::<M, 7>(&target, &params, &MultiStart::default(), &mut rng, &mut out)
+        });
+        assert!(solved.is_ok(), "{}: {solved:?}", M::NAME);
+        n
+    }
+    assert_eq!(run::<KinovaGen3>(), 0, "Gen3");
+    assert_eq!(run::<FrankaPanda>(), 0, "Panda");
+}

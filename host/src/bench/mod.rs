@@ -28,9 +28,8 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
-use omcbsa_core::model::KinovaGen3;
+use omcbsa_core::model::{KinovaGen3, Model};
 use omcbsa_core::problem::Problem;
-use omcbsa_hw::JointLimits;
 
 use crate::format::{ProblemFile, SolutionFile, Status};
 use crate::planners::{Capacities, Storage};
@@ -456,12 +455,11 @@ fn run_one(
         if !report.is_valid() {
             row.message = report.summary();
         } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
-            let accel = JointLimits::kinova_gen3().map(|l| l.acceleration);
             row.set_quality(&path_quality::<KinovaGen3, 7>(
                 &problem,
                 &solution.assignment,
                 &paths,
-                &accel,
+                &KinovaGen3::ACCELERATION,
             ));
         }
     }
