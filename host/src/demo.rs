@@ -22,14 +22,15 @@ use omcbsa_hw::executor::Progress;
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::mock::{exec_config, open_buses, spawn_for_plan};
 use omcbsa_hw::record::check_followed;
-use omcbsa_hw::{ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use omcbsa_hw::{ExecError, Executor, Plan, PlanValidator, Report};
 use serde_json::Map;
 
-use crate::execute::CheckedSolution;
+use crate::execute::{joint_limits, CheckedSolution, CAUTIOUS_SPEED};
 use crate::format::{
     joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
     ToolCapsuleSpec, ToolSpec, TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
+use crate::models::ModelKind;
 use crate::pose::from_frame;
 
 pub const NAME: &str = "demo_box_flip_3arms";
@@ -228,7 +229,8 @@ pub fn run_on_mock_arms(
     let mocks = spawn_for_plan(python, &plan, record, &[]).map_err(MockRunError::Mocks)?;
     let buses = open_buses(&mocks).map_err(|e| MockRunError::Mocks(e.to_string()))?;
     let config = exec_config();
-    let limits = JointLimits::kinova_gen3();
+    let limits =
+        joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).map_err(MockRunError::Mocks)?;
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;

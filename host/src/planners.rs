@@ -9,7 +9,6 @@ use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
 };
 use crate::load;
-use crate::models::ModelKind;
 use crate::validate::validate;
 use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
@@ -539,7 +538,7 @@ pub fn plan_file(
 
 /// The checked core problem of a problem file.
 pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
-    let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
+    load::planned_model(file).map_err(InputOrPlanError::Input)?;
     let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
     check_initial::<KinovaGen3, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
     Ok(problem)

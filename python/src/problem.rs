@@ -9,7 +9,6 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
 use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
-use omcbsa::models::ModelKind;
 use omcbsa::planners::{
     load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError, Storage,
 };
@@ -38,7 +37,7 @@ pub struct Problem {
 
 /// Checks a problem file (every rule a file alone can break, and arms standing clear).
 pub fn check(file: ProblemFile) -> Result<ProblemFile, InputError> {
-    let ModelKind::KinovaGen3 = load::model_of(&file)?;
+    load::planned_model(&file)?;
     let problem = load::problem::<KinovaGen3, DOF>(&file)?;
     omcbsa::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
     Ok(file)

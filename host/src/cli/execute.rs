@@ -10,7 +10,7 @@ use omcbsa::execute::CheckedSolution;
 use omcbsa::load;
 use omcbsa_hw::executor::Progress;
 use omcbsa_hw::transport::{self, ArmBuses, BusSpec};
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report};
 
 use super::{bad_input, negative, note, print};
 
@@ -143,7 +143,8 @@ fn stream(
     checked: &CheckedSolution,
 ) -> Result<Report, ExitCode> {
     let names = plan.arms.iter().map(|a| a.name.clone()).collect();
-    let report = Executor::new(plan, JointLimits::kinova_gen3(), buses, config)
+    let limits = checked.joint_limits().map_err(bad_input)?;
+    let report = Executor::new(plan, limits, buses, config)
         .and_then(|e| e.on_progress(progress_printer(names)).run(checked))
         .map_err(failure)?;
     print(&report)?;
