@@ -25,15 +25,34 @@ use omcbsa_core::search::{
     Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
 };
 
-/// Planner names, as the command line and the benchmark spell them.
-pub const PLANNERS: [&str; 6] = [
-    "omcbsa",
-    "pp",
-    "pp-single",
-    "ik-tracking",
-    "descartes",
-    "composite-astar",
-];
+pub use omcbsa_core::planner::PlannerKind;
+
+/// One line per planner, `name: description`, for `--help`.
+pub fn descriptions() -> String {
+    (PlannerKind::ALL.iter())
+        .map(|p| format!("{}: {}", p.name(), p.description()))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The planner of several robots named `name` (one of [`PlannerKind::BENCH`]), or an error
+/// listing them.
+pub fn parse_bench(name: &str) -> Result<PlannerKind, String> {
+    PlannerKind::parse(name)
+        .filter(|p| PlannerKind::BENCH.contains(p))
+        .ok_or_else(|| {
+            let known: Vec<&str> = PlannerKind::BENCH.iter().map(|p| p.name()).collect();
+            format!("unknown planner {name:?} (known: {})", known.join(", "))
+        })
+}
+
+/// The planner named `name`, or an error listing the known names.
+pub fn parse(name: &str) -> Result<PlannerKind, String> {
+    PlannerKind::parse(name).ok_or_else(|| {
+        let known: Vec<&str> = PlannerKind::ALL.iter().map(|p| p.name()).collect();
+        format!("unknown planner {name:?} (known: {})", known.join(", "))
+    })
+}
 
 /// Degrees of freedom of the planned model (Kinova Gen3).
 pub const DOF: usize = 7;
@@ -213,13 +232,13 @@ impl Storage {
     /// vectors, after the core call.
     pub fn solve(
         &mut self,
-        name: &str,
+        kind: PlannerKind,
         problem: &Problem<DOF>,
         timeout_s: f64,
     ) -> Result<Outcome, String> {
         let clock = WallClock::start();
         let mut stats = Stats::default();
-        let (status, assignment) = self.solve_core(name, problem, &clock, timeout_s, &mut stats)?;
+        let (status, assignment) = self.solve_core(kind, problem, &clock, timeout_s, &mut stats)?;
         let planning_time_s = clock.seconds();
         let h = problem.horizon();
         let n = problem.robots.len();
@@ -264,7 +283,7 @@ impl Storage {
     /// paths are left in this storage, the approach too ([`Storage::last`]).
     pub fn solve_core(
         &mut self,
-        name: &str,
+        kind: PlannerKind,
         problem: &Problem<DOF>,
         clock: &dyn Clock,
         timeout_s: f64,
@@ -293,8 +312,8 @@ impl Storage {
             timeout_s,
         };
         let omega = OmegaParams::default();
-        let last = match name {
-            "omcbsa" => {
+        let last = match kind {
+            PlannerKind::OmCbsa => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let st = CbsStorage {
                     nodes: &mut self.ct_nodes,
@@ -308,12 +327,14 @@ impl Storage {
                 rest.run(&mut p, &mut out, stats)
             }
             // Ω-A* alone is prioritised planning with one robot.
-            "omega-astar" if problem.robots.len() != 1 => rest.refuse(Status::InvalidProblem(
-                "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
-            )),
-            "pp" | "pp-single" | "omega-astar" => {
+            PlannerKind::OmegaAstar if problem.robots.len() != 1 => {
+                rest.refuse(Status::InvalidProblem(
+                    "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
+                ))
+            }
+            PlannerKind::Pp | PlannerKind::PpSingle | PlannerKind::OmegaAstar => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
-                let v = if name == "pp-single" {
+                let v = if kind == PlannerKind::PpSingle {
                     Variant::SingleGoal
                 } else {
                     Variant::MultiGoal
@@ -321,13 +342,13 @@ impl Storage {
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
                 rest.run(&mut p, &mut out, stats)
             }
-            "ik-tracking" => {
+            PlannerKind::IkTracking => {
                 let mut p = IkTracking {
                     params: IkTrackingParams::default(),
                 };
                 rest.run(&mut p, &mut out, stats)
             }
-            "descartes" => {
+            PlannerKind::Descartes => {
                 let st = DescartesStorage {
                     layers: &mut self.scratch,
                     cost: &mut self.cost,
@@ -341,19 +362,13 @@ impl Storage {
                 let mut p = Descartes::new(params, st);
                 rest.run(&mut p, &mut out, stats)
             }
-            "composite-astar" => {
+            PlannerKind::CompositeAstar => {
                 let mut p = CompositeAstar::new(
                     CompositeParams::default(),
                     &mut self.composite,
                     &mut self.open,
                 );
                 rest.run(&mut p, &mut out, stats)
-            }
-            other => {
-                return Err(format!(
-                    "unknown planner {other:?} (known: omega-astar, {})",
-                    PLANNERS.join(", ")
-                ))
             }
         };
         self.last = last;
@@ -523,17 +538,17 @@ impl Outcome {
     }
 }
 
-/// Plans a problem file with planner `name` and returns its solution file. A plan the planner
+/// Plans a problem file with planner `kind` and returns its solution file. A plan the planner
 /// calls solved is validated first; if it fails validation it is reported as not solved, with
 /// the violation in `message`, never as solved.
 pub fn plan_file(
     file: &ProblemFile,
-    name: &str,
+    kind: PlannerKind,
     timeout_s: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
     let problem = load_problem(file)?;
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
-    plan_loaded(&mut storage, file, &problem, name, timeout_s)
+    plan_loaded(&mut storage, file, &problem, kind, timeout_s)
 }
 
 /// The checked core problem of a problem file.
@@ -550,13 +565,13 @@ pub fn plan_loaded(
     storage: &mut Storage,
     file: &ProblemFile,
     problem: &Problem<DOF>,
-    name: &str,
+    kind: PlannerKind,
     timeout_s: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
     let outcome = storage
-        .solve(name, problem, timeout_s)
+        .solve(kind, problem, timeout_s)
         .map_err(InputOrPlanError::Plan)?;
-    let mut solution = outcome.to_solution_file(file, name);
+    let mut solution = outcome.to_solution_file(file, kind.name());
     if solution.status == FileStatus::Solved {
         let report = validate::<KinovaGen3, DOF>(file, problem, &solution);
         if !report.is_valid() {
@@ -576,6 +591,7 @@ pub fn plan_loaded(
 pub enum InputOrPlanError {
     /// The problem file breaks the spec.
     Input(InputError),
-    /// The request cannot run (an unknown planner name).
+    /// The request cannot run (storage too small for the horizon, a workspace that cannot be
+    /// made).
     Plan(String),
 }

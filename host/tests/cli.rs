@@ -294,3 +294,25 @@ fn a_panda_problem_is_validated_with_the_panda_and_refused_by_the_planners() {
         "{stderr}"
     );
 }
+
+#[test]
+fn unknown_planners_are_usage_errors_listing_the_known_ones() {
+    let out = omcbsa(&["plan", "--planner", "fast", "p.json"], "");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr.contains("unknown planner \"fast\" (known: omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar, omega-astar)"),
+        "{stderr}"
+    );
+    let out = omcbsa(&["plan", "--help"], "");
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("pp-single: OM-PP-A*_single"), "{help}");
+    // The bench runs planners of several robots only.
+    let out = omcbsa(&["bench", "suite", "--planners", "pp,omega-astar"], "");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr.contains("unknown planner \"omega-astar\" (known: omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar)"),
+        "{stderr}"
+    );
+}

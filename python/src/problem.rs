@@ -10,7 +10,8 @@ use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
 use omcbsa::planners::{
-    load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError, Storage,
+    self as planners, load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError,
+    PlannerKind, Storage,
 };
 use omcbsa::validate::validate as check_solution;
 use omcbsa_core::model::KinovaGen3;
@@ -457,8 +458,9 @@ pub fn plan(py: Python<'_>, problem: &Problem, planner: &str, timeout: f64) -> P
             format!("must be a positive number of seconds, got {timeout}"),
         ));
     }
+    let kind = planners::parse(planner).map_err(|e| field_error(py, "planner", e))?;
     let file = &problem.file;
-    match py.detach(|| guard("plan", || plan_with_pools(file, planner, timeout)))? {
+    match py.detach(|| guard("plan", || plan_with_pools(file, kind, timeout)))? {
         Ok(file) => Ok(Solution { file }),
         Err(InputOrPlanError::Input(e)) => Err(input_error(py, &e)),
         Err(InputOrPlanError::Plan(e)) => Err(field_error(py, "planner", e)),
@@ -473,7 +475,7 @@ static POOLS: Mutex<Option<(usize, Storage)>> = Mutex::new(None);
 /// own.
 fn plan_with_pools(
     file: &ProblemFile,
-    planner: &str,
+    planner: PlannerKind,
     timeout: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
     let Ok(mut slot) = POOLS.try_lock() else {

@@ -17,7 +17,7 @@ fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
     for r in &mut problem.robots {
         r.initial = Some(RETRACT.to_vec());
     }
-    let solution = plan_file(&problem, "omcbsa", 5.0).unwrap();
+    let solution = plan_file(&problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     let a = solution
         .approach

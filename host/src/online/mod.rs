@@ -39,7 +39,7 @@ use omcbsa_core::rng::Rng;
 use crate::error::{Errors, InputError};
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
-use crate::planners::{Capacities, Storage, DOF};
+use crate::planners::{self, Capacities, PlannerKind, Storage, DOF};
 use crate::pose;
 
 /// Where the arms are and what is around them: everything of a problem but the hands' poses.
@@ -146,7 +146,10 @@ impl Embodier {
     /// planner will use.
     pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
         let mut errors = Errors::default();
-        if !matches!(options.planner.as_str(), "omcbsa" | "pp") {
+        if !matches!(
+            planners::parse(&options.planner),
+            Ok(PlannerKind::OmCbsa | PlannerKind::Pp)
+        ) {
             errors.push(
                 "planner",
                 format!("{:?} cannot plan online: use omcbsa or pp", options.planner),
@@ -529,9 +532,8 @@ impl Embodier {
         problem: &Problem<DOF>,
         start_step: u64,
     ) -> Result<crate::planners::Outcome, OnlineError> {
-        let outcome = self
-            .storage
-            .solve(&self.options.planner, problem, self.options.chunk_timeout_s)
+        let outcome = planners::parse(&self.options.planner)
+            .and_then(|kind| (self.storage).solve(kind, problem, self.options.chunk_timeout_s))
             .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
         if outcome.status == Status::Solved {
             return Ok(outcome);
