@@ -3,7 +3,7 @@
 //! when it has no plan).
 
 use omcbsa_core::model::Model;
-use omcbsa_core::planner::Status;
+use omcbsa_core::planner::{PlannerKind, Status};
 use omcbsa_core::problem::{Assigned, Problem};
 use omcbsa_core::reach::tcp_reach;
 
@@ -84,18 +84,18 @@ impl AssignmentRule {
 /// the rest: a preference with no plan in sight must not use up the deadline.
 const PREFERRED_SHARE: f64 = 0.5;
 
-/// Plans `problem` with planner `name` under `rule` (checked) within `timeout_s` in all. The
+/// Plans `problem` with planner `kind` under `rule` (checked) within `timeout_s` in all. The
 /// robots' assignment is set in place for the call and restored after it (a problem is
 /// hundreds of kilobytes: no copy on the stack).
 pub fn solve(
     storage: &mut Storage,
-    name: &str,
+    kind: PlannerKind,
     problem: &mut Problem<DOF>,
     rule: &AssignmentRule,
     timeout_s: f64,
 ) -> Result<Outcome, String> {
     let kept: Vec<Assigned> = problem.robots.iter().map(|r| r.assigned).collect();
-    let outcome = solve_under(storage, name, problem, rule, timeout_s);
+    let outcome = solve_under(storage, kind, problem, rule, timeout_s);
     for (r, a) in problem.robots.iter_mut().zip(kept) {
         r.assigned = a;
     }
@@ -104,22 +104,22 @@ pub fn solve(
 
 fn solve_under(
     storage: &mut Storage,
-    name: &str,
+    kind: PlannerKind,
     p: &mut Problem<DOF>,
     rule: &AssignmentRule,
     timeout_s: f64,
 ) -> Result<Outcome, String> {
     AssignmentRule::apply(rule.list(), p);
     let AssignmentRule::Preferred(_) = rule else {
-        return storage.solve(name, p, timeout_s);
+        return storage.solve(kind, p, timeout_s);
     };
-    let first = storage.solve(name, p, PREFERRED_SHARE * timeout_s)?;
+    let first = storage.solve(kind, p, PREFERRED_SHARE * timeout_s)?;
     let left = timeout_s - first.planning_time_s;
     if first.status == Status::Solved || left <= 0.0 {
         return Ok(first);
     }
     AssignmentRule::apply(None, p);
-    let mut free = storage.solve(name, p, left)?;
+    let mut free = storage.solve(kind, p, left)?;
     free.planning_time_s += first.planning_time_s;
     Ok(free)
 }

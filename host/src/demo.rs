@@ -22,16 +22,15 @@ use omcbsa_hw::executor::Progress;
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::mock::exec_config;
-use omcbsa_hw::{
-    ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report, WatchSettings,
-};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report, WatchSettings};
 use serde_json::Map;
 
-use crate::execute::CheckedSolution;
+use crate::execute::{joint_limits, CheckedSolution, CAUTIOUS_SPEED};
 use crate::format::{
     joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
     ToolCapsuleSpec, ToolSpec, TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
+use crate::models::ModelKind;
 use crate::pose::from_frame;
 
 pub const NAME: &str = "demo_box_flip_3arms";
@@ -253,7 +252,8 @@ pub fn run_on_mock_arms_watched(
     let mocks = Fleet::spawn(kind, python, config.period, &starts, record, &[])
         .map_err(MockRunError::Mocks)?;
     let ports = mocks.ports().map_err(MockRunError::Mocks)?;
-    let limits = JointLimits::kinova_gen3();
+    let limits =
+        joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).map_err(MockRunError::Mocks)?;
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;

@@ -31,7 +31,7 @@ fn demo_problem_is_made_from_a_valid_witness_and_planned_by_omcbsa() {
     // Deterministic.
     assert_eq!(box_flip().unwrap().problem, demo.problem);
 
-    let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
+    let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
 }
 

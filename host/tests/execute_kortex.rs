@@ -9,11 +9,13 @@ use std::process::Command;
 
 use omcbsa::demo::{box_flip, Demo, ROBOTS};
 use omcbsa::execute::CheckedSolution;
+use omcbsa::execute::{joint_limits, CAUTIOUS_SPEED};
+use omcbsa::models::ModelKind;
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::kortex::{PASSWORD_ENV, USER_ENV};
 use omcbsa_hw::mock::venv_python;
-use omcbsa_hw::{mock_gen3, JointLimits};
+use omcbsa_hw::mock_gen3;
 
 fn demo() -> Demo {
     box_flip().unwrap_or_else(|e| panic!("{e}"))
@@ -116,7 +118,7 @@ fn execute_streams_to_three_mock_gen3s_and_shows_the_password_nowhere() {
     let logged = std::fs::read_to_string(&log).unwrap();
     assert!(logged.contains("Session.CreateSession"));
     assert!(!text.contains(&password) && !logged.contains(&password));
-    let limits = JointLimits::kinova_gen3();
+    let limits = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).unwrap();
     let traj = interpolate(&plan, &limits, period.as_secs_f64()).unwrap();
     let settle = omcbsa_hw::ExecConfig::default().settle_cycles;
     for ((name, record), cmds) in mocks.finish().unwrap().iter().zip(&traj.commands) {

@@ -140,7 +140,9 @@ fn witnesses_solve_their_problems_and_ik_tracking_solves_at_most_half() {
             );
         }
         known += 1;
-        let outcome = storage.solve("ik-tracking", &problem, 5.0).unwrap();
+        let outcome = storage
+            .solve(omcbsa::planners::PlannerKind::IkTracking, &problem, 5.0)
+            .unwrap();
         tracked += usize::from(outcome.status == Status::Solved);
     }
     // The suite is made so that solving takes more than myopic IK tracking (`suite::trap`);
@@ -184,7 +186,13 @@ fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
         }
         let mut stats = Stats::default();
         let (status, _) = storage
-            .solve_core("omcbsa", &problem, &NoClock, f64::INFINITY, &mut stats)
+            .solve_core(
+                omcbsa::planners::PlannerKind::OmCbsa,
+                &problem,
+                &NoClock,
+                f64::INFINITY,
+                &mut stats,
+            )
             .unwrap();
         assert_eq!(
             (status, stats.reason),

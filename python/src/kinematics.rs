@@ -6,9 +6,9 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
 use omcbsa::error::{Errors, InputError};
 use omcbsa::format::Pose;
 use omcbsa::ik::solve as solve_ik;
-use omcbsa::models::ModelKind;
+use omcbsa::models::{ModelKind, ModelVisitor};
 use omcbsa::{load, pose};
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::model::{Frame, Model};
 use pyo3::prelude::*;
 
 use crate::convert::{field_error, flat, index_path, input_error};
@@ -78,7 +78,7 @@ pub fn fk<'py>(
     base: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     tcp: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    let ModelKind::KinovaGen3 = model(py, model_name)?;
+    let kind = model(py, model_name)?;
     let (base, tcp) = (frame_arg(py, base, "base")?, frame_arg(py, tcp, "tcp")?);
     let q = q.as_array();
     let shape = q.shape().to_vec();
@@ -87,14 +87,12 @@ pub fn fk<'py>(
     let out = py
         .detach(|| {
             guard("fk", || {
-                let mut out = Vec::with_capacity(values.len());
-                for (k, row) in values.chunks_exact(DOF).enumerate() {
-                    let q = configuration::<KinovaGen3, DOF>(row, "q", lead, k)?;
-                    let p = pose::from_frame(&base.compose(&KinovaGen3::fk(&q)).compose(&tcp));
-                    out.extend_from_slice(&p.position);
-                    out.extend_from_slice(&p.quat_xyzw);
-                }
-                Ok::<_, InputError>(out)
+                kind.visit(FkRows {
+                    values: &values,
+                    lead,
+                    base: &base,
+                    tcp: &tcp,
+                })
             })
         })?
         .map_err(|e| input_error(py, &e))?;
@@ -121,7 +119,7 @@ pub fn ik<'py>(
     base: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     tcp: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
 ) -> PyResult<IkAnswer<'py>> {
-    let ModelKind::KinovaGen3 = model(py, model_name)?;
+    let kind = model(py, model_name)?;
     let (base_inv, tcp_inv) = (
         frame_arg(py, base, "base")?.inverse(),
         frame_arg(py, tcp, "tcp")?.inverse(),
@@ -130,7 +128,6 @@ pub fn ik<'py>(
     let shape = poses.shape().to_vec();
     let values = flat(py, &poses, 7, "poses", "(..., 7)")?;
     let lead = shape[..shape.len() - 1].to_vec();
-    let n = values.len() / 7;
     let seeds = match &seeds {
         None => None,
         Some(s) => {
@@ -152,40 +149,14 @@ pub fn ik<'py>(
     let (q, ok) = py
         .detach(|| {
             guard("ik", || {
-                let mut q = Vec::with_capacity(n * DOF);
-                let mut ok = Vec::with_capacity(n);
-                for (k, row) in values.chunks_exact(7).enumerate() {
-                    let p = Pose {
-                        position: [row[0], row[1], row[2]],
-                        quat_xyzw: [row[3], row[4], row[5], row[6]],
-                    };
-                    let target = pose::to_frame(&p)
-                        .map_err(|e| InputError::from(e.within(&index_path("poses", &lead, k))))?;
-                    let target = base_inv.compose(&target).compose(&tcp_inv);
-                    let start = match &seeds {
-                        Some(s) if s.len() == DOF => {
-                            Some(configuration::<KinovaGen3, DOF>(s, "seeds", &[], 0)?)
-                        }
-                        Some(s) => Some(configuration::<KinovaGen3, DOF>(
-                            &s[k * DOF..(k + 1) * DOF],
-                            "seeds",
-                            &lead,
-                            k,
-                        )?),
-                        None => None,
-                    };
-                    match solve_ik::<KinovaGen3, DOF>(&target, start.as_ref(), seed) {
-                        Ok(sol) => {
-                            q.extend_from_slice(&sol);
-                            ok.push(true);
-                        }
-                        Err(_) => {
-                            q.extend_from_slice(&[f64::NAN; DOF]);
-                            ok.push(false);
-                        }
-                    }
-                }
-                Ok::<_, InputError>((q, ok))
+                kind.visit(IkRows {
+                    values: &values,
+                    seeds: seeds.as_deref(),
+                    lead: &lead,
+                    seed,
+                    base_inv: &base_inv,
+                    tcp_inv: &tcp_inv,
+                })
             })
         })?
         .map_err(|e| input_error(py, &e))?;
@@ -194,6 +165,80 @@ pub fn ik<'py>(
     let ok = ArrayD::from_shape_vec(IxDyn(&lead), ok)
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
     Ok((array(py, q_shape, q)?, ok.into_pyarray(py)))
+}
+
+/// The poses of `values` (rows of `D` joint values), position + quaternion per row.
+struct FkRows<'a> {
+    values: &'a [f64],
+    lead: &'a [usize],
+    /// The robot's base in the world and its tool centre point in the tool frame.
+    base: &'a Frame,
+    tcp: &'a Frame,
+}
+
+impl ModelVisitor for FkRows<'_> {
+    type Output = Result<Vec<f64>, InputError>;
+    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+        let mut out = Vec::with_capacity(self.values.len());
+        for (k, row) in self.values.chunks_exact(D).enumerate() {
+            let q = configuration::<M, D>(row, "q", self.lead, k)?;
+            let p = pose::from_frame(&self.base.compose(&M::fk(&q)).compose(self.tcp));
+            out.extend_from_slice(&p.position);
+            out.extend_from_slice(&p.quat_xyzw);
+        }
+        Ok(out)
+    }
+}
+
+/// IK of every pose of `values` (rows of 7): joint values (NaN where none) and success flags.
+struct IkRows<'a> {
+    values: &'a [f64],
+    /// One configuration for all poses, or one per pose.
+    seeds: Option<&'a [f64]>,
+    lead: &'a [usize],
+    seed: u64,
+    /// Inverses of the robot's base and of its tool centre point (see [`FkRows`]).
+    base_inv: &'a Frame,
+    tcp_inv: &'a Frame,
+}
+
+impl ModelVisitor for IkRows<'_> {
+    type Output = Result<(Vec<f64>, Vec<bool>), InputError>;
+    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+        let n = self.values.len() / 7;
+        let mut q = Vec::with_capacity(n * D);
+        let mut ok = Vec::with_capacity(n);
+        for (k, row) in self.values.chunks_exact(7).enumerate() {
+            let p = Pose {
+                position: [row[0], row[1], row[2]],
+                quat_xyzw: [row[3], row[4], row[5], row[6]],
+            };
+            let target = pose::to_frame(&p)
+                .map_err(|e| InputError::from(e.within(&index_path("poses", self.lead, k))))?;
+            let target = self.base_inv.compose(&target).compose(self.tcp_inv);
+            let start = match self.seeds {
+                Some(s) if s.len() == D => Some(configuration::<M, D>(s, "seeds", &[], 0)?),
+                Some(s) => Some(configuration::<M, D>(
+                    &s[k * D..(k + 1) * D],
+                    "seeds",
+                    self.lead,
+                    k,
+                )?),
+                None => None,
+            };
+            match solve_ik::<M, D>(&target, start.as_ref(), self.seed) {
+                Ok(sol) => {
+                    q.extend_from_slice(&sol);
+                    ok.push(true);
+                }
+                Err(_) => {
+                    q.extend_from_slice(&[f64::NAN; D]);
+                    ok.push(false);
+                }
+            }
+        }
+        Ok((q, ok))
+    }
 }
 
 fn array(

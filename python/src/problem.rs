@@ -10,8 +10,10 @@ use omcbsa::assignment::AssignmentRule;
 use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
-use omcbsa::models::ModelKind;
-use omcbsa::planners::{load_problem, plan_assigned, Capacities, InputOrPlanError, Storage};
+use omcbsa::planners::{
+    self as planners, load_problem, plan_assigned, Capacities, InputOrPlanError, PlannerKind,
+    Storage,
+};
 use omcbsa::validate::validate as check_solution;
 use omcbsa_core::model::KinovaGen3;
 use pyo3::exceptions::PyRuntimeError;
@@ -37,7 +39,7 @@ pub struct Problem {
 
 /// Checks a problem file (every rule a file alone can break, and arms standing clear).
 pub fn check(file: ProblemFile) -> Result<ProblemFile, InputError> {
-    let ModelKind::KinovaGen3 = load::model_of(&file)?;
+    load::planned_model(&file)?;
     let problem = load::problem::<KinovaGen3, DOF>(&file)?;
     omcbsa::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
     Ok(file)
@@ -497,9 +499,10 @@ pub fn plan(
             format!("must be a positive number of seconds, got {timeout}"),
         ));
     }
+    let kind = planners::parse(planner).map_err(|e| field_error(py, "planner", e))?;
     let file = &problem.file;
     let rule = rule(assignment, preferred);
-    match py.detach(|| guard("plan", || plan_with_pools(file, planner, timeout, &rule)))? {
+    match py.detach(|| guard("plan", || plan_with_pools(file, kind, timeout, &rule)))? {
         Ok(file) => Ok(Solution { file }),
         Err(InputOrPlanError::Input(e)) => Err(input_error(py, &e)),
         Err(InputOrPlanError::Plan(e)) => Err(field_error(py, "planner", e)),
@@ -514,7 +517,7 @@ static POOLS: Mutex<Option<(usize, Storage)>> = Mutex::new(None);
 /// own.
 fn plan_with_pools(
     file: &ProblemFile,
-    planner: &str,
+    planner: PlannerKind,
     timeout: f64,
     rule: &AssignmentRule,
 ) -> Result<SolutionFile, InputOrPlanError> {

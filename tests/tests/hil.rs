@@ -28,7 +28,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
     let _one = streaming();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
-    let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
+    let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     let checked = CheckedSolution::new(demo.problem, solution).unwrap();
     assert!(
@@ -95,7 +95,7 @@ fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
     let _one = streaming();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
-    let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
+    let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     let checked = CheckedSolution::new(demo.problem, solution).unwrap();
     let plan = checked.plan(&ROBOTS).unwrap();

@@ -78,7 +78,7 @@ fn scene(b_at: &Q, tools: bool) -> ProblemFile {
 }
 
 fn plan(problem: &ProblemFile) -> SolutionFile {
-    let solution = plan_file(problem, "omcbsa", 10.0).unwrap();
+    let solution = plan_file(problem, omcbsa::planners::PlannerKind::OmCbsa, 10.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     assert_eq!(
         solution.assignment,

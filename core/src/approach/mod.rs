@@ -42,7 +42,8 @@ use rrt::Miss;
 pub struct ApproachParams {
     /// Share of each joint's velocity limit the approach may use (0 < speed <= 1).
     pub speed: f64,
-    /// Acceleration limit of every joint, rad/s^2 (0: none).
+    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`]) the approach may
+    /// use (0: no acceleration limit).
     pub acceleration: f64,
     /// See [`crate::search::OmegaParams::motion_step`].
     pub motion_step: f64,
@@ -68,7 +69,6 @@ impl Default for ApproachParams {
     fn default() -> Self {
         ApproachParams {
             speed: 0.9,
-            // Kinova Gen3's slowest joints (1-4) per Kinova's joint_limits.yaml.
             acceleration: 1.0,
             motion_step: crate::motion::MOTION_STEP,
             max_orders: 24,

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use omcbsa::demo::{box_flip, run_on_mock_arms_watched, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
-use omcbsa::planners::{plan_file, InputOrPlanError};
+use omcbsa::planners::{plan_file, InputOrPlanError, PlannerKind};
 use omcbsa::view::write_html;
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::ensure_venv;
@@ -72,7 +72,7 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
         problem.robots.len(),
         problem.trajectories.len()
     ))?;
-    let solution = plan_file(&problem, "omcbsa", args.timeout).map_err(|e| match e {
+    let solution = plan_file(&problem, PlannerKind::OmCbsa, args.timeout).map_err(|e| match e {
         InputOrPlanError::Input(e) => failed(e),
         InputOrPlanError::Plan(e) => failed(e),
     })?;

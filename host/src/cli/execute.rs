@@ -11,7 +11,7 @@ use omcbsa::load;
 use omcbsa_hw::executor::Progress;
 use omcbsa_hw::kortex::Credentials;
 use omcbsa_hw::link::{self, ArmPorts};
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report};
 
 use super::watch::WatchArgs;
 use super::{bad_input, negative, note, print};
@@ -191,7 +191,8 @@ fn stream(
     checked: &CheckedSolution,
 ) -> Result<Report, ExitCode> {
     let names = plan.arms.iter().map(|a| a.name.clone()).collect();
-    let report = Executor::new(plan, JointLimits::kinova_gen3(), buses, config)
+    let limits = checked.joint_limits().map_err(bad_input)?;
+    let report = Executor::new(plan, limits, buses, config)
         .and_then(|e| e.on_progress(progress_printer(names)).run(checked))
         .map_err(failure)?;
     print(&report)?;

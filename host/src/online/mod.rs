@@ -44,7 +44,7 @@ use crate::assignment::{self, nearest, AssignmentRule};
 use crate::error::{Errors, InputError};
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
-use crate::planners::{Capacities, Storage, DOF};
+use crate::planners::{self, Capacities, PlannerKind, Storage, DOF};
 use crate::pose;
 
 /// Where the arms are and what is around them: everything of a problem but the hands' poses.
@@ -195,7 +195,10 @@ impl Embodier {
     /// planner will use.
     pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
         let mut errors = Errors::default();
-        if !matches!(options.planner.as_str(), "omcbsa" | "pp") {
+        if !matches!(
+            planners::parse(&options.planner),
+            Ok(PlannerKind::OmCbsa | PlannerKind::Pp)
+        ) {
             errors.push(
                 "planner",
                 format!("{:?} cannot plan online: use omcbsa or pp", options.planner),
@@ -643,16 +646,17 @@ impl Embodier {
         rule: &AssignmentRule,
     ) -> Result<crate::planners::Outcome, OnlineError> {
         let timeout = self.options.chunk_timeout_s;
-        let name = &self.options.planner;
+        let kind = planners::parse(&self.options.planner)
+            .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
         let outcome = match rule {
-            AssignmentRule::Free => self.storage.solve(name, problem, timeout),
+            AssignmentRule::Free => self.storage.solve(kind, problem, timeout),
             // Kept in the problem, where the diagnosis below sees it too.
             AssignmentRule::Fixed(list) => {
                 AssignmentRule::apply(Some(list), problem);
-                self.storage.solve(name, problem, timeout)
+                self.storage.solve(kind, problem, timeout)
             }
             AssignmentRule::Preferred(_) => {
-                assignment::solve(&mut self.storage, name, problem, rule, timeout)
+                assignment::solve(&mut self.storage, kind, problem, rule, timeout)
             }
         }
         .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;

@@ -16,7 +16,9 @@ use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, WatchSetting
 use super::policy::BoxFlipPolicy;
 use super::record::RunRecord;
 use super::{Embodier, OnlineError, OnlineOptions};
+use crate::execute::{joint_limits, CAUTIOUS_SPEED};
 use crate::format::{ProblemFile, SolutionFile};
+use crate::models::ModelKind;
 use crate::planners::DOF;
 use crate::validate::{validate, Report as Validation};
 
@@ -104,7 +106,7 @@ pub fn run_on_mock_arms(
     rec.chunk(first.start_step, &first.hands, 0);
     let mut latencies = vec![report.planning_time_s];
     let n = e.robot_names().len();
-    let limits = JointLimits::kinova_gen3();
+    let limits = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED)?;
     let dt = setup.dt;
     let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
     progress(&format!(
