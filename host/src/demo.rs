@@ -251,11 +251,19 @@ pub fn run_on_mock_arms_watched(
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;
     let settle = config.settle_cycles;
-    let report = Executor::new(plan, limits, buses, config)
-        .map_err(MockRunError::Exec)?
-        .on_progress(progress)
-        .run(validator)
-        .map_err(MockRunError::Exec)?;
+    let run = Executor::new(plan, limits, buses, config)
+        .and_then(|e| e.on_progress(progress).run(validator));
+    let report = match run {
+        Ok(report) => report,
+        Err(e) => {
+            // The buses are closed: let the mocks exit and write their records and bus logs
+            // (the evidence of a fault), rather than kill them.
+            for mock in mocks {
+                let _ = mock.finish();
+            }
+            return Err(MockRunError::Exec(e));
+        }
+    };
     for (mock, cmds) in mocks.into_iter().zip(&traj.commands) {
         let arm = mock.name.clone();
         let checked = mock
