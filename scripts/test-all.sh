@@ -10,7 +10,7 @@ echo "== bare-metal build of the core (thumbv7em-none-eabihf: no std, no alloc)"
 rustup target add thumbv7em-none-eabihf >/dev/null
 cargo build -p omcbsa-core --release --target thumbv7em-none-eabihf
 
-echo "== Python venv for the mock arms (pinned python-can, canopen)"
+echo "== Python venv for the mock arms (pinned python-can, canopen; protobuf, grpcio-tools for the Kortex mock)"
 bash hw-adapter/mock/setup_venv.sh
 
 echo "== headless Chromium for the plan viewer's browser test (host/tests/view_browser.rs)"

@@ -43,7 +43,21 @@ impl Chain {
     }
 }
 
-pub fn from_urdf(robot: &urdf_rs::Robot) -> Result<Chain, Error> {
+/// The links a chain runs between, as a model's manifest names them.
+#[derive(Clone, Copy, Debug)]
+pub struct Ends<'a> {
+    /// The model's base frame.
+    pub base: &'a str,
+    /// The arm's last link (its flange): only fixed joints may follow it to the tool frame.
+    pub tip: &'a str,
+    /// The frame `fk` reports; the chain ends here.
+    pub tool: &'a str,
+}
+
+/// The chain of `robot`: with `ends`, the path from the base link to the tool frame (links
+/// hanging off it, such as a gripper's fingers, are not part of it); without, the whole URDF,
+/// which must then be one serial chain.
+pub fn from_urdf(robot: &urdf_rs::Robot, ends: Option<Ends>) -> Result<Chain, Error> {
     let mut links = BTreeSet::new();
     for link in &robot.links {
         if !links.insert(link.name.as_str()) {
@@ -73,35 +87,25 @@ pub fn from_urdf(robot: &urdf_rs::Robot) -> Result<Chain, Error> {
             });
         }
         if let Some(other) = by_parent.insert(&joint.parent.link, joint) {
-            return Err(Error::Branch {
-                link: joint.parent.link.clone(),
-                joints: [other.name.clone(), joint.name.clone()],
-            });
+            if ends.is_none() {
+                return Err(Error::Branch {
+                    link: joint.parent.link.clone(),
+                    joints: [other.name.clone(), joint.name.clone()],
+                });
+            }
         }
     }
-    let roots: Vec<&str> = links
-        .iter()
-        .copied()
-        .filter(|l| !by_child.contains_key(l))
-        .collect();
-    let [root] = roots[..] else {
-        return Err(Error::Roots(roots.iter().map(|l| l.to_string()).collect()));
+    let (base, path) = match ends {
+        Some(ends) => (ends.base, path_between(&links, &by_child, ends)?),
+        None => whole_chain(&links, &by_parent, &by_child)?,
     };
-
     let mut chain = Chain {
-        links: vec![root.to_string()],
+        links: vec![base.to_string()],
         joints: Vec::new(),
     };
-    let mut link = root;
-    while let Some(joint) = by_parent.get(link) {
+    for joint in path {
         chain.joints.push(convert(joint)?);
-        link = &joint.child.link;
-        chain.links.push(link.to_string());
-    }
-    if chain.links.len() != links.len() {
-        let reached: BTreeSet<&str> = chain.links.iter().map(String::as_str).collect();
-        let rest = links.difference(&reached).map(|l| l.to_string()).collect();
-        return Err(Error::Unreachable(rest));
+        chain.links.push(joint.child.link.clone());
     }
     if chain.actuated().next().is_none() {
         return Err(Error::NoActuatedJoint);
@@ -113,6 +117,94 @@ pub fn from_urdf(robot: &urdf_rs::Robot) -> Result<Chain, Error> {
         });
     }
     Ok(chain)
+}
+type Joints<'r> = BTreeMap<&'r str, &'r urdf_rs::Joint>;
+
+/// The joints from the one root of a URDF that must be a serial chain, and that root.
+fn whole_chain<'r>(
+    links: &BTreeSet<&'r str>,
+    by_parent: &Joints<'r>,
+    by_child: &Joints<'r>,
+) -> Result<(&'r str, Vec<&'r urdf_rs::Joint>), Error> {
+    let roots: Vec<&str> = links
+        .iter()
+        .copied()
+        .filter(|l| !by_child.contains_key(l))
+        .collect();
+    let [root] = roots[..] else {
+        return Err(Error::Roots(roots.iter().map(|l| l.to_string()).collect()));
+    };
+    let mut path = Vec::new();
+    let mut reached = BTreeSet::from([root]);
+    let mut link = root;
+    while let Some(joint) = by_parent.get(link) {
+        path.push(*joint);
+        link = &joint.child.link;
+        reached.insert(link);
+    }
+    if reached.len() != links.len() {
+        let rest = links.difference(&reached).map(|l| l.to_string()).collect();
+        return Err(Error::Unreachable(rest));
+    }
+    Ok((root, path))
+}
+
+/// The joints from `ends.base` down to `ends.tool`, checking that the tip lies on that path
+/// with only fixed joints after it.
+fn path_between<'r>(
+    links: &BTreeSet<&'r str>,
+    by_child: &Joints<'r>,
+    ends: Ends,
+) -> Result<Vec<&'r urdf_rs::Joint>, Error> {
+    for (role, link) in [
+        ("base link", ends.base),
+        ("tip link", ends.tip),
+        ("tool frame", ends.tool),
+    ] {
+        if !links.contains(link) {
+            return Err(Error::EndLink {
+                role,
+                link: link.to_string(),
+            });
+        }
+    }
+    let mut path = Vec::new();
+    let mut link = ends.tool;
+    // At most one joint per link: a loop would have given some link two parents.
+    while link != ends.base {
+        let Some(joint) = by_child.get(link) else {
+            return Err(Error::NotBelow {
+                base: ends.base.to_string(),
+                tool: ends.tool.to_string(),
+            });
+        };
+        path.push(*joint);
+        link = &joint.parent.link;
+    }
+    path.reverse();
+    let tip_at = if ends.tip == ends.base {
+        Some(0)
+    } else {
+        path.iter()
+            .position(|j| j.child.link == ends.tip)
+            .map(|i| i + 1)
+    };
+    let Some(tip_at) = tip_at else {
+        return Err(Error::TipOffChain {
+            tip: ends.tip.to_string(),
+            joint: None,
+        });
+    };
+    if let Some(moving) = path[tip_at..]
+        .iter()
+        .find(|j| j.joint_type != urdf_rs::JointType::Fixed)
+    {
+        return Err(Error::TipOffChain {
+            tip: ends.tip.to_string(),
+            joint: Some(moving.name.clone()),
+        });
+    }
+    Ok(path)
 }
 
 fn convert(joint: &urdf_rs::Joint) -> Result<Joint, Error> {

@@ -84,6 +84,32 @@ pub enum Error {
         link: String,
         reason: &'static str,
     },
+    /// The manifest names a base link, tip link or tool frame the URDF does not define.
+    EndLink {
+        role: &'static str,
+        link: String,
+    },
+    /// The tool frame does not hang below the base link.
+    NotBelow {
+        base: String,
+        tool: String,
+    },
+    /// The tip link is not on the path from the base to the tool frame (`joint: None`), or a
+    /// moving joint follows it.
+    TipOffChain {
+        tip: String,
+        joint: Option<String>,
+    },
+    /// The model's manifest is not valid JSON of the expected shape.
+    Manifest {
+        source: String,
+        message: String,
+    },
+    /// A limit list has the wrong length or a value that is not a positive number.
+    BadLimit {
+        what: &'static str,
+        message: String,
+    },
 }
 
 impl fmt::Display for Error {
@@ -188,6 +214,29 @@ impl fmt::Display for Error {
                     "collision file: capsule {index} (link `{link}`): {reason}"
                 )
             }
+            EndLink { role, link } => {
+                write!(f, "{role} `{link}` is not a link of the URDF")
+            }
+            NotBelow { base, tool } => write!(
+                f,
+                "tool frame `{tool}` is not below base link `{base}` in the URDF's tree"
+            ),
+            TipOffChain { tip, joint: None } => write!(
+                f,
+                "tip link `{tip}` is not on the chain from the base link to the tool frame"
+            ),
+            TipOffChain {
+                tip,
+                joint: Some(joint),
+            } => write!(
+                f,
+                "joint `{joint}` moves between tip link `{tip}` and the tool frame; only fixed \
+                 joints may follow the tip"
+            ),
+            Manifest { source, message } => {
+                write!(f, "{source}: invalid model manifest: {message}")
+            }
+            BadLimit { what, message } => write!(f, "{what} limits: {message}"),
         }
     }
 }

@@ -155,12 +155,14 @@ pub struct RobotFit {
 }
 
 /// Fits capsules to every link mesh of the URDF at `urdf` (meshes looked up by file name in
-/// `mesh_dir`) and lists the disabled pairs (adjacent links, plus the SRDF's if given).
+/// `mesh_dir`; with `ends`, of the chain's links, see [`link_meshes`]) and lists the disabled
+/// pairs (adjacent links, plus the SRDF's if given).
 pub fn fit_robot(
     urdf: &Path,
     mesh_dir: &Path,
     srdf: Option<&Path>,
     model: &str,
+    ends: Option<crate::Ends>,
 ) -> Result<RobotFit, FitError> {
     let robot =
         urdf_rs::read_file(urdf).map_err(|e| FitError::new(format!("{}: {e}", urdf.display())))?;
@@ -172,7 +174,7 @@ pub fn fit_robot(
         }
         None => Vec::new(),
     };
-    let meshes = link_meshes(&robot, mesh_dir)?;
+    let meshes = link_meshes(&robot, mesh_dir, ends)?;
     let mut links = Vec::new();
     for (link, mesh) in meshes {
         let mut points = mesh.vertices.clone();

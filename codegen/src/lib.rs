@@ -12,11 +12,13 @@ mod collision;
 mod emit;
 mod error;
 pub mod fit;
+pub mod manifest;
 mod sym;
 mod transform;
 
 use std::path::Path;
 
+pub use chain::Ends;
 pub use error::Error;
 
 /// Where an input comes from.
@@ -29,7 +31,7 @@ pub enum Input<'a> {
 
 impl Input<'_> {
     /// `(name for messages, contents)`.
-    fn read(&self) -> Result<(String, String), Error> {
+    pub(crate) fn read(&self) -> Result<(String, String), Error> {
         match self {
             Input::File(path) => std::fs::read_to_string(path)
                 .map(|text| (path.display().to_string(), text))
@@ -53,6 +55,21 @@ pub struct ModelSpec<'a> {
     pub urdf: Input<'a>,
     /// Collision capsules and disabled link pairs; without it the model has no capsules.
     pub collision: Option<Input<'a>>,
+    /// Where the chain starts and ends; without them the whole URDF must be one serial chain
+    /// whose last link is the tool frame.
+    pub ends: Option<Ends<'a>>,
+    /// The vendor's limits; without them the URDF's velocity limits and no acceleration limit
+    /// (`f64::INFINITY`).
+    pub limits: Option<Limits<'a>>,
+}
+
+/// Joint limits given beside the URDF, one value per actuated joint in chain order.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits<'a> {
+    pub velocity: &'a [f64],
+    pub acceleration: &'a [f64],
+    /// Where the numbers come from (written into the generated type's documentation).
+    pub source: &'a str,
 }
 
 /// Rust source for `spec`: a unit struct and its `crate::model::Model<D>` impl.
@@ -65,7 +82,11 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         source: urdf_source.clone(),
         message: e.to_string(),
     })?;
-    let chain = chain::from_urdf(&robot)?;
+    let mut chain = chain::from_urdf(&robot, spec.ends)?;
+    let acceleration = match spec.limits {
+        Some(limits) => apply_limits(&mut chain, &limits)?,
+        None => vec![f64::INFINITY; chain.actuated().count()],
+    };
     let collision = spec.collision.map(|c| c.read()).transpose()?;
     let file = collision
         .as_ref()
@@ -79,8 +100,41 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         spec.name,
         &source,
         &chain,
+        &acceleration,
+        spec.limits.map(|l| l.source),
         &geometry,
     ))
+}
+
+/// Replaces the chain's velocity limits with `limits.velocity` and returns the accelerations,
+/// after checking both have one positive finite value per actuated joint.
+fn apply_limits(chain: &mut chain::Chain, limits: &Limits) -> Result<Vec<f64>, Error> {
+    let dof = chain.actuated().count();
+    for (what, values) in [
+        ("velocity", limits.velocity),
+        ("acceleration", limits.acceleration),
+    ] {
+        if values.len() != dof {
+            return Err(Error::BadLimit {
+                what,
+                message: format!("{} values for {dof} actuated joints", values.len()),
+            });
+        }
+        if let Some(i) = values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(Error::BadLimit {
+                what,
+                message: format!("value {i} ({}) is not a positive number", values[i]),
+            });
+        }
+    }
+    let moving = chain
+        .joints
+        .iter_mut()
+        .filter(|j| j.motion != chain::Motion::Fixed);
+    for (joint, &v) in moving.zip(limits.velocity) {
+        joint.velocity = v;
+    }
+    Ok(limits.acceleration.to_vec())
 }
 
 fn is_type_name(name: &str) -> bool {

@@ -7,13 +7,13 @@
 //! cargo test --release -p omcbsa-codegen --test capsule_slack -- --nocapture
 //! ```
 //!
-//! The meshes come from `../shared/` beside the repository; without them the test is skipped,
-//! saying so.
+//! The meshes are in `robots/kinova_gen3/meshes`.
 
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use omcbsa_codegen::fit::{self, CollisionFile, MeshDistance};
+use omcbsa_codegen::manifest::Folder;
 
 /// No link's capsules may stand farther off its mesh than this anywhere (a little above the
 /// committed fit's largest: README, "Capsule slack (issue 12)").
@@ -25,22 +25,15 @@ fn repo() -> PathBuf {
 
 #[test]
 fn capsules_stand_off_their_meshes_by_little() {
-    // Kinova's files: beside the repository, or where OMCBSA_KINOVA_DIR says.
-    let kinova = std::env::var_os("OMCBSA_KINOVA_DIR").map_or_else(
-        || repo().join("../shared/robots/kinova_gen3"),
-        PathBuf::from,
-    );
-    let meshes = kinova.join("meshes");
-    if !meshes.is_dir() {
-        println!("SKIPPED: meshes not found at {}", meshes.display());
-        return;
-    }
-    let file = CollisionFile::read(&repo().join("robots/kinova_gen3/collision.json")).unwrap();
-    let urdf = urdf_rs::read_file(repo().join("robots/kinova_gen3/gen3.urdf")).unwrap();
+    let dir = repo().join("robots/kinova_gen3");
+    let f = Folder::read(&dir).unwrap();
+    let meshes = f.meshes().expect("fitted to meshes");
+    let file = CollisionFile::read(&f.collision()).unwrap();
+    let urdf = urdf_rs::read_file(f.urdf()).unwrap();
     println!("| link | capsules | largest slack (mm) | mean slack (mm) |");
     println!("|---|---:|---:|---:|");
     let mut worst = (0.0, String::new());
-    for (link, mesh) in fit::link_meshes(&urdf, &meshes).unwrap() {
+    for (link, mesh) in fit::link_meshes(&urdf, &meshes, Some(f.ends())).unwrap() {
         let capsules: Vec<fit::Capsule> = (file.capsules.iter())
             .filter(|c| c.link == link)
             .map(|c| fit::Capsule {

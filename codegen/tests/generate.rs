@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use omcbsa_codegen::{generate_model, Error, Input, ModelSpec};
+use omcbsa_codegen::{generate_model, Ends, Error, Input, Limits, ModelSpec};
 
 fn generate(urdf: &str, collision: Option<&str>) -> Result<String, Error> {
     generate_model(&ModelSpec {
@@ -11,6 +11,8 @@ fn generate(urdf: &str, collision: Option<&str>) -> Result<String, Error> {
         name: "arm",
         urdf: Input::Text(urdf),
         collision: collision.map(Input::Text),
+        ends: None,
+        limits: None,
     })
 }
 
@@ -165,6 +167,8 @@ fn a_bad_type_name_or_missing_file_is_refused() {
         name: "arm",
         urdf: Input::Text(""),
         collision: None,
+        ends: None,
+        limits: None,
     };
     assert_mentions(&generate_model(&spec).unwrap_err().to_string(), &["9lives"]);
     let path = Path::new("/nonexistent/arm.urdf");
@@ -173,6 +177,8 @@ fn a_bad_type_name_or_missing_file_is_refused() {
         name: "arm",
         urdf: Input::File(path),
         collision: None,
+        ends: None,
+        limits: None,
     };
     assert_mentions(
         &generate_model(&spec).unwrap_err().to_string(),
@@ -211,4 +217,72 @@ fn collision_file_errors_are_named() {
         }
     }
     assert!(generate(&urdf, Some(&capsule("b", "0.1"))).is_ok());
+}
+
+fn with(urdf: &str, ends: Option<Ends>, limits: Option<Limits>) -> Result<String, Error> {
+    generate_model(&ModelSpec {
+        type_name: "Arm",
+        name: "arm",
+        urdf: Input::Text(urdf),
+        collision: None,
+        ends,
+        limits,
+    })
+}
+
+const ENDS: Ends = Ends {
+    base: "base",
+    tip: "b",
+    tool: "b",
+};
+
+#[test]
+fn with_ends_a_branch_off_the_chain_is_left_out() {
+    let mut parts = two_joint_arm();
+    parts.push(link("finger"));
+    parts.push(joint("f1", "prismatic", "a", "finger", "0 1 0"));
+    let code = with(&robot(&parts), Some(ENDS), None).expect("valid");
+    assert!(code.contains(r#"const LINK_NAMES: &'static [&'static str] = &["base", "a", "b"];"#));
+    // Without a limit the acceleration is unbounded.
+    assert!(code.contains("const ACCELERATION: [f64; 2] = [f64::INFINITY, f64::INFINITY];"));
+}
+
+#[test]
+fn ends_that_are_missing_or_out_of_order_are_named() {
+    let urdf = robot(&two_joint_arm());
+    let error = |ends| with(&urdf, Some(ends), None).unwrap_err().to_string();
+    let tool = Ends {
+        tool: "ghost",
+        ..ENDS
+    };
+    assert_mentions(&error(tool), &["tool frame", "ghost"]);
+    let upside_down = Ends {
+        base: "b",
+        tip: "b",
+        tool: "base",
+    };
+    assert_mentions(&error(upside_down), &["`base`", "not below", "`b`"]);
+    let early_tip = Ends { tip: "a", ..ENDS };
+    assert_mentions(&error(early_tip), &["j2", "tip link `a`"]);
+}
+
+#[test]
+fn manifest_limits_replace_the_urdfs_and_are_checked() {
+    let urdf = robot(&two_joint_arm());
+    let limits = |velocity, acceleration| Limits {
+        velocity,
+        acceleration,
+        source: "a datasheet",
+    };
+    let code = with(&urdf, Some(ENDS), Some(limits(&[2.0, 0.5], &[9.0, 3.0]))).unwrap();
+    assert!(
+        code.contains("const VELOCITY: [f64; 2] = [2.0, 0.5];"),
+        "{code}"
+    );
+    assert!(code.contains("const ACCELERATION: [f64; 2] = [9.0, 3.0];"));
+    assert!(code.contains("limits: a datasheet"));
+    let e = with(&urdf, None, Some(limits(&[2.0, 0.5], &[9.0]))).unwrap_err();
+    assert_mentions(&e.to_string(), &["acceleration", "1 values for 2"]);
+    let e = with(&urdf, None, Some(limits(&[2.0, -1.0], &[9.0, 3.0]))).unwrap_err();
+    assert_mentions(&e.to_string(), &["velocity", "value 1", "-1"]);
 }

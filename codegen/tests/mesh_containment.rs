@@ -1,39 +1,35 @@
-//! Every vertex of Kinova's link meshes lies inside one of its link's committed capsules
-//! (`robots/kinova_gen3/collision.json`), and the file's disabled pairs are the adjacent links
-//! plus the SRDF's. The meshes come from `../shared/` beside the repository; without them the
-//! mesh checks are skipped, saying so.
+//! Every vertex of a model's link meshes (for the Panda, the fingers' boxes over their whole
+//! travel too) lies inside one of its link's committed capsules (`robots/<model>/collision.json`),
+//! and the file's disabled pairs are the adjacent links plus the SRDF's. The meshes and SRDFs
+//! are in the models' folders.
 
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use omcbsa_codegen::fit::{self, CollisionFile};
+use omcbsa_codegen::manifest::Folder;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+fn folder(model: &str) -> Folder {
+    let dir: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../robots")
+        .join(model);
+    Folder::read(&dir).unwrap()
 }
 
-fn committed() -> CollisionFile {
-    CollisionFile::read(&repo().join("robots/kinova_gen3/collision.json")).unwrap()
+fn committed(f: &Folder) -> CollisionFile {
+    CollisionFile::read(&f.collision()).unwrap()
 }
 
-fn urdf() -> urdf_rs::Robot {
-    urdf_rs::read_file(repo().join("robots/kinova_gen3/gen3.urdf")).unwrap()
+fn urdf(f: &Folder) -> urdf_rs::Robot {
+    urdf_rs::read_file(f.urdf()).unwrap()
 }
 
-fn shared() -> PathBuf {
-    repo().join("../shared/robots/kinova_gen3")
-}
-
-#[test]
-fn every_mesh_vertex_is_inside_a_capsule_of_its_link() {
-    let meshes = shared().join("meshes");
-    if !meshes.is_dir() {
-        println!("SKIPPED: meshes not found at {}", meshes.display());
-        return;
-    }
-    let file = committed();
-    let link_meshes = fit::link_meshes(&urdf(), &meshes).unwrap();
-    assert_eq!(link_meshes.len(), 8, "Gen3 has 8 links with meshes");
+/// Checks every vertex of `model`'s link meshes; returns the links with meshes.
+fn vertices_inside(model: &str) -> Vec<String> {
+    let f = folder(model);
+    let file = committed(&f);
+    let meshes = f.meshes().expect("fitted to meshes");
+    let link_meshes = fit::link_meshes(&urdf(&f), &meshes, Some(f.ends())).unwrap();
     let mut checked = 0;
     for (link, mesh) in &link_meshes {
         let capsules: Vec<fit::Capsule> = file
@@ -63,20 +59,58 @@ fn every_mesh_vertex_is_inside_a_capsule_of_its_link() {
         }
         checked += mesh.vertices.len();
     }
-    println!("{checked} vertices inside their link's capsules");
+    println!("{model}: {checked} vertices inside their link's capsules");
     assert!(file.capsules.len() <= fit::CAPSULE_BUDGET);
     // No capsule for a link without a mesh (the tool frame).
     assert!(file
         .capsules
         .iter()
         .all(|c| link_meshes.iter().any(|(l, _)| *l == c.link)));
+    link_meshes.into_iter().map(|(l, _)| l).collect()
+}
+
+#[test]
+fn every_gen3_mesh_vertex_is_inside_a_capsule_of_its_link() {
+    assert_eq!(
+        vertices_inside("kinova_gen3").len(),
+        8,
+        "Gen3 has 8 links with meshes"
+    );
+}
+
+#[test]
+fn every_panda_vertex_fingers_included_is_inside_a_capsule_of_its_link() {
+    let links = vertices_inside("franka_panda");
+    let mut expected: Vec<String> = (0..8).map(|i| format!("panda_link{i}")).collect();
+    expected.push("panda_hand".into());
+    assert_eq!(links, expected, "the fingers are folded into panda_hand");
+}
+
+#[test]
+fn the_fingers_are_folded_in_at_every_opening() {
+    let f = folder("franka_panda");
+    let meshes = f.meshes().unwrap();
+    let all = fit::link_meshes(&urdf(&f), &meshes, Some(f.ends())).unwrap();
+    let hand = &all.iter().find(|(l, _)| l == "panda_hand").unwrap().1;
+    // The left fingertip's outer top corner in the hand frame: the finger joint sits 58.4 mm
+    // up and slides 0 to 40 mm along +y; its rubber tip box is centred at y 7.58 mm, z 45.25
+    // mm, 17.5 x 15.2 x 18.5 mm.
+    let (x, z) = (0.0175 / 2.0, 0.0584 + 0.04525 + 0.0185 / 2.0);
+    for opening in [0.0, 0.02, 0.04] {
+        let corner = Vector3::new(x, opening + 0.00758 + 0.0152 / 2.0, z);
+        assert!(
+            hand.vertices.iter().any(|v| (v - corner).norm() < 1e-9),
+            "no fingertip corner at opening {opening}"
+        );
+    }
 }
 
 #[test]
 fn disabled_pairs_are_the_adjacent_links_and_the_srdfs() {
-    let file = committed();
+    let f = folder("kinova_gen3");
+    let file = committed(&f);
     assert_eq!(file.disabled_pairs.len(), file.disabled_reasons.len());
-    let links: Vec<String> = urdf().links.iter().map(|l| l.name.clone()).collect();
+    let links: Vec<String> = urdf(&f).links.iter().map(|l| l.name.clone()).collect();
     let has_pair = |a: &str, b: &str| {
         file.disabled_pairs
             .iter()
@@ -89,11 +123,7 @@ fn disabled_pairs_are_the_adjacent_links_and_the_srdfs() {
             "adjacent {pair:?} not disabled"
         );
     }
-    let srdf = shared().join("gen3.srdf.xacro");
-    if !srdf.is_file() {
-        println!("SKIPPED: SRDF not found at {}", srdf.display());
-        return;
-    }
+    let srdf = f.srdf().expect("Kinova's SRDF");
     let entries = fit::parse_srdf(&std::fs::read_to_string(&srdf).unwrap()).unwrap();
     assert_eq!(entries.len(), 22);
     for e in &entries {

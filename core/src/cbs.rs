@@ -20,9 +20,8 @@
 use crate::collision::ArmPose;
 use crate::model::Model;
 use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
-use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
-use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::rng::Rng;
 use crate::search::refine::{level_params, EXHAUSTED, FIRST_ROUND, LEVELS, LEVEL_CAP};
 use crate::search::{
@@ -141,7 +140,7 @@ impl<'a, const D: usize> OmegaCbsa<'a, D> {
 
 impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
     fn name(&self) -> &'static str {
-        "omcbsa"
+        PlannerKind::OmCbsa.name()
     }
 
     fn solve(
@@ -152,7 +151,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
-        let h = match check_problem(problem, out) {
+        let h = match open::<M, D>(problem, out, Takes::Fixed, stats) {
             Ok(h) => h,
             Err(s) => return s,
         };
@@ -163,10 +162,6 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
             return Status::OutOfMemory("CBS path pool");
         }
         let st = &mut self.st;
-        if unreachable_trajectory::<M, D>(problem).is_some() {
-            stats.reason = Some(UNREACHABLE);
-            return Status::NoSolution;
-        }
         let mut run = Run::<M, D> {
             pr: problem,
             params: &self.params,

@@ -30,6 +30,7 @@ use crate::tool::{Tool, MAX_TOOL_CAPSULES};
 ///     const LOWER: [f64; 1] = [-1.0];
 ///     const UPPER: [f64; 1] = [1.0];
 ///     const VELOCITY: [f64; 1] = [1.0];
+///     const ACCELERATION: [f64; 1] = [1.0];
 ///     const CAPSULES: &'static [LinkCapsule] =
 ///         &[LinkCapsule { link: 0, a: [0.0; 3], b: [0.0; 3], radius: 0.1 }; MAX_ARM_CAPSULES + 1];
 ///     const SELF_PAIRS: &'static [(u8, u8)] = &[];

@@ -60,7 +60,9 @@ pub struct LinkCapsule {
 /// A serial-chain robot model with `D` actuated joints.
 ///
 /// Link frames are numbered in chain order: `0` is the base link, and every joint (fixed ones
-/// included) adds the frame of its child link. The tool frame is the URDF's last link.
+/// included) adds the frame of its child link. The chain runs from the manifest's base link
+/// to its tool frame (the last of [`Model::LINK_NAMES`]); links off it (a gripper's fingers)
+/// are in the capsules of the link they hang from.
 pub trait Model<const D: usize>: 'static {
     /// Degrees of freedom (the number of actuated joints), equal to `D`.
     const DOF: usize = D;
@@ -74,8 +76,12 @@ pub trait Model<const D: usize>: 'static {
     const LOWER: [f64; D];
     /// Upper position limits; `+inf` for continuous joints.
     const UPPER: [f64; D];
-    /// Velocity limits (rad/s or m/s) from the URDF.
+    /// Velocity limits (rad/s or m/s): the vendor's, from the model's manifest
+    /// (`robots/<model>/model.json`, which names their source).
     const VELOCITY: [f64; D];
+    /// Acceleration limits (rad/s² or m/s²), from the manifest like [`Model::VELOCITY`];
+    /// `f64::INFINITY` for a model generated without one.
+    const ACCELERATION: [f64; D];
     /// Collision primitives of all links.
     const CAPSULES: &'static [LinkCapsule];
     /// Pairs of indices into [`Model::CAPSULES`] that are checked for self-collision: all

@@ -4,6 +4,7 @@
 
 use crate::model::Model;
 use crate::problem::{Assigned, Problem, Start, MAX_ROBOTS};
+use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::search::Deadline;
 
 /// Time since planning started, in seconds. The core has no clock of its own: the host passes
@@ -100,6 +101,93 @@ impl<'a, const D: usize> Solution<'a, D> {
     }
 }
 
+/// The planners, by the names the command line, the benchmark, Python and the online runner
+/// use: the one list of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PlannerKind {
+    OmCbsa,
+    Pp,
+    PpSingle,
+    IkTracking,
+    Descartes,
+    CompositeAstar,
+    OmegaAstar,
+}
+
+impl PlannerKind {
+    pub const ALL: [PlannerKind; 7] = [
+        PlannerKind::OmCbsa,
+        PlannerKind::Pp,
+        PlannerKind::PpSingle,
+        PlannerKind::IkTracking,
+        PlannerKind::Descartes,
+        PlannerKind::CompositeAstar,
+        PlannerKind::OmegaAstar,
+    ];
+
+    /// The planners of several robots, which the benchmark runs by default: all but the last
+    /// of [`PlannerKind::ALL`] (Ω-A* alone plans one robot).
+    pub const BENCH: [PlannerKind; 6] = {
+        let mut bench = [PlannerKind::OmCbsa; 6];
+        let mut i = 0;
+        while i < bench.len() {
+            bench[i] = Self::ALL[i];
+            i += 1;
+        }
+        bench
+    };
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            PlannerKind::OmCbsa => "omcbsa",
+            PlannerKind::Pp => "pp",
+            PlannerKind::PpSingle => "pp-single",
+            PlannerKind::IkTracking => "ik-tracking",
+            PlannerKind::Descartes => "descartes",
+            PlannerKind::CompositeAstar => "composite-astar",
+            PlannerKind::OmegaAstar => "omega-astar",
+        }
+    }
+
+    /// One line on what the planner does.
+    pub const fn description(self) -> &'static str {
+        match self {
+            PlannerKind::OmCbsa => {
+                "Ω-CBSA: conflict-based search with assignments over multi-goal Ω-A* (complete)"
+            }
+            PlannerKind::Pp => "OM-PP-A*: prioritised planning with multi-goal Ω-A* per robot",
+            PlannerKind::PpSingle => {
+                "OM-PP-A*_single: prioritised planning, one goal state per robot (baseline)"
+            }
+            PlannerKind::IkTracking => {
+                "IK tracking: each robot follows its trajectory by IK from the last step (baseline)"
+            }
+            PlannerKind::Descartes => {
+                "PP-Descartes: prioritised layered roadmaps of IK samples per pose (baseline)"
+            }
+            PlannerKind::CompositeAstar => {
+                "composite A*: A* on all robots' null-space moves at once (baseline)"
+            }
+            PlannerKind::OmegaAstar => "Ω-A*: on-manifold A* for a single robot",
+        }
+    }
+
+    pub fn parse(name: &str) -> Option<PlannerKind> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Whether the planner plans exactly one robot.
+    pub const fn single_robot(self) -> bool {
+        matches!(self, PlannerKind::OmegaAstar)
+    }
+}
+
+impl core::fmt::Display for PlannerKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// A multi-robot planner for model `M`.
 pub trait Planner<M: Model<D>, const D: usize> {
     /// The name used on the command line and in benchmark tables.
@@ -116,8 +204,38 @@ pub trait Planner<M: Model<D>, const D: usize> {
     ) -> Status;
 }
 
+/// What a planner takes, for [`open`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Takes {
+    /// Robots started at given configurations and fixed assignments (the online runner's).
+    Fixed,
+    /// Only robots whose start and assignment the planner chooses (the baselines).
+    FreeOnly,
+}
+
+/// The opening of every planner's `solve`: the problem fits the planners' assumptions (and
+/// the planner's, `takes`), `out` can hold the answer, and no trajectory has a pose out of
+/// every robot's reach (a proof that nothing solves it: `NoSolution`, with the reason in
+/// `stats`). Returns the horizon, or the status to return.
+pub fn open<M: Model<D>, const D: usize>(
+    problem: &Problem<D>,
+    out: &Solution<'_, D>,
+    takes: Takes,
+    stats: &mut Stats,
+) -> Result<usize, Status> {
+    if takes == Takes::FreeOnly {
+        check_free(problem)?;
+    }
+    let h = check_problem(problem, out)?;
+    if unreachable_trajectory::<M, D>(problem).is_some() {
+        stats.reason = Some(UNREACHABLE);
+        return Err(Status::NoSolution);
+    }
+    Ok(h)
+}
+
 /// Checks that `problem` fits the planners' assumptions and `out` can hold the answer.
-pub fn check_problem<const D: usize>(
+fn check_problem<const D: usize>(
     problem: &Problem<D>,
     out: &Solution<'_, D>,
 ) -> Result<usize, Status> {
@@ -187,7 +305,7 @@ fn check_online<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
 
 /// For the planners that choose every start state and the whole assignment themselves (the
 /// baselines): refuses a problem with a robot whose start or trajectory is fixed.
-pub fn check_free<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
+fn check_free<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
     if problem
         .robots
         .iter()
@@ -198,4 +316,25 @@ pub fn check_free<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn planner_names_parse_back_and_are_distinct() {
+        for (i, p) in PlannerKind::ALL.iter().enumerate() {
+            assert_eq!(PlannerKind::parse(p.name()), Some(*p));
+            assert!(!p.description().is_empty());
+            assert!(PlannerKind::ALL[..i].iter().all(|q| q.name() != p.name()));
+        }
+        assert_eq!(PlannerKind::parse("fast"), None);
+        // The bench runs every planner of several robots.
+        let single: [PlannerKind; 1] = [PlannerKind::OmegaAstar];
+        for p in PlannerKind::ALL {
+            assert_eq!(PlannerKind::BENCH.contains(&p), !single.contains(&p));
+            assert_eq!(p.single_robot(), single.contains(&p));
+        }
+    }
 }

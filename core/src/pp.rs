@@ -14,9 +14,8 @@
 
 use crate::assign::{Choice, Pair, PairTable, HOLD};
 use crate::model::Model;
-use crate::planner::{check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
-use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
 use crate::search::{
     plan, Deadline, OmegaParams, OtherArm, OthersMode, Query, SearchError, SearchStats, StartCache,
@@ -68,8 +67,8 @@ impl<'a, const D: usize> Prioritized<'a, D> {
 impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
     fn name(&self) -> &'static str {
         match self.variant {
-            Variant::MultiGoal => "pp",
-            Variant::SingleGoal => "pp-single",
+            Variant::MultiGoal => PlannerKind::Pp.name(),
+            Variant::SingleGoal => PlannerKind::PpSingle.name(),
         }
     }
 
@@ -81,16 +80,12 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
-        let h = match check_problem(problem, out) {
+        let h = match open::<M, D>(problem, out, Takes::Fixed, stats) {
             Ok(h) => h,
             Err(s) => return s,
         };
         if self.scratch.len() < h {
             return Status::OutOfMemory("prioritised planning scratch path");
-        }
-        if unreachable_trajectory::<M, D>(problem).is_some() {
-            stats.reason = Some(UNREACHABLE);
-            return Status::NoSolution;
         }
         let n = problem.robots.len();
         // Taken out for the run, so the cache and the search workspace can be borrowed apart.

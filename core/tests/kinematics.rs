@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 use omcbsa_core::kinematics::{null_space_basis, orientation_angle, pose_error};
-use omcbsa_core::model::{Frame, KinovaGen3, Model, SyntheticChain};
+use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model, SyntheticChain};
 use omcbsa_core::rng::Rng;
 
 fn robot_file(path: &str) -> PathBuf {
@@ -123,6 +123,11 @@ fn gen3_jacobian_matches_finite_differences() {
 }
 
 #[test]
+fn panda_jacobian_matches_finite_differences() {
+    jacobian_matches_finite_differences::<FrankaPanda, 7>(300, 8);
+}
+
+#[test]
 fn synthetic_jacobian_matches_finite_differences() {
     jacobian_matches_finite_differences::<SyntheticChain, 5>(300, 4);
 }
@@ -193,6 +198,7 @@ fn reach_bounds_motion<M: Model<D>, const D: usize>(seed: u64) {
 fn reach_bounds_point_motion() {
     reach_bounds_motion::<KinovaGen3, 7>(6);
     reach_bounds_motion::<SyntheticChain, 5>(7);
+    reach_bounds_motion::<FrankaPanda, 7>(9);
 }
 
 #[test]
@@ -212,10 +218,49 @@ fn gen3_constants_come_from_the_urdf() {
         KinovaGen3::VELOCITY,
         [1.3963, 1.3963, 1.3963, 1.3963, 1.2218, 1.2218, 1.2218]
     );
+    // From the manifest (Kinova's joint_limits.yaml).
+    assert_eq!(
+        KinovaGen3::ACCELERATION,
+        [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0]
+    );
     // Kinova's zero configuration: the arm points straight up, the tool 1.187385 m above the
     // base (0.15643 + 0.12838 + 0.21038 + 0.21038 + 0.20843 + 0.10593 + 0.10593 + 0.061525).
     let tool = KinovaGen3::fk(&[0.0; 7]);
     assert!((tool.pos.z - 1.187385).abs() < 1e-4, "{:?}", tool.pos);
+}
+
+#[test]
+fn panda_constants_come_from_its_folder() {
+    assert_eq!(FrankaPanda::NAME, "franka_panda");
+    assert_eq!(FrankaPanda::LINK_NAMES.first(), Some(&"panda_link0"));
+    // The chain ends at the TCP; the fingers are off it.
+    assert_eq!(FrankaPanda::LINK_NAMES.last(), Some(&"panda_hand_tcp"));
+    assert!(!FrankaPanda::LINK_NAMES.iter().any(|l| l.contains("finger")));
+    assert_eq!(FrankaPanda::JOINT_NAMES[6], "panda_joint7");
+    // Franka's published limits (robots/franka_panda/model.json names the page).
+    assert_eq!(FrankaPanda::LOWER[3], -3.0718);
+    assert_eq!(FrankaPanda::UPPER[5], 3.7525);
+    assert_eq!(
+        FrankaPanda::VELOCITY,
+        [2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61]
+    );
+    assert_eq!(
+        FrankaPanda::ACCELERATION,
+        [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]
+    );
+    // Capsules on the 8 links and the hand (fingers folded in); none on the TCP.
+    let tcp = (FrankaPanda::LINK_NAMES.len() - 1) as u8;
+    assert!(FrankaPanda::CAPSULES.iter().all(|c| c.link != tcp));
+    assert!(FrankaPanda::CAPSULES.len() <= 16);
+    // Zero configuration: link0 to joint 2 0.333 m, then 0.316, 0.384 up, 0.088 out, the
+    // flange 0.107 and the TCP 0.1034 down.
+    let tool = FrankaPanda::fk(&[0.0; 7]);
+    let expected = Vector3::new(
+        0.0825 - 0.0825 + 0.088,
+        0.0,
+        0.333 + 0.316 + 0.384 - 0.107 - 0.1034,
+    );
+    assert!((tool.pos - expected).norm() < 1e-9, "{:?}", tool.pos);
 }
 
 #[test]

@@ -7,7 +7,7 @@ use omcbsa_core::model::Model;
 use omcbsa_core::problem::Problem;
 
 use crate::error::InputError;
-use crate::format::ProblemFile;
+use crate::format::{ObstacleSpec, ProblemFile, RobotSpec};
 
 /// Most configurations of an approach per robot (at dt = 0.1 s, 100 s of motion).
 pub const MAX_APPROACH: usize = 1024;
@@ -21,8 +21,14 @@ fn part<M: Model<D>, const D: usize>(c: usize) -> &'static str {
         .unwrap_or("tool")
 }
 
-/// `touch` in words, naming obstacles and robots as `file` does.
-pub fn describe_touch<M: Model<D>, const D: usize>(file: &ProblemFile, touch: Touch) -> String {
+/// `touch` in words, naming robots and obstacles as the lists do; another robot is where it
+/// is `other_at` ("at its initial configuration").
+pub fn describe_touch<M: Model<D>, const D: usize>(
+    robots: &[RobotSpec],
+    obstacles: &[ObstacleSpec],
+    touch: Touch,
+    other_at: &str,
+) -> String {
     match touch {
         Touch::JointLimit { joint } => format!(
             "joint {joint} ({}) is outside its limits",
@@ -30,7 +36,7 @@ pub fn describe_touch<M: Model<D>, const D: usize>(file: &ProblemFile, touch: To
         ),
         Touch::Obstacle { index } => format!(
             "collides with obstacle {index} ({:?})",
-            file.obstacles.get(index).map_or("?", |o| o.name.as_str())
+            obstacles.get(index).map_or("?", |o| o.name.as_str())
         ),
         Touch::Itself {
             capsule,
@@ -41,8 +47,8 @@ pub fn describe_touch<M: Model<D>, const D: usize>(file: &ProblemFile, touch: To
             part::<M, D>(other_capsule)
         ),
         Touch::Robot { robot } => format!(
-            "collides with robot {robot} ({:?}) at its initial configuration",
-            file.robots.get(robot).map_or("?", |r| r.name.as_str())
+            "collides with robot {robot} ({:?}) {other_at}",
+            robots.get(robot).map_or("?", |r| r.name.as_str())
         ),
     }
 }
@@ -59,7 +65,12 @@ pub fn check_initial<M: Model<D>, const D: usize>(
             format!(
                 "robot {:?} cannot start here: it {}",
                 file.robots.get(robot).map_or("?", |r| r.name.as_str()),
-                describe_touch::<M, D>(file, touch)
+                describe_touch::<M, D>(
+                    &file.robots,
+                    &file.obstacles,
+                    touch,
+                    "at its initial configuration"
+                )
             ),
         )
     })

@@ -19,19 +19,18 @@ use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
 use omcbsa_hw::executor::Progress;
+use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
-use omcbsa_hw::mock::{exec_config, open_buses, spawn_for_plan};
-use omcbsa_hw::record::check_followed;
-use omcbsa_hw::{
-    ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report, WatchSettings,
-};
+use omcbsa_hw::mock::exec_config;
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report, WatchSettings};
 use serde_json::Map;
 
-use crate::execute::CheckedSolution;
+use crate::execute::{joint_limits, CheckedSolution, CAUTIOUS_SPEED};
 use crate::format::{
     joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
     ToolCapsuleSpec, ToolSpec, TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
+use crate::models::ModelKind;
 use crate::pose::from_frame;
 
 pub const NAME: &str = "demo_box_flip_3arms";
@@ -216,23 +215,26 @@ impl fmt::Display for MockRunError {
     }
 }
 
-/// Streams `plan` to one Python mock arm per arm (`python` from the mock's venv), each started
-/// at its arm's first configuration and recording to `record_dir/mock-NAME.jsonl`, then checks
-/// that every mock received exactly the interpolated plan and nothing that breaks a limit.
+/// Streams `plan` to one Python mock arm of `kind` per arm (`python` from the mocks' venv),
+/// each started at its arm's first configuration and recording to `record_dir/mock-NAME.jsonl`,
+/// then checks that every mock received exactly the interpolated plan and nothing that breaks
+/// a limit.
 pub fn run_on_mock_arms(
     python: &Path,
+    kind: MockKind,
     plan: Plan,
     validator: &dyn PlanValidator,
     record_dir: &Path,
     progress: impl Fn(Progress) + Send + Sync + 'static,
 ) -> Result<Report, MockRunError> {
     let watch = WatchSettings::default();
-    run_on_mock_arms_watched(python, plan, validator, record_dir, &watch, progress)
+    run_on_mock_arms_watched(python, kind, plan, validator, record_dir, &watch, progress)
 }
 
 /// [`run_on_mock_arms`] with the fault detection `watch` (the command line's options).
 pub fn run_on_mock_arms_watched(
     python: &Path,
+    kind: MockKind,
     plan: Plan,
     validator: &dyn PlanValidator,
     record_dir: &Path,
@@ -240,36 +242,37 @@ pub fn run_on_mock_arms_watched(
     progress: impl Fn(Progress) + Send + Sync + 'static,
 ) -> Result<Report, MockRunError> {
     let record = |name: &str| record_dir.join(format!("mock-{name}.jsonl"));
-    let mocks = spawn_for_plan(python, &plan, record, &[]).map_err(MockRunError::Mocks)?;
-    let buses = open_buses(&mocks).map_err(|e| MockRunError::Mocks(e.to_string()))?;
+    let starts: Vec<_> = (plan.arms.iter())
+        .map(|a| (a.name.clone(), a.joint_path[0]))
+        .collect();
     let config = ExecConfig {
         watch: watch.clone(),
         ..exec_config()
     };
-    let limits = JointLimits::kinova_gen3();
+    let mocks = Fleet::spawn(kind, python, config.period, &starts, record, &[])
+        .map_err(MockRunError::Mocks)?;
+    let ports = mocks.ports().map_err(MockRunError::Mocks)?;
+    let limits =
+        joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).map_err(MockRunError::Mocks)?;
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;
     let settle = config.settle_cycles;
-    let run = Executor::new(plan, limits, buses, config)
+    let run = Executor::new(plan, limits, ports, config)
         .and_then(|e| e.on_progress(progress).run(validator));
     let report = match run {
         Ok(report) => report,
         Err(e) => {
             // The buses are closed: let the mocks exit and write their records and bus logs
             // (the evidence of a fault), rather than kill them.
-            for mock in mocks {
-                let _ = mock.finish();
-            }
+            let _ = mocks.finish();
             return Err(MockRunError::Exec(e));
         }
     };
-    for (mock, cmds) in mocks.into_iter().zip(&traj.commands) {
-        let arm = mock.name.clone();
-        let checked = mock
-            .finish()
-            .and_then(|r| check_followed(&r, cmds, settle, &limits, period));
-        checked.map_err(|error| MockRunError::Record { arm, error })?;
+    let records = mocks.finish().map_err(MockRunError::Mocks)?;
+    for ((arm, record), cmds) in records.into_iter().zip(&traj.commands) {
+        kind.check_followed(&record, cmds, settle, &limits, period)
+            .map_err(|error| MockRunError::Record { arm, error })?;
     }
     Ok(report)
 }

@@ -1,14 +1,43 @@
 //! From a solved problem to the hardware adapter (`omcbsa_hw`): the adapter's [`Plan`] for
 //! the robots that have an arm, and its validation gate backed by the host validator.
 
-use omcbsa_core::model::KinovaGen3;
-use omcbsa_hw::{ArmPlan, Plan, PlanValidator, JOINTS};
+use omcbsa_core::model::Model;
+use omcbsa_hw::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 
 use crate::error::{quoted, InputError};
 use crate::format::{ProblemFile, SolutionFile};
 use crate::load;
-use crate::models::ModelKind;
+use crate::models::{ModelKind, ModelVisitor};
 use crate::validate::{validate, Report};
+
+/// The joint speed the executor keeps to, rad/s, below the arms' own velocity limits: Kinova's
+/// MoveIt configuration (`joint_limits.yaml`) uses it, and so do the mock drives
+/// (`hw-adapter/mock`). A named setting, not a second table: every other limit is the model's.
+pub const CAUTIOUS_SPEED: f64 = 0.8727;
+
+/// The executor's joint limits for `kind`: the model's position and acceleration limits and
+/// its velocity limits capped at `speed_cap` rad/s.
+pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> Result<[JointLimits; JOINTS], String> {
+    struct Limits(f64);
+    impl ModelVisitor for Limits {
+        type Output = Result<[JointLimits; JOINTS], String>;
+        fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+            if D != JOINTS {
+                return Err(format!(
+                    "model {} has {D} joints; the executor drives arms of {JOINTS}",
+                    M::NAME
+                ));
+            }
+            Ok(std::array::from_fn(|j| JointLimits {
+                position: (M::LOWER[j].is_finite() || M::UPPER[j].is_finite())
+                    .then_some((M::LOWER[j], M::UPPER[j])),
+                velocity: M::VELOCITY[j].min(self.0),
+                acceleration: M::ACCELERATION[j],
+            }))
+        }
+    }
+    kind.visit(Limits(speed_cap))
+}
 
 /// A solution validated against its problem. As a [`PlanValidator`] it accepts exactly the
 /// plans that stream this solution (when it is valid) to every robot that moves.
@@ -22,17 +51,26 @@ impl CheckedSolution {
     /// Checks `problem` and validates `solution` against it; an error only for a problem
     /// file that breaks the spec (an invalid solution is a [`Report`] with violations).
     pub fn new(problem: ProblemFile, solution: SolutionFile) -> Result<Self, InputError> {
-        let report = match load::model_of(&problem)? {
-            ModelKind::KinovaGen3 => {
-                let core = load::problem::<KinovaGen3, JOINTS>(&problem)?;
-                validate::<KinovaGen3, JOINTS>(&problem, &core, &solution)
+        struct Check<'a>(&'a ProblemFile, &'a SolutionFile);
+        impl ModelVisitor for Check<'_> {
+            type Output = Result<Report, InputError>;
+            fn visit<M: Model<D>, const D: usize>(self) -> Result<Report, InputError> {
+                let core = load::problem::<M, D>(self.0)?;
+                Ok(validate::<M, D>(self.0, &core, self.1))
             }
-        };
+        }
+        let report = load::model_of(&problem)?.visit(Check(&problem, &solution))?;
         Ok(CheckedSolution {
             problem,
             solution,
             report,
         })
+    }
+
+    /// The executor's limits for the problem's model ([`joint_limits`] at [`CAUTIOUS_SPEED`]).
+    pub fn joint_limits(&self) -> Result<[JointLimits; JOINTS], String> {
+        let kind = load::model_of(&self.problem).map_err(|e| e.to_string())?;
+        joint_limits(kind, CAUTIOUS_SPEED)
     }
 
     pub fn report(&self) -> &Report {
@@ -163,5 +201,23 @@ impl PlanValidator for CheckedSolution {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_executor_limits_are_the_models_with_the_speed_capped() {
+        // The Gen3's are exactly the table the executor had (Kinova's joint_limits.yaml).
+        let gen3 = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).unwrap();
+        assert_eq!(gen3, JointLimits::kinova_gen3());
+        let panda = joint_limits(ModelKind::FrankaPanda, CAUTIOUS_SPEED).unwrap();
+        assert_eq!(panda[3].position, Some((-3.0718, -0.0698)));
+        assert_eq!(panda[1].acceleration, 7.5);
+        assert!(panda.iter().all(|l| l.velocity == CAUTIOUS_SPEED));
+        let fast = joint_limits(ModelKind::FrankaPanda, 10.0).unwrap();
+        assert_eq!(fast[6].velocity, 2.61);
     }
 }

@@ -5,6 +5,7 @@
 //! against its problem ([`validate`]). The `omcbsa` binary is a thin command line over these.
 
 pub mod approach;
+pub mod assignment;
 pub mod bench;
 pub mod demo;
 pub mod error;

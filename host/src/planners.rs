@@ -4,12 +4,12 @@
 use std::time::Instant;
 
 use crate::approach::{check_initial, describe_miss, MAX_APPROACH};
+use crate::assignment::AssignmentRule;
 use crate::error::InputError;
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
 };
 use crate::load;
-use crate::models::ModelKind;
 use crate::validate::validate;
 use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
@@ -26,15 +26,34 @@ use omcbsa_core::search::{
     Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
 };
 
-/// Planner names, as the command line and the benchmark spell them.
-pub const PLANNERS: [&str; 6] = [
-    "omcbsa",
-    "pp",
-    "pp-single",
-    "ik-tracking",
-    "descartes",
-    "composite-astar",
-];
+pub use omcbsa_core::planner::PlannerKind;
+
+/// One line per planner, `name: description`, for `--help`.
+pub fn descriptions() -> String {
+    (PlannerKind::ALL.iter())
+        .map(|p| format!("{}: {}", p.name(), p.description()))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The planner of several robots named `name` (one of [`PlannerKind::BENCH`]), or an error
+/// listing them.
+pub fn parse_bench(name: &str) -> Result<PlannerKind, String> {
+    PlannerKind::parse(name)
+        .filter(|p| PlannerKind::BENCH.contains(p))
+        .ok_or_else(|| {
+            let known: Vec<&str> = PlannerKind::BENCH.iter().map(|p| p.name()).collect();
+            format!("unknown planner {name:?} (known: {})", known.join(", "))
+        })
+}
+
+/// The planner named `name`, or an error listing the known names.
+pub fn parse(name: &str) -> Result<PlannerKind, String> {
+    PlannerKind::parse(name).ok_or_else(|| {
+        let known: Vec<&str> = PlannerKind::ALL.iter().map(|p| p.name()).collect();
+        format!("unknown planner {name:?} (known: {})", known.join(", "))
+    })
+}
 
 /// Degrees of freedom of the planned model (Kinova Gen3).
 pub const DOF: usize = 7;
@@ -214,13 +233,13 @@ impl Storage {
     /// vectors, after the core call.
     pub fn solve(
         &mut self,
-        name: &str,
+        kind: PlannerKind,
         problem: &Problem<DOF>,
         timeout_s: f64,
     ) -> Result<Outcome, String> {
         let clock = WallClock::start();
         let mut stats = Stats::default();
-        let (status, assignment) = self.solve_core(name, problem, &clock, timeout_s, &mut stats)?;
+        let (status, assignment) = self.solve_core(kind, problem, &clock, timeout_s, &mut stats)?;
         let planning_time_s = clock.seconds();
         let h = problem.horizon();
         let n = problem.robots.len();
@@ -265,7 +284,7 @@ impl Storage {
     /// paths are left in this storage, the approach too ([`Storage::last`]).
     pub fn solve_core(
         &mut self,
-        name: &str,
+        kind: PlannerKind,
         problem: &Problem<DOF>,
         clock: &dyn Clock,
         timeout_s: f64,
@@ -294,8 +313,8 @@ impl Storage {
             timeout_s,
         };
         let omega = OmegaParams::default();
-        let last = match name {
-            "omcbsa" => {
+        let last = match kind {
+            PlannerKind::OmCbsa => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let st = CbsStorage {
                     nodes: &mut self.ct_nodes,
@@ -309,12 +328,14 @@ impl Storage {
                 rest.run(&mut p, &mut out, stats)
             }
             // Ω-A* alone is prioritised planning with one robot.
-            "omega-astar" if problem.robots.len() != 1 => rest.refuse(Status::InvalidProblem(
-                "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
-            )),
-            "pp" | "pp-single" | "omega-astar" => {
+            PlannerKind::OmegaAstar if problem.robots.len() != 1 => {
+                rest.refuse(Status::InvalidProblem(
+                    "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
+                ))
+            }
+            PlannerKind::Pp | PlannerKind::PpSingle | PlannerKind::OmegaAstar => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
-                let v = if name == "pp-single" {
+                let v = if kind == PlannerKind::PpSingle {
                     Variant::SingleGoal
                 } else {
                     Variant::MultiGoal
@@ -322,13 +343,13 @@ impl Storage {
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
                 rest.run(&mut p, &mut out, stats)
             }
-            "ik-tracking" => {
+            PlannerKind::IkTracking => {
                 let mut p = IkTracking {
                     params: IkTrackingParams::default(),
                 };
                 rest.run(&mut p, &mut out, stats)
             }
-            "descartes" => {
+            PlannerKind::Descartes => {
                 let st = DescartesStorage {
                     layers: &mut self.scratch,
                     cost: &mut self.cost,
@@ -342,19 +363,13 @@ impl Storage {
                 let mut p = Descartes::new(params, st);
                 rest.run(&mut p, &mut out, stats)
             }
-            "composite-astar" => {
+            PlannerKind::CompositeAstar => {
                 let mut p = CompositeAstar::new(
                     CompositeParams::default(),
                     &mut self.composite,
                     &mut self.open,
                 );
                 rest.run(&mut p, &mut out, stats)
-            }
-            other => {
-                return Err(format!(
-                    "unknown planner {other:?} (known: omega-astar, {})",
-                    PLANNERS.join(", ")
-                ))
             }
         };
         self.last = last;
@@ -524,22 +539,22 @@ impl Outcome {
     }
 }
 
-/// Plans a problem file with planner `name` and returns its solution file. A plan the planner
+/// Plans a problem file with planner `kind` and returns its solution file. A plan the planner
 /// calls solved is validated first; if it fails validation it is reported as not solved, with
 /// the violation in `message`, never as solved.
 pub fn plan_file(
     file: &ProblemFile,
-    name: &str,
+    kind: PlannerKind,
     timeout_s: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
     let problem = load_problem(file)?;
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
-    plan_loaded(&mut storage, file, &problem, name, timeout_s)
+    plan_loaded(&mut storage, file, &problem, kind, timeout_s)
 }
 
 /// The checked core problem of a problem file.
 pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
-    let ModelKind::KinovaGen3 = load::model_of(file).map_err(InputOrPlanError::Input)?;
+    load::planned_model(file).map_err(InputOrPlanError::Input)?;
     let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
     check_initial::<KinovaGen3, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
     Ok(problem)
@@ -551,13 +566,46 @@ pub fn plan_loaded(
     storage: &mut Storage,
     file: &ProblemFile,
     problem: &Problem<DOF>,
-    name: &str,
+    kind: PlannerKind,
     timeout_s: f64,
 ) -> Result<SolutionFile, InputOrPlanError> {
-    let outcome = storage
-        .solve(name, problem, timeout_s)
-        .map_err(InputOrPlanError::Plan)?;
-    let mut solution = outcome.to_solution_file(file, name);
+    plan_assigned(
+        storage,
+        file,
+        problem,
+        kind,
+        timeout_s,
+        &AssignmentRule::Free,
+    )
+}
+
+/// [`plan_loaded`] under an assignment rule, checked here (errors at `assignment`).
+pub fn plan_assigned(
+    storage: &mut Storage,
+    file: &ProblemFile,
+    problem: &Problem<DOF>,
+    kind: PlannerKind,
+    timeout_s: f64,
+    rule: &AssignmentRule,
+) -> Result<SolutionFile, InputOrPlanError> {
+    rule.check(
+        "assignment",
+        problem.robots.len(),
+        problem.trajectories.len(),
+    )
+    .map_err(InputOrPlanError::Input)?;
+    let outcome = match rule {
+        AssignmentRule::Free => storage.solve(kind, problem, timeout_s),
+        _ => crate::assignment::solve(
+            storage,
+            kind,
+            &mut Box::new(problem.clone()),
+            rule,
+            timeout_s,
+        ),
+    }
+    .map_err(InputOrPlanError::Plan)?;
+    let mut solution = outcome.to_solution_file(file, kind.name());
     if solution.status == FileStatus::Solved {
         let report = validate::<KinovaGen3, DOF>(file, problem, &solution);
         if !report.is_valid() {
@@ -577,6 +625,7 @@ pub fn plan_loaded(
 pub enum InputOrPlanError {
     /// The problem file breaks the spec.
     Input(InputError),
-    /// The request cannot run (an unknown planner name).
+    /// The request cannot run (storage too small for the horizon, a workspace that cannot be
+    /// made).
     Plan(String),
 }

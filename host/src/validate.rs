@@ -746,6 +746,23 @@ fn check_collisions<M: Model<D>, const D: usize>(
     }
 }
 
+/// What the arms standing at their `initial` configurations overlap, in the validator's words:
+/// empty when they stand clear; `None` when some robot gives no `initial`.
+pub fn initial_contacts<M: Model<D>, const D: usize>(
+    file: &ProblemFile,
+    problem: &Problem<D>,
+) -> Option<Vec<String>> {
+    let standing = (problem.robots.iter())
+        .map(|r| Some(ArmPose::new::<M, D>(&r.base, &r.tool, &r.initial?)))
+        .collect::<Option<Vec<_>>>()?;
+    Some(
+        contacts::<M, D>(problem, &standing)
+            .iter()
+            .map(|c| c.describe::<M, D>(file))
+            .collect(),
+    )
+}
+
 /// What overlaps with the arms at `arms` (touching is not overlapping): every obstacle each
 /// arm hits, the first pair of its own links, the first pair of links with each other arm.
 fn contacts<M: Model<D>, const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Contact> {

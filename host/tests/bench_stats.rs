@@ -33,6 +33,7 @@ impl Model<1> for Stick {
     const LOWER: [f64; 1] = [-10.0];
     const UPPER: [f64; 1] = [10.0];
     const VELOCITY: [f64; 1] = [VMAX];
+    const ACCELERATION: [f64; 1] = [f64::INFINITY];
     const CAPSULES: &'static [LinkCapsule] = &[LinkCapsule {
         link: 1,
         a: [0.0; 3],

@@ -80,7 +80,35 @@ fn fk_with_only_good_lines_exits_0_and_an_unknown_model_is_a_usage_error() {
     let out = omcbsa(&["fk", "--model", "ur5"], "");
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr)
-        .contains("unknown model \"ur5\" (compiled in: kinova_gen3)"));
+        .contains("unknown model \"ur5\" (compiled in: kinova_gen3, franka_panda"));
+}
+
+#[test]
+fn the_panda_answers_fk_and_ik_under_its_name_and_alias() {
+    // Zero configuration: the TCP 0.088 m out and 0.5226 m up (0.333 + 0.316 + 0.384 - 0.107
+    // - 0.1034), pointing down.
+    let q = "[0, 0, 0, -1.5, 0, 1.5, 0]\n[0, 0, 0, 0, 0, 0, 0]\n";
+    let out = omcbsa(&["fk", "--model", "franka_panda"], q);
+    let lines = stdout_lines(&out);
+    // Joint 4's upper limit is -0.0698: zero is outside it.
+    assert_eq!(
+        error_of(&lines[1]),
+        "line 2: q[3]: 0 is outside the limits [-3.0718, -0.0698] of joint panda_joint4"
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let pose = &lines[0];
+    let input = format!("{pose}\n");
+    for name in ["franka_panda", "panda"] {
+        let out = omcbsa(&["ik", "--model", name], &input);
+        assert_eq!(out.status.code(), Some(0), "{name}");
+        let q: Vec<f64> = serde_json::from_value(stdout_lines(&out).remove(0)).unwrap();
+        let back = omcbsa(&["fk", "--model", name], &format!("{}\n", Value::from(q)));
+        let back = stdout_lines(&back).remove(0);
+        for k in 0..3 {
+            let d = back["position"][k].as_f64().unwrap() - pose["position"][k].as_f64().unwrap();
+            assert!(d.abs() < 1e-5, "{back} vs {pose}");
+        }
+    }
 }
 
 #[test]
@@ -234,5 +262,111 @@ fn plan_refuses_a_start_in_collision_naming_the_robots() {
     assert!(
         err.contains("\"left\"") && err.contains("\"right\""),
         "{err}"
+    );
+}
+
+#[test]
+fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
+    let out = omcbsa(
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--arms",
+            "2",
+            "--episodes",
+            "1",
+            "--chunk-len",
+            "64",
+            "--stride",
+            "16",
+        ],
+        "",
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        table.contains("| 2 | 64 / 16 (lead 0) | 2 | 100.0 %"),
+        "{table}"
+    );
+    assert!(table.contains("whole windows (reference)"), "{table}");
+    for bad in [
+        &["bench-online", "--family", "bimanual", "--arms", "7"][..],
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--chunk-len",
+            "8",
+            "--stride",
+            "16",
+        ],
+        &["bench-online", "--family", "shelves"],
+        &["bench-online", "/nonexistent", "--hz", "50"],
+        &["bench-online"],
+    ] {
+        let out = omcbsa(bad, "");
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("error"),
+            "{bad:?}"
+        );
+    }
+}
+
+#[test]
+fn a_panda_problem_is_validated_with_the_panda_and_refused_by_the_planners() {
+    // Gen3 paths near Q0 (joint 4 at 1.8 rad) break the Panda's joint 4 limit (-3.0718 to
+    // -0.0698): validate checks them against the Panda.
+    let (p, s) = tiny();
+    let mut panda = serde_json::to_value(&p).unwrap();
+    panda["robots"][0]["model"] = Value::from("franka_panda");
+    let paths = files(
+        "panda",
+        &[
+            ("p.json", panda.to_string()),
+            ("s.json", serde_json::to_string(&s).unwrap()),
+        ],
+    );
+    let out = omcbsa(&["validate", &paths[0], &paths[1]], "");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stdout.starts_with("invalid: rule 1 (joint limits), robot 0, step 0: joint panda_joint4"),
+        "{stdout}"
+    );
+    let out = omcbsa(&["plan", &paths[0]], "");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("robots[0].model: franka_panda: planning, the approach and the viewer take kinova_gen3 only so far"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn unknown_planners_are_usage_errors_listing_the_known_ones() {
+    let out = omcbsa(&["plan", "--planner", "fast", "p.json"], "");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr.contains("unknown planner \"fast\" (known: omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar, omega-astar)"),
+        "{stderr}"
+    );
+    let out = omcbsa(&["plan", "--help"], "");
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("pp-single: OM-PP-A*_single"), "{help}");
+    // The bench runs planners of several robots only.
+    let out = omcbsa(&["bench", "suite", "--planners", "pp,omega-astar"], "");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr.contains("unknown planner \"omega-astar\" (known: omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar)"),
+        "{stderr}"
     );
 }

@@ -9,7 +9,7 @@ use omcbsa::demo::{box_flip, Demo, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::SolutionFile;
 use omcbsa_hw::transport::mock::MockTransport;
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, PlanValidator};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, PlanValidator};
 
 fn demo() -> Demo {
     box_flip().unwrap_or_else(|e| panic!("{e}"))
@@ -85,7 +85,7 @@ fn the_executor_gate_sends_nothing_for_an_invalid_solution() {
     let (buses, devices) = MockTransport::buses(&ROBOTS);
     let exec = Executor::new(
         plan,
-        JointLimits::kinova_gen3(),
+        checked.joint_limits().unwrap(),
         buses,
         ExecConfig::default(),
     )
@@ -150,7 +150,7 @@ fn arm_names_must_be_the_problems_robots() {
     );
     let (code, text) = execute(dir.path(), &demo, &demo.witness, &["--arm", "north"]);
     assert_eq!(code, 2, "{text}");
-    assert!(text.contains("expected NAME=BUS"), "{text}");
+    assert!(text.contains("expected NAME=SPEC"), "{text}");
 }
 
 #[test]

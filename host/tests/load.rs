@@ -190,7 +190,7 @@ fn value_rules_name_field_and_index() {
     refused(
         &with("/robots/0/model", json!("ur5")),
         "robots[0].model",
-        "unknown model \"ur5\" (compiled in: kinova_gen3)",
+        "unknown model \"ur5\" (compiled in: kinova_gen3, franka_panda; aliases: panda for franka_panda)",
     );
     refused(
         &with("/robots/1/initial", json!([0, 0, 0, 0, 0, 0])),

@@ -29,7 +29,7 @@ fn run(
         let report = e
             .push_chunk(chunk.start_step, &chunk.hands)
             .unwrap_or_else(|err| panic!("chunk {c}: {err}"));
-        rec.chunk(chunk.start_step, &chunk.hands);
+        rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
         assert_eq!(Some(report.index), e.timeline_index(chunk.start_step));
     }
 }
@@ -165,18 +165,11 @@ fn a_chunk_after_a_hold_is_reached_by_an_approach() {
     let moved =
         (end..report.index).any(|t| (0..3).any(|i| e.configuration(i, t).unwrap() != hold[i]));
     assert!(moved, "no approach between the hold and the chunk");
-    rec.chunk(
-        report.start_step,
-        &trimmed(&chunk.hands, report.start_step - chunk.start_step),
-    );
+    assert_eq!(report.dropped as u64, report.start_step - chunk.start_step);
+    rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
     rec.send(&e, e.end());
     let (problem, solution) = rec.files(&policy.setup(), &e).unwrap();
     let core = omcbsa::load::problem::<KinovaGen3, DOF>(&problem).unwrap();
     let report = validate::<KinovaGen3, DOF>(&problem, &core, &solution);
     assert!(report.is_valid(), "{}", report.summary());
-}
-
-/// `hands` without their first `skip` poses.
-fn trimmed(hands: &[Vec<omcbsa::format::Pose>], skip: u64) -> Vec<Vec<omcbsa::format::Pose>> {
-    hands.iter().map(|h| h[skip as usize..].to_vec()).collect()
 }

@@ -78,6 +78,11 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
         // Issue 22: every arm can stand where the problem puts it (the loader's own check).
         omcbsa::approach::check_initial::<KinovaGen3, 7>(&file, &problem)
             .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+        // ... and the validator's.
+        if let Some(contacts) = omcbsa::validate::initial_contacts::<KinovaGen3, 7>(&file, &problem)
+        {
+            assert!(contacts.is_empty(), "{}: {contacts:?}", entry.name);
+        }
         // The approach family stands every arm where the straight bridge collides.
         if entry.family == "approach" {
             assert!(entry.stance.is_some(), "{}", entry.name);
@@ -135,7 +140,9 @@ fn witnesses_solve_their_problems_and_ik_tracking_solves_at_most_half() {
             );
         }
         known += 1;
-        let outcome = storage.solve("ik-tracking", &problem, 5.0).unwrap();
+        let outcome = storage
+            .solve(omcbsa::planners::PlannerKind::IkTracking, &problem, 5.0)
+            .unwrap();
         tracked += usize::from(outcome.status == Status::Solved);
     }
     // The suite is made so that solving takes more than myopic IK tracking (`suite::trap`);
@@ -179,7 +186,13 @@ fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
         }
         let mut stats = Stats::default();
         let (status, _) = storage
-            .solve_core("omcbsa", &problem, &NoClock, f64::INFINITY, &mut stats)
+            .solve_core(
+                omcbsa::planners::PlannerKind::OmCbsa,
+                &problem,
+                &NoClock,
+                f64::INFINITY,
+                &mut stats,
+            )
             .unwrap();
         assert_eq!(
             (status, stats.reason),

@@ -311,7 +311,8 @@ fn the_approach_is_played_before_the_path() {
     for r in &mut problem.robots {
         r.initial = Some(RETRACT.to_vec());
     }
-    let solution = omcbsa::planners::plan_file(&problem, "omcbsa", 10.0).unwrap();
+    let solution =
+        omcbsa::planners::plan_file(&problem, omcbsa::planners::PlannerKind::OmCbsa, 10.0).unwrap();
     let approach = solution.approach.clone().expect("an approach from initial");
     let a = approach[0].len();
     assert!(a > 2, "the arms stand folded away from the box");

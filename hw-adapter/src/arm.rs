@@ -39,7 +39,7 @@ struct NodeState {
 }
 
 /// A breach of the accounting as a fault of the node (source j is joint j).
-fn answer_fault(fault: CycleFault) -> Fault {
+pub(crate) fn answer_fault(fault: CycleFault) -> Fault {
     Fault::Answer {
         node: node_id(fault.source()),
         fault,
@@ -314,5 +314,65 @@ impl ArmBus {
             "NMT stop all nodes (start-up aborted)".into(),
         )
         .map_err(|e| e.to_string())
+    }
+}
+
+impl crate::link::ArmLink for ArmBus {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn frames_sent(&self) -> usize {
+        self.frames_sent
+    }
+
+    fn configure(
+        &mut self,
+        cfg: &ExecConfig,
+        plan: (&Command, &Span, &[f64; JOINTS]),
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<(), String> {
+        ArmBus::configure(self, cfg, plan, stop)
+    }
+
+    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String> {
+        ArmBus::enable(self, cfg)
+    }
+
+    fn poll(&mut self) -> Result<(), String> {
+        ArmBus::poll(self).map_err(|e| e.to_string())
+    }
+
+    fn check_feedback(
+        &self,
+        now: Instant,
+        cfg: &ExecConfig,
+        target: &Command,
+    ) -> Result<f64, Fault> {
+        ArmBus::check_feedback(self, now, cfg, target)
+    }
+
+    fn check_cycle(&self) -> Result<(), Fault> {
+        ArmBus::check_cycle(self)
+    }
+
+    fn clear_until(&self) -> u64 {
+        ArmBus::clear_until(self)
+    }
+
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
+        ArmBus::send_cycle(self, cmd, cia402::CW_ENABLE_OPERATION).map_err(|e| e.to_string())
+    }
+
+    fn quick_stop(&mut self, hold: &Command) -> Result<(), String> {
+        ArmBus::quick_stop(self, hold)
+    }
+
+    fn finish(&mut self, hold: &Command) -> Result<(), String> {
+        ArmBus::finish(self, hold)
+    }
+
+    fn abort(&mut self) -> Result<(), String> {
+        ArmBus::abort(self)
     }
 }

@@ -170,7 +170,11 @@ pub fn first_sign(log: &[Logged], fault: &Fault, watch: &WatchSettings) -> Optio
             let bound = (watch.following_error_bound * cia402::COUNTS_PER_RAD) as u32;
             beyond(log, node, |_| bound).map(now)
         }
-        Fault::CommandRefused(_) | Fault::Bus(_) => None,
+        // Not CAN faults: the Kortex mocks' records measure these.
+        Fault::CommandRefused(_)
+        | Fault::Bus(_)
+        | Fault::ArmRefused(_)
+        | Fault::ActuatorFault { .. } => None,
     }
 }
 

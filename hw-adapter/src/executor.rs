@@ -4,11 +4,11 @@
 use crate::arm::{cycle_frames, SetupOverride, Span};
 use crate::cia402;
 use crate::interpolate::{peak_speeds, plan_generator};
+use crate::link::ArmPort;
 use crate::live::{self, RunInfo, StreamHandle};
 use crate::log::LogEntry;
 use crate::plan::{JointLimits, Plan, PlanValidator, JOINTS};
 use crate::stream::Generator;
-use crate::transport::Transport;
 use crate::watch::WatchSettings;
 use crate::watchdog::CycleFault;
 use std::fmt;
@@ -113,6 +113,14 @@ pub enum Fault {
     },
     /// The runtime limit check refused a command (it was not sent).
     CommandRefused(String),
+    /// The arm answered with an error frame (Kortex): what it refused, and why.
+    ArmRefused(String),
+    /// An actuator, or the base, reports a fault in the cyclic feedback (Kortex; joint 0: the base).
+    ActuatorFault {
+        joint: u8,
+        bank_a: u32,
+        bank_b: u32,
+    },
     Bus(String),
 }
 
@@ -170,6 +178,23 @@ impl fmt::Display for Fault {
                 (target - actual).abs()
             ),
             Fault::CommandRefused(e) => write!(f, "command refused by the limit check: {e}"),
+            Fault::ArmRefused(e) => write!(f, "{e}"),
+            Fault::ActuatorFault {
+                joint: 0,
+                bank_a,
+                bank_b,
+            } => write!(
+                f,
+                "the base reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
+            ),
+            Fault::ActuatorFault {
+                joint,
+                bank_a,
+                bank_b,
+            } => write!(
+                f,
+                "actuator {joint} reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
+            ),
             Fault::Bus(e) => write!(f, "bus error: {e}"),
         }
     }
@@ -325,21 +350,23 @@ pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
 pub struct Executor {
     plan: Plan,
     limits: [JointLimits; JOINTS],
-    /// One bus per plan arm, in plan order.
-    buses: Vec<Box<dyn Transport>>,
+    /// One port per plan arm, in plan order.
+    buses: Vec<ArmPort>,
     config: ExecConfig,
     progress: Option<ProgressFn>,
 }
 
 impl Executor {
-    /// `arms` pairs each plan arm's name with its bus; every plan arm needs exactly one bus
-    /// (none in a dry run).
-    pub fn new(
+    /// `arms` pairs each plan arm's name with its bus or Kortex connection ([`ArmPort`]);
+    /// every plan arm needs exactly one (none in a dry run).
+    pub fn new<P: Into<ArmPort>>(
         plan: Plan,
         limits: [JointLimits; JOINTS],
-        mut arms: Vec<(String, Box<dyn Transport>)>,
+        arms: Vec<(String, P)>,
         config: ExecConfig,
     ) -> Result<Self, ExecError> {
+        let mut arms: Vec<(String, ArmPort)> =
+            arms.into_iter().map(|(n, p)| (n, p.into())).collect();
         plan.check_shape().map_err(ExecError::InvalidPlan)?;
         config.watch.check().map_err(ExecError::Settings)?;
         let mut buses = Vec::with_capacity(plan.arms.len());
@@ -421,8 +448,8 @@ impl Executor {
     /// configuration and its bus; the handle's pushes take the arms in this order. A dry run
     /// is not supported here. Each push may queue at most [`ExecConfig::online_horizon`] of
     /// motion ahead.
-    pub fn online(
-        arms: Vec<(String, [f64; JOINTS], Box<dyn Transport>)>,
+    pub fn online<P: Into<ArmPort>>(
+        arms: Vec<(String, [f64; JOINTS], P)>,
         dt: f64,
         time_scale: f64,
         limits: [JointLimits; JOINTS],
@@ -456,7 +483,7 @@ impl Executor {
             } else {
                 1
             });
-        let buses = arms.into_iter().map(|a| a.2).collect();
+        let buses = arms.into_iter().map(|a| a.2.into()).collect();
         // Online segments are not known in advance: they may use the joints' whole range.
         let span: Span = std::array::from_fn(|j| match limits[j].position {
             Some((lo, hi)) => (to_counts(lo), to_counts(hi)),

@@ -4,18 +4,17 @@
 //! the arms move) are the same loop; a run ends once it is told to finish and the queue is
 //! done, after the settle cycles.
 
-use crate::arm::{ArmBus, Span};
-use crate::cia402;
+use crate::arm::Span;
 use crate::executor::{
     ArmReport, ArmStop, ExecConfig, ExecError, Fault, FaultReport, Progress, ProgressFn, Report,
     STOP_BOUND_PERIODS,
 };
 use crate::interpolate::Command;
+use crate::link::{ArmLink, ArmPort};
 use crate::log::LogSink;
 use crate::plan::JOINTS;
 use crate::priority;
 use crate::stream::{Generator, PushError};
-use crate::transport::Transport;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Barrier, Mutex, MutexGuard};
@@ -174,7 +173,7 @@ pub struct StreamHandle {
 pub(crate) fn start(
     names: Vec<String>,
     generator: Generator,
-    buses: Vec<Box<dyn Transport>>,
+    buses: Vec<ArmPort>,
     config: ExecConfig,
     progress: Option<ProgressFn>,
     finishing: bool,
@@ -214,7 +213,7 @@ pub(crate) fn start(
         .zip(info.speeds.clone())
         .enumerate())
     .map(|(me, ((((bus, name), first), span), speed))| {
-        let mut bus = ArmBus::new(name, bus, clock, &config, log.clone());
+        let mut bus = bus.into_link(name, clock, &config, log.clone());
         let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
         let total = info.total_cycles;
         std::thread::spawn(move || {
@@ -224,7 +223,7 @@ pub(crate) fn start(
             let progress = progress.as_deref().map(|p| p.as_ref());
             stream_arm(
                 me,
-                &mut bus,
+                bus.as_mut(),
                 (first, span, speed),
                 &shared,
                 &config,
@@ -317,7 +316,7 @@ impl StreamHandle {
 /// commands stay in and its joints' peak speeds.
 fn stream_arm(
     me: usize,
-    bus: &mut ArmBus,
+    bus: &mut dyn ArmLink,
     (first, span, speed): (Command, Span, [f64; JOINTS]),
     shared: &Shared,
     cfg: &ExecConfig,
@@ -348,7 +347,7 @@ fn stream_arm(
             // arrives rather than at the next cycle.
             // Once the cycle is due, the per-cycle accounting says whether it may be sent.
             let mut watch = || -> Result<f64, Fault> {
-                bus.poll().map_err(|e| Fault::Bus(e.to_string()))?;
+                bus.poll().map_err(Fault::Bus)?;
                 let now = Instant::now();
                 let fe = bus.check_feedback(now, cfg, &prev1)?;
                 if now >= due {
@@ -365,8 +364,7 @@ fn stream_arm(
             max_fe = max_fe.max(fe);
             // Checked against the limits by the generator.
             let (cmd, end) = shared.command(me, k as u64)?;
-            bus.send_cycle(&cmd, cia402::CW_ENABLE_OPERATION)
-                .map_err(|e| Fault::Bus(e.to_string()))?;
+            bus.send_cycle(&cmd).map_err(Fault::Bus)?;
             Ok(Some((cmd, end)))
         };
         let fault = match step() {
@@ -377,7 +375,7 @@ fn stream_arm(
                 if let Some(p) = progress {
                     if k.is_multiple_of(progress_every) || done {
                         p(Progress {
-                            arm: &bus.name,
+                            arm: bus.name(),
                             cycle: k + 1,
                             cycles: total.map_or(0, |t| t as usize),
                         });
@@ -394,38 +392,38 @@ fn stream_arm(
         };
         // A fault here or on another arm: quick stop, and nothing after it.
         let detected = match fault {
-            Some(f) => shared.raise(&bus.name, f, k),
+            Some(f) => shared.raise(bus.name(), f, k),
             None => lock(&shared.fault)
                 .as_ref()
                 .map_or_else(Instant::now, |f| f.3),
         };
         let error = bus.quick_stop(&prev1).err();
         let stop = ArmStop {
-            arm: bus.name.clone(),
+            arm: bus.name().to_string(),
             cycles_sent: k,
             latency: detected.elapsed(),
             error,
         };
-        return ArmEnd::Stopped(stop, bus.frames_sent);
+        return ArmEnd::Stopped(stop, bus.frames_sent());
     }
     shared.sent[me].store(usize::MAX, Ordering::SeqCst);
     shared.clear[me].store(u64::MAX, Ordering::SeqCst);
     match bus.finish(&prev1) {
         Ok(()) => ArmEnd::Completed {
             cycles: k,
-            frames: bus.frames_sent,
+            frames: bus.frames_sent(),
             max_following_error: max_fe,
             max_lateness: max_late,
         },
         Err(e) => {
-            let detected = shared.raise(&bus.name, Fault::Bus(e.clone()), k);
+            let detected = shared.raise(bus.name(), Fault::Bus(e.clone()), k);
             let stop = ArmStop {
-                arm: bus.name.clone(),
+                arm: bus.name().to_string(),
                 cycles_sent: k,
                 latency: detected.elapsed(),
                 error: Some(e),
             };
-            ArmEnd::Stopped(stop, bus.frames_sent)
+            ArmEnd::Stopped(stop, bus.frames_sent())
         }
     }
 }
@@ -433,7 +431,7 @@ fn stream_arm(
 /// Waits for every arm to finish a start-up phase with `result`; the arm's end if this arm or
 /// another failed (an arm that did not fail stops its nodes).
 fn startup_phase_end(
-    bus: &mut ArmBus,
+    bus: &mut dyn ArmLink,
     result: Result<(), String>,
     shared: &Shared,
 ) -> Option<ArmEnd> {

@@ -34,10 +34,13 @@ pub fn venv_python() -> Result<PathBuf, String> {
 }
 
 /// The venv's python, first creating the venv with `hw-adapter/mock/setup_venv.sh` if it is
-/// missing (the script's output goes to this process's output).
+/// missing, or lacks the Kortex mock's generated message code (the script's output goes to
+/// this process's output).
 pub fn ensure_venv() -> Result<PathBuf, String> {
     if let Ok(python) = venv_python() {
-        return Ok(python);
+        if crate::mock_gen3::proto_code_ready(&python) {
+            return Ok(python);
+        }
     }
     let setup = script_path().with_file_name("setup_venv.sh");
     let status = Command::new("bash")
@@ -150,21 +153,29 @@ impl MockArm {
     /// Waits for the mock to exit (it does once its pty is closed) and returns its record
     /// (empty without one).
     pub fn finish(mut self) -> Result<Vec<Value>, String> {
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while self.child.try_wait().ok().flatten().is_none() {
-            if Instant::now() > deadline {
-                return Err(format!(
-                    "mock arm {:?} did not exit after its pty was closed",
-                    self.name
-                ));
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        wait_exit(&mut self.child).map_err(|()| {
+            format!(
+                "mock arm {:?} did not exit after its pty was closed",
+                self.name
+            )
+        })?;
         match &self.record {
             Some(path) => record::read(path),
             None => Ok(Vec::new()),
         }
     }
+}
+
+/// Waits up to 5 s for a mock's process to exit.
+pub(crate) fn wait_exit(child: &mut Child) -> Result<(), ()> {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while child.try_wait().ok().flatten().is_none() {
+        if Instant::now() > deadline {
+            return Err(());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    Ok(())
 }
 
 impl Drop for MockArm {

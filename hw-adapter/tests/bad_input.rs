@@ -4,6 +4,7 @@
 mod common;
 
 use common::*;
+use omcbsa_hw::link::ArmPorts;
 use omcbsa_hw::plan::{Plan, PlanValidator};
 use omcbsa_hw::transport::{self, mock::MockTransport};
 use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Transport};
@@ -144,7 +145,7 @@ fn dry_run_logs_every_command_and_needs_no_bus() {
         log_path: Some(log.clone()),
         ..ExecConfig::default()
     };
-    let report = Executor::new(plan, JointLimits::kinova_gen3(), Vec::new(), cfg)
+    let report = Executor::new(plan, JointLimits::kinova_gen3(), ArmPorts::new(), cfg)
         .unwrap()
         .run(&AcceptAll)
         .unwrap();

@@ -107,28 +107,46 @@ class Report:
     summary: str
     violations: list[Violation]
 
-def plan(problem: Problem, planner: str = "omcbsa", timeout: float = 5.0) -> Solution:
-    """Plans ``problem`` (GIL released); a plan that fails validation is never ``solved``."""
+def plan(
+    problem: Problem,
+    planner: str = "omcbsa",
+    timeout: float = 5.0,
+    assignment: Optional[Sequence[Optional[int]]] = None,
+    preferred: bool = False,
+) -> Solution:
+    """Plans ``problem`` (GIL released); a plan that fails validation is never ``solved``.
+
+    ``assignment[i]``: the hand robot i takes (None: it holds still), kept as given; with
+    ``preferred=True`` only tried first, the planner choosing freely when it has no plan."""
 
 def validate(problem: Problem, solution: Solution) -> Report:
     """Checks ``solution`` against ``problem`` as ``omcbsa validate`` does."""
 
-def fk(model_name: str, q: ArrayLike) -> npt.NDArray[np.float64]:
-    """(..., 7) joint values -> (..., 7) poses, position + quaternion xyzw (w >= 0)."""
+def fk(
+    model_name: str,
+    q: ArrayLike,
+    base: Optional[ArrayLike] = None,
+    tcp: Optional[ArrayLike] = None,
+) -> npt.NDArray[np.float64]:
+    """(..., 7) joint values -> (..., 7) poses, position + quaternion xyzw (w >= 0); with
+    ``base`` and ``tcp`` (7,), the tool centre point in the world: base * fk(q) * tcp."""
 
 def ik(
     model_name: str,
     poses: ArrayLike,
     seeds: Optional[ArrayLike] = None,
     seed: int = 0,
+    base: Optional[ArrayLike] = None,
+    tcp: Optional[ArrayLike] = None,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
-    """(..., 7) poses -> ((..., 7) joint values, NaN where none; (...) success flags)."""
+    """(..., 7) poses -> ((..., 7) joint values, NaN where none; (...) success flags); with
+    ``base`` and ``tcp``, the poses are of the tool centre point in the world."""
 
 class ChunkError(RuntimeError):
     """A chunk was not planned; the plan made before is kept."""
 
     kind: str
-    """``unreachable``, ``deadline_missed``, ``not_planned`` or ``approach``."""
+    """``unreachable``, ``blocked``, ``deadline_missed``, ``not_planned`` or ``approach``."""
     hand: Optional[int]
     step: Optional[int]
     robot: Optional[int]
@@ -136,17 +154,36 @@ class ChunkError(RuntimeError):
 class Embodier:
     """Plans policy chunks as they arrive (the library's online API).
 
-    ``setup``: a Problem whose robots all give ``initial`` (its trajectories are not used).
-    Timeline index 0 is ``initial``, then the approach, then the chunks, one per ``dt``.
+    Built from ``bases`` (robots, 7), ``initial`` (robots, 7) and ``dt`` (with ``tcp``,
+    ``obstacles``, ``tolerance`` and ``model`` as for ``Problem.from_arrays``), or from a
+    Problem whose robots all give ``initial`` (its trajectories are not used). Timeline index
+    0 is ``initial``, then the approach, then the chunks, one per ``dt``. ``assignment``
+    (fixed, or tried first with ``preferred=True``) says which arm takes which hand;
+    ``reassign=True`` lets a chunk that has no plan under the assignment take a new one from
+    where the arms stand (off: a hand holding an object cannot change arms).
     """
 
     def __init__(
         self,
-        setup: Problem,
+        setup: Optional[Problem] = None,
+        *,
+        bases: Optional[ArrayLike] = None,
+        initial: Optional[ArrayLike] = None,
+        dt: Optional[float] = None,
+        tcp: Optional[ArrayLike] = None,
+        obstacles: Optional[Sequence[Mapping[str, Any]]] = None,
+        tolerance: Optional[Tuple[float, float]] = None,
+        model: str = "kinova_gen3",
         planner: str = "omcbsa",
         chunk_timeout: float = 1.0,
         max_chunk_len: int = 64,
+        assignment: Optional[Sequence[Optional[int]]] = None,
+        preferred: bool = False,
+        reassign: bool = False,
     ) -> None: ...
+    def embody(self, hands: ArrayLike, chunk_len: Optional[int] = None) -> npt.NDArray[np.float64]:
+        """A whole episode, however long: ``hands`` (hands, T, 7) -> every robot's timeline
+        (robots, 1 + approach_len + T, 7), planned in chunks as a policy would send them."""
     def push_chunk(self, start_step: int, hands: ArrayLike) -> npt.NDArray[np.float64]:
         """``hands`` (hands, H, 7) poses at policy steps ``start_step..start_step+H`` ->
         the new joint segment (robots, n, 7) from timeline index ``last_index`` to the end.

@@ -11,7 +11,8 @@ use pyo3::types::PyDict;
 
 use crate::convert::{field_error, flat, input_error};
 use crate::guard;
-use crate::problem::{to_python, Problem, DOF};
+use crate::problem::{check, problem_document, robots_value, rule, to_python, Problem, DOF};
+use omcbsa::load;
 
 pyo3::create_exception!(
     omcbsa,
@@ -19,6 +20,7 @@ pyo3::create_exception!(
     PyRuntimeError,
     "A chunk was not planned (a pose no arm can reach, a missed deadline, no plan within the \
      time, no approach); the plan made before is kept. `kind` says which: `unreachable`, \
+     `blocked` (`robot`, `hand` and `step` say where; the message says by what), \
      `deadline_missed`, `not_planned` or `approach`."
 );
 
@@ -33,6 +35,7 @@ pyo3::create_exception!(
 pub struct Embodier {
     inner: HostEmbodier,
     last: Option<ChunkReport>,
+    max_chunk_len: usize,
 }
 
 fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
@@ -44,6 +47,12 @@ fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
         OnlineError::DeadlineMissed { start_step, .. } => {
             ("deadline_missed", None, Some(*start_step), None)
         }
+        OnlineError::Blocked {
+            robot_index,
+            hand,
+            step,
+            ..
+        } => ("blocked", *hand, Some(*step), Some(*robot_index)),
         OnlineError::NotPlanned { start_step, .. } => {
             ("not_planned", None, Some(*start_step), None)
         }
@@ -61,6 +70,35 @@ fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
         Ok(()) => err,
         Err(e) => e,
     }
+}
+
+/// `hands` of shape (hands, H, 7), position + quaternion xyzw, as poses per hand.
+fn poses_of(
+    py: Python<'_>,
+    hands: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+) -> PyResult<Vec<Vec<Pose>>> {
+    let hands = hands.as_array();
+    let shape = hands.shape().to_vec();
+    if shape.len() != 3 {
+        return Err(field_error(
+            py,
+            "hands",
+            format!("expected an array of shape (hands, H, 7), got shape {shape:?}"),
+        ));
+    }
+    let values = flat(py, &hands, 7, "hands", "(hands, H, 7)")?;
+    let h = shape[1].max(1);
+    let poses: Vec<Vec<Pose>> = (values.chunks(h * 7))
+        .map(|hand| {
+            (hand.chunks_exact(7))
+                .map(|p| Pose {
+                    position: [p[0], p[1], p[2]],
+                    quat_xyzw: [p[3], p[4], p[5], p[6]],
+                })
+                .collect()
+        })
+        .collect();
+    Ok(poses)
 }
 
 impl Embodier {
@@ -96,25 +134,68 @@ impl Embodier {
 #[pymethods]
 impl Embodier {
     #[new]
-    #[pyo3(signature = (setup, planner="omcbsa", chunk_timeout=1.0, max_chunk_len=64))]
+    #[pyo3(signature = (setup=None, *, bases=None, initial=None, dt=None, tcp=None,
+        obstacles=None, tolerance=None, model="kinova_gen3", planner="omcbsa",
+        chunk_timeout=1.0, max_chunk_len=64, assignment=None, preferred=false,
+        reassign=false))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
-        setup: &Problem,
+        setup: Option<&Problem>,
+        bases: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+        initial: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+        dt: Option<f64>,
+        tcp: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+        obstacles: Option<&Bound<'_, PyAny>>,
+        tolerance: Option<(f64, f64)>,
+        model: &str,
         planner: &str,
         chunk_timeout: f64,
         max_chunk_len: usize,
+        assignment: Option<Vec<Option<usize>>>,
+        preferred: bool,
+        reassign: bool,
     ) -> PyResult<Embodier> {
         let options = OnlineOptions {
             planner: planner.to_string(),
             chunk_timeout_s: chunk_timeout,
             max_chunk_len,
+            assignment: rule(assignment, preferred),
+            reassign,
             ..OnlineOptions::default()
         };
-        let setup = Setup::of_problem(&setup.file);
+        let setup = match (setup, bases, initial, dt) {
+            (Some(problem), None, None, None) => Setup::of_problem(&problem.file),
+            (None, Some(bases), Some(initial), Some(dt)) => {
+                let robots = robots_value(py, &bases, Some(&initial), tcp.as_ref(), model)?;
+                // The loader checks the setup as a problem's; one hand stands in for the
+                // chunks to come.
+                let hand = serde_json::json!({"name": "hand", "poses": [{
+                    "position": [0.0, 0.0, 0.0], "quat_xyzw": [0.0, 0.0, 0.0, 1.0]}]});
+                let doc =
+                    problem_document(py, "online", dt, robots, vec![hand], obstacles, tolerance)?;
+                let file = load::parse_problem(&doc.to_string())
+                    .and_then(check)
+                    .map_err(|e| input_error(py, &e))?;
+                Setup::of_problem(&file)
+            }
+            _ => {
+                return Err(field_error(
+                    py,
+                    "setup",
+                    "give a Problem (its trajectories are not used), or bases, initial and dt \
+                     (with tcp, obstacles and tolerance if needed), not both",
+                ))
+            }
+        };
         let inner = py
             .detach(|| guard("Embodier", || HostEmbodier::new(&setup, options)))?
             .map_err(|e| online_error(py, e))?;
-        Ok(Embodier { inner, last: None })
+        Ok(Embodier {
+            inner,
+            last: None,
+            max_chunk_len,
+        })
     }
 
     /// Plans a chunk: `hands[j][k]` (shape (hands, H, 7), position + quaternion xyzw) is hand
@@ -131,27 +212,7 @@ impl Embodier {
         start_step: u64,
         hands: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let hands = hands.as_array();
-        let shape = hands.shape().to_vec();
-        if shape.len() != 3 {
-            return Err(field_error(
-                py,
-                "hands",
-                format!("expected an array of shape (hands, H, 7), got shape {shape:?}"),
-            ));
-        }
-        let values = flat(py, &hands, 7, "hands", "(hands, H, 7)")?;
-        let h = shape[1].max(1);
-        let poses: Vec<Vec<Pose>> = (values.chunks(h * 7))
-            .map(|hand| {
-                (hand.chunks_exact(7))
-                    .map(|p| Pose {
-                        position: [p[0], p[1], p[2]],
-                        quat_xyzw: [p[3], p[4], p[5], p[6]],
-                    })
-                    .collect()
-            })
-            .collect();
+        let poses = poses_of(py, &hands)?;
         let inner = &mut self.inner;
         let report = py
             .detach(|| guard("push_chunk", || inner.push_chunk(start_step, &poses)))?
@@ -159,6 +220,32 @@ impl Embodier {
         let index = report.index;
         self.last = Some(report);
         self.segment(py, index)
+    }
+
+    /// Embodies a whole episode on a fresh Embodier, however long (no splitting by hand):
+    /// `hands` (hands, T, 7) is every hand's pose at policy steps 0..T. It is planned in chunks
+    /// of `chunk_len` poses (default `max_chunk_len`), each from where the one before left
+    /// the arms, as a policy would send them. Returns every robot's timeline, shape
+    /// (robots, 1 + approach_len + T, 7): `initial`, the approach, then one configuration
+    /// per step. A chunk that cannot be planned raises `ChunkError` naming where.
+    #[pyo3(signature = (hands, chunk_len=None))]
+    fn embody<'py>(
+        &mut self,
+        py: Python<'py>,
+        hands: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        chunk_len: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let poses = poses_of(py, &hands)?;
+        let chunk_len = chunk_len.unwrap_or(self.max_chunk_len);
+        let inner = &mut self.inner;
+        let timeline = py
+            .detach(|| guard("embody", || inner.embody(&poses, chunk_len)))?
+            .map_err(|e| online_error(py, e))?;
+        let (n, len) = (timeline.len(), timeline.first().map_or(0, Vec::len));
+        let values: Vec<f64> = timeline.iter().flatten().flatten().copied().collect();
+        Array3::from_shape_vec((n, len, DOF), values)
+            .map(|a| a.into_pyarray(py))
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 
     /// Robots' planned configurations from timeline index `start` to the plan's end, shape
@@ -208,7 +295,8 @@ impl Embodier {
         self.last.as_ref().map(|r| r.index)
     }
 
-    /// The last chunk's planning report: start_step, index, end, planning_time_s, stats.
+    /// The last chunk's planning report: start_step, index, dropped, recovery (None, or how a
+    /// dead end was recovered), end, planning_time_s, stats.
     #[getter]
     fn last_report<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let Some(r) = &self.last else {
@@ -217,6 +305,8 @@ impl Embodier {
         let d = PyDict::new(py);
         d.set_item("start_step", r.start_step)?;
         d.set_item("index", r.index)?;
+        d.set_item("dropped", r.dropped)?;
+        d.set_item("recovery", r.recovery.map(|r| r.name()))?;
         d.set_item("end", r.end)?;
         d.set_item("planning_time_s", r.planning_time_s)?;
         d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;

@@ -6,12 +6,13 @@ use std::sync::Mutex;
 
 use numpy::ndarray::{Array3, ArrayViewD};
 use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
+use omcbsa::assignment::AssignmentRule;
 use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
-use omcbsa::models::ModelKind;
 use omcbsa::planners::{
-    load_problem, plan_file, plan_loaded, Capacities, InputOrPlanError, Storage,
+    self as planners, load_problem, plan_assigned, Capacities, InputOrPlanError, PlannerKind,
+    Storage,
 };
 use omcbsa::validate::validate as check_solution;
 use omcbsa_core::model::KinovaGen3;
@@ -38,7 +39,7 @@ pub struct Problem {
 
 /// Checks a problem file (every rule a file alone can break, and arms standing clear).
 pub fn check(file: ProblemFile) -> Result<ProblemFile, InputError> {
-    let ModelKind::KinovaGen3 = load::model_of(&file)?;
+    load::planned_model(&file)?;
     let problem = load::problem::<KinovaGen3, DOF>(&file)?;
     omcbsa::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
     Ok(file)
@@ -132,62 +133,11 @@ impl Problem {
         name: &str,
         model: &str,
     ) -> PyResult<Problem> {
-        let base_rows = pose_rows(py, &bases.as_array(), 2, "bases", "(robots, 7)")?;
+        let robots = robots_value(py, &bases, initial.as_ref(), tcp.as_ref(), model)?;
         let hands = hands.as_array();
         let h = hands.shape().get(1).copied().unwrap_or(0);
         let hand_rows = pose_rows(py, &hands, 3, "hands", "(hands, H, 7)")?;
-        let initial_rows = match &initial {
-            Some(a) => Some(pose_rows(py, &a.as_array(), 2, "initial", "(robots, 7)")?),
-            None => None,
-        };
-        let tcp_rows = match &tcp {
-            Some(a) if a.as_array().ndim() == 1 => {
-                let one = flat(py, &a.as_array(), 7, "tcp", "(7,)")?;
-                Some(vec![one; base_rows.len()])
-            }
-            Some(a) => Some(pose_rows(
-                py,
-                &a.as_array(),
-                2,
-                "tcp",
-                "(robots, 7) or (7,)",
-            )?),
-            None => None,
-        };
-        for (arg, n) in [("initial", &initial_rows), ("tcp", &tcp_rows)] {
-            if let Some(r) = n.as_ref().filter(|r| r.len() != base_rows.len()) {
-                return Err(field_error(
-                    py,
-                    arg,
-                    format!("{} rows, but bases has {} robots", r.len(), base_rows.len()),
-                ));
-            }
-        }
         let pose = |row: &[f64], path: String| pose_value(row, &path);
-        let mut robots = Vec::new();
-        for (i, b) in base_rows.iter().enumerate() {
-            let mut r = Map::new();
-            r.insert("name".into(), Value::from(format!("robot_{i}")));
-            r.insert("model".into(), Value::from(model));
-            r.insert(
-                "base".into(),
-                pose(b, format!("bases[{i}]")).map_err(|e| fe(py, e))?,
-            );
-            if let Some(q) = &initial_rows {
-                let q = (q[i].iter().enumerate())
-                    .map(|(j, &v)| number(v, &format!("initial[{i}][{j}]")))
-                    .collect::<Result<Vec<_>, _>>()
-                    .map_err(|e| fe(py, e))?;
-                r.insert("initial".into(), Value::Array(q));
-            }
-            if let Some(t) = &tcp_rows {
-                r.insert(
-                    "tcp".into(),
-                    pose(&t[i], format!("tcp[{i}]")).map_err(|e| fe(py, e))?,
-                );
-            }
-            robots.push(Value::Object(r));
-        }
         let mut trajectories = Vec::new();
         for (k, poses) in hand_rows.chunks(h.max(1)).enumerate() {
             let poses = (poses.iter().enumerate())
@@ -199,26 +149,8 @@ impl Problem {
             m.insert("poses".into(), Value::Array(poses));
             trajectories.push(Value::Object(m));
         }
-        let mut doc = Map::new();
-        doc.insert("format".into(), Value::from(PROBLEM_FORMAT));
-        doc.insert("name".into(), Value::from(name));
-        doc.insert("dt".into(), number(dt, "dt").map_err(|e| fe(py, e))?);
-        doc.insert("robots".into(), Value::Array(robots));
-        doc.insert("trajectories".into(), Value::Array(trajectories));
-        if let Some(obstacles) = obstacles {
-            doc.insert("obstacles".into(), to_json(obstacles, "obstacles")?);
-        }
-        if let Some((position_m, orientation_rad)) = tolerance {
-            let mut t = Map::new();
-            for (key, v, path) in [
-                ("position_m", position_m, "tolerance[0]"),
-                ("orientation_rad", orientation_rad, "tolerance[1]"),
-            ] {
-                t.insert(key.into(), number(v, path).map_err(|e| fe(py, e))?);
-            }
-            doc.insert("tolerance".into(), Value::Object(t));
-        }
-        Problem::from_text(py, &Value::Object(doc).to_string())
+        let doc = problem_document(py, name, dt, robots, trajectories, obstacles, tolerance)?;
+        Problem::from_text(py, &doc.to_string())
     }
 
     /// The problem in the file's layout.
@@ -268,6 +200,104 @@ impl Problem {
             self.horizon()
         )
     }
+}
+
+/// A problem document of robots and trajectories (`robots_value`, ...), `dt`, `obstacles` (a
+/// list of dicts as in the file) and `tolerance` (position m, orientation rad).
+pub(crate) fn problem_document(
+    py: Python<'_>,
+    name: &str,
+    dt: f64,
+    robots: Vec<Value>,
+    trajectories: Vec<Value>,
+    obstacles: Option<&Bound<'_, PyAny>>,
+    tolerance: Option<(f64, f64)>,
+) -> PyResult<Value> {
+    let mut doc = Map::new();
+    doc.insert("format".into(), Value::from(PROBLEM_FORMAT));
+    doc.insert("name".into(), Value::from(name));
+    doc.insert("dt".into(), number(dt, "dt").map_err(|e| fe(py, e))?);
+    doc.insert("robots".into(), Value::Array(robots));
+    doc.insert("trajectories".into(), Value::Array(trajectories));
+    if let Some(obstacles) = obstacles {
+        doc.insert("obstacles".into(), to_json(obstacles, "obstacles")?);
+    }
+    if let Some((position_m, orientation_rad)) = tolerance {
+        let mut t = Map::new();
+        for (key, v, path) in [
+            ("position_m", position_m, "tolerance[0]"),
+            ("orientation_rad", orientation_rad, "tolerance[1]"),
+        ] {
+            t.insert(key.into(), number(v, path).map_err(|e| fe(py, e))?);
+        }
+        doc.insert("tolerance".into(), Value::Object(t));
+    }
+    Ok(Value::Object(doc))
+}
+
+/// The `robots` of a problem document from arrays: `bases` (robots, 7), `initial` (robots, 7),
+/// `tcp` (robots, 7) or (7,), all of model `model`; robots are named `robot_<i>`.
+pub(crate) fn robots_value(
+    py: Python<'_>,
+    bases: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    initial: Option<&PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+    tcp: Option<&PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+    model: &str,
+) -> PyResult<Vec<Value>> {
+    let base_rows = pose_rows(py, &bases.as_array(), 2, "bases", "(robots, 7)")?;
+    let initial_rows = match initial {
+        Some(a) => Some(pose_rows(py, &a.as_array(), 2, "initial", "(robots, 7)")?),
+        None => None,
+    };
+    let tcp_rows = match tcp {
+        Some(a) if a.as_array().ndim() == 1 => {
+            let one = flat(py, &a.as_array(), 7, "tcp", "(7,)")?;
+            Some(vec![one; base_rows.len()])
+        }
+        Some(a) => Some(pose_rows(
+            py,
+            &a.as_array(),
+            2,
+            "tcp",
+            "(robots, 7) or (7,)",
+        )?),
+        None => None,
+    };
+    for (arg, n) in [("initial", &initial_rows), ("tcp", &tcp_rows)] {
+        if let Some(r) = n.as_ref().filter(|r| r.len() != base_rows.len()) {
+            return Err(field_error(
+                py,
+                arg,
+                format!("{} rows, but bases has {} robots", r.len(), base_rows.len()),
+            ));
+        }
+    }
+    let pose = |row: &[f64], path: String| pose_value(row, &path);
+    let mut robots = Vec::new();
+    for (i, b) in base_rows.iter().enumerate() {
+        let mut r = Map::new();
+        r.insert("name".into(), Value::from(format!("robot_{i}")));
+        r.insert("model".into(), Value::from(model));
+        r.insert(
+            "base".into(),
+            pose(b, format!("bases[{i}]")).map_err(|e| fe(py, e))?,
+        );
+        if let Some(q) = &initial_rows {
+            let q = (q[i].iter().enumerate())
+                .map(|(j, &v)| number(v, &format!("initial[{i}][{j}]")))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| fe(py, e))?;
+            r.insert("initial".into(), Value::Array(q));
+        }
+        if let Some(t) = &tcp_rows {
+            r.insert(
+                "tcp".into(),
+                pose(&t[i], format!("tcp[{i}]")).map_err(|e| fe(py, e))?,
+            );
+        }
+        robots.push(Value::Object(r));
+    }
+    Ok(robots)
 }
 
 fn fe(py: Python<'_>, e: FieldError) -> PyErr {
@@ -448,9 +478,20 @@ impl Solution {
 /// composite-astar, omega-astar) within `timeout` seconds. The GIL is released while
 /// planning. A plan the planner calls solved is validated before it is returned; one that
 /// fails validation is never returned as solved.
+///
+/// `assignment` (one entry per robot: the hand it takes, or None to hold still) fixes which
+/// arm takes which hand; with `preferred=True` it is only tried first, and the planner
+/// chooses freely in the time left when it has no plan.
 #[pyfunction]
-#[pyo3(signature = (problem, planner="omcbsa", timeout=5.0))]
-pub fn plan(py: Python<'_>, problem: &Problem, planner: &str, timeout: f64) -> PyResult<Solution> {
+#[pyo3(signature = (problem, planner="omcbsa", timeout=5.0, assignment=None, preferred=false))]
+pub fn plan(
+    py: Python<'_>,
+    problem: &Problem,
+    planner: &str,
+    timeout: f64,
+    assignment: Option<Vec<Option<usize>>>,
+    preferred: bool,
+) -> PyResult<Solution> {
     if !(timeout > 0.0 && timeout.is_finite()) {
         return Err(field_error(
             py,
@@ -458,8 +499,10 @@ pub fn plan(py: Python<'_>, problem: &Problem, planner: &str, timeout: f64) -> P
             format!("must be a positive number of seconds, got {timeout}"),
         ));
     }
+    let kind = planners::parse(planner).map_err(|e| field_error(py, "planner", e))?;
     let file = &problem.file;
-    match py.detach(|| guard("plan", || plan_with_pools(file, planner, timeout)))? {
+    let rule = rule(assignment, preferred);
+    match py.detach(|| guard("plan", || plan_with_pools(file, kind, timeout, &rule)))? {
         Ok(file) => Ok(Solution { file }),
         Err(InputOrPlanError::Input(e)) => Err(input_error(py, &e)),
         Err(InputOrPlanError::Plan(e)) => Err(field_error(py, "planner", e)),
@@ -470,15 +513,18 @@ pub fn plan(py: Python<'_>, problem: &Problem, planner: &str, timeout: f64) -> P
 /// (tens of MB) costs more than planning a small problem.
 static POOLS: Mutex<Option<(usize, Storage)>> = Mutex::new(None);
 
-/// `plan_file` in the kept pools; a call made while another thread plans gets pools of its
+/// Plans in the kept pools; a call made while another thread plans gets pools of its
 /// own.
 fn plan_with_pools(
     file: &ProblemFile,
-    planner: &str,
+    planner: PlannerKind,
     timeout: f64,
+    rule: &AssignmentRule,
 ) -> Result<SolutionFile, InputOrPlanError> {
     let Ok(mut slot) = POOLS.try_lock() else {
-        return plan_file(file, planner, timeout);
+        let problem = load_problem(file)?;
+        let mut storage = Storage::new(Capacities::default(), problem.horizon());
+        return plan_assigned(&mut storage, file, &problem, planner, timeout, rule);
     };
     let problem = load_problem(file)?;
     let h = problem.horizon();
@@ -486,7 +532,16 @@ fn plan_with_pools(
         *slot = None; // the old pools go before the new ones are made
     }
     let (_, storage) = slot.get_or_insert_with(|| (h, Storage::new(Capacities::default(), h)));
-    plan_loaded(storage, file, &problem, planner, timeout)
+    plan_assigned(storage, file, &problem, planner, timeout, rule)
+}
+
+/// The assignment rule of `plan`'s and `Embodier`'s arguments.
+pub(crate) fn rule(assignment: Option<Vec<Option<usize>>>, preferred: bool) -> AssignmentRule {
+    match assignment {
+        None => AssignmentRule::Free,
+        Some(list) if preferred => AssignmentRule::Preferred(list),
+        Some(list) => AssignmentRule::Fixed(list),
+    }
 }
 
 /// One broken rule of a validation, as `omcbsa validate` reports it: `str(v)` is the

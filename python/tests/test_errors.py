@@ -25,7 +25,7 @@ CASES = [
     ("quaternion", lambda p: p["trajectories"][1]["poses"][4].update(quat_xyzw=[0, 0, 0, 0.98]),
      "trajectories[1].poses[4].quat_xyzw: norm 0.98 is more than 1e-6 away from 1"),
     ("model", lambda p: p["robots"][0].update(model="ur5"),
-     'robots[0].model: unknown model "ur5" (compiled in: kinova_gen3)'),
+     'robots[0].model: unknown model "ur5" (compiled in: kinova_gen3, franka_panda; aliases: panda for franka_panda)'),
     ("misspelt field", lambda p: p["robots"][0].update(initail=[0.0] * 7),
      "robots[0].initail: unknown field `initail`, expected one of `name`, `model`, `base`, "
      "`initial`, `tcp`, `tool`"),

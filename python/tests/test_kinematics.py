@@ -72,3 +72,26 @@ def test_unreachable_pose_is_nan_and_not_ok():
     sol, ok = omcbsa.ik(M, far)
     assert ok.tolist() == [False, True]
     assert np.isnan(sol[0]).all() and np.isfinite(sol[1]).all()
+
+
+# Franka's published position limits of the Panda.
+PANDA_LOWER = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973])
+PANDA_UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
+
+
+@pytest.mark.parametrize("name", ["franka_panda", "panda"])
+def test_panda_fk_and_ik_by_name_and_alias(name, cli, omcbsa_bin):
+    q = np.random.default_rng(7).uniform(PANDA_LOWER, PANDA_UPPER, size=(5, 7))
+    poses = omcbsa.fk(name, q)
+    code, out, err = cli(omcbsa_bin, "fk", "--model", "franka_panda",
+                         stdin="".join(json.dumps(list(r)) + "\n" for r in q))
+    assert code == 0, err
+    want = np.array([json.loads(l)["position"] + json.loads(l)["quat_xyzw"]
+                     for l in out.splitlines()])
+    assert np.array_equal(poses, want)
+    # The name picks the model: these joint values are outside the Gen3's joint 6 limits.
+    with pytest.raises(omcbsa.InputError, match="joint_6"):
+        omcbsa.fk("kinova_gen3", q)
+    sol, ok = omcbsa.ik(name, poses, seeds=q)
+    assert ok.all()
+    assert np.allclose(omcbsa.fk(name, sol)[:, :3], poses[:, :3], atol=1e-5)

@@ -10,7 +10,13 @@ use omcbsa_tests::{core_problem, elbow_swing_problem, facing_pair_problem};
 fn run(storage: &mut Storage, planner: &str, problem: &Problem<7>) -> Stats {
     let mut stats = Stats::default();
     let (status, _) = storage
-        .solve_core(planner, problem, &WallClock::start(), 60.0, &mut stats)
+        .solve_core(
+            omcbsa::planners::parse(planner).expect("known"),
+            problem,
+            &WallClock::start(),
+            60.0,
+            &mut stats,
+        )
         .expect("planner");
     assert_eq!(status, Status::Solved);
     stats

@@ -122,7 +122,8 @@ pub fn smooth_path(q0: &[f64; DOF], amp: &[f64; DOF], h: usize) -> Vec<[f64; DOF
 /// Plans `file` with `planner` and checks the answer with the validator; returns the solution.
 /// Every solution a planner reports solved must validate: this asserts it.
 pub fn plan_and_validate(file: &ProblemFile, planner: &str, timeout: f64) -> SolutionFile {
-    let sol = plan_file(file, planner, timeout).expect("problem plans");
+    let kind = omcbsa::planners::parse(planner).expect("a known planner");
+    let sol = plan_file(file, kind, timeout).expect("problem plans");
     assert!(
         !sol.message.contains("failed validation"),
         "{planner}: {}",

@@ -91,7 +91,7 @@ fn a_start_in_collision_is_bad_input_naming_the_robot_and_what_it_touches() {
             0.08,
         )],
     );
-    let err = match plan_file(&file, "omcbsa", 5.0) {
+    let err = match plan_file(&file, omcbsa::planners::PlannerKind::OmCbsa, 5.0) {
         Err(omcbsa::planners::InputOrPlanError::Input(e)) => e.to_string(),
         other => panic!("expected an input error, got {other:?}"),
     };
@@ -103,8 +103,8 @@ fn a_start_in_collision_is_bad_input_naming_the_robot_and_what_it_touches() {
 #[test]
 fn the_approach_does_not_depend_on_the_clock() {
     let (file, _) = (0..400).find_map(crossing_scene).expect("a crossing scene");
-    let a = plan_file(&file, "omcbsa", 10.0).expect("plans");
-    let b = plan_file(&file, "omcbsa", 30.0).expect("plans");
+    let a = plan_file(&file, omcbsa::planners::PlannerKind::OmCbsa, 10.0).expect("plans");
+    let b = plan_file(&file, omcbsa::planners::PlannerKind::OmCbsa, 30.0).expect("plans");
     assert_eq!(a.status, FileStatus::Solved);
     assert_eq!(a.approach, b.approach);
     assert_eq!(a.joint_paths, b.joint_paths);

@@ -7,8 +7,9 @@ use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::online::policy::RETRACT;
 use omcbsa::planners::plan_file;
+use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, script_path, venv_python, MockArm, MockArmOptions};
-use omcbsa_hw::{Executor, JointLimits, Transport};
+use omcbsa_hw::{Executor, Transport};
 
 #[test]
 fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
@@ -17,7 +18,7 @@ fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
     for r in &mut problem.robots {
         r.initial = Some(RETRACT.to_vec());
     }
-    let solution = plan_file(&problem, "omcbsa", 5.0).unwrap();
+    let solution = plan_file(&problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     let a = solution
         .approach
@@ -45,7 +46,7 @@ fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
     }
     let dir = std::env::temp_dir().join(format!("omcbsa-approach-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    run_on_mock_arms(&python, plan.clone(), &checked, &dir, |_| {})
+    run_on_mock_arms(&python, MockKind::Can, plan.clone(), &checked, &dir, |_| {})
         .unwrap_or_else(|e| panic!("{e}"));
 
     // The same plan with arm 1 standing 0.2 rad off on joint 3.
@@ -67,7 +68,7 @@ fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
     let buses: Vec<(String, Box<dyn Transport>)> = (mocks.iter())
         .map(|m| (m.name.clone(), m.open_bus().unwrap()))
         .collect();
-    let err = Executor::new(plan, JointLimits::kinova_gen3(), buses, exec_config())
+    let err = Executor::new(plan, checked.joint_limits().unwrap(), buses, exec_config())
         .unwrap()
         .run(&checked)
         .unwrap_err()

@@ -15,7 +15,7 @@ fn every_planner_solves_an_easy_two_arm_problem() {
     let p0 = smooth_path(&HOME, &[0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 20);
     let p1 = smooth_path(&HOME, &[-0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 20);
     let file = swapped_pair_problem("easy_pair", [b0, b1], [&p0, &p1], vec![]);
-    for planner in omcbsa::planners::PLANNERS {
+    for planner in omcbsa::planners::PlannerKind::BENCH.map(|p| p.name()) {
         let sol = plan_and_validate(&file, planner, 5.0);
         assert_eq!(sol.status, Status::Solved, "{planner}: {}", sol.message);
         assert_eq!(sol.assignment, vec![Some(1), Some(0)], "{planner}");

@@ -10,15 +10,25 @@ use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::plan_file;
 use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
+use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::record::{self, TOLERANCE};
 use omcbsa_hw::JOINTS;
 
+/// One set of mocks at a time: two sets of three Python mocks beside two planners starve the
+/// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
+static STREAMING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn streaming() -> std::sync::MutexGuard<'static, ()> {
+    STREAMING.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 #[test]
 fn planned_three_arm_solution_streams_to_three_mock_arms() {
+    let _one = streaming();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
-    let solution = plan_file(&demo.problem, "omcbsa", 5.0).unwrap();
+    let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     let checked = CheckedSolution::new(demo.problem, solution).unwrap();
     assert!(
@@ -30,7 +40,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
 
     let dir = std::env::temp_dir().join(format!("omcbsa-hil-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let report = run_on_mock_arms(&python, plan.clone(), &checked, &dir, |_| {})
+    let report = run_on_mock_arms(&python, MockKind::Can, plan.clone(), &checked, &dir, |_| {})
         .unwrap_or_else(|e| panic!("{e}"));
     println!("{report}");
 
@@ -71,6 +81,63 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
                 arm.name,
                 j + 1
             );
+        }
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The same demo on three mock Gen3s on Kortex (hw-adapter/mock/mock_gen3.py, loopback TCP and
+/// UDP): every command as planned within 1e-6 rad (degrees on the wire) and none past a limit
+/// (`omcbsa_hw::mock_gen3::check_followed`, run by `run_on_mock_arms`), the plan's first and last
+/// waypoints sent first and last.
+#[test]
+fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
+    let _one = streaming();
+    let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
+    let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
+    let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
+    assert_eq!(solution.status, Status::Solved, "{}", solution.message);
+    let checked = CheckedSolution::new(demo.problem, solution).unwrap();
+    let plan = checked.plan(&ROBOTS).unwrap();
+    let dir = std::env::temp_dir().join(format!("omcbsa-hil-kortex-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let report = run_on_mock_arms(
+        &python,
+        MockKind::Kortex,
+        plan.clone(),
+        &checked,
+        &dir,
+        |_| {},
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    println!("{report}");
+    let settle = omcbsa_hw::mock::exec_config().settle_cycles;
+    for (arm, streamed) in plan.arms.iter().zip(&report.arms) {
+        assert_eq!(streamed.cycles_sent, report.cycles + settle);
+        let received = record::read(&dir.join(format!("mock-{}.jsonl", arm.name))).unwrap();
+        let refreshes: Vec<&serde_json::Value> = (received.iter())
+            .filter(|e| e["event"] == "refresh")
+            .collect();
+        // The seed, then every cycle.
+        assert_eq!(refreshes.len(), 1 + report.cycles + settle, "{}", arm.name);
+        let ends = [
+            (refreshes[1], &arm.joint_path[0]),
+            (
+                refreshes[refreshes.len() - 1],
+                &arm.joint_path[arm.joint_path.len() - 1],
+            ),
+        ];
+        for (sent, want) in ends {
+            for j in 0..JOINTS {
+                let deg = sent["positions"][j].as_f64().unwrap() as f32;
+                let rad = omcbsa_hw::kortex::arm::from_wire(deg, want[j]);
+                assert!(
+                    (rad - want[j]).abs() <= TOLERANCE,
+                    "{} joint {}",
+                    arm.name,
+                    j + 1
+                );
+            }
         }
     }
     let _ = std::fs::remove_dir_all(dir);

@@ -20,6 +20,7 @@ use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::nalgebra::{Matrix3, Vector3};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
+use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::venv_python;
 use omcbsa_tests::{frame, problem_json, robot_json, smooth_path, trajectory_json};
 
@@ -77,7 +78,7 @@ fn scene(b_at: &Q, tools: bool) -> ProblemFile {
 }
 
 fn plan(problem: &ProblemFile) -> SolutionFile {
-    let solution = plan_file(problem, "omcbsa", 10.0).unwrap();
+    let solution = plan_file(problem, omcbsa::planners::PlannerKind::OmCbsa, 10.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
     assert_eq!(
         solution.assignment,
@@ -163,8 +164,8 @@ fn grippers_that_would_collide_are_planned_around_and_streamed() {
     let plan = checked.plan(&["a", "b"]).unwrap();
     let dir = std::env::temp_dir().join(format!("omcbsa-hil-tools-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let streamed =
-        run_on_mock_arms(&python, plan, &checked, &dir, |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    let streamed = run_on_mock_arms(&python, MockKind::Can, plan, &checked, &dir, |_| {})
+        .unwrap_or_else(|e| panic!("{e}"));
     println!("{streamed}");
     assert_eq!(streamed.arms.len(), 2);
     let _ = std::fs::remove_dir_all(dir);

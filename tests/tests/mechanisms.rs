@@ -67,7 +67,9 @@ fn arms_pass_each_other_by_null_space_motion() {
         let problem = core_problem(&file);
         let mut storage = Storage::new(Capacities::default(), problem.horizon());
         storage.cbs_params.warm_start_seconds = 0.0;
-        let outcome = storage.solve("omcbsa", &problem, 5.0).expect("planner");
+        let outcome = storage
+            .solve(omcbsa::planners::PlannerKind::OmCbsa, &problem, 5.0)
+            .expect("planner");
         let cold = outcome.to_solution_file(&file, "omcbsa");
         assert_eq!(
             cold.status,
@@ -154,7 +156,9 @@ fn restarts_are_complete_and_deterministic() {
             let mut storage = Storage::new(Capacities::default(), problem.horizon());
             storage.cbs_params.warm_start_seconds = 0.0;
             storage.cbs_params.restart_expansions = 1;
-            let outcome = storage.solve("omcbsa", &problem, 30.0).expect("planner");
+            let outcome = storage
+                .solve(omcbsa::planners::PlannerKind::OmCbsa, &problem, 30.0)
+                .expect("planner");
             (outcome.to_solution_file(&file, "omcbsa"), outcome.stats)
         };
         let (first, stats) = run();

@@ -4,7 +4,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use omcbsa::planners::PLANNERS;
+use omcbsa::planners::PlannerKind;
 use omcbsa::planners::{Capacities, Storage, WallClock};
 use omcbsa_core::planner::{Stats, Status};
 use omcbsa_tests::*;
@@ -84,8 +84,8 @@ fn planning_allocates_nothing_in_a_small_stack() {
             );
             // Cold start, so that Ω-CBSA branches on conflicts and replans under constraints.
             storage.cbs_params.warm_start_seconds = 0.0;
-            let mut results = Vec::with_capacity(PLANNERS.len());
-            for name in PLANNERS {
+            let mut results = Vec::with_capacity(PlannerKind::BENCH.len());
+            for name in PlannerKind::BENCH {
                 let clock = WallClock::start();
                 let mut stats = Stats::default();
                 let (r, n) =
@@ -101,7 +101,7 @@ fn planning_allocates_nothing_in_a_small_stack() {
         .expect("planning thread did not overflow its stack");
     for (name, status, n, stats) in &results {
         assert_eq!(*n, 0, "{name} allocated {n} times while planning");
-        if *name == "omcbsa" {
+        if *name == PlannerKind::OmCbsa {
             assert_eq!(*status, Status::Solved);
             assert!(
                 stats.conflicts_resolved > 0,
@@ -123,7 +123,7 @@ fn storage_is_reusable() {
         let mut stats = Stats::default();
         let (status, _) = storage
             .solve_core(
-                "omega-astar",
+                PlannerKind::OmegaAstar,
                 &problem,
                 &WallClock::start(),
                 5.0,
@@ -150,7 +150,7 @@ fn refinement_allocates_nothing() {
         .stack_size(PLANNER_STACK)
         .spawn(move || {
             let mut storage = Storage::new(Capacities::default(), problem.horizon());
-            ["omcbsa", "pp-single"].map(|name| {
+            [PlannerKind::OmCbsa, PlannerKind::PpSingle].map(|name| {
                 let mut stats = Stats::default();
                 let clock = WallClock::start();
                 let (r, n) =
@@ -179,7 +179,9 @@ fn online_chunks_allocate_nothing() {
         .stack_size(2 * PLANNER_STACK)
         .spawn(move || {
             let mut storage = Storage::new(Capacities::default(), h);
-            let outcome = storage.solve("omcbsa", &whole, 5.0).expect("planner");
+            let outcome = storage
+                .solve(omcbsa::planners::PlannerKind::OmCbsa, &whole, 5.0)
+                .expect("planner");
             assert_eq!(outcome.status, Status::Solved);
             let mut results = Vec::new();
             // Chunks from steps 1, 3, 5: the arms at the whole plan's step before, the poses
@@ -198,7 +200,7 @@ fn online_chunks_allocate_nothing() {
                     r.assigned =
                         outcome.assignment[i].map_or(Assigned::Hold, |j| Assigned::Track(j as u8));
                 }
-                for name in ["omcbsa", "pp"] {
+                for name in [PlannerKind::OmCbsa, PlannerKind::Pp] {
                     let clock = WallClock::start();
                     let mut stats = Stats::default();
                     let (r, n) =
@@ -268,7 +270,7 @@ fn the_approach_allocates_nothing() {
                 )
             });
             let mut storage = Storage::new(Capacities::default(), problem.horizon());
-            let runs = ["omcbsa", "pp", "pp-single"].map(|name| {
+            let runs = [PlannerKind::OmCbsa, PlannerKind::Pp, PlannerKind::PpSingle].map(|name| {
                 let mut stats = Stats::default();
                 let clock = WallClock::start();
                 let (r, n) =
@@ -291,4 +293,30 @@ fn the_approach_allocates_nothing() {
             "{name} allocated {n} times while planning with the approach"
         );
     }
+}
+
+/// Both models' kinematics and IK allocate nothing (the core has no allocator at all on
+/// `thumbv7em-none-eabihf`; here the count shows it for the host build too).
+#[test]
+fn both_models_kinematics_allocate_nothing() {
+    use omcbsa_core::ik::{ik_multi_start, IkParams, MultiStart};
+    use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
+    use omcbsa_core::rng::Rng;
+    fn run<M: Model<7>>() -> usize {
+        let q = [0.3, -0.4, 0.2, -1.8, 0.1, 1.6, 0.5];
+        let mut frames = [Frame::IDENTITY; 16];
+        let mut out = [[0.0; 7]; 2];
+        let (solved, n) = allocations(|| {
+            let target = M::fk(&q);
+            M::link_frames(&q, &mut frames);
+            let _ = M::jacobian(&q);
+            let params = IkParams::default();
+            let mut rng = Rng::new(3);
+            ik_multi_start::<M, 7>(&target, &params, &MultiStart::default(), &mut rng, &mut out)
+        });
+        assert!(solved.is_ok(), "{}: {solved:?}", M::NAME);
+        n
+    }
+    assert_eq!(run::<KinovaGen3>(), 0, "Gen3");
+    assert_eq!(run::<FrankaPanda>(), 0, "Panda");
 }

@@ -39,7 +39,7 @@ fn alone(file: &ProblemFile, i: usize) -> Vec<[f64; DOF]> {
     let problem = core_problem(&one);
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
     let outcome = storage
-        .solve("omega-astar", &problem, 5.0)
+        .solve(omcbsa::planners::PlannerKind::OmegaAstar, &problem, 5.0)
         .expect("planner");
     assert_eq!(outcome.status, Status::Solved, "robot {i} alone");
     outcome.joint_paths[0].clone()
@@ -125,7 +125,9 @@ fn omcbsa_branches_on_the_motion_conflict_and_solves() {
         if !warm {
             storage.cbs_params.warm_start_seconds = 0.0;
         }
-        let outcome = storage.solve("omcbsa", &problem, 10.0).expect("planner");
+        let outcome = storage
+            .solve(omcbsa::planners::PlannerKind::OmCbsa, &problem, 10.0)
+            .expect("planner");
         let s = outcome.stats;
         assert_eq!(outcome.status, Status::Solved, "warm start {warm}: {s:?}");
         assert!(s.motion_conflicts >= 1, "warm start {warm}: {s:?}");

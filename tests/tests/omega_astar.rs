@@ -105,7 +105,7 @@ fn fifty_hz_swings_the_elbow_as_five_hz_does() {
         let mut stats = Stats::default();
         let (status, _) = storage
             .solve_core(
-                "omega-astar",
+                omcbsa::planners::PlannerKind::OmegaAstar,
                 &problem,
                 &WallClock::start(),
                 10.0,

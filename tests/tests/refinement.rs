@@ -59,7 +59,13 @@ fn the_plan_does_not_depend_on_the_clock() {
     let mut run = |clock: &dyn Clock, planner: &str| {
         let mut stats = Stats::default();
         let (status, assignment) = storage
-            .solve_core(planner, &problem, clock, 1e6, &mut stats)
+            .solve_core(
+                omcbsa::planners::parse(planner).expect("known"),
+                &problem,
+                clock,
+                1e6,
+                &mut stats,
+            )
             .expect("planner");
         (status, assignment, stats)
     };
@@ -178,7 +184,13 @@ fn no_constraint_tree_node_with_conflicts_is_dropped() {
         let problem = core_problem(&file);
         let mut stats = Stats::default();
         let (status, _) = storage
-            .solve_core("omcbsa", &problem, &NoClock, 1e6, &mut stats)
+            .solve_core(
+                omcbsa::planners::PlannerKind::OmCbsa,
+                &problem,
+                &NoClock,
+                1e6,
+                &mut stats,
+            )
             .expect("planner");
         assert_eq!(status, Status::Solved, "seed {seed}");
         assert_eq!(stats.unbranched_nodes, 0, "seed {seed}: {stats:?}");

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use omcbsa_codegen::fit;
+use omcbsa_codegen::manifest::Folder;
 
 #[derive(Parser)]
 #[command(
@@ -18,47 +19,39 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fit enclosing collision capsules to a URDF's link meshes and write collision.json.
+    /// Fit enclosing collision capsules to a model's link meshes and write its collision file:
+    /// the folder's model.json names the URDF, the chain's ends, the meshes, the SRDF (whose
+    /// `disable_collisions` pairs are recorded too) and the output file.
     FitCapsules {
-        /// The robot's URDF.
-        #[arg(long)]
-        urdf: PathBuf,
-        /// Folder holding the mesh files, looked up by file name.
-        #[arg(long)]
-        meshes: PathBuf,
-        /// MoveIt SRDF (or its xacro) whose `disable_collisions` pairs are recorded too.
-        #[arg(long)]
-        srdf: Option<PathBuf>,
-        /// Model name written to the file; by default the output's folder name
-        /// (`robots/kinova_gen3/collision.json` -> `kinova_gen3`).
-        #[arg(long)]
-        model: Option<String>,
-        /// Output JSON file.
-        #[arg(short, long)]
-        output: PathBuf,
+        /// The model's folder, e.g. robots/franka_panda.
+        folder: PathBuf,
     },
 }
 
 fn main() -> ExitCode {
-    let Command::FitCapsules {
-        urdf,
-        meshes,
-        srdf,
-        model,
-        output,
-    } = Cli::parse().command;
-    let model = model.or_else(|| {
-        let folder = output.canonicalize().ok().unwrap_or_else(|| output.clone());
-        folder.parent()?.file_name()?.to_str().map(String::from)
-    });
-    let Some(model) = model.filter(|m| !m.is_empty()) else {
+    let Command::FitCapsules { folder } = Cli::parse().command;
+    let folder = match Folder::read(&folder) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let Some(meshes) = folder.meshes() else {
         eprintln!(
-            "error: cannot tell the model name from {}; pass --model",
-            output.display()
+            "error: {}: the manifest names no mesh folder (capsules.meshes): nothing to fit",
+            folder.dir.display()
         );
         return ExitCode::FAILURE;
     };
-    let fitted = match fit::fit_robot(&urdf, &meshes, srdf.as_deref(), &model) {
+    let output = folder.collision();
+    let fitted = match fit::fit_robot(
+        &folder.urdf(),
+        &meshes,
+        folder.srdf().as_deref(),
+        &folder.manifest.name,
+        Some(folder.ends()),
+    ) {
         Ok(f) => f,
         Err(e) => {
             eprintln!("error: {e}");

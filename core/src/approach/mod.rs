@@ -42,7 +42,8 @@ use rrt::Miss;
 pub struct ApproachParams {
     /// Share of each joint's velocity limit the approach may use (0 < speed <= 1).
     pub speed: f64,
-    /// Acceleration limit of every joint, rad/s^2 (0: none).
+    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`]) the approach may
+    /// use (0: no acceleration limit).
     pub acceleration: f64,
     /// See [`crate::search::OmegaParams::motion_step`].
     pub motion_step: f64,
@@ -68,14 +69,13 @@ impl Default for ApproachParams {
     fn default() -> Self {
         ApproachParams {
             speed: 0.9,
-            // Kinova Gen3's slowest joints (1-4) per Kinova's joint_limits.yaml.
             acceleration: 1.0,
             motion_step: crate::motion::MOTION_STEP,
             max_orders: 24,
             rrt_orders: 6,
             rrt_step: 0.25,
             rrt_samples: 400,
-            shortcuts: 64,
+            shortcuts: 16,
             seed: 0x0a99_7a0c,
             exclusion_radius: 0.5,
         }
@@ -165,6 +165,16 @@ pub fn check_starts<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Result
     }
 }
 
+/// The first robot whose configuration `q[i]` is outside its limits or touches an obstacle,
+/// itself or another robot's `q` (every robot of `problem`, one configuration each).
+pub fn configurations_blocked<M: Model<D>, const D: usize>(
+    problem: &Problem<D>,
+    q: &[[f64; D]],
+) -> Option<Blocked> {
+    let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
+    fleet.state_blocked(&q[..fleet.n.min(q.len())])
+}
+
 /// Where each robot stands and where its path begins: `paths[i * h]` (a robot without
 /// `initial` starts there too).
 struct Ends<const D: usize> {
@@ -237,8 +247,15 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
     }
     let (robot, other) = together.unwrap_or((0, None));
     // One at a time, in priority orders: waypoint k has the first k of the order at their goals.
+    // Not when an arm's straight bridge hits an obstacle or the arm itself (`other` is None:
+    // those are checked first, for every moving arm): no order changes that.
+    let orders = if other.is_none() {
+        0
+    } else {
+        params.max_orders
+    };
     let mut order = identity(n);
-    for _ in 0..params.max_orders {
+    for _ in 0..orders {
         if deadline.expired() {
             return Err(ApproachError::Timeout);
         }

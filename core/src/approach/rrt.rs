@@ -275,8 +275,8 @@ fn trace<const D: usize>(
 }
 
 /// Random shortcutting: `tries` times, two waypoints `a < b - 1` are drawn and, when the
-/// straight composite motion between them is free, the ones between are dropped. Returns the
-/// waypoints left.
+/// straight composite motion between them is free, the ones between are dropped; then one pass
+/// drops single waypoints. Returns the waypoints left.
 fn shortcut<M: Model<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     st: &mut ApproachStorage<'_, D>,
@@ -299,6 +299,20 @@ fn shortcut<M: Model<D>, const D: usize>(
         {
             w.copy_within(b * n..m * n, (a + 1) * n);
             m -= b - a - 1;
+        }
+    }
+    // Then each waypoint left whose neighbours see each other goes: short motions, cheap to
+    // check, and every waypoint dropped is a stop less in the timed approach.
+    let mut k = 1;
+    while k + 1 < m && !deadline.expired() {
+        if fleet
+            .motion_blocked(&w[(k - 1) * n..k * n], &w[(k + 1) * n..(k + 2) * n])
+            .is_none()
+        {
+            w.copy_within((k + 1) * n..m * n, k * n);
+            m -= 1;
+        } else {
+            k += 1;
         }
     }
     m

@@ -26,7 +26,8 @@ pub(super) fn samples<M: Model<D>, const D: usize>(
             let d = libm::fabs(qb[j] - qa[j]);
             need = need.max(PI * d / (2.0 * params.speed * M::VELOCITY[j] * dt));
             if params.acceleration > 0.0 {
-                need = need.max(PI * libm::sqrt(d / (2.0 * params.acceleration)) / dt);
+                let limit = params.acceleration * M::ACCELERATION[j];
+                need = need.max(PI * libm::sqrt(d / (2.0 * limit)) / dt);
             }
         }
     }

@@ -9,7 +9,7 @@ use crate::collision::ArmPose;
 use crate::ik::{ik_multi_start, MultiStart};
 use crate::model::{Frame, Model};
 use crate::motion::{motions_collide, ArmMotion};
-use crate::planner::{check_free, check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
@@ -82,7 +82,7 @@ impl<'a, const D: usize> CompositeAstar<'a, D> {
 
 impl<M: Model<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
     fn name(&self) -> &'static str {
-        "composite-astar"
+        PlannerKind::CompositeAstar.name()
     }
 
     fn solve(
@@ -93,10 +93,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
-        if let Err(s) = check_free(problem) {
-            return s;
-        }
-        let h = match check_problem(problem, out) {
+        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
             Ok(h) => h,
             Err(s) => return s,
         };

@@ -6,7 +6,7 @@
 
 use crate::ik::{ik, IkParams};
 use crate::model::{Frame, Model};
-use crate::planner::{check_free, check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, Robot, Trajectory, MAX_ROBOTS};
 use crate::rng::Rng;
@@ -55,7 +55,7 @@ impl<'a, const D: usize> Descartes<'a, D> {
 
 impl<M: Model<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
     fn name(&self) -> &'static str {
-        "descartes"
+        PlannerKind::Descartes.name()
     }
 
     fn solve(
@@ -66,10 +66,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
-        if let Err(s) = check_free(problem) {
-            return s;
-        }
-        let h = match check_problem(problem, out) {
+        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
             Ok(h) => h,
             Err(s) => return s,
         };

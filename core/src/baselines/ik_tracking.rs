@@ -5,7 +5,7 @@
 
 use crate::ik::IkParams;
 use crate::model::Model;
-use crate::planner::{check_free, check_problem, Clock, Planner, Solution, Stats, Status, Until};
+use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
@@ -39,7 +39,7 @@ pub struct IkTracking {
 
 impl<M: Model<D>, const D: usize> Planner<M, D> for IkTracking {
     fn name(&self) -> &'static str {
-        "ik-tracking"
+        PlannerKind::IkTracking.name()
     }
 
     fn solve(
@@ -50,10 +50,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for IkTracking {
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
     ) -> Status {
-        if let Err(s) = check_free(problem) {
-            return s;
-        }
-        let h = match check_problem(problem, out) {
+        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
             Ok(h) => h,
             Err(s) => return s,
         };

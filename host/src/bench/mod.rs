@@ -28,9 +28,8 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
-use omcbsa_core::model::KinovaGen3;
+use omcbsa_core::model::{KinovaGen3, Model};
 use omcbsa_core::problem::Problem;
-use omcbsa_hw::JointLimits;
 
 use crate::format::{ProblemFile, SolutionFile, Status};
 use crate::planners::{Capacities, Storage};
@@ -41,7 +40,7 @@ pub use quality::{path_quality, PathQuality};
 pub use results::Row;
 pub use summary::{Cell, Spread, Summary};
 
-pub use crate::planners::PLANNERS;
+use crate::planners::{self, PlannerKind};
 /// `--quick` runs every this-many-th problem of the suite...
 pub const QUICK_STRIDE: usize = 15;
 /// ... with at most this timeout, so that all six planners finish in under two minutes.
@@ -98,7 +97,7 @@ pub struct BenchOptions {
 impl Default for BenchOptions {
     fn default() -> Self {
         BenchOptions {
-            planners: PLANNERS.iter().map(|p| p.to_string()).collect(),
+            planners: PlannerKind::BENCH.iter().map(|p| p.to_string()).collect(),
             timeout_s: 5.0,
             jobs: std::thread::available_parallelism().map_or(1, |n| n.get()),
             quick: false,
@@ -171,17 +170,10 @@ impl From<suite::Error> for Error {
     }
 }
 
-/// Benchmarks the planners of `omcbsa plan` and the baselines ([`PLANNERS`]) on a suite.
+/// Benchmarks the planners of `omcbsa plan` and the baselines ([`PlannerKind`]) on a suite.
 pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, Error> {
-    if let Some(p) = opts
-        .planners
-        .iter()
-        .find(|p| !PLANNERS.contains(&p.as_str()))
-    {
-        return Err(Error::Options(format!(
-            "unknown planner {p:?} (known: {})",
-            PLANNERS.join(", ")
-        )));
+    for p in &opts.planners {
+        planners::parse_bench(p).map_err(Error::Options)?;
     }
     let approach = opts.approach;
     run_bench_with(
@@ -212,7 +204,7 @@ fn solve_with_planners(
             slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
         storage.with_approach = approach;
         storage
-            .solve(name, problem, timeout_s)
+            .solve(planners::parse(name)?, problem, timeout_s)
             .map(|outcome| outcome.to_solution_file(file, name))
     })
 }
@@ -456,12 +448,11 @@ fn run_one(
         if !report.is_valid() {
             row.message = report.summary();
         } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
-            let accel = JointLimits::kinova_gen3().map(|l| l.acceleration);
             row.set_quality(&path_quality::<KinovaGen3, 7>(
                 &problem,
                 &solution.assignment,
                 &paths,
-                &accel,
+                &KinovaGen3::ACCELERATION,
             ));
         }
     }

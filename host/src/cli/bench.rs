@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use omcbsa::bench::{run_bench, BenchOptions};
-use omcbsa::planners::PLANNERS;
+use omcbsa::planners::{parse_bench, PlannerKind};
 
 use super::{bad_input, note, positive_seconds, print};
 
@@ -15,8 +15,9 @@ use super::{bad_input, note, positive_seconds, print};
 pub struct Args {
     suite_dir: PathBuf,
     /// Comma-separated planners.
-    #[arg(long, value_delimiter = ',', default_values_t = PLANNERS.map(String::from))]
-    planners: Vec<String>,
+    #[arg(long, value_delimiter = ',', value_parser = parse_bench,
+          default_values_t = PlannerKind::BENCH)]
+    planners: Vec<PlannerKind>,
     /// Per run, seconds.
     #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
@@ -36,17 +37,9 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    for p in &args.planners {
-        if !PLANNERS.contains(&p.as_str()) {
-            return bad_input(format!(
-                "--planners: unknown planner {p:?} (known: {})",
-                PLANNERS.join(", ")
-            ));
-        }
-    }
     let defaults = BenchOptions::default();
     let opts = BenchOptions {
-        planners: args.planners.clone(),
+        planners: args.planners.iter().map(|p| p.to_string()).collect(),
         timeout_s: args.timeout,
         jobs: args.jobs.map_or(defaults.jobs, usize::from),
         quick: args.quick,

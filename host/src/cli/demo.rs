@@ -7,8 +7,9 @@ use std::process::ExitCode;
 use omcbsa::demo::{box_flip, run_on_mock_arms_watched, MockRunError, DT, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
-use omcbsa::planners::{plan_file, InputOrPlanError};
+use omcbsa::planners::{plan_file, InputOrPlanError, PlannerKind};
 use omcbsa::view::write_html;
+use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::record::TOLERANCE;
 use serde::Serialize;
@@ -19,8 +20,9 @@ use super::{bad_input, negative, note, positive_seconds, print};
 
 /// The README's main command: three Kinova Gen3 arms around a box, hands on three of its faces
 /// while it flips. Plans it with Ω-CBSA, validates the plan, writes problem.json and
-/// solution.json, starts three Python mock arms (on SLCAN pseudo-terminals, creating their
-/// venv if needed) and streams the plan to them. Exit code 0 done, 1 not solved or stopped by
+/// solution.json, starts three Python mock arms (creating their venv if needed: on SLCAN
+/// pseudo-terminals, or mock Gen3s on Kortex over loopback TCP and UDP with `--transport
+/// kortex`) and streams the plan to them. Exit code 0 done, 1 not solved or stopped by
 /// a fault, 2 the mock arms or the output directory are not available.
 #[derive(clap::Args)]
 pub struct Args {
@@ -31,8 +33,28 @@ pub struct Args {
     /// Planning time limit, seconds.
     #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
+    /// How the mock arms are reached: can (CiA 402 over SLCAN) or kortex (Kinova's Kortex over
+    /// TCP and UDP).
+    #[arg(long, value_enum, default_value = "can")]
+    transport: TransportArg,
     #[command(flatten)]
     watch: WatchArgs,
+}
+
+/// `--transport` of the commands that start their own mock arms.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum TransportArg {
+    Can,
+    Kortex,
+}
+
+impl From<TransportArg> for MockKind {
+    fn from(t: TransportArg) -> Self {
+        match t {
+            TransportArg::Can => MockKind::Can,
+            TransportArg::Kortex => MockKind::Kortex,
+        }
+    }
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -50,7 +72,7 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
         problem.robots.len(),
         problem.trajectories.len()
     ))?;
-    let solution = plan_file(&problem, "omcbsa", args.timeout).map_err(|e| match e {
+    let solution = plan_file(&problem, PlannerKind::OmCbsa, args.timeout).map_err(|e| match e {
         InputOrPlanError::Input(e) => failed(e),
         InputOrPlanError::Plan(e) => failed(e),
     })?;
@@ -71,30 +93,31 @@ fn demo(args: &Args) -> Result<ExitCode, ExitCode> {
     let python = ensure_venv().map_err(bad_input)?;
     let plan = checked.plan(&ROBOTS).map_err(failed)?;
     print(format_args!(
-        "starting {} mock arms, each at its first configuration",
-        plan.arms.len()
+        "starting {} mock arms ({}), each at its first configuration",
+        plan.arms.len(),
+        match args.transport {
+            TransportArg::Can => "CiA 402 over SLCAN",
+            TransportArg::Kortex => "Gen3 on Kortex over loopback TCP and UDP",
+        }
     ))?;
     let names = ROBOTS.map(String::from).to_vec();
+    let kind = MockKind::from(args.transport);
+    let progress = progress_printer(names);
     let dir = &args.out;
-    let report = run_on_mock_arms_watched(
-        &python,
-        plan,
-        &checked,
-        dir,
-        &watch,
-        progress_printer(names),
-    )
-    .map_err(|e| match e {
-        MockRunError::Exec(e) => failure(e),
-        e @ MockRunError::Mocks(_) => bad_input(e),
-        e @ MockRunError::Record { .. } => failed(e),
-    })?;
+    let report = run_on_mock_arms_watched(&python, kind, plan, &checked, dir, &watch, progress)
+        .map_err(|e| match e {
+            MockRunError::Exec(e) => failure(e),
+            e @ MockRunError::Mocks(_) => bad_input(e),
+            e @ MockRunError::Record { .. } => failed(e),
+        })?;
     print(&report)?;
     summary(&checked, &report)?;
-    print(format_args!(
-        "  bus logs              {}/mock-*.log (candump -L: every frame, both directions)",
-        args.out.display()
-    ))?;
+    if kind == MockKind::Can {
+        print(format_args!(
+            "  bus logs              {}/mock-*.log (candump -L: every frame, both directions)",
+            args.out.display()
+        ))?;
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -1,4 +1,4 @@
-//! `omcbsa execute`: streams a solution's joint paths to the arms over CAN.
+//! `omcbsa execute`: streams a solution's joint paths to the arms, over CAN or Kortex.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -9,35 +9,46 @@ use omcbsa::error::InputError;
 use omcbsa::execute::CheckedSolution;
 use omcbsa::load;
 use omcbsa_hw::executor::Progress;
-use omcbsa_hw::transport::{self, ArmBuses, BusSpec};
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Plan, PlanValidator, Report};
+use omcbsa_hw::kortex::Credentials;
+use omcbsa_hw::link::{self, ArmPorts};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report};
 
 use super::watch::WatchArgs;
 use super::{bad_input, negative, note, print};
 
-/// Streams a solution to the arms, one CAN bus per arm, at the control rate: refuses to start
-/// unless the solution validates against the problem. Exit code 0 done, 1 stopped by a fault
-/// (every arm quick-stopped; the report says why), 2 bad input, a bus that cannot be opened or
-/// an arm that does not answer at start-up (nothing moved).
+/// Streams a solution to the arms, one CAN bus or Kortex connection per arm, at the control
+/// rate: refuses to start unless the solution validates against the problem. Exit code 0 done,
+/// 1 stopped by a fault (every arm quick-stopped; the report says why), 2 bad input, a bus that
+/// cannot be opened or an arm that does not answer at start-up (nothing moved).
 #[derive(clap::Args)]
 pub struct Args {
     /// Problem file (omcbsa.problem.v1).
     problem: PathBuf,
     /// Solution file (omcbsa.solution.v1).
     solution: PathBuf,
-    /// The bus of the problem's robot NAME: slcan:/dev/ttyACM0 (serial-line CAN adapter) or
-    /// socketcan:can0. Once per arm; every robot that moves needs one.
-    #[arg(long = "arm", value_name = "NAME=BUS", value_parser = parse_arm)]
+    /// How the problem's robot NAME is reached: slcan:/dev/ttyACM0 (serial-line CAN adapter),
+    /// socketcan:can0, or kortex:HOST (a Kinova Gen3 on Ethernet, TCP 10000 and UDP 10001;
+    /// kortex:HOST:TCP_PORT:UDP_PORT for other ports). Once per arm; every robot that moves
+    /// needs one.
+    #[arg(long = "arm", value_name = "NAME=SPEC", value_parser = parse_arm)]
     arms: Vec<(String, String)>,
+    /// Kortex user name (else the environment's OMCBSA_KORTEX_USER).
+    #[arg(long, value_name = "USER")]
+    kortex_user: Option<String>,
+    /// A file whose first line is the Kortex password (else the environment's
+    /// OMCBSA_KORTEX_PASSWORD). Never printed or logged.
+    #[arg(long, value_name = "FILE")]
+    kortex_password_file: Option<PathBuf>,
     /// Interpolate and check every command, send nothing (the buses are not opened).
     #[arg(long)]
     dry_run: bool,
     /// Write every command sent (or, in a dry run, that would be sent) here, as JSON lines.
     #[arg(long, value_name = "FILE")]
     log: Option<PathBuf>,
-    /// Control rate, Hz, within [100, 1000].
-    #[arg(long, value_name = "HZ", default_value_t = 500.0)]
-    rate: f64,
+    /// Control rate, Hz, within [100, 1000]; by default 1000 (the Gen3's own rate) when an arm
+    /// is on Kortex, else 500.
+    #[arg(long, value_name = "HZ")]
+    rate: Option<f64>,
     /// SCHED_FIFO priority (1 to 99) of the streaming threads, or `off` for normal scheduling.
     /// Refused by the system (no CAP_SYS_NICE), the run goes on at normal priority and says so.
     #[arg(long, value_name = "PRIO|off", default_value = "50", value_parser = parse_priority)]
@@ -70,24 +81,25 @@ pub const RATE_RANGE: std::ops::RangeInclusive<f64> = 100.0..=1000.0;
 
 fn parse_arm(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
-        // The bus is checked here, so that a dry run accepts only buses a live run could open.
-        Some((name, bus)) if !name.is_empty() && !bus.is_empty() => match BusSpec::parse(bus) {
-            Ok(_) => Ok((name.to_string(), bus.to_string())),
-            Err(e) => Err(e.to_string()),
-        },
+        // The spec is checked here, so that a dry run accepts only arms a live run could reach.
+        Some((name, spec)) if !name.is_empty() && !spec.is_empty() => {
+            link::check_spec(spec).map(|()| (name.to_string(), spec.to_string()))
+        }
         _ => Err(format!(
-            "expected NAME=BUS (e.g. left=slcan:/dev/ttyACM0), got {s:?}"
+            "expected NAME=SPEC (e.g. left=slcan:/dev/ttyACM0 or left=kortex:192.168.1.10), \
+             got {s:?}"
         )),
     }
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    if !RATE_RANGE.contains(&args.rate) {
+    let kortex = args.arms.iter().any(|(_, s)| s.starts_with("kortex:"));
+    let rate = args.rate.unwrap_or(if kortex { 1000.0 } else { 500.0 });
+    if !RATE_RANGE.contains(&rate) {
         return bad_input(format!(
-            "--rate: must be within [{}, {}] Hz, got {}",
+            "--rate: must be within [{}, {}] Hz, got {rate}",
             RATE_RANGE.start(),
             RATE_RANGE.end(),
-            args.rate
         ));
     }
     let watch = match args.watch.settings() {
@@ -98,17 +110,21 @@ pub fn run(args: &Args) -> ExitCode {
         Ok(loaded) => loaded,
         Err(e) => return bad_input(e),
     };
-    let mut buses = Vec::new();
+    let mut ports = Vec::new();
     if !args.dry_run {
-        for (name, bus) in &args.arms {
-            match transport::open(bus) {
-                Ok(b) => buses.push((name.clone(), b)),
+        let credentials = match credentials(args, kortex) {
+            Ok(c) => c,
+            Err(e) => return bad_input(e),
+        };
+        for (name, spec) in &args.arms {
+            match link::open(spec, &credentials) {
+                Ok(p) => ports.push((name.clone(), p)),
                 Err(e) => return bad_input(format!("arm {name:?}: {e}")),
             }
         }
     }
     let config = ExecConfig {
-        period: Duration::from_secs_f64(1.0 / args.rate),
+        period: Duration::from_secs_f64(1.0 / rate),
         dry_run: args.dry_run,
         log_path: args.log.clone(),
         realtime_priority: args.rt_priority.0,
@@ -118,10 +134,31 @@ pub fn run(args: &Args) -> ExitCode {
     if let Err(code) = print(&config.watch) {
         return code;
     }
-    match stream(plan, buses, config, &checked) {
+    match stream(plan, ports, config, &checked) {
         Ok(_) => ExitCode::SUCCESS,
         Err(code) => code,
     }
+}
+
+/// The Kortex credentials from the options, else the environment; none needed without a
+/// Kortex arm.
+fn credentials(args: &Args, kortex: bool) -> Result<Credentials, String> {
+    if !kortex {
+        return Ok(Credentials {
+            username: String::new(),
+            password: String::new(),
+        });
+    }
+    let password = (args.kortex_password_file.as_ref())
+        .map(|path| {
+            load::read_text(path)
+                .map(|t| t.lines().next().unwrap_or("").to_string())
+                .map_err(|e| format!("--kortex-password-file {}: {e}", path.display()))
+        })
+        .transpose()?;
+    Credentials::resolve(args.kortex_user.clone(), password, |k| {
+        std::env::var(k).ok()
+    })
 }
 
 /// Reads both files, validates the solution, and builds the plan for the `--arm` names.
@@ -149,12 +186,13 @@ fn load_plan(args: &Args) -> Result<(CheckedSolution, Plan), String> {
 /// returns the exit code ([`failure`]).
 fn stream(
     plan: Plan,
-    buses: ArmBuses,
+    buses: ArmPorts,
     config: ExecConfig,
     checked: &CheckedSolution,
 ) -> Result<Report, ExitCode> {
     let names = plan.arms.iter().map(|a| a.name.clone()).collect();
-    let report = Executor::new(plan, JointLimits::kinova_gen3(), buses, config)
+    let limits = checked.joint_limits().map_err(bad_input)?;
+    let report = Executor::new(plan, limits, buses, config)
         .and_then(|e| e.on_progress(progress_printer(names)).run(checked))
         .map_err(failure)?;
     print(&report)?;

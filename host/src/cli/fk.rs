@@ -2,9 +2,9 @@
 
 use std::process::ExitCode;
 
-use omcbsa::models::ModelKind;
+use omcbsa::models::{ModelKind, ModelVisitor};
 use omcbsa::pose;
-use omcbsa_core::model::{KinovaGen3, Model};
+use omcbsa_core::model::Model;
 use serde_json::Value;
 
 use super::{configuration, lines};
@@ -20,9 +20,14 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    match args.model {
-        ModelKind::KinovaGen3 => lines::answer_each(fk_line::<KinovaGen3, 7>),
+    struct Fk;
+    impl ModelVisitor for Fk {
+        type Output = ExitCode;
+        fn visit<M: Model<D>, const D: usize>(self) -> ExitCode {
+            lines::answer_each(fk_line::<M, D>)
+        }
     }
+    args.model.visit(Fk)
 }
 
 fn fk_line<M: Model<D>, const D: usize>(line: &str) -> Result<Value, String> {

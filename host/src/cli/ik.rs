@@ -4,9 +4,9 @@ use std::process::ExitCode;
 
 use omcbsa::format::Pose;
 use omcbsa::ik::solve;
-use omcbsa::models::ModelKind;
+use omcbsa::models::{ModelKind, ModelVisitor};
 use omcbsa::pose;
-use omcbsa_core::model::{KinovaGen3, Model};
+use omcbsa_core::model::Model;
 
 use super::{bad_input, configuration, lines};
 
@@ -30,9 +30,14 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    match args.model {
-        ModelKind::KinovaGen3 => solve_lines::<KinovaGen3, 7>(args),
+    struct Ik<'a>(&'a Args);
+    impl ModelVisitor for Ik<'_> {
+        type Output = ExitCode;
+        fn visit<M: Model<D>, const D: usize>(self) -> ExitCode {
+            solve_lines::<M, D>(self.0)
+        }
     }
+    args.model.visit(Ik(args))
 }
 
 fn solve_lines<M: Model<D>, const D: usize>(args: &Args) -> ExitCode {

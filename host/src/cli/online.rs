@@ -11,6 +11,7 @@ use omcbsa::view::write_html;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::Event;
 
+use super::demo::TransportArg;
 use super::watch::WatchArgs;
 use super::{bad_input, negative, note, print};
 
@@ -36,6 +37,10 @@ pub struct Args {
     /// Where the mock arms write their records.
     #[arg(long, default_value = "online-out")]
     out: PathBuf,
+    /// How the mock arms are reached: can (CiA 402 over SLCAN) or kortex (Kinova's Kortex over
+    /// TCP and UDP).
+    #[arg(long, value_enum, default_value = "can")]
+    transport: TransportArg,
     #[command(flatten)]
     watch: WatchArgs,
 }
@@ -56,6 +61,7 @@ fn online(args: &Args) -> Result<ExitCode, ExitCode> {
         chunks: args.chunks,
         late_chunk: args.late_chunk,
         unreachable_chunk: args.unreachable_chunk,
+        transport: args.transport.into(),
         ..RunScript::default()
     };
     script.options.planner = args.planner.clone();

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use omcbsa::format::Status;
 use omcbsa::load;
-use omcbsa::planners::{plan_file, InputOrPlanError, PLANNERS};
+use omcbsa::planners::{self, plan_file, InputOrPlanError, PlannerKind};
 
 use super::{bad_input, negative, note, positive_seconds, print, InputLimit};
 
@@ -21,8 +21,9 @@ pub struct Args {
     output: Option<PathBuf>,
     /// omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar, or omega-astar (one
     /// robot only).
-    #[arg(long, default_value = "omcbsa")]
-    planner: String,
+    #[arg(long, default_value = "omcbsa", value_parser = planners::parse,
+          long_help = format!("The planner:\n{}", planners::descriptions()))]
+    planner: PlannerKind,
     /// Planning time limit, seconds.
     #[arg(long, default_value = "5", value_parser = positive_seconds)]
     timeout: f64,
@@ -35,26 +36,19 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 fn plan(args: &Args) -> Result<ExitCode, ExitCode> {
-    if !PLANNERS.contains(&args.planner.as_str()) && args.planner != "omega-astar" {
-        return Err(bad_input(format!(
-            "--planner: unknown planner {:?} (known: omega-astar, {})",
-            args.planner,
-            PLANNERS.join(", ")
-        )));
-    }
     let path = args.problem.display();
     let file = load::read_text_within(&args.problem, args.limit.bytes())
         .and_then(|t| load::parse_problem(&t))
         .map_err(|e| bad_input(format!("{path}: {e}")))?;
     // A usage error, not a property of the problem: the planner plans one robot.
-    if args.planner == "omega-astar" && file.robots.len() != 1 {
+    if args.planner.single_robot() && file.robots.len() != 1 {
         return Err(bad_input(format!(
             "--planner omega-astar plans one robot, but {path} has {}; use omcbsa, pp or \
              pp-single for several",
             file.robots.len()
         )));
     }
-    let solution = plan_file(&file, &args.planner, args.timeout).map_err(|e| match e {
+    let solution = plan_file(&file, args.planner, args.timeout).map_err(|e| match e {
         InputOrPlanError::Input(e) => bad_input(format!("{path}: {e}")),
         InputOrPlanError::Plan(e) => bad_input(e),
     })?;

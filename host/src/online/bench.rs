@@ -67,7 +67,7 @@ pub fn bench_online(
             let file = load::parse_problem(&text).map_err(|e| e.to_string())?;
             let problem = load::problem::<omcbsa_core::model::KinovaGen3, 7>(&file)
                 .map_err(|e| e.to_string())?;
-            let outcome = whole.solve(&options.planner, &problem, 5.0)?;
+            let outcome = whole.solve(crate::planners::parse(&options.planner)?, &problem, 5.0)?;
             if outcome.status != omcbsa_core::planner::Status::Solved {
                 continue;
             }
@@ -134,6 +134,175 @@ pub fn table(rows: &[ArmsRow]) -> String {
             quantile_ms(&r.first, 0.5),
             quantile_ms(&r.whole, 0.5),
             quantile_ms(&r.whole, 0.5) / quantile_ms(&r.chunks, 0.5),
+        );
+    }
+    s
+}
+
+/// How the policy's chunks reach the [`Embodier`] in [`bench_episodes`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Chunking {
+    /// Poses per hand in a chunk.
+    pub len: usize,
+    /// Policy steps between chunk starts (`len > stride`: an action-chunking policy, each
+    /// chunk replacing the unsent tail of the one before).
+    pub stride: usize,
+    /// The chunk arrives when the arms have been sent everything up to this many steps
+    /// before its first step (0: just in time).
+    pub lead: usize,
+}
+
+/// One episode's result.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EpisodeRun {
+    pub chunks: usize,
+    pub planned: usize,
+    /// Planning times of the chunks after the first, s (planned ones).
+    pub later: Vec<f64>,
+    /// Planning time of the first chunk (assignment and approach), s.
+    pub first: Option<f64>,
+    /// Chunks planned by a recovery (see `super::Recovery`).
+    pub recovered: usize,
+    /// Every chunk planned and the whole sent timeline valid under the validator.
+    pub embodied: bool,
+    /// The first error, as the Embodier gave it.
+    pub error: Option<String>,
+}
+
+/// Runs `episode` through an Embodier as a policy at its own rate would: chunk `c` covers
+/// policy steps `c * stride ..` (up to `len` of them, the episode's end at most), and arrives
+/// `lead` steps before its first step is due (everything before that already sent to the
+/// arms). Afterwards the
+/// whole sent timeline is checked by the validator, in windows of at most `MAX_STEPS`.
+pub fn run_episode(
+    episode: &super::bimanual::Episode,
+    options: &OnlineOptions,
+    chunking: Chunking,
+) -> Result<EpisodeRun, String> {
+    use super::record::RunRecord;
+    let mut e = Embodier::new(&episode.setup, options.clone()).map_err(|e| e.to_string())?;
+    let mut record = RunRecord::default();
+    let mut run = EpisodeRun::default();
+    let steps = episode.hands.first().map_or(0, Vec::len);
+    let mut start = 0;
+    while start < steps {
+        let end = (start + chunking.len).min(steps);
+        let hands: Vec<Vec<Pose>> = episode
+            .hands
+            .iter()
+            .map(|h| h[start..end].to_vec())
+            .collect();
+        if let Some(index) = e.timeline_index(start as u64) {
+            let sent = index
+                .saturating_sub(chunking.lead)
+                .max(e.approach_len() + 1);
+            record.send(&e, sent);
+            e.commit_until(sent);
+        }
+        run.chunks += 1;
+        match e.push_chunk(start as u64, &hands) {
+            Ok(r) => {
+                run.recovered += usize::from(r.recovery.is_some());
+                // A chunk whose first poses were dropped (an approach after a hold) is not
+                // embodied.
+                if r.dropped == 0 {
+                    run.planned += 1;
+                } else {
+                    run.error
+                        .get_or_insert(format!("step {start}: {} poses dropped", r.dropped));
+                }
+                record.chunk(start as u64, &hands, r.dropped);
+                match run.first {
+                    None => run.first = Some(r.planning_time_s),
+                    Some(_) => run.later.push(r.planning_time_s),
+                }
+            }
+            Err(err) => {
+                run.error.get_or_insert(format!("step {start}: {err}"));
+                if run.first.is_none() {
+                    // No first chunk: nothing to continue from.
+                    return Ok(run);
+                }
+            }
+        }
+        if end == steps {
+            break;
+        }
+        start += chunking.stride;
+    }
+    record.send(&e, e.end());
+    let windows = record.windows(&episode.setup, &e, omcbsa_core::problem::MAX_STEPS - 1);
+    let mut valid = !windows.is_empty();
+    for (problem, solution) in &windows {
+        let core = load::problem::<omcbsa_core::model::KinovaGen3, 7>(problem)
+            .map_err(|e| e.to_string())?;
+        let report = crate::validate::validate::<omcbsa_core::model::KinovaGen3, 7>(
+            problem, &core, solution,
+        );
+        if let Some(v) = report.violations.first() {
+            run.error.get_or_insert(format!("{}: {v:?}", problem.name));
+            valid = false;
+        }
+    }
+    run.embodied = valid && run.planned == run.chunks;
+    Ok(run)
+}
+
+/// The results of one arm count and chunking.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EpisodeRow {
+    pub arms: usize,
+    pub chunking: Option<Chunking>,
+    pub episodes: usize,
+    pub embodied: usize,
+    pub chunks: usize,
+    pub planned: usize,
+    pub recovered: usize,
+    pub later: Vec<f64>,
+    pub first: Vec<f64>,
+}
+
+impl EpisodeRow {
+    pub fn add(&mut self, run: &EpisodeRun) {
+        self.episodes += 1;
+        self.embodied += usize::from(run.embodied);
+        self.chunks += run.chunks;
+        self.planned += run.planned;
+        self.recovered += run.recovered;
+        self.later.extend(&run.later);
+        self.first.extend(run.first);
+    }
+}
+
+/// The rows as a markdown table (`None` chunking: the reference, whole windows).
+pub fn episode_table(rows: &[EpisodeRow]) -> String {
+    let mut s = String::from(
+        "| arms | chunks (len / stride) | episodes | embodied | chunks | planned | recovered | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
+         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in rows {
+        let mut later = r.later.clone();
+        later.sort_by(f64::total_cmp);
+        let mut first = r.first.clone();
+        first.sort_by(f64::total_cmp);
+        let chunking = r
+            .chunking
+            .map_or("whole windows (reference)".to_string(), |c| {
+                format!("{} / {} (lead {})", c.len, c.stride, c.lead)
+            });
+        s += &format!(
+            "| {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            r.arms,
+            chunking,
+            r.episodes,
+            100.0 * r.embodied as f64 / r.episodes.max(1) as f64,
+            r.chunks,
+            100.0 * r.planned as f64 / r.chunks.max(1) as f64,
+            r.recovered,
+            quantile_ms(&later, 0.5),
+            quantile_ms(&later, 0.99),
+            quantile_ms(&later, 1.0),
+            quantile_ms(&first, 0.5),
         );
     }
     s

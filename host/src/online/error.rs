@@ -24,6 +24,18 @@ pub enum OnlineError {
         start_step: u64,
         committed_step: i64,
     },
+    /// No plan for the chunk, and where it is blocked: following the hands from where the
+    /// arms are, robot `robot_index` (named `robot`), holding `hand`, cannot go on at policy
+    /// step `step` because of `what` (out of reach, a joint limit, a joint's speed, a
+    /// collision and with what).
+    Blocked {
+        start_step: u64,
+        robot: String,
+        robot_index: usize,
+        hand: Option<usize>,
+        step: u64,
+        what: String,
+    },
     /// The planner ended without a plan for the chunk (`status`: no_solution, timeout, ...).
     NotPlanned { start_step: u64, status: String },
     /// The first chunk was planned, but no approach from where the arms stand to its start
@@ -56,6 +68,22 @@ impl fmt::Display for OnlineError {
                 "chunk for step {start_step} missed its deadline: the arms were already sent \
                  the plan up to step {committed_step}"
             ),
+            OnlineError::Blocked {
+                start_step,
+                robot,
+                robot_index,
+                hand,
+                step,
+                what,
+            } => {
+                let holding =
+                    hand.map_or("holding still".to_string(), |h| format!("holding hand {h}"));
+                write!(
+                    f,
+                    "chunk for step {start_step} not planned: robot {robot_index} ({robot:?}), \
+                     {holding}, cannot go on at step {step}: {what}"
+                )
+            }
             OnlineError::NotPlanned { start_step, status } => {
                 write!(f, "chunk for step {start_step} not planned: {status}")
             }

@@ -22,9 +22,13 @@
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
 pub mod bench;
+pub mod bimanual;
+pub(crate) mod diagnose;
+mod embody;
 mod error;
 pub mod policy;
 pub mod record;
+mod recover;
 pub mod run;
 
 pub use error::OnlineError;
@@ -36,10 +40,11 @@ use omcbsa_core::planner::{Stats, Status};
 use omcbsa_core::problem::{Assigned, Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
 use omcbsa_core::rng::Rng;
 
+use crate::assignment::{self, nearest, AssignmentRule};
 use crate::error::{Errors, InputError};
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
-use crate::planners::{Capacities, Storage, DOF};
+use crate::planners::{self, Capacities, PlannerKind, Storage, DOF};
 use crate::pose;
 
 /// Where the arms are and what is around them: everything of a problem but the hands' poses.
@@ -79,6 +84,14 @@ pub struct OnlineOptions {
     pub approach: ApproachParams,
     /// Pool sizes of the planner (allocated once, in [`Embodier::new`]).
     pub capacities: Capacities,
+    /// Which arm takes which hand: fixed, preferred, or chosen by the first chunk (`Free`:
+    /// the arms with the first chunk's poses deepest in their reach are tried first, see
+    /// [`crate::assignment::nearest`]).
+    pub assignment: AssignmentRule,
+    /// When a chunk cannot be planned with the assignment kept, plan it with a new one from
+    /// where the arms stand (an approach; the poses it cannot reach in time are dropped). Off
+    /// by default: a hand holding an object cannot change arms.
+    pub reassign: bool,
 }
 
 impl Default for OnlineOptions {
@@ -93,6 +106,8 @@ impl Default for OnlineOptions {
                 path_slots: 1 << 11,
                 ..Capacities::default()
             },
+            assignment: AssignmentRule::Free,
+            reassign: false,
         }
     }
 }
@@ -100,7 +115,15 @@ impl Default for OnlineOptions {
 /// What one planned chunk changed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChunkReport {
+    /// The first policy step planned: the chunk's, an earlier one when the steps before it
+    /// were planned again (a dead end), a later one when the approach after a hold could not
+    /// reach its first poses in time (`dropped` of them).
     pub start_step: u64,
+    /// The chunk's first poses that no arm tracks (reached by an approach instead).
+    pub dropped: usize,
+    /// How the chunk was planned when it could not be from where the last chunk left the
+    /// arms (see [`recover`]): `None` when it could.
+    pub recovery: Option<Recovery>,
     /// Timeline index of the chunk's first pose: the plan from here on is new.
     pub index: usize,
     /// Timeline index one past the plan's last configuration.
@@ -108,6 +131,27 @@ pub struct ChunkReport {
     /// Wall time of the planner call, s.
     pub planning_time_s: f64,
     pub stats: Stats,
+}
+
+/// How a chunk was planned that could not be from where the last chunk left the arms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recovery {
+    /// The part of the plan not yet sent was planned again with the chunk.
+    ReplannedUnsent,
+    /// The arms hold at the plan's end and an approach reaches the chunk.
+    AfterHold,
+    /// A new assignment, from where the arms stand ([`OnlineOptions::reassign`]).
+    Reassigned,
+}
+
+impl Recovery {
+    pub fn name(self) -> &'static str {
+        match self {
+            Recovery::ReplannedUnsent => "replanned_unsent",
+            Recovery::AfterHold => "after_hold",
+            Recovery::Reassigned => "reassigned",
+        }
+    }
 }
 
 /// Ω-A*'s duplicate grid for chunks, rad: finer than a whole plan's 0.6. A chunk starts from
@@ -127,6 +171,7 @@ pub struct Embodier {
     /// The setup as a core problem without trajectories.
     template: Problem<DOF>,
     names: Vec<String>,
+    setup: Setup,
     options: OnlineOptions,
     storage: Storage,
     /// Per robot, its configurations from timeline index `window_start` on.
@@ -139,6 +184,10 @@ pub struct Embodier {
     assignment: Option<Vec<Option<usize>>>,
     /// Timeline indices below this were sent to the arms.
     committed: usize,
+    /// Per hand, the poses the policy sent for steps `policy_start..` not yet sent to the
+    /// arms (the latest chunk's where chunks overlap): what a re-plan tracks.
+    policy: Vec<Vec<omcbsa_core::model::Frame>>,
+    policy_start: u64,
 }
 
 impl Embodier {
@@ -146,7 +195,10 @@ impl Embodier {
     /// planner will use.
     pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
         let mut errors = Errors::default();
-        if !matches!(options.planner.as_str(), "omcbsa" | "pp") {
+        if !matches!(
+            planners::parse(&options.planner),
+            Ok(PlannerKind::OmCbsa | PlannerKind::Pp)
+        ) {
             errors.push(
                 "planner",
                 format!("{:?} cannot plan online: use omcbsa or pp", options.planner),
@@ -196,6 +248,7 @@ impl Embodier {
             robots,
             template: problem,
             names: setup.robots.iter().map(|r| r.name.clone()).collect(),
+            setup: setup.clone(),
             options,
             storage,
             window: Vec::new(),
@@ -204,6 +257,8 @@ impl Embodier {
             approach_len: 0,
             assignment: None,
             committed: 0,
+            policy: Vec::new(),
+            policy_start: 0,
         })
     }
 
@@ -265,6 +320,7 @@ impl Embodier {
             });
             self.window_start += drop;
         }
+        self.forget_sent_poses();
     }
 
     /// Plans a chunk: `hands[j][k]` is hand `j`'s pose at policy step `start_step + k`. The
@@ -349,8 +405,16 @@ impl Embodier {
         start_step: u64,
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
-        let problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
-        let outcome = self.solve(&problem, start_step)?;
+        let mut problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
+        let rule = match &self.options.assignment {
+            AssignmentRule::Free => nearest::<KinovaGen3, DOF>(&problem)
+                .map_or(AssignmentRule::Free, AssignmentRule::Preferred),
+            given => {
+                given.check("assignment", self.robots.len(), hands.len())?;
+                given.clone()
+            }
+        };
+        let outcome = self.solve_under(&mut problem, start_step, &rule)?;
         let h = problem.horizon();
         let n = self.robots.len();
         // Planned with the chunk, from `initial` (every robot has one online).
@@ -375,8 +439,11 @@ impl Embodier {
         self.approach_len = a;
         self.offset = Some((a + 1) as i64 - start_step as i64);
         self.assignment = Some(outcome.assignment.clone());
+        self.remember(start_step, hands);
         Ok(ChunkReport {
             start_step,
+            dropped: 0,
+            recovery: None,
             index: a + 1,
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
@@ -398,12 +465,42 @@ impl Embodier {
             });
         }
         let index = index as usize;
-        let planned = self.continue_from(start_step, index, hands);
-        if planned.is_err() && index > self.end() {
+        let clock = std::time::Instant::now();
+        // Lookahead: the poses an earlier chunk sent past this one's end are planned too.
+        let longer = self.with_sent_tail(start_step, hands);
+        let first = match &longer {
+            Some(l) => self
+                .continue_from(start_step, index, l)
+                .or_else(|_| self.continue_from(start_step, index, hands)),
+            None => self.continue_from(start_step, index, hands),
+        };
+        let mut planned = first.clone();
+        // A dead end where the last chunk left the arms: re-plan from where they are now.
+        let ways: [(Recovery, bool); 3] = [
+            (Recovery::ReplannedUnsent, true),
             // The arms hold, too far from the chunk for one step: an approach may reach it.
-            return self.chunk_after_hold(start_step, index, hands).or(planned);
+            (Recovery::AfterHold, index > self.end()),
+            (Recovery::Reassigned, self.options.reassign),
+        ];
+        for (way, allowed) in ways {
+            if planned.is_ok() || !allowed {
+                continue;
+            }
+            planned = match way {
+                Recovery::ReplannedUnsent => self.replan_unsent(start_step, index, hands),
+                Recovery::AfterHold => self.chunk_after_hold(start_step, index, hands),
+                Recovery::Reassigned => self.reassign(start_step, index, hands),
+            }
+            .map(|r| ChunkReport {
+                recovery: Some(way),
+                ..r
+            });
         }
-        planned
+        // The error of the plain try names where the chunk is blocked.
+        let mut report = planned.or(first)?;
+        self.remember(start_step, hands);
+        report.planning_time_s = clock.elapsed().as_secs_f64();
+        Ok(report)
     }
 
     /// Plans a chunk from the configurations the arms have one step before it (holding at
@@ -426,8 +523,8 @@ impl Embodier {
             });
             with_pin
         });
-        let problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
-        let outcome = self.solve(&problem, start_step)?;
+        let mut problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
+        let outcome = self.solve(&mut problem, start_step)?;
         let keep = index - self.window_start;
         for (w, path) in self.window.iter_mut().zip(&outcome.joint_paths) {
             // A chunk after the plan's end: the arms hold until it starts.
@@ -437,6 +534,8 @@ impl Embodier {
         }
         Ok(ChunkReport {
             start_step,
+            dropped: 0,
+            recovery: None,
             index,
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
@@ -468,8 +567,8 @@ impl Embodier {
                 break;
             }
             let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
-            let problem = self.problem(rest, Start::Sampled, Some(&hold));
-            let outcome = self.solve(&problem, start_step + skip as u64)?;
+            let mut problem = self.problem(rest, Start::Sampled, Some(&hold));
+            let outcome = self.solve(&mut problem, start_step + skip as u64)?;
             planning_time_s += outcome.planning_time_s;
             let approach = outcome.approach.clone().unwrap_or_default();
             let a = approach.first().map_or(0, Vec::len);
@@ -485,8 +584,12 @@ impl Embodier {
                 w.extend_from_slice(&approach[i]);
                 w.extend_from_slice(&outcome.joint_paths[i]);
             }
+            // Unchanged unless it was planned free (`reassign`).
+            self.assignment = Some(outcome.assignment.clone());
             return Ok(ChunkReport {
                 start_step: start_step + skip as u64,
+                dropped: skip,
+                recovery: None,
                 index: first,
                 end: self.end(),
                 planning_time_s,
@@ -507,8 +610,10 @@ impl Embodier {
         trajectories: impl Iterator<Item = Trajectory>,
         start: Start,
         pins: Option<&[[f64; DOF]]>,
-    ) -> Problem<DOF> {
-        let mut problem = self.template.clone();
+    ) -> Box<Problem<DOF>> {
+        // Boxed: a problem is hundreds of kilobytes, and a caller's thread may have a small
+        // stack.
+        let mut problem = Box::new(self.template.clone());
         problem.trajectories = trajectories.collect();
         problem.robots = (self.robots.iter().enumerate())
             .map(|(i, r)| Robot {
@@ -526,18 +631,56 @@ impl Embodier {
 
     fn solve(
         &mut self,
-        problem: &Problem<DOF>,
+        problem: &mut Problem<DOF>,
         start_step: u64,
     ) -> Result<crate::planners::Outcome, OnlineError> {
-        let outcome = self
-            .storage
-            .solve(&self.options.planner, problem, self.options.chunk_timeout_s)
+        self.solve_under(problem, start_step, &AssignmentRule::Free)
+    }
+
+    /// [`Embodier::solve`] with the robots' assignment set by `rule` (a checked one); `Free`
+    /// keeps the problem's.
+    fn solve_under(
+        &mut self,
+        problem: &mut Problem<DOF>,
+        start_step: u64,
+        rule: &AssignmentRule,
+    ) -> Result<crate::planners::Outcome, OnlineError> {
+        let timeout = self.options.chunk_timeout_s;
+        let kind = planners::parse(&self.options.planner)
             .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
+        let outcome = match rule {
+            AssignmentRule::Free => self.storage.solve(kind, problem, timeout),
+            // Kept in the problem, where the diagnosis below sees it too.
+            AssignmentRule::Fixed(list) => {
+                AssignmentRule::apply(Some(list), problem);
+                self.storage.solve(kind, problem, timeout)
+            }
+            AssignmentRule::Preferred(_) => {
+                assignment::solve(&mut self.storage, kind, problem, rule, timeout)
+            }
+        }
+        .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
         if outcome.status == Status::Solved {
             return Ok(outcome);
         }
         if let Some(e) = self.unreachable(problem, start_step) {
             return Err(e);
+        }
+        let first = usize::from(problem.robots.first().map(|r| r.start) == Some(Start::AtInitial));
+        let assigned = (problem.robots.iter()).all(|r| r.assigned != Assigned::Free);
+        if assigned {
+            if let Some(b) =
+                diagnose::first_blocking::<KinovaGen3, DOF>(problem, first, &self.setup)
+            {
+                return Err(OnlineError::Blocked {
+                    start_step,
+                    robot: self.names[b.robot].clone(),
+                    robot_index: b.robot,
+                    hand: b.hand,
+                    step: start_step + (b.step - first) as u64,
+                    what: b.what,
+                });
+            }
         }
         let status = match outcome.status {
             Status::Solved => unreachable!("handled above"),

@@ -25,9 +25,10 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
-    /// Keeps the poses of a chunk that was planned (they replace older ones).
-    pub fn chunk(&mut self, start_step: u64, hands: &[Vec<Pose>]) {
-        for k in 0..hands.first().map_or(0, Vec::len) {
+    /// Keeps the poses of a chunk that was planned (they replace older ones), but for its
+    /// first `dropped` ones, which no arm tracks (see `ChunkReport::dropped`).
+    pub fn chunk(&mut self, start_step: u64, hands: &[Vec<Pose>], dropped: usize) {
+        for k in dropped..hands.first().map_or(0, Vec::len) {
             let at: Vec<Pose> = hands.iter().map(|h| h[k]).collect();
             self.poses.insert(start_step + k as u64, at);
         }
@@ -73,28 +74,75 @@ impl RunRecord {
     /// The problem (poses of the steps sent) and the solution (approach and paths sent).
     /// `None` before the first chunk's first step was sent.
     pub fn files(&self, setup: &Setup, embodier: &Embodier) -> Option<(ProblemFile, SolutionFile)> {
-        let (&first, _) = self.poses.first_key_value()?;
-        let a = embodier.approach_len();
+        let h = self.tracked(embodier)?;
+        Some(self.window(setup, embodier, 0..h))
+    }
+
+    /// The run as files of at most `max_len` steps each, for a run longer than a problem may
+    /// be (`MAX_STEPS`): the first carries the approach; each later one starts where the one
+    /// before ended (its `initial` and first step are that step), so every pair of
+    /// consecutive steps is checked in one of them. Empty before the first step was sent.
+    pub fn windows(
+        &self,
+        setup: &Setup,
+        embodier: &Embodier,
+        max_len: usize,
+    ) -> Vec<(ProblemFile, SolutionFile)> {
+        let Some(h) = self.tracked(embodier) else {
+            return Vec::new();
+        };
+        let max_len = max_len.max(2);
+        let mut out = vec![self.window(setup, embodier, 0..h.min(max_len))];
+        let mut from = max_len;
+        while from < h {
+            out.push(self.window(setup, embodier, from - 1..h.min(from - 1 + max_len)));
+            from += max_len - 1;
+        }
+        out
+    }
+
+    /// Steps of the path sent (after the approach), once any was.
+    fn tracked(&self, embodier: &Embodier) -> Option<usize> {
+        self.poses.first_key_value()?;
         let sent = self.sent.first()?.len();
-        let h = sent.checked_sub(a + 1).filter(|&h| h > 0)?;
-        let hands = self.poses.values().next()?.len();
-        let name = "online_run".to_string();
+        sent.checked_sub(embodier.approach_len() + 1)
+            .filter(|&h| h > 0)
+    }
+
+    /// Path steps `steps` as a problem and solution: with the approach when they start at 0,
+    /// else from the configurations at their first step.
+    fn window(
+        &self,
+        setup: &Setup,
+        embodier: &Embodier,
+        steps: std::ops::Range<usize>,
+    ) -> (ProblemFile, SolutionFile) {
+        let first = *self.poses.first_key_value().map_or(&0, |(k, _)| k);
+        let a = embodier.approach_len();
+        let hands = self.poses.values().next().map_or(0, Vec::len);
+        let name = format!("online_run_{}", steps.start);
+        let from = a + 1 + steps.start;
+        let mut robots = setup.robots.clone();
+        if steps.start > 0 {
+            for (r, sent) in robots.iter_mut().zip(&self.sent) {
+                r.initial = Some(sent[from].to_vec());
+            }
+        }
         let problem = ProblemFile {
             format: PROBLEM_FORMAT.to_string(),
             name: name.clone(),
             dt: setup.dt,
-            robots: setup.robots.clone(),
+            robots,
             trajectories: (0..hands)
                 .map(|j| TrajectorySpec {
                     name: format!("hand_{j}"),
                     // A step no chunk gave a pose for (a late chunk's dropped steps, a hold
                     // and the approach after it) tracks where the plan put the hand.
-                    poses: (first..first + h as u64)
-                        .map(|s| match self.poses.get(&s) {
+                    poses: steps
+                        .clone()
+                        .map(|k| match self.poses.get(&(first + k as u64)) {
                             Some(p) => p[j],
-                            None => {
-                                self.planned_hand(setup, embodier, j, a + 1 + (s - first) as usize)
-                            }
+                            None => self.planned_hand(setup, embodier, j, a + 1 + k),
                         })
                         .collect(),
                 })
@@ -102,6 +150,15 @@ impl RunRecord {
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
         };
+        let approach = (steps.start == 0).then(|| {
+            joint_paths_value(
+                &self
+                    .sent
+                    .iter()
+                    .map(|s| s[1..=a].to_vec())
+                    .collect::<Vec<_>>(),
+            )
+        });
         let solution = SolutionFile {
             format: SOLUTION_FORMAT.to_string(),
             problem: name,
@@ -109,23 +166,17 @@ impl RunRecord {
             status: Status::Solved,
             message: String::new(),
             planning_time_s: 0.0,
-            assignment: embodier.assignment()?.to_vec(),
-            approach: Some(joint_paths_value(
-                &self
-                    .sent
-                    .iter()
-                    .map(|s| s[1..=a].to_vec())
-                    .collect::<Vec<_>>(),
-            )),
+            assignment: embodier.assignment().unwrap_or(&[]).to_vec(),
+            approach,
             joint_paths: Some(joint_paths_value(
                 &self
                     .sent
                     .iter()
-                    .map(|s| s[a + 1..].to_vec())
+                    .map(|s| s[a + 1 + steps.start..a + 1 + steps.end].to_vec())
                     .collect::<Vec<_>>(),
             )),
             stats: Map::new(),
         };
-        Some((problem, solution))
+        (problem, solution)
     }
 }

@@ -3,23 +3,22 @@
 //! stopping; afterwards, what each mock received is compared with a replay of the pushes and
 //! the whole sent timeline is validated.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use omcbsa_core::model::KinovaGen3;
-use omcbsa_hw::cia402::CW_ENABLE_OPERATION;
+use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::min_time_scale;
-use omcbsa_hw::mock::{bus_log_path, exec_config, script_path, MockArm, MockArmOptions};
-use omcbsa_hw::record::check_followed;
+use omcbsa_hw::mock::exec_config;
 use omcbsa_hw::stream::Generator;
-use omcbsa_hw::{
-    Event, Executor, JointLimits, Report, StreamHandle, Transport, WatchSettings, JOINTS,
-};
+use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, WatchSettings, JOINTS};
 
 use super::policy::BoxFlipPolicy;
 use super::record::RunRecord;
 use super::{Embodier, OnlineError, OnlineOptions};
+use crate::execute::{joint_limits, CAUTIOUS_SPEED};
 use crate::format::{ProblemFile, SolutionFile};
+use crate::models::ModelKind;
 use crate::planners::DOF;
 use crate::validate::{validate, Report as Validation};
 
@@ -40,6 +39,8 @@ pub struct RunScript {
     pub options: OnlineOptions,
     /// Fault detection (the command line's watchdog options).
     pub watch: WatchSettings,
+    /// The mock arms' kind: CAN (SLCAN) or Kortex (TCP and UDP).
+    pub transport: MockKind,
 }
 
 impl Default for RunScript {
@@ -53,6 +54,7 @@ impl Default for RunScript {
             time_margin: 2.0,
             options: OnlineOptions::default(),
             watch: WatchSettings::default(),
+            transport: MockKind::Can,
         }
     }
 }
@@ -101,10 +103,10 @@ pub fn run_on_mock_arms(
     let report = e
         .push_chunk(first.start_step, &first.hands)
         .map_err(|e| format!("chunk 0: {e}"))?;
-    rec.chunk(first.start_step, &first.hands);
+    rec.chunk(first.start_step, &first.hands, 0);
     let mut latencies = vec![report.planning_time_s];
     let n = e.robot_names().len();
-    let limits = JointLimits::kinova_gen3();
+    let limits = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED)?;
     let dt = setup.dt;
     let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
     progress(&format!(
@@ -116,40 +118,25 @@ pub fn run_on_mock_arms(
         scale
     ));
     let initial: Vec<[f64; DOF]> = (0..n).map(|i| e.planned(i, 0)[0]).collect();
-    let records: Vec<PathBuf> = (e.robot_names().iter())
-        .map(|name| record_dir.join(format!("online-{name}.jsonl")))
-        .collect();
-    let mocks = (e.robot_names().iter().zip(&initial).zip(&records))
-        .map(|((name, q), record)| {
-            let _ = std::fs::remove_file(record);
-            let opts = MockArmOptions {
-                initial: *q,
-                record: Some(record.clone()),
-                bus_log: Some(bus_log_path(record)),
-                // A slowed-down run on a busy machine outlasts the mock's default minute
-                // (it is killed when dropped in any case).
-                extra_args: vec!["--max-seconds=600".to_string()],
-            };
-            MockArm::spawn(python, &script_path(), name, &opts)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let buses = (mocks.iter())
-        .map(|m| m.open_bus().map_err(|err| err.to_string()))
-        .collect::<Result<Vec<Box<dyn Transport>>, _>>()?;
-    let arms = (e
-        .robot_names()
-        .iter()
-        .cloned()
-        .zip(initial.iter().copied())
-        .zip(buses))
-    .map(|((name, q), bus)| (name, q, bus))
-    .collect();
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
         online_horizon: Duration::from_secs(120),
         watch: script.watch.clone(),
         ..exec_config()
     };
+    let starts: Vec<(String, [f64; DOF])> = (e.robot_names().iter().cloned())
+        .zip(initial.iter().copied())
+        .collect();
+    let record_of = |name: &str| record_dir.join(format!("online-{name}.jsonl"));
+    // A slowed-down run on a busy machine outlasts a mock's default time limit (it is killed
+    // when dropped in any case).
+    let long = vec![vec!["--max-seconds=600".to_string()]; n];
+    let kind = script.transport;
+    let mocks = Fleet::spawn(kind, python, config.period, &starts, record_of, &long)?;
+    let arms = (mocks.ports()?.into_iter())
+        .zip(initial.iter().copied())
+        .map(|((name, port), q)| (name, q, port))
+        .collect();
     let handle =
         Executor::online(arms, dt, scale, limits, config.clone()).map_err(|e| e.to_string())?;
     let mut pushes = Vec::new();
@@ -218,7 +205,7 @@ pub fn run_on_mock_arms(
         };
         match result {
             Ok(report) => {
-                rec.chunk(chunk.start_step, &chunk.hands);
+                rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
                 latencies.push(report.planning_time_s);
                 push(&handle, &e, report.index.min(old_end), &mut pushes)?;
                 progress(&format!(
@@ -248,28 +235,21 @@ pub fn run_on_mock_arms(
     let exec = handle.finish().map_err(|e| e.to_string())?;
     let mut cycles = Vec::with_capacity(n);
     let replay = replay(&initial, &pushes, scale * dt, &config, &limits)?;
-    for (i, mock) in mocks.into_iter().enumerate() {
-        // A mock writes its record as it exits; a long run's record takes a while on a busy
-        // machine, longer than `MockArm::finish` waits.
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while !records[i].exists() && Instant::now() < deadline {
+    // A mock writes its record as it exits; a long run's record takes a while on a busy
+    // machine, longer than a mock's `finish` waits.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    for (name, _) in &starts {
+        while !record_of(name).exists() && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(50));
         }
-        let record = mock.finish()?;
-        let enabled = omcbsa_hw::record::targets(&record)?[0]
-            .iter()
-            .filter(|t| t.controlword == CW_ENABLE_OPERATION)
-            .count();
+    }
+    for (i, (name, record)) in mocks.finish()?.into_iter().enumerate() {
+        let enabled = kind.motion_commands(&record)?;
         let motion = enabled.saturating_sub(config.settle_cycles);
         let cmds: Vec<_> = replay(motion).into_iter().map(|c| c[i]).collect();
-        let got = check_followed(
-            &record,
-            &cmds,
-            config.settle_cycles,
-            &limits,
-            config.period.as_secs_f64(),
-        )
-        .map_err(|err| format!("mock arm {:?}: {err}", e.robot_names()[i]))?;
+        let period = config.period.as_secs_f64();
+        let got = (kind.check_followed(&record, &cmds, config.settle_cycles, &limits, period))
+            .map_err(|err| format!("mock arm {name:?}: {err}"))?;
         cycles.push(got);
     }
     drop(replay);

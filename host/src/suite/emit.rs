@@ -288,7 +288,13 @@ fn files(
                 .initial
                 .map(|q| q.iter().map(|&x| round(x)).collect());
         }
-        load::problem::<Gen3, 7>(&problem).map_err(|e| generation(e.to_string()))?;
+        let rounded = load::problem::<Gen3, 7>(&problem).map_err(|e| generation(e.to_string()))?;
+        // The validator's own check of where the arms stand (after rounding): never an
+        // `initial` that collides.
+        let contacts = validate::initial_contacts::<Gen3, 7>(&problem, &rounded);
+        if contacts.is_some_and(|c| !c.is_empty()) {
+            return Ok(None);
+        }
     }
     let witness = match &sample.witness {
         Some(paths) => {
@@ -369,7 +375,7 @@ fn rounded(frame: &Frame) -> Pose {
     }
 }
 
-fn obstacle_spec((name, o): &NamedObstacle) -> ObstacleSpec {
+pub(crate) fn obstacle_spec((name, o): &NamedObstacle) -> ObstacleSpec {
     let (shape, half_extents, radius, half_length) = match o.shape {
         Shape::Box { half_extents } => (ShapeKind::Box, Some(half_extents.map(round)), None, None),
         Shape::Sphere { radius } => (ShapeKind::Sphere, None, Some(round(radius)), None),

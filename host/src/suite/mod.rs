@@ -23,14 +23,15 @@
 //! `omcbsa.solution.v1` file) per known-solvable problem, and the index `OUTDIR/suite.json`.
 
 mod emit;
+pub(crate) use emit::obstacle_spec;
 mod family;
-mod frames;
-mod layout;
+pub(crate) mod frames;
+pub(crate) mod layout;
 mod myopic;
 mod refine_family;
 mod standing;
 mod trap;
-mod witness;
+pub(crate) mod witness;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

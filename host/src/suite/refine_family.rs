@@ -19,7 +19,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use omcbsa_core::collision::ArmPose;
-use omcbsa_core::planner::{NoClock, Stats, Status};
+use omcbsa_core::planner::{NoClock, PlannerKind, Stats, Status};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
 use super::emit::{self, Generated};
@@ -124,7 +124,13 @@ fn level0_misses(g: &Generated) -> Result<bool, Error> {
     storage.cbs_params.levels = 1;
     let mut stats = Stats::default();
     let (status, _) = storage
-        .solve_core("omcbsa", &problem, &NoClock, f64::INFINITY, &mut stats)
+        .solve_core(
+            PlannerKind::OmCbsa,
+            &problem,
+            &NoClock,
+            f64::INFINITY,
+            &mut stats,
+        )
         .map_err(|message| Error::Generation {
             problem: g.entry.name.clone(),
             message,

@@ -19,7 +19,6 @@ use omcbsa_core::model::{KinovaGen3, Model};
 use crate::error::InputError;
 use crate::format::{ProblemFile, SolutionFile};
 use crate::load;
-use crate::models::ModelKind;
 use crate::validate::{validate, Report};
 
 pub use scene::Scene;
@@ -114,7 +113,7 @@ pub fn html(
     report: Option<&Report>,
     assets: Assets,
 ) -> Result<String, ViewError> {
-    let ModelKind::KinovaGen3 = load::model_of(problem).map_err(ViewError::Input)?;
+    load::planned_model(problem).map_err(ViewError::Input)?;
     page::<KinovaGen3, 7>(problem, solution, report, assets)
 }
 

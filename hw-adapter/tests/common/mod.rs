@@ -3,6 +3,7 @@
 
 #![allow(dead_code)] // each test file uses a different subset
 
+#[allow(unused_imports)] // used by some test files only
 pub use omcbsa_hw::mock::exec_config as mock_config;
 #[allow(unused_imports)] // used by some test files only
 pub use omcbsa_hw::record::kinds;

@@ -1,0 +1,141 @@
+//! A model's folder: `robots/<model>/model.json` names the URDF, the chain's ends, the limits
+//! with their source and the collision file, so that adding a model is adding a folder.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::chain::Ends;
+use crate::{Error, Input, Limits, ModelSpec};
+
+/// The manifest's name inside a model's folder.
+pub const FILE: &str = "model.json";
+
+/// `model.json`. Paths are relative to the model's folder.
+#[derive(Deserialize, Debug, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// `Model::NAME`, the name problem files use.
+    pub name: String,
+    /// The generated Rust type.
+    #[serde(rename = "type")]
+    pub type_name: String,
+    pub urdf: String,
+    pub base_link: String,
+    pub tip_link: String,
+    /// The frame `fk` reports: hand poses are poses of this frame.
+    pub tool_frame: String,
+    /// Why this tool frame (free text).
+    #[serde(default)]
+    pub tool_frame_note: String,
+    pub limits: ManifestLimits,
+    pub capsules: FitSettings,
+}
+
+/// Per actuated joint, in chain order.
+#[derive(Deserialize, Debug, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ManifestLimits {
+    /// rad/s (m/s for a prismatic joint).
+    pub velocity: Vec<f64>,
+    /// rad/s² (m/s²).
+    pub acceleration: Vec<f64>,
+    /// Where the numbers come from.
+    pub source: String,
+}
+
+/// How `omcbsa-codegen fit-capsules` made the collision file, so it can be made again.
+#[derive(Deserialize, Debug, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FitSettings {
+    /// The collision file code generation reads (`collision.json`).
+    pub file: String,
+    /// Folder of the collision meshes, looked up by file name (none: capsules written by hand).
+    #[serde(default)]
+    pub meshes: Option<String>,
+    /// MoveIt SRDF whose disabled pairs are kept.
+    #[serde(default)]
+    pub srdf: Option<String>,
+    /// How the file was made, where not by fitting (free text).
+    #[serde(default)]
+    pub note: String,
+}
+
+/// A model's folder and its manifest.
+#[derive(Debug, Clone)]
+pub struct Folder {
+    pub dir: PathBuf,
+    pub manifest: Manifest,
+}
+
+impl Folder {
+    pub fn read(dir: &Path) -> Result<Folder, Error> {
+        let path = dir.join(FILE);
+        let (source, text) = Input::File(&path).read()?;
+        let manifest = serde_json::from_str(&text).map_err(|e| Error::Manifest {
+            source,
+            message: e.to_string(),
+        })?;
+        Ok(Folder {
+            dir: dir.to_path_buf(),
+            manifest,
+        })
+    }
+
+    pub fn urdf(&self) -> PathBuf {
+        self.dir.join(&self.manifest.urdf)
+    }
+
+    pub fn collision(&self) -> PathBuf {
+        self.dir.join(&self.manifest.capsules.file)
+    }
+
+    pub fn meshes(&self) -> Option<PathBuf> {
+        self.manifest
+            .capsules
+            .meshes
+            .as_ref()
+            .map(|m| self.dir.join(m))
+    }
+
+    pub fn srdf(&self) -> Option<PathBuf> {
+        self.manifest
+            .capsules
+            .srdf
+            .as_ref()
+            .map(|s| self.dir.join(s))
+    }
+
+    pub fn ends(&self) -> Ends<'_> {
+        Ends {
+            base: &self.manifest.base_link,
+            tip: &self.manifest.tip_link,
+            tool: &self.manifest.tool_frame,
+        }
+    }
+
+    /// What code generation needs; `urdf` and `collision` are the paths of [`Folder::urdf`]
+    /// and [`Folder::collision`] (borrowed from the caller so the spec can refer to them).
+    pub fn spec<'a>(&'a self, urdf: &'a Path, collision: &'a Path) -> ModelSpec<'a> {
+        let m = &self.manifest;
+        ModelSpec {
+            type_name: &m.type_name,
+            name: &m.name,
+            urdf: Input::File(urdf),
+            collision: collision.exists().then_some(Input::File(collision)),
+            ends: Some(self.ends()),
+            limits: Some(Limits {
+                velocity: &m.limits.velocity,
+                acceleration: &m.limits.acceleration,
+                source: &m.limits.source,
+            }),
+        }
+    }
+}
+
+/// Rust source for the model in `dir` (see [`crate::generate_model`]).
+pub fn generate_folder(dir: &Path) -> Result<String, Error> {
+    let folder = Folder::read(dir)?;
+    let (urdf, collision) = (folder.urdf(), folder.collision());
+    crate::generate_model(&folder.spec(&urdf, &collision))
+}

@@ -1,0 +1,484 @@
+//! A Kinova Gen3 as the executor's loop drives it ([`ArmLink`]), in the order a real arm expects:
+//! 1. start-up, phase 1 ([`ArmLink::configure`]): a session on TCP and one on UDP, ClearFaults,
+//!    RefreshFeedback (seven actuators, each within the start tolerance of the plan's start);
+//! 2. phase 2 ([`ArmLink::enable`]): SetServoingMode(LOW_LEVEL_SERVOING), then one Refresh that
+//!    commands every actuator where it was measured (the seed);
+//! 3. one BaseCyclic.Refresh on UDP per control cycle, frame_id and command_id stepping by one
+//!    (wrapping at 65535), positions in degrees in [0, 360); each actuator's answer matched to
+//!    the cycle its command_id names ([`cycle_of`]) by the per-cycle accounting ([`crate::watchdog`]: an
+//!    answer missing when cycle k + m is due, or more than m periods stale, is a fault);
+//!    KeepAlive on a link idle for more than [`KEEP_ALIVE_AFTER`];
+//! 4. leaving: SetServoingMode(SINGLE_LEVEL_SERVOING), then CloseSession on both links; after
+//!    a fault, ApplyEmergencyStop first.
+//!
+//! The command log names each frame's rpc and message id; the CreateSession payload, which
+//! holds the credentials, is never logged.
+
+use super::channel::Channel;
+use super::header::uid;
+use super::proto::{self, base, base_cyclic, common};
+use super::Connection;
+use crate::arm::{answer_fault, Span};
+use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
+use crate::executor::{ExecConfig, Fault};
+use crate::interpolate::Command;
+use crate::link::ArmLink;
+use crate::log::{LogEntry, LogSink};
+use crate::plan::JOINTS;
+use crate::watchdog::{CycleAccount, MAX_MISSED_CYCLES};
+use prost::Message;
+use std::f64::consts::{PI, TAU};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// A link idle for longer gets a KeepAlive.
+pub const KEEP_ALIVE_AFTER: Duration = Duration::from_millis(150);
+/// Asked for in CreateSession: the session ends after this long without a frame, ms.
+pub const SESSION_INACTIVITY_MS: u32 = 60_000;
+/// Asked for in CreateSession: the arm stops motion after this long without a frame on a
+/// link, ms.
+pub const CONNECTION_INACTIVITY_MS: u32 = 2_000;
+
+/// `counts` (the executor's command unit) in degrees within [0, 360), as sent.
+pub fn wire_degrees(counts: i32) -> f32 {
+    let deg = counts_to_rad(counts).to_degrees().rem_euclid(360.0) as f32;
+    // Rounding to f32 can reach 360 itself.
+    if deg >= 360.0 {
+        0.0
+    } else {
+        deg
+    }
+}
+
+/// The cycle (0 = the first after the seed) whose command carried frame_id `frame`, given
+/// `sent` cycles sent, the last with frame_id `last`: frame_ids step by one (wrapping at 65535)
+/// from the seed's, so counting back from the last one. `None`: no cycle sent carried it.
+pub fn cycle_of(sent: u64, last: u16, frame: u32) -> Option<u64> {
+    let frame = u16::try_from(frame).ok()?;
+    sent.checked_sub(1 + u64::from(last.wrapping_sub(frame)))
+}
+
+/// Degrees from the wire, in radians on the turn nearest `near` (rad).
+pub fn from_wire(deg: f32, near: f64) -> f64 {
+    let d = (f64::from(deg).to_radians() - near).rem_euclid(TAU);
+    near + if d > PI { d - TAU } else { d }
+}
+
+pub struct KortexArm {
+    name: String,
+    conn: Connection,
+    clock: Instant,
+    log: Option<LogSink>,
+    frames_sent: usize,
+    rpc_timeout: Duration,
+    /// The last frame_id sent (the seed's before the first cycle).
+    frame_id: u16,
+    /// Per actuator, the cycles answered; each cycle's targets kept until then.
+    account: CycleAccount<Command>,
+    /// The last feedback: positions (degrees as received) and the targets of the cycle it answers.
+    answered: Option<([f32; JOINTS], Command)>,
+    /// The first fault seen in what the arm sent.
+    fault: Option<Fault>,
+    /// Measured at start-up: where the seed command holds every actuator.
+    measured: Option<[f32; JOINTS]>,
+    low_level: bool,
+}
+
+impl KortexArm {
+    pub fn new(
+        name: String,
+        conn: Connection,
+        clock: Instant,
+        cfg: &ExecConfig,
+        log: Option<LogSink>,
+    ) -> Self {
+        Self {
+            name,
+            conn,
+            clock,
+            log,
+            frames_sent: 0,
+            rpc_timeout: cfg.sdo_timeout.max(Duration::from_millis(500)),
+            frame_id: 0,
+            // The executor refuses settings out of range before any arm is set up.
+            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
+                .expect("m clamped into its range"),
+            answered: None,
+            fault: None,
+            measured: None,
+            low_level: false,
+        }
+    }
+
+    fn log(&self, link: &str, rpc: u32, message_id: u16, what: &str) {
+        if let Some(log) = &self.log {
+            log.write(&LogEntry {
+                t: self.clock.elapsed().as_secs_f64(),
+                arm: &self.name,
+                frame: format!("kortex {link} {} message {message_id}", uid::name(rpc)),
+                what,
+            });
+        }
+    }
+
+    /// Calls `rpc` on TCP (`udp`: on UDP) and returns the response's payload.
+    fn call(&mut self, udp: bool, rpc: u32, payload: &[u8], what: &str) -> Result<Vec<u8>, String> {
+        let timeout = self.rpc_timeout;
+        let link = if udp {
+            &mut self.conn.udp
+        } else {
+            &mut self.conn.tcp
+        };
+        let kind = link.kind();
+        let out = link.call(rpc, payload, timeout);
+        self.frames_sent += 1;
+        let (h, p) = out.map_err(|e| format!("{}: {e}", self.conn.spec))?;
+        self.log(kind, rpc, h.message_id, what);
+        Ok(p)
+    }
+
+    fn send(&mut self, udp: bool, rpc: u32, payload: &[u8], what: &str) -> Result<u16, String> {
+        let link = if udp {
+            &mut self.conn.udp
+        } else {
+            &mut self.conn.tcp
+        };
+        let kind = link.kind();
+        let id = link
+            .send(rpc, payload)
+            .map_err(|e| format!("{}: {e}", self.conn.spec))?;
+        self.frames_sent += 1;
+        self.log(kind, rpc, id, what);
+        Ok(id)
+    }
+
+    fn create_session(&mut self, udp: bool) -> Result<(), String> {
+        let info = proto::CreateSessionInfo {
+            username: self.conn.credentials.username.clone(),
+            password: self.conn.credentials.password.clone(),
+            session_inactivity_timeout: SESSION_INACTIVITY_MS,
+            connection_inactivity_timeout: CONNECTION_INACTIVITY_MS,
+        }
+        .encode_to_vec();
+        let link = if udp {
+            &mut self.conn.udp
+        } else {
+            &mut self.conn.tcp
+        };
+        let kind = link.kind();
+        let (h, _) = link
+            .call(uid::CREATE_SESSION, &info, self.rpc_timeout)
+            .map_err(|e| format!("{}: {e}", self.conn.spec))?;
+        link.session = h.session_id;
+        self.frames_sent += 1;
+        let what = format!(
+            "session {} as user {:?} (password withheld)",
+            h.session_id, self.conn.credentials.username
+        );
+        self.log(kind, uid::CREATE_SESSION, h.message_id, &what);
+        Ok(())
+    }
+
+    fn set_servoing(&mut self, mode: base::ServoingMode) -> Result<(), String> {
+        let info = base::ServoingModeInformation {
+            servoing_mode: mode as i32,
+        }
+        .encode_to_vec();
+        self.call(false, uid::SET_SERVOING_MODE, &info, mode.as_str_name())?;
+        self.low_level = mode == base::ServoingMode::LowLevelServoing;
+        Ok(())
+    }
+
+    fn refresh_payload(frame_id: u16, degrees: &[f32; JOINTS]) -> Vec<u8> {
+        base_cyclic::Command {
+            frame_id: u32::from(frame_id),
+            actuators: (degrees.iter())
+                .map(|&position| base_cyclic::ActuatorCommand {
+                    command_id: u32::from(frame_id),
+                    position,
+                    ..Default::default()
+                })
+                .collect(),
+        }
+        .encode_to_vec()
+    }
+
+    /// The positions of a Feedback from the arm, with its faults: seven actuators, each
+    /// fault-free, the base fault-free.
+    fn feedback(payload: &[u8]) -> Result<(u16, [f32; JOINTS], [u32; JOINTS]), Fault> {
+        let f = base_cyclic::Feedback::decode(payload)
+            .map_err(|e| Fault::ArmRefused(format!("cannot decode the arm's Feedback: {e}")))?;
+        if let Some(b) = f
+            .base
+            .filter(|b| b.fault_bank_a != 0 || b.fault_bank_b != 0)
+        {
+            return Err(Fault::ActuatorFault {
+                joint: 0,
+                bank_a: b.fault_bank_a,
+                bank_b: b.fault_bank_b,
+            });
+        }
+        if f.actuators.len() != JOINTS {
+            return Err(Fault::ArmRefused(format!(
+                "the arm reports {} actuators; a Gen3 has {JOINTS}",
+                f.actuators.len()
+            )));
+        }
+        let mut pos = [0.0; JOINTS];
+        let mut ids = [0; JOINTS];
+        for (j, a) in f.actuators.iter().enumerate() {
+            if a.fault_bank_a != 0 || a.fault_bank_b != 0 {
+                return Err(Fault::ActuatorFault {
+                    joint: j as u8 + 1,
+                    bank_a: a.fault_bank_a,
+                    bank_b: a.fault_bank_b,
+                });
+            }
+            pos[j] = a.position;
+            ids[j] = a.command_id;
+        }
+        Ok((f.frame_id as u16, pos, ids))
+    }
+
+    fn keep_alive(&mut self) -> Result<(), String> {
+        for udp in [false, true] {
+            let link: &Channel = if udp { &self.conn.udp } else { &self.conn.tcp };
+            if link.session != 0 && link.last_sent.elapsed() > KEEP_ALIVE_AFTER {
+                self.send(udp, uid::KEEP_ALIVE, &[], "idle link")?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A Feedback of `frame_id`, each actuator's command_id naming the same frame: every
+    /// actuator's answer to that cycle goes to the per-cycle accounting (one source per
+    /// actuator); the feedback of a cycle still kept is kept for the following error.
+    fn answered(
+        &mut self,
+        frame_id: u16,
+        pos: [f32; JOINTS],
+        ids: [u32; JOINTS],
+    ) -> Result<(), Fault> {
+        if ids.iter().any(|&id| id != u32::from(frame_id)) {
+            return Err(Fault::ArmRefused(format!(
+                "the feedback of frame {frame_id} carries command ids {ids:?}"
+            )));
+        }
+        let last = self.frame_id;
+        let c = cycle_of(self.account.sent(), last, u32::from(frame_id)).ok_or_else(|| {
+            Fault::ArmRefused(format!(
+                "the arm answered frame {frame_id}, which was not sent (last frame {last})"
+            ))
+        })?;
+        let mut targets = None;
+        for j in 0..JOINTS {
+            targets = self
+                .account
+                .answer(j, c)
+                .map_err(answer_fault)?
+                .map(|(_, t)| *t);
+        }
+        if let Some(t) = targets {
+            self.answered = Some((pos, t));
+        }
+        Ok(())
+    }
+
+    /// SetServoingMode(SINGLE_LEVEL_SERVOING) if in low-level servoing, then CloseSession on
+    /// both links; tries every step, returns the first failure.
+    fn leave(&mut self) -> Result<(), String> {
+        let mut first = None;
+        if self.low_level {
+            if let Err(e) = self.set_servoing(base::ServoingMode::SingleLevelServoing) {
+                first.get_or_insert(e);
+            }
+        }
+        for udp in [true, false] {
+            let link: &Channel = if udp { &self.conn.udp } else { &self.conn.tcp };
+            if link.session != 0 {
+                if let Err(e) = self.send(udp, uid::CLOSE_SESSION, &[], "leaving") {
+                    first.get_or_insert(e);
+                }
+            }
+        }
+        self.conn.tcp.session = 0;
+        self.conn.udp.session = 0;
+        first.map_or(Ok(()), Err)
+    }
+}
+
+impl ArmLink for KortexArm {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn frames_sent(&self) -> usize {
+        self.frames_sent
+    }
+
+    fn configure(
+        &mut self,
+        cfg: &ExecConfig,
+        (start, _, _): (&Command, &Span, &[f64; JOINTS]),
+        stop: &AtomicBool,
+    ) -> Result<(), String> {
+        let empty = common::Empty {}.encode_to_vec();
+        self.create_session(false)?;
+        if stop.load(Ordering::SeqCst) {
+            return Ok(());
+        }
+        self.create_session(true)?;
+        if stop.load(Ordering::SeqCst) {
+            return Ok(());
+        }
+        self.call(false, uid::CLEAR_FAULTS, &empty, "before motion")?;
+        let payload = self.call(true, uid::REFRESH_FEEDBACK, &empty, "start position")?;
+        let (_, measured, _) = Self::feedback(&payload)
+            .map_err(|f| format!("{}: at start-up: {f}", self.conn.spec))?;
+        for j in 0..JOINTS {
+            let want = counts_to_rad(start[j]);
+            let at = from_wire(measured[j], want);
+            if (at - want).abs() > cfg.start_tolerance {
+                return Err(format!(
+                    "joint {} is at {:.6} rad ({} degrees reported by actuator {}) but the plan \
+                     starts at {want:.6} rad (tolerance {} rad)",
+                    j + 1,
+                    at,
+                    measured[j],
+                    j + 1,
+                    cfg.start_tolerance
+                ));
+            }
+        }
+        self.measured = Some(measured);
+        Ok(())
+    }
+
+    fn enable(&mut self, _cfg: &ExecConfig) -> Result<(), String> {
+        let seed = self.measured.ok_or("enable before configure")?;
+        self.set_servoing(base::ServoingMode::LowLevelServoing)?;
+        self.frame_id = 0;
+        self.account.reset();
+        let payload = Self::refresh_payload(self.frame_id, &seed);
+        let answer = self.call(true, uid::REFRESH, &payload, "seed: hold where measured")?;
+        Self::feedback(&answer).map_err(|f| format!("{}: seeding: {f}", self.conn.spec))?;
+        Ok(())
+    }
+
+    fn poll(&mut self) -> Result<(), String> {
+        while let Some(f) = self.conn.tcp.recv()? {
+            if let Err(e) = super::codec::response_payload(f) {
+                self.fault.get_or_insert(Fault::ArmRefused(e.to_string()));
+            }
+        }
+        while let Some(f) = self.conn.udp.recv()? {
+            let answer = super::codec::response_payload(f)
+                .map_err(|e| Fault::ArmRefused(e.to_string()))
+                .and_then(|p| Self::feedback(&p));
+            match answer.and_then(|(frame_id, pos, ids)| self.answered(frame_id, pos, ids)) {
+                Ok(()) => {}
+                Err(fault) => {
+                    self.fault.get_or_insert(fault);
+                }
+            }
+        }
+        self.keep_alive()
+    }
+
+    fn check_feedback(
+        &self,
+        _now: Instant,
+        cfg: &ExecConfig,
+        _target: &Command,
+    ) -> Result<f64, Fault> {
+        if let Some(f) = &self.fault {
+            return Err(f.clone());
+        }
+        let mut worst: f64 = 0.0;
+        if let Some((pos, targets)) = &self.answered {
+            for j in 0..JOINTS {
+                let target = targets[j] as f64 / COUNTS_PER_RAD;
+                let actual = from_wire(pos[j], target);
+                let err = (actual - target).abs();
+                if err > cfg.watch.following_error_bound {
+                    return Err(Fault::FollowingError {
+                        node: j as u8 + 1,
+                        actual,
+                        target,
+                    });
+                }
+                worst = worst.max(err);
+            }
+        }
+        Ok(worst)
+    }
+
+    fn check_cycle(&self) -> Result<(), Fault> {
+        self.account.check_send().map_err(answer_fault)
+    }
+
+    fn clear_until(&self) -> u64 {
+        self.account.clear_until()
+    }
+
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
+        self.frame_id = self.frame_id.wrapping_add(1);
+        let degrees = cmd.map(wire_degrees);
+        let payload = Self::refresh_payload(self.frame_id, &degrees);
+        let what = if self.log.is_some() {
+            format!("frame {} positions {degrees:?} degrees", self.frame_id)
+        } else {
+            String::new()
+        };
+        self.send(true, uid::REFRESH, &payload, &what)?;
+        self.account.sent_cycle(*cmd);
+        Ok(())
+    }
+
+    fn quick_stop(&mut self, _hold: &Command) -> Result<(), String> {
+        let stop = self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop");
+        let left = self.leave();
+        stop.and(left).map(|_| ())
+    }
+
+    fn finish(&mut self, _hold: &Command) -> Result<(), String> {
+        self.leave()
+    }
+
+    fn abort(&mut self) -> Result<(), String> {
+        self.leave()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cia402::rad_to_counts;
+
+    #[test]
+    fn positions_go_out_in_degrees_within_0_to_360_and_come_back_on_the_nearest_turn() {
+        for rad in [0.0, 1.0, -1.0, 3.1, -3.1, 6.2, -6.2, 2.09, -2.57] {
+            let counts = rad_to_counts(rad).unwrap();
+            let deg = wire_degrees(counts);
+            assert!((0.0..360.0).contains(&deg), "{rad} -> {deg}");
+            let back = from_wire(deg, rad);
+            assert!((back - rad).abs() < 1e-6, "{rad} -> {deg} -> {back}");
+        }
+        // Just below a whole turn stays below 360 after rounding to f32.
+        assert_eq!(wire_degrees(rad_to_counts(-1e-7).unwrap()), 0.0);
+    }
+
+    #[test]
+    fn answers_name_their_cycle_by_frame_id_across_the_wrap_at_65535() {
+        // The seed was frame 0: cycle c carries frame (c + 1) mod 65536.
+        assert_eq!(cycle_of(3, 3, 3), Some(2));
+        assert_eq!(cycle_of(3, 3, 1), Some(0));
+        assert_eq!(cycle_of(3, 3, 0), None, "the seed is no cycle");
+        assert_eq!(cycle_of(3, 3, 4), None, "not sent yet");
+        assert_eq!(cycle_of(3, 3, 70000), None, "no frame_id");
+        // 65536 cycles: the last carries frame 0 again (65535 wrapped), the one before 65535.
+        assert_eq!(cycle_of(65536, 0, 0), Some(65535));
+        assert_eq!(cycle_of(65536, 0, 65535), Some(65534));
+        assert_eq!(cycle_of(65537, 1, 65535), Some(65534));
+    }
+}
