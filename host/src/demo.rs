@@ -258,11 +258,17 @@ pub fn run_on_mock_arms_watched(
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;
     let settle = config.settle_cycles;
-    let report = Executor::new(plan, limits, ports, config)
-        .map_err(MockRunError::Exec)?
-        .on_progress(progress)
-        .run(validator)
-        .map_err(MockRunError::Exec)?;
+    let run = Executor::new(plan, limits, ports, config)
+        .and_then(|e| e.on_progress(progress).run(validator));
+    let report = match run {
+        Ok(report) => report,
+        Err(e) => {
+            // The buses are closed: let the mocks exit and write their records and bus logs
+            // (the evidence of a fault), rather than kill them.
+            let _ = mocks.finish();
+            return Err(MockRunError::Exec(e));
+        }
+    };
     let records = mocks.finish().map_err(MockRunError::Mocks)?;
     for ((arm, record), cmds) in records.into_iter().zip(&traj.commands) {
         kind.check_followed(&record, cmds, settle, &limits, period)
