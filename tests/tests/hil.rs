@@ -13,7 +13,7 @@ use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::record::{self, TOLERANCE};
-use omcbsa_hw::JOINTS;
+use omcbsa_hw::{Plan, JOINTS};
 
 /// One set of mocks at a time: two sets of three Python mocks beside two planners starve the
 /// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
@@ -23,10 +23,8 @@ fn streaming() -> std::sync::MutexGuard<'static, ()> {
     STREAMING.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-#[test]
-fn planned_three_arm_solution_streams_to_three_mock_arms() {
-    let _one = streaming();
-    let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
+/// The box-flip demo planned by Ω-CBSA, validated, as the executor's plan.
+fn planned_demo() -> (CheckedSolution, Plan) {
     let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
     let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
@@ -37,6 +35,14 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
         checked.report().summary()
     );
     let plan = checked.plan(&ROBOTS).unwrap();
+    (checked, plan)
+}
+
+#[test]
+fn planned_three_arm_solution_streams_to_three_mock_arms() {
+    let _one = streaming();
+    let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
+    let (checked, plan) = planned_demo();
 
     let dir = std::env::temp_dir().join(format!("omcbsa-hil-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -94,11 +100,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
 fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
     let _one = streaming();
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
-    let demo = box_flip().unwrap_or_else(|e| panic!("{e}"));
-    let solution = plan_file(&demo.problem, omcbsa::planners::PlannerKind::OmCbsa, 5.0).unwrap();
-    assert_eq!(solution.status, Status::Solved, "{}", solution.message);
-    let checked = CheckedSolution::new(demo.problem, solution).unwrap();
-    let plan = checked.plan(&ROBOTS).unwrap();
+    let (checked, plan) = planned_demo();
     let dir = std::env::temp_dir().join(format!("omcbsa-hil-kortex-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let report = run_on_mock_arms(
