@@ -30,6 +30,21 @@ pub struct Manifest {
     pub tool_frame_note: String,
     pub limits: ManifestLimits,
     pub capsules: FitSettings,
+    /// What the plan viewer draws for the links (none: it draws the capsules).
+    #[serde(default)]
+    pub view: Option<ViewMeshes>,
+}
+
+/// Meshes the plan viewer (`omcbsa view`) draws, read by the host's build script.
+#[derive(Deserialize, Debug, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ViewMeshes {
+    /// Whose meshes these are and under which licence, as the page credits them.
+    pub credit: String,
+    /// The licence file the page shows.
+    pub licence: String,
+    /// Binary STL per link name, in the link's frame.
+    pub meshes: std::collections::BTreeMap<String, String>,
 }
 
 /// Per actuated joint, in chain order.

@@ -145,17 +145,17 @@ pub fn model_of(file: &ProblemFile) -> Result<ModelKind, InputError> {
     model.ok_or_else(|| InputError::one("robots", "at least 1 robot is required"))
 }
 
-/// Checks that the problem's robots use the model planning, the approach and the viewer take:
-/// the Kinova Gen3 only until they are generic over the model; others (`omcbsa fk`, `ik` and
-/// `validate` take every model) are refused, naming the robot.
+/// Checks that the problem's robots use the model planning and the approach take: the Kinova
+/// Gen3 only until they are generic over the model; others (`omcbsa fk`, `ik`, `validate` and
+/// `view` take every model) are refused, naming the robot.
 pub fn planned_model(file: &ProblemFile) -> Result<(), InputError> {
     match model_of(file)? {
         ModelKind::KinovaGen3 => Ok(()),
         other => Err(InputError::one(
             "robots[0].model",
             format!(
-                "{other}: planning, the approach and the viewer take kinova_gen3 only so far \
-                 (fk, ik and validate take every compiled-in model)"
+                "{other}: planning and the approach take kinova_gen3 only so far \
+                 (fk, ik, validate and view take every compiled-in model)"
             ),
         )),
     }

@@ -371,3 +371,68 @@ fn the_approach_is_played_before_the_path() {
         "the page logged JavaScript errors"
     );
 }
+
+/// Issue 24: a Franka Panda is drawn with its own meshes and kinematics: the page's joint
+/// angles, read back from the drawn Panda links, are the planned ones.
+#[test]
+fn a_panda_is_drawn_with_its_meshes() {
+    use omcbsa::pose;
+    use omcbsa_core::model::{FrankaPanda, Model};
+    let path: Vec<common::Q> = (0..3)
+        .map(|k| [0.1 * k as f64, -0.4, 0.2, -2.0, 0.1, 1.6, 0.7])
+        .collect();
+    let bases = [common::at([0.0; 3]), common::at([0.0, 1.0, 0.0])];
+    let mut robots = Vec::new();
+    let mut trajectories = Vec::new();
+    for (i, base) in bases.iter().enumerate() {
+        let mut r = common::robot(&format!("panda_{i}"), *base, None);
+        r.model = "panda".to_string();
+        robots.push(r);
+        let b = pose::to_frame(base).unwrap();
+        trajectories.push(omcbsa::format::TrajectorySpec {
+            name: format!("hand_{i}"),
+            poses: (path.iter())
+                .map(|q| pose::from_frame(&b.compose(&FrankaPanda::fk(q))))
+                .collect(),
+        });
+    }
+    let problem = common::problem(robots, trajectories, 0.1);
+    let solution = common::solution(vec![Some(0), Some(1)], vec![path.clone(), path.clone()]);
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("panda.html");
+    write_html(&problem, Some(&solution), None, &page).unwrap();
+
+    let mut browser = Browser::start();
+    browser.open(&page);
+    let models: Vec<(String, usize)> =
+        serde_json::from_value(browser.eval("omcbsaView.models()")).unwrap();
+    assert_eq!(models.len(), 2);
+    for (name, meshes) in &models {
+        assert_eq!(name, FrankaPanda::NAME);
+        // panda_link0 to panda_link7 and panda_hand.
+        assert_eq!(*meshes, 9, "{models:?}");
+    }
+    browser.eval("omcbsaView.setStep(2)");
+    let drawn: Vec<Vec<f64>> =
+        serde_json::from_value(browser.eval("omcbsaView.jointAngles()")).unwrap();
+    for (i, angles) in drawn.iter().enumerate() {
+        assert_eq!(angles.len(), 7);
+        for (j, (&a, &q)) in angles.iter().zip(&path[2]).enumerate() {
+            assert!(
+                same_angle(a, q),
+                "robot {i} joint {j}: drawn {a}, planned {q}"
+            );
+        }
+    }
+    let licences = browser.eval("document.body.textContent");
+    assert!(
+        licences.as_str().unwrap().contains("Apache"),
+        "no Panda licence in the page"
+    );
+    browser.screenshot(&Path::new(env!("CARGO_TARGET_TMPDIR")).join("plan-view-panda.png"));
+    assert_eq!(
+        browser.errors(),
+        Vec::<String>::new(),
+        "the page logged JavaScript errors"
+    );
+}

@@ -47,7 +47,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
   grid.rotation.x = Math.PI / 2;
   world.add(grid);
 
-  // ---- Kinova's meshes (binary STL)
+  // ---- the models' meshes (binary STL), per model and link
   function stlGeometry(b64) {
     const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
     const dv = new DataView(bytes.buffer);
@@ -68,7 +68,10 @@ function start(THREE, OrbitControls, data, meshes, view) {
     return g;
   }
   const geometries = {};
-  for (const link of Object.keys(meshes)) geometries[link] = stlGeometry(meshes[link]);
+  for (const model of Object.keys(meshes)) {
+    geometries[model] = {};
+    for (const link of Object.keys(meshes[model])) geometries[model][link] = stlGeometry(meshes[model][link]);
+  }
 
   // A capsule (or cylinder) between local points a and b; three's shapes run along y.
   function between(geometry, material, a, b) {
@@ -86,21 +89,25 @@ function start(THREE, OrbitControls, data, meshes, view) {
   const capsuleObjects = [];
   const arms = data.robots.map((robot, i) => {
     const color = COLORS[i % COLORS.length];
+    const model = data.models[robot.model];
+    const shapes = geometries[model.name] || {};
     const group = new THREE.Group();
     group.name = "arm";
     group.userData.robot = i;
-    const links = data.links.map((name, l) => {
+    const links = model.links.map((name, l) => {
       const link = new THREE.Group();
       link.name = name;
       link.matrixAutoUpdate = false;
       const material = new THREE.MeshStandardMaterial({ color, roughness: 0.55, metalness: 0.1 });
-      if (geometries[name]) link.add(new THREE.Mesh(geometries[name], material));
+      if (shapes[name]) link.add(new THREE.Mesh(shapes[name], material));
       link.userData.material = material;
       link.userData.color = color;
       const capsuleMaterial = new THREE.MeshStandardMaterial({ color, transparent: true, opacity: 0.45 });
-      for (const c of data.capsules.filter((c) => c.link === l)) {
+      for (const c of model.capsules.filter((c) => c.link === l)) {
         const m = between(capsuleGeometry(c.radius, c.a, c.b), capsuleMaterial, c.a, c.b);
-        m.visible = false;
+        // A model without meshes is drawn as its capsules.
+        m.userData.always = !geometries[model.name];
+        m.visible = m.userData.always;
         capsuleObjects.push(m);
         link.add(m);
       }
@@ -108,7 +115,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
       return link;
     });
     world.add(group);
-    return { robot, links };
+    return { robot, model, links };
   });
 
   // ---- trajectories in their arm's colour, and the target pose of the current step
@@ -229,7 +236,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
     last = null;
   };
   el("capsules").onchange = (e) => {
-    for (const m of capsuleObjects) m.visible = e.target.checked;
+    for (const m of capsuleObjects) m.visible = e.target.checked || m.userData.always;
     for (const { links } of arms) for (const l of links) for (const c of l.children) {
       if (!capsuleObjects.includes(c)) c.visible = !e.target.checked;
     }
@@ -273,7 +280,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
   // The joint angles as drawn: from the world frames of each joint's two link objects,
   // rel = parent^T child = origin * rot(axis, q).
   function jointAngles() {
-    return arms.map(({ links }) => data.joints.map((j) => {
+    return arms.map(({ model, links }) => model.joints.map((j) => {
       const rot = (obj) => new THREE.Matrix3().setFromMatrix4(obj.matrixWorld);
       const o = new THREE.Matrix3().fromArray(j.origin);
       const m = o.transpose().multiply(rot(links[j.parent]).transpose()).multiply(rot(links[j.child]));
@@ -291,6 +298,9 @@ function start(THREE, OrbitControls, data, meshes, view) {
     step: () => step,
     setStep,
     jointAngles,
+    // Per robot: its model's name and how many of its links are drawn with a mesh.
+    models: () => arms.map(({ model, links }) => [model.name,
+      links.filter((l) => l.children.some((c) => !capsuleObjects.includes(c))).length]),
     // [robot, link name] of every link drawn in the clash colour.
     marked: () => arms.flatMap(({ links }, r) => links
       .filter((l) => l.userData.material.color.getHex() === CLASH)

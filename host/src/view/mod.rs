@@ -1,6 +1,7 @@
 //! `omcbsa view`: one self-contained HTML page showing a problem and its plan in 3D, working
-//! offline. It bundles three.js (MIT, `host/assets/three/`) and Kinova's Gen3 meshes
-//! decimated for the page (BSD, `host/assets/gen3/`, notice in the page), and embeds the scene
+//! offline. It bundles three.js (MIT, `host/assets/three/`) and the meshes of the models
+//! drawn (from each model's folder, `view` in `robots/<model>/model.json`, with its licence
+//! in the page), and embeds the scene
 //! computed here with the planner's own model ([`scene`]): the page only places meshes at the
 //! link frames it is given, so what it draws is what the planner and the validator checked.
 //!
@@ -14,11 +15,12 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
-use omcbsa_core::model::{KinovaGen3, Model};
+use omcbsa_core::model::Model;
 
 use crate::error::InputError;
 use crate::format::{ProblemFile, SolutionFile};
 use crate::load;
+use crate::models::ModelVisitor;
 use crate::validate::{validate, Report};
 
 pub use scene::Scene;
@@ -28,44 +30,24 @@ const VIEWER_JS: &str = include_str!("../../assets/view/viewer.js");
 const THREE_JS: &str = include_str!("../../assets/three/three.module.min.js");
 const ORBIT_JS: &str = include_str!("../../assets/three/OrbitControls.js");
 const THREE_LICENSE: &str = include_str!("../../assets/three/LICENSE");
-const KINOVA_LICENSE: &str = include_str!("../../assets/gen3/LICENSE");
 
-/// The Gen3 links that have a mesh, with it (binary STL, decimated by
-/// `host/assets/gen3/decimate.py`).
-const GEN3_MESHES: [(&str, &[u8]); 8] = [
-    (
-        "base_link",
-        include_bytes!("../../assets/gen3/base_link.stl"),
-    ),
-    (
-        "shoulder_link",
-        include_bytes!("../../assets/gen3/shoulder_link.stl"),
-    ),
-    (
-        "half_arm_1_link",
-        include_bytes!("../../assets/gen3/half_arm_1_link.stl"),
-    ),
-    (
-        "half_arm_2_link",
-        include_bytes!("../../assets/gen3/half_arm_2_link.stl"),
-    ),
-    (
-        "forearm_link",
-        include_bytes!("../../assets/gen3/forearm_link.stl"),
-    ),
-    (
-        "spherical_wrist_1_link",
-        include_bytes!("../../assets/gen3/spherical_wrist_1_link.stl"),
-    ),
-    (
-        "spherical_wrist_2_link",
-        include_bytes!("../../assets/gen3/spherical_wrist_2_link.stl"),
-    ),
-    (
-        "bracelet_link",
-        include_bytes!("../../assets/gen3/bracelet_no_vision_link.stl"),
-    ),
-];
+/// The meshes of the models that have them (`view` in `robots/<model>/model.json`), embedded
+/// by `host/build.rs`.
+mod meshes {
+    /// One model's meshes, with the credit and licence the page shows.
+    pub struct ViewModel {
+        /// `Model::NAME`.
+        pub name: &'static str,
+        pub credit: &'static str,
+        pub licence: &'static str,
+        /// Binary STL per link name, in the link's frame.
+        pub meshes: &'static [(&'static str, &'static [u8])],
+    }
+
+    include!(concat!(env!("OUT_DIR"), "/view_meshes.rs"));
+}
+
+use meshes::{ViewModel, VIEW_MODELS};
 
 /// Why no page was written.
 #[derive(Debug)]
@@ -113,8 +95,13 @@ pub fn html(
     report: Option<&Report>,
     assets: Assets,
 ) -> Result<String, ViewError> {
-    load::planned_model(problem).map_err(ViewError::Input)?;
-    page::<KinovaGen3, 7>(problem, solution, report, assets)
+    let kind = load::model_of(problem).map_err(ViewError::Input)?;
+    kind.visit(Page {
+        file: problem,
+        solution,
+        report,
+        assets,
+    })
 }
 
 /// Writes the self-contained [`html`] page to `path`.
@@ -129,10 +116,8 @@ pub fn write_html(
 
 /// Writes the script that pages made with [`Assets::Shared`] load.
 pub fn write_assets(path: &Path) -> Result<(), ViewError> {
-    let text = format!(
-        "window.omcbsaAssets = {};\n",
-        assets_json::<KinovaGen3, 7>()
-    );
+    let all: Vec<&str> = VIEW_MODELS.iter().map(|m| m.name).collect();
+    let text = format!("window.omcbsaAssets = {};\n", assets_json(&all));
     write(path, &text)
 }
 
@@ -143,12 +128,22 @@ fn write(path: &Path, text: &str) -> Result<(), ViewError> {
     })
 }
 
-/// three.js, its orbit controls and the meshes of model `M`'s links, as one JSON object.
-fn assets_json<M: Model<D>, const D: usize>() -> String {
+/// The embedded meshes of the models named `names` (none for a model without).
+fn view_models<'n>(names: &'n [&str]) -> impl Iterator<Item = &'static ViewModel> + 'n {
+    VIEW_MODELS.iter().filter(|m| names.contains(&m.name))
+}
+
+/// three.js, its orbit controls and the meshes of the models named `names` (per model, per
+/// link), as one JSON object.
+fn assets_json(names: &[&str]) -> String {
     let b64 = base64::engine::general_purpose::STANDARD;
-    let meshes: serde_json::Map<String, serde_json::Value> = (GEN3_MESHES.iter())
-        .filter(|(link, _)| M::LINK_NAMES.contains(link))
-        .map(|(link, stl)| (link.to_string(), b64.encode(stl).into()))
+    let meshes: serde_json::Map<String, serde_json::Value> = view_models(names)
+        .map(|m| {
+            let links: serde_json::Map<String, serde_json::Value> = (m.meshes.iter())
+                .map(|(link, stl)| (link.to_string(), b64.encode(stl).into()))
+                .collect();
+            (m.name.to_string(), links.into())
+        })
         .collect();
     let assets = serde_json::json!({ "three": THREE_JS, "orbit": ORBIT_JS, "meshes": meshes });
     script_safe(&assets.to_string())
@@ -157,6 +152,21 @@ fn assets_json<M: Model<D>, const D: usize>() -> String {
 /// JSON inside a <script> element: `</` could end it early; `<\/` is the same JSON.
 fn script_safe(json: &str) -> String {
     json.replace("</", "<\\/")
+}
+
+/// [`html`] for the problem's model.
+struct Page<'a> {
+    file: &'a ProblemFile,
+    solution: Option<&'a SolutionFile>,
+    report: Option<&'a Report>,
+    assets: Assets<'a>,
+}
+
+impl ModelVisitor for Page<'_> {
+    type Output = Result<String, ViewError>;
+    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+        page::<M, D>(self.file, self.solution, self.report, self.assets)
+    }
 }
 
 fn page<M: Model<D>, const D: usize>(
@@ -176,10 +186,20 @@ fn page<M: Model<D>, const D: usize>(
     };
     let scene = scene::scene::<M, D>(file, &problem, solution.zip(report));
     let data = serde_json::to_string(&scene).map_err(|e| ViewError::Encode(e.to_string()))?;
+    let used: Vec<&str> = scene.models.iter().map(|m| m.name).collect();
+    let licences: String = view_models(&used)
+        .map(|m| {
+            format!(
+                "<p>{}:</p><pre>{}</pre>",
+                escape_html(m.credit),
+                escape_html(m.licence)
+            )
+        })
+        .collect();
     let assets = match assets {
         Assets::Inline => format!(
             "<script type=\"application/json\" id=\"assets\">{}</script>",
-            assets_json::<M, D>()
+            assets_json(&used)
         ),
         Assets::Shared(url) => format!("<script src=\"{}\"></script>", escape_html(url)),
     };
@@ -188,7 +208,7 @@ fn page<M: Model<D>, const D: usize>(
         &[
             ("TITLE", &escape_html(&file.name)),
             ("THREE_LICENSE", &escape_html(THREE_LICENSE)),
-            ("KINOVA_LICENSE", &escape_html(KINOVA_LICENSE)),
+            ("MODEL_LICENSES", &licences),
             ("ASSETS", &assets),
             ("VIEWER_JS", VIEWER_JS),
             ("DATA", &script_safe(&data)),
@@ -231,4 +251,38 @@ fn escape_html(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::ModelKind;
+
+    /// Every embedded mesh belongs to a link of a compiled-in model (a mesh for a link the
+    /// model lacks would never be drawn), and the models the viewer draws have meshes.
+    #[test]
+    fn view_meshes_name_links_of_their_models() {
+        struct Links;
+        impl ModelVisitor for Links {
+            type Output = (&'static str, &'static [&'static str]);
+            fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+                (M::NAME, M::LINK_NAMES)
+            }
+        }
+        let models: Vec<_> = ModelKind::ALL.iter().map(|k| k.visit(Links)).collect();
+        for view in VIEW_MODELS {
+            let (_, links) = (models.iter().find(|(name, _)| *name == view.name))
+                .unwrap_or_else(|| panic!("meshes for {}, which is not compiled in", view.name));
+            for (link, stl) in view.meshes {
+                assert!(links.contains(link), "{}: no link {link}", view.name);
+                assert!(stl.len() > 84, "{}: {link}: not a binary STL", view.name);
+            }
+        }
+        for (name, _) in &models {
+            assert!(
+                VIEW_MODELS.iter().any(|v| v.name == *name),
+                "no meshes for {name}"
+            );
+        }
+    }
 }

@@ -26,9 +26,8 @@ pub struct Scene<'a> {
     pub lead: usize,
     /// Absent when only the problem is shown.
     pub solution: Option<SolutionInfo<'a>>,
-    pub links: &'static [&'static str],
-    pub joints: Vec<Joint>,
-    pub capsules: Vec<CapsuleData>,
+    /// The models the robots use; each robot names its own.
+    pub models: Vec<ModelView>,
     pub robots: Vec<RobotView<'a>>,
     pub trajectories: Vec<TrajectoryView<'a>>,
     pub obstacles: &'a [ObstacleSpec],
@@ -65,9 +64,39 @@ pub struct CapsuleData {
     pub radius: f64,
 }
 
+/// What the page needs of a model: its links (the meshes are found by the model's and the
+/// link's name), the joints to read angles back, the capsules.
+#[derive(Serialize)]
+pub struct ModelView {
+    pub name: &'static str,
+    pub links: &'static [&'static str],
+    pub joints: Vec<Joint>,
+    pub capsules: Vec<CapsuleData>,
+}
+
+impl ModelView {
+    pub fn of<M: Model<D>, const D: usize>() -> ModelView {
+        ModelView {
+            name: M::NAME,
+            links: M::LINK_NAMES,
+            joints: joints::<M, D>(),
+            capsules: (M::CAPSULES.iter())
+                .map(|c| CapsuleData {
+                    link: usize::from(c.link),
+                    a: c.a,
+                    b: c.b,
+                    radius: c.radius,
+                })
+                .collect(),
+        }
+    }
+}
+
 #[derive(Serialize)]
 pub struct RobotView<'a> {
     pub name: &'a str,
+    /// Index into [`Scene::models`].
+    pub model: usize,
     /// The trajectory it tracks, when a solution assigns one.
     pub trajectory: Option<usize>,
     /// Whether the frames follow the solution's joint path (else they hold one configuration:
@@ -177,6 +206,7 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
             };
             RobotView {
                 name: &spec.name,
+                model: 0,
                 trajectory: assignment(i),
                 planned: paths.is_some(),
                 frames,
@@ -210,16 +240,7 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
             summary: report.summary(),
             violations: &report.violations,
         }),
-        links: M::LINK_NAMES,
-        joints: joints::<M, D>(),
-        capsules: (M::CAPSULES.iter())
-            .map(|c| CapsuleData {
-                link: usize::from(c.link),
-                a: c.a,
-                b: c.b,
-                radius: c.radius,
-            })
-            .collect(),
+        models: vec![ModelView::of::<M, D>()],
         robots,
         trajectories,
         obstacles: &file.obstacles,

@@ -4,9 +4,9 @@ Run at development time; its output (the binary STL files beside this script) is
 so neither CI nor users need it:
 
     python3 -m venv /tmp/dec && /tmp/dec/bin/pip install fast-simplification==0.1.11 numpy
-    /tmp/dec/bin/python host/assets/gen3/decimate.py /work/shared/robots/kinova_gen3/meshes
+    /tmp/dec/bin/python robots/kinova_gen3/view/decimate.py /work/shared/robots/kinova_gen3/meshes
 
-Kinova's meshes are under the BSD licence in LICENSE beside this script.
+Kinova's meshes are under the BSD licence in robots/kinova_gen3/LICENSE.
 """
 
 import pathlib
