@@ -371,3 +371,63 @@ fn the_approach_is_played_before_the_path() {
         "the page logged JavaScript errors"
     );
 }
+
+#[test]
+fn a_mixed_fleet_is_drawn_each_arm_with_its_own_model() {
+    use omcbsa::format::RobotSpec;
+    use omcbsa::models::{Fleet, ModelKind};
+    use omcbsa::planners::{plan_file, PlannerKind};
+    use omcbsa_core::model::Models;
+    // A Gen3 and a Panda 1.2 m apart, each hand where its own arm's slow motion puts it.
+    let homes = [
+        ("kinova_gen3", common::Q0),
+        (
+            "franka_panda",
+            [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785],
+        ),
+    ];
+    let mut robots = Vec::new();
+    let mut trajectories = Vec::new();
+    for (i, (model, home)) in homes.into_iter().enumerate() {
+        let id = ModelKind::parse(model).unwrap().id();
+        let base = common::at([1.2 * i as f64, 0.0, 0.0]);
+        let frame = omcbsa::pose::to_frame(&base).unwrap();
+        let poses = (0..6)
+            .map(|t| home.map(|v| v + 0.04 * t as f64))
+            .map(|q| omcbsa::pose::from_frame(&frame.compose(&Fleet::fk(id, &q))))
+            .collect();
+        trajectories.push(omcbsa::format::TrajectorySpec {
+            name: format!("hand_{i}"),
+            poses,
+        });
+        robots.push(RobotSpec {
+            model: model.to_string(),
+            ..common::robot(model, base, None)
+        });
+    }
+    let problem = common::problem(robots, trajectories, 0.1);
+    let solution = plan_file(&problem, PlannerKind::OmCbsa, 10.0).unwrap();
+    let paths = solution.joint_paths.clone().expect("solved");
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("mixed.html");
+    write_html(&problem, Some(&solution), None, &page).unwrap();
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("\"panda_link3\":") && html.contains("\"forearm_link\":"));
+
+    let mut browser = Browser::start();
+    browser.open(&page);
+    assert_eq!(browser.eval("omcbsaView.arms()"), json!(2));
+    // The drawn joint angles, read back through each arm's own model's joints.
+    let drawn: Vec<Vec<f64>> =
+        serde_json::from_value(browser.eval("omcbsaView.jointAngles()")).unwrap();
+    for (i, (drawn, path)) in drawn.iter().zip(&paths).enumerate() {
+        assert_eq!(drawn.len(), 7);
+        for (j, (&a, &q)) in drawn.iter().zip(&path[0]).enumerate() {
+            assert!(
+                same_angle(a, q),
+                "robot {i} joint {j}: drawn {a}, planned {q}"
+            );
+        }
+    }
+    assert_eq!(browser.errors(), Vec::<String>::new());
+}

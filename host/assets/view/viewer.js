@@ -47,7 +47,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
   grid.rotation.x = Math.PI / 2;
   world.add(grid);
 
-  // ---- Kinova's meshes (binary STL)
+  // ---- the models' meshes (binary STL)
   function stlGeometry(b64) {
     const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
     const dv = new DataView(bytes.buffer);
@@ -89,7 +89,8 @@ function start(THREE, OrbitControls, data, meshes, view) {
     const group = new THREE.Group();
     group.name = "arm";
     group.userData.robot = i;
-    const links = data.links.map((name, l) => {
+    const model = data.models[robot.model];
+    const links = model.links.map((name, l) => {
       const link = new THREE.Group();
       link.name = name;
       link.matrixAutoUpdate = false;
@@ -98,7 +99,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
       link.userData.material = material;
       link.userData.color = color;
       const capsuleMaterial = new THREE.MeshStandardMaterial({ color, transparent: true, opacity: 0.45 });
-      for (const c of data.capsules.filter((c) => c.link === l)) {
+      for (const c of model.capsules.filter((c) => c.link === l)) {
         const m = between(capsuleGeometry(c.radius, c.a, c.b), capsuleMaterial, c.a, c.b);
         m.visible = false;
         capsuleObjects.push(m);
@@ -108,7 +109,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
       return link;
     });
     world.add(group);
-    return { robot, links };
+    return { robot, links, joints: model.joints };
   });
 
   // ---- trajectories in their arm's colour, and the target pose of the current step
@@ -273,7 +274,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
   // The joint angles as drawn: from the world frames of each joint's two link objects,
   // rel = parent^T child = origin * rot(axis, q).
   function jointAngles() {
-    return arms.map(({ links }) => data.joints.map((j) => {
+    return arms.map(({ links, joints }) => joints.map((j) => {
       const rot = (obj) => new THREE.Matrix3().setFromMatrix4(obj.matrixWorld);
       const o = new THREE.Matrix3().fromArray(j.origin);
       const m = o.transpose().multiply(rot(links[j.parent]).transpose()).multiply(rot(links[j.child]));

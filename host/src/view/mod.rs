@@ -1,6 +1,7 @@
 //! `omcbsa view`: one self-contained HTML page showing a problem and its plan in 3D, working
-//! offline. It bundles three.js (MIT, `host/assets/three/`) and Kinova's Gen3 meshes
-//! decimated for the page (BSD, `host/assets/gen3/`, notice in the page), and embeds the scene
+//! offline. It bundles three.js (MIT, `host/assets/three/`), Kinova's Gen3 meshes decimated
+//! for the page (BSD, `host/assets/gen3/`) and the Panda's collision meshes (Apache-2.0,
+//! `robots/franka_panda/meshes/`; notices in the page), and embeds the scene
 //! computed here with the planner's own model ([`scene`]): the page only places meshes at the
 //! link frames it is given, so what it draws is what the planner and the validator checked.
 //!
@@ -14,7 +15,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
-use omcbsa_core::model::{KinovaGen3, Model};
+use omcbsa_core::model::Models;
+
+use crate::models::{Fleet, DOF};
 
 use crate::error::InputError;
 use crate::format::{ProblemFile, SolutionFile};
@@ -29,10 +32,12 @@ const THREE_JS: &str = include_str!("../../assets/three/three.module.min.js");
 const ORBIT_JS: &str = include_str!("../../assets/three/OrbitControls.js");
 const THREE_LICENSE: &str = include_str!("../../assets/three/LICENSE");
 const KINOVA_LICENSE: &str = include_str!("../../assets/gen3/LICENSE");
+const PANDA_LICENSE: &str = include_str!("../../../robots/franka_panda/LICENSE");
 
-/// The Gen3 links that have a mesh, with it (binary STL, decimated by
-/// `host/assets/gen3/decimate.py`).
-const GEN3_MESHES: [(&str, &[u8]); 8] = [
+/// The links that have a mesh, by link name (unique across the models), with it (binary STL):
+/// the Gen3's decimated by `host/assets/gen3/decimate.py`, the Panda's collision meshes as
+/// its model folder keeps them (200 to 300 triangles each).
+const MESHES: [(&str, &[u8]); 17] = [
     (
         "base_link",
         include_bytes!("../../assets/gen3/base_link.stl"),
@@ -64,6 +69,42 @@ const GEN3_MESHES: [(&str, &[u8]); 8] = [
     (
         "bracelet_link",
         include_bytes!("../../assets/gen3/bracelet_no_vision_link.stl"),
+    ),
+    (
+        "panda_link0",
+        include_bytes!("../../../robots/franka_panda/meshes/link0.stl"),
+    ),
+    (
+        "panda_link1",
+        include_bytes!("../../../robots/franka_panda/meshes/link1.stl"),
+    ),
+    (
+        "panda_link2",
+        include_bytes!("../../../robots/franka_panda/meshes/link2.stl"),
+    ),
+    (
+        "panda_link3",
+        include_bytes!("../../../robots/franka_panda/meshes/link3.stl"),
+    ),
+    (
+        "panda_link4",
+        include_bytes!("../../../robots/franka_panda/meshes/link4.stl"),
+    ),
+    (
+        "panda_link5",
+        include_bytes!("../../../robots/franka_panda/meshes/link5.stl"),
+    ),
+    (
+        "panda_link6",
+        include_bytes!("../../../robots/franka_panda/meshes/link6.stl"),
+    ),
+    (
+        "panda_link7",
+        include_bytes!("../../../robots/franka_panda/meshes/link7.stl"),
+    ),
+    (
+        "panda_hand",
+        include_bytes!("../../../robots/franka_panda/meshes/hand.stl"),
     ),
 ];
 
@@ -113,8 +154,7 @@ pub fn html(
     report: Option<&Report>,
     assets: Assets,
 ) -> Result<String, ViewError> {
-    load::planned_model(problem).map_err(ViewError::Input)?;
-    page::<KinovaGen3, 7>(problem, solution, report, assets)
+    page::<Fleet, DOF>(problem, solution, report, assets)
 }
 
 /// Writes the self-contained [`html`] page to `path`.
@@ -129,10 +169,7 @@ pub fn write_html(
 
 /// Writes the script that pages made with [`Assets::Shared`] load.
 pub fn write_assets(path: &Path) -> Result<(), ViewError> {
-    let text = format!(
-        "window.omcbsaAssets = {};\n",
-        assets_json::<KinovaGen3, 7>()
-    );
+    let text = format!("window.omcbsaAssets = {};\n", assets_json::<Fleet, DOF>());
     write(path, &text)
 }
 
@@ -143,11 +180,15 @@ fn write(path: &Path, text: &str) -> Result<(), ViewError> {
     })
 }
 
-/// three.js, its orbit controls and the meshes of model `M`'s links, as one JSON object.
-fn assets_json<M: Model<D>, const D: usize>() -> String {
+/// three.js, its orbit controls and the meshes of the links of `M`'s models, as one JSON
+/// object.
+fn assets_json<M: Models<D>, const D: usize>() -> String {
     let b64 = base64::engine::general_purpose::STANDARD;
-    let meshes: serde_json::Map<String, serde_json::Value> = (GEN3_MESHES.iter())
-        .filter(|(link, _)| M::LINK_NAMES.contains(link))
+    let of_a_model = |link: &str| {
+        (0..M::COUNT).any(|m| u8::try_from(m).is_ok_and(|m| M::link_names(m).contains(&link)))
+    };
+    let meshes: serde_json::Map<String, serde_json::Value> = (MESHES.iter())
+        .filter(|(link, _)| of_a_model(link))
         .map(|(link, stl)| (link.to_string(), b64.encode(stl).into()))
         .collect();
     let assets = serde_json::json!({ "three": THREE_JS, "orbit": ORBIT_JS, "meshes": meshes });
@@ -159,7 +200,7 @@ fn script_safe(json: &str) -> String {
     json.replace("</", "<\\/")
 }
 
-fn page<M: Model<D>, const D: usize>(
+fn page<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     solution: Option<&SolutionFile>,
     report: Option<&Report>,
@@ -189,6 +230,7 @@ fn page<M: Model<D>, const D: usize>(
             ("TITLE", &escape_html(&file.name)),
             ("THREE_LICENSE", &escape_html(THREE_LICENSE)),
             ("KINOVA_LICENSE", &escape_html(KINOVA_LICENSE)),
+            ("PANDA_LICENSE", &escape_html(PANDA_LICENSE)),
             ("ASSETS", &assets),
             ("VIEWER_JS", VIEWER_JS),
             ("DATA", &script_safe(&data)),
