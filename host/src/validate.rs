@@ -728,7 +728,7 @@ fn check_collisions<M: Models<D>, const D: usize>(
     };
     let mut step_collides = vec![false; horizon];
     for (t, collides) in step_collides.iter_mut().enumerate() {
-        let contacts = contacts::<M, D>(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
+        let contacts = contacts(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
         *collides = !contacts.is_empty();
         for c in contacts {
             report.add_contact::<M, D>(problem, &c, t, c.describe::<M, D>(file, problem));
@@ -747,8 +747,7 @@ fn check_collisions<M: Models<D>, const D: usize>(
         let count = sweeps.iter().map(|s| s.count()).max().unwrap_or(1);
         let sweeps: Vec<_> = sweeps.into_iter().map(|s| s.with_count(count)).collect();
         for k in 0..count {
-            let contacts =
-                contacts::<M, D>(problem, &arms_at(&mut sweeps.iter().map(|s| s.config(k))));
+            let contacts = contacts(problem, &arms_at(&mut sweeps.iter().map(|s| s.config(k))));
             for c in &contacts {
                 let detail = format!(
                     "moving from step {t} to {}, at {:.1} % of the way: {}",
@@ -775,7 +774,7 @@ pub fn initial_contacts<M: Models<D>, const D: usize>(
         .map(|r| Some(ArmPose::new::<M, D>(r.model, &r.base, &r.tool, &r.initial?)))
         .collect::<Option<Vec<_>>>()?;
     Some(
-        contacts::<M, D>(problem, &standing)
+        contacts(problem, &standing)
             .iter()
             .map(|c| c.describe::<M, D>(file, problem))
             .collect(),
@@ -784,7 +783,7 @@ pub fn initial_contacts<M: Models<D>, const D: usize>(
 
 /// What overlaps with the arms at `arms` (touching is not overlapping): every obstacle each
 /// arm hits, the first pair of its own links, the first pair of links with each other arm.
-fn contacts<M: Models<D>, const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Contact> {
+fn contacts<const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Contact> {
     let obstacles = problem.obstacles.as_slice();
     let mut found = Vec::new();
     for (robot, arm) in arms.iter().enumerate() {

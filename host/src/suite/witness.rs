@@ -258,6 +258,7 @@ pub fn task_witness(
 /// the arm's station (pointing forward and down by a random amount), then every joint follows
 /// a sum of two slow sines whose speeds add up to at most half the step limit. `moving: false`
 /// gives a still arm in the same kind of pose.
+#[allow(clippy::too_many_arguments)]
 pub fn random_motion(
     scene: &Scene,
     model: u8,
