@@ -12,6 +12,7 @@ mod collision;
 mod emit;
 mod error;
 pub mod fit;
+mod fleet;
 pub mod manifest;
 mod sym;
 mod transform;
@@ -20,6 +21,7 @@ use std::path::Path;
 
 pub use chain::Ends;
 pub use error::Error;
+pub use fleet::fleet as generate_fleet;
 
 /// Where an input comes from.
 #[derive(Clone, Copy, Debug)]

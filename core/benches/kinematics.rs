@@ -104,7 +104,7 @@ fn success_rates(c: &Cases, arm: &k::SerialChain<f64>, solver: &k::JacobianIkSol
             .poses
             .iter()
             .zip(seeds)
-            .filter(|(x, s)| ik::<KinovaGen3, D>(x, s, &params).is_ok())
+            .filter(|(x, s)| ik::<KinovaGen3, D>(0, x, s, &params).is_ok())
             .count();
         let theirs = c
             .poses
@@ -189,7 +189,7 @@ fn kinematics(cr: &mut Criterion) {
             let mut i = 0;
             b.iter(|| {
                 i = (i + 1) % CASES;
-                ik::<KinovaGen3, D>(black_box(&c.poses[i]), black_box(&seeds[i]), &params)
+                ik::<KinovaGen3, D>(0, black_box(&c.poses[i]), black_box(&seeds[i]), &params)
             })
         });
         g.bench_function("k", |b| {

@@ -18,7 +18,7 @@
 //! the pools from the start. A full pool ends planning with `Status::OutOfMemory` naming it.
 
 use crate::collision::ArmPose;
-use crate::model::Model;
+use crate::model::Models;
 use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
 use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
@@ -138,7 +138,7 @@ impl<'a, const D: usize> OmegaCbsa<'a, D> {
     }
 }
 
-impl<M: Model<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
+impl<M: Models<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
     fn name(&self) -> &'static str {
         PlannerKind::OmCbsa.name()
     }
@@ -218,7 +218,7 @@ struct Run<'r, 's, M, const D: usize> {
 /// The two branches of a conflict: (robot, constraint) each.
 type Branches = [(usize, Constraint); 2];
 
-impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
+impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// Constraint trees in turn, in rounds, until one ends with a plan, the deadline passes or
     /// every level is exhausted. Run times of tree search are heavy-tailed (most problems take
     /// a few milliseconds, a few take seconds from one root and milliseconds from another),
@@ -484,12 +484,14 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
         for k in (0..self.n).filter(|k| placed & (1 << k) != 0) {
             let _ = others.push(OtherArm {
+                model: self.pr.robots[k].model,
                 base: self.pr.robots[k].base,
                 tool: self.pr.robots[k].tool,
                 path: slot_of(self.paths, node.slots[k], self.h),
             });
         }
         let valid = Validity::<M, D>::new(
+            robot.model,
             robot.base,
             robot.tool,
             &self.pr.obstacles,
@@ -512,7 +514,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                 }
                 let seed = match (attempt, robot.initial) {
                     (0, Some(init)) => init,
-                    _ => rng.configuration(&M::LOWER, &M::UPPER),
+                    _ => rng.configuration(M::lower(robot.model), M::upper(robot.model)),
                 };
                 let traj = &self.pr.trajectories[j];
                 if track::<M, D>(&robot, traj, &seed, &valid, &self.low.ik, self.scratch).is_some()
@@ -565,6 +567,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
         for k in (0..self.n).filter(|&k| k != i && others_set & (1 << k) != 0) {
             let _ = others.push(OtherArm {
+                model: self.pr.robots[k].model,
                 base: self.pr.robots[k].base,
                 tool: self.pr.robots[k].tool,
                 path: slot_of(self.paths, node.slots[k], self.h),
@@ -692,7 +695,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
         let path = |i: usize| slot_of(self.paths, slots[i], self.h);
         let place = |poses: &mut [ArmPose; MAX_ROBOTS], t: usize| {
             for (i, (pose, r)) in poses.iter_mut().zip(self.pr.robots.iter()).enumerate() {
-                *pose = ArmPose::new::<M, D>(&r.base, &r.tool, &path(i)[t]);
+                *pose = ArmPose::new::<M, D>(r.model, &r.base, &r.tool, &path(i)[t]);
             }
         };
         for i in 0..n {
@@ -752,8 +755,8 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
                     let (ri, rk) = (&self.pr.robots[i], &self.pr.robots[k]);
                     let (pi, pk) = (self.slot(node.slots[i]), self.slot(node.slots[k]));
                     let (a, b) = (
-                        ArmPose::new::<M, D>(&ri.base, &ri.tool, &pi[t]),
-                        ArmPose::new::<M, D>(&rk.base, &rk.tool, &pk[t]),
+                        ArmPose::new::<M, D>(ri.model, &ri.base, &ri.tool, &pi[t]),
+                        ArmPose::new::<M, D>(rk.model, &rk.base, &rk.tool, &pk[t]),
                     );
                     let hit = if a.arm_hit(&b, 0.0).is_some() {
                         // A point inside both arms at step t; arms that only touch have none,
@@ -811,6 +814,7 @@ fn step_motion<'a, const D: usize>(
     t: usize,
 ) -> ArmMotion<'a, D> {
     ArmMotion {
+        model: robot.model,
         base: &robot.base,
         tool: &robot.tool,
         from: &path[t],

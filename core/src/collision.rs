@@ -11,11 +11,11 @@ use core::marker::PhantomData;
 use nalgebra::Vector3;
 
 use crate::geometry::{Aabb, Capsule, Obstacle};
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Model, Models};
 use crate::tool::{Tool, MAX_TOOL_CAPSULES};
 
 /// Most collision capsules one arm model may have. A model with more is refused when
-/// [`ArmPose::new`] is compiled for it, never truncated:
+/// [`ArmPose::new`] is compiled for it (or for a fleet holding it), never truncated:
 ///
 /// ```compile_fail
 /// use omcbsa_core::collision::{ArmPose, MAX_ARM_CAPSULES};
@@ -47,7 +47,7 @@ use crate::tool::{Tool, MAX_TOOL_CAPSULES};
 ///     }
 /// }
 ///
-/// ArmPose::new::<TooMany, 1>(&Frame::IDENTITY, &omcbsa_core::tool::Tool::NONE, &[0.0]);
+/// ArmPose::new::<TooMany, 1>(0, &Frame::IDENTITY, &omcbsa_core::tool::Tool::NONE, &[0.0]);
 /// ```
 pub const MAX_ARM_CAPSULES: usize = 16;
 /// Most capsules of one arm with its tool.
@@ -60,9 +60,10 @@ pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
 // Base-link capsules and capsule pairs are kept as bit sets.
 const _: () = assert!(MAX_POSE_CAPSULES <= u32::BITS as usize);
 
-/// Fails compilation (through [`ArmPose::new`]) for a model an `ArmPose` cannot hold, or
-/// whose capsule and pair indices point nowhere, so that indexing with them cannot fail.
-const fn check_model<M: Model<D>, const D: usize>() {
+/// Fails compilation (through [`ArmPose::new`] and [`Models::CHECKED`]) for a model an
+/// `ArmPose` cannot hold, or whose capsule and pair indices point nowhere, so that indexing
+/// with them cannot fail.
+pub(crate) const fn check_model<M: Model<D>, const D: usize>() {
     assert!(
         M::CAPSULES.len() <= MAX_ARM_CAPSULES,
         "model has more than MAX_ARM_CAPSULES"
@@ -138,38 +139,45 @@ impl ArmPose {
         moving_aabb: Aabb::EMPTY,
     };
 
-    /// The capsules of model `M` at configuration `q`, its base frame at `base` in the world,
-    /// carrying `tool`.
-    pub fn new<M: Model<D>, const D: usize>(base: &Frame, tool: &Tool, q: &[f64; D]) -> ArmPose {
-        Self::new_only::<M, D>(base, tool, q, u32::MAX)
+    /// The capsules of model `model` of `M` at configuration `q`, its base frame at `base` in
+    /// the world, carrying `tool`.
+    pub fn new<M: Models<D>, const D: usize>(
+        model: u8,
+        base: &Frame,
+        tool: &Tool,
+        q: &[f64; D],
+    ) -> ArmPose {
+        Self::new_only::<M, D>(model, base, tool, q, u32::MAX)
     }
 
     /// [`ArmPose::new`] with only the capsules whose bit is set in `only` placed (the boxes
     /// around the arm are around those): the others are empty and meet nothing. A sweep that
     /// has ruled most capsule pairs out places just the rest.
-    pub fn new_only<M: Model<D>, const D: usize>(
+    pub fn new_only<M: Models<D>, const D: usize>(
+        model: u8,
         base: &Frame,
         tool: &Tool,
         q: &[f64; D],
         only: u32,
     ) -> ArmPose {
-        const { check_model::<M, D>() };
+        const { M::CHECKED };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
-        let linked = &mut frames[..M::LINK_NAMES.len()];
-        let flange = base.compose(&M::link_frames(q, linked));
+        let linked = &mut frames[..M::link_names(model).len()];
+        let flange = base.compose(&M::link_frames(model, q, linked));
         // Into the world once per link, not once per capsule.
         for f in linked.iter_mut() {
             *f = base.compose(f);
         }
-        let links = M::CAPSULES.len();
+        let capsules = M::capsules(model);
+        let links = capsules.len();
         let mut pose = ArmPose {
             len: links + tool.capsules().len(),
             links,
-            self_pairs: M::SELF_PAIRS,
-            tool_self: M::TOOL_SELF_CAPSULES,
+            self_pairs: M::self_pairs(model),
+            tool_self: M::tool_self_capsules(model),
             ..ArmPose::EMPTY
         };
-        let placed = M::CAPSULES
+        let placed = capsules
             .iter()
             .map(|c| (frames[usize::from(c.link)], c.a, c.b, c.radius))
             .chain((tool.capsules().iter()).map(|c| (flange, c.a, c.b, c.radius)));
@@ -182,7 +190,7 @@ impl ArmPose {
             pose.capsules[i] = capsule;
             pose.boxes[i] = aabb;
             pose.aabb = pose.aabb.union(&aabb);
-            if i < links && M::CAPSULES[i].link == 0 {
+            if i < links && capsules[i].link == 0 {
                 pose.on_base |= 1 << i;
             } else {
                 pose.moving_aabb = pose.moving_aabb.union(&aabb);
@@ -350,7 +358,9 @@ impl ArmPose {
 /// pair that clears a check is not looked at again inside it. A motion is reported as
 /// colliding only when a single-piece check fails.
 #[derive(Debug)]
-pub struct Sweep<M: Model<D>, const D: usize> {
+pub struct Sweep<M: Models<D>, const D: usize> {
+    /// The arm's model, an index into `M`.
+    model: u8,
     q0: [f64; D],
     dq: [f64; D],
     length: f64,
@@ -359,17 +369,17 @@ pub struct Sweep<M: Model<D>, const D: usize> {
     travel: [f64; MAX_POSE_CAPSULES],
     count: usize,
     tool: Tool,
-    model: PhantomData<M>,
+    fleet: PhantomData<M>,
 }
 
 // By hand: derived impls would require `M: Copy`, yet only a marker of `M` is held.
-impl<M: Model<D>, const D: usize> Clone for Sweep<M, D> {
+impl<M: Models<D>, const D: usize> Clone for Sweep<M, D> {
     fn clone(&self) -> Self {
         *self
     }
 }
 
-impl<M: Model<D>, const D: usize> Copy for Sweep<M, D> {}
+impl<M: Models<D>, const D: usize> Copy for Sweep<M, D> {}
 
 /// Capsule pairs still in question: bit `j` of row `i` stands for capsule `i` of one arm and
 /// capsule `j` of the other (or of the same arm).
@@ -419,30 +429,31 @@ fn bits(mut m: u32) -> impl Iterator<Item = usize> {
     })
 }
 
-impl<M: Model<D>, const D: usize> Sweep<M, D> {
-    /// The motion of the arm carrying `tool`, in pieces short enough that no point of it
+impl<M: Models<D>, const D: usize> Sweep<M, D> {
+    /// The motion of the arm of model `model` carrying `tool`, in pieces short enough that no point of it
     /// moves more than `max_disp` over one (so `margin <= max_disp / 2`), unless that takes
     /// more than [`MAX_SWEEP_CHECKS`] pieces. Any count is conservative, only the margin
     /// changes: beyond the cap, or for a `max_disp` that is not positive, the margin grows.
-    pub fn new(tool: &Tool, q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
+    pub fn new(model: u8, tool: &Tool, q0: &[f64; D], q1: &[f64; D], max_disp: f64) -> Self {
         let dq: [f64; D] = core::array::from_fn(|j| q1[j] - q0[j]);
         let moved = |reach: &[f64; D]| (0..D).map(|j| reach[j] * libm::fabs(dq[j])).sum::<f64>();
-        let arm_length = moved(&M::REACH);
+        let arm_length = moved(M::reach(model));
         let mut travel = [0.0; MAX_POSE_CAPSULES];
-        for (i, (t, c)) in travel.iter_mut().zip(M::CAPSULES).enumerate() {
-            *t = match M::CAPSULE_REACH.get(i) {
+        let capsules = M::capsules(model);
+        for (i, (t, c)) in travel.iter_mut().zip(capsules).enumerate() {
+            *t = match M::capsule_reach(model).get(i) {
                 Some(reach) => moved(reach),
                 None if c.link == 0 => 0.0,
                 None => arm_length,
             };
         }
-        let links = M::CAPSULES.len();
+        let links = capsules.len();
         let mut length = arm_length;
         for (i, t) in travel[links..links + tool.capsules().len()]
             .iter_mut()
             .enumerate()
         {
-            *t = moved(&tool.reach::<M, D>(i));
+            *t = moved(&tool.reach(M::tool_reach(model), i));
             length = length.max(*t);
         }
         let pieces = if max_disp > 0.0 {
@@ -451,13 +462,14 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             1.0
         };
         Sweep {
+            model,
             q0: *q0,
             dq,
             length,
             travel,
             count: 1,
             tool: *tool,
-            model: PhantomData,
+            fleet: PhantomData,
         }
         // `as` saturates; NaN (from a NaN input) gives 0 and so one piece.
         .with_count(pieces as usize)
@@ -494,7 +506,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
 
     /// The arm at the middle of piece `i`.
     pub fn arm(&self, base: &Frame, i: usize) -> ArmPose {
-        ArmPose::new::<M, D>(base, &self.tool, &self.config(i))
+        ArmPose::new::<M, D>(self.model, base, &self.tool, &self.config(i))
     }
 
     /// The configuration a fraction `s` (`0..=1`) of the way.
@@ -505,8 +517,8 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
     /// The arm at both ends of the motion.
     pub fn ends(&self, base: &Frame) -> [ArmPose; 2] {
         [
-            ArmPose::new::<M, D>(base, &self.tool, &self.q0),
-            ArmPose::new::<M, D>(base, &self.tool, &self.at(1.0)),
+            ArmPose::new::<M, D>(self.model, base, &self.tool, &self.q0),
+            ArmPose::new::<M, D>(self.model, base, &self.tool, &self.at(1.0)),
         ]
     }
 
@@ -564,7 +576,13 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
             self.count,
             suspects,
             &|s, w, sus: &Suspects| {
-                let arm = ArmPose::new_only::<M, D>(base, &self.tool, &self.at(s), sus.capsules());
+                let arm = ArmPose::new_only::<M, D>(
+                    self.model,
+                    base,
+                    &self.tool,
+                    &self.at(s),
+                    sus.capsules(),
+                );
                 let mut left = Suspects::NONE;
                 for i in bits(sus.obstacles) {
                     let m = self.travel(i) * w;
@@ -593,7 +611,7 @@ impl<M: Model<D>, const D: usize> Sweep<M, D> {
 /// Whether two arms moving at the same time (each along its sweep, over the same time span)
 /// may collide: both are checked at the same instants, each capsule pair with the sum of its
 /// two capsules' margins, down to the finer of their pieces.
-pub fn sweeps_collide<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usize>(
+pub fn sweeps_collide<A: Models<DA>, const DA: usize, B: Models<DB>, const DB: usize>(
     a: &Sweep<A, DA>,
     base_a: &Frame,
     b: &Sweep<B, DB>,
@@ -605,7 +623,7 @@ pub fn sweeps_collide<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usi
 }
 
 /// [`sweeps_collide`] for a caller that already placed both arms at both ends.
-pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const DB: usize>(
+pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const DB: usize>(
     a: &Sweep<A, DA>,
     base_a: &Frame,
     a_ends: [&ArmPose; 2],
@@ -633,8 +651,8 @@ pub fn sweeps_collide_posed<A: Model<DA>, const DA: usize, B: Model<DB>, const D
     let count = a.count.max(b.count);
     bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
         let (rows, columns) = rows_and_columns(pairs);
-        let arm_a = ArmPose::new_only::<A, DA>(base_a, &a.tool, &a.at(s), rows);
-        let arm_b = ArmPose::new_only::<B, DB>(base_b, &b.tool, &b.at(s), columns);
+        let arm_a = ArmPose::new_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
+        let arm_b = ArmPose::new_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
         for (i, &row) in pairs.iter().enumerate() {
             for j in bits(row) {

@@ -20,7 +20,7 @@ use crate::approach::{
     blocked_alone, check_starts, plan_approach, Approach, ApproachError, ApproachParams,
     ApproachStorage,
 };
-use crate::model::Model;
+use crate::model::Models;
 use crate::planner::{Clock, Planner, Solution, Stats, Status, Until};
 use crate::problem::{Problem, StartExclusions, MAX_ROBOTS};
 
@@ -46,7 +46,7 @@ pub struct Embodied {
 /// approach goes to `approach_out` (robot `i` at `i * cap..`, `cap = len / robots`).
 /// `problem`'s start exclusions are used while planning and restored before returning.
 #[allow(clippy::too_many_arguments)]
-pub fn solve_from_initial<M: Model<D>, P: Planner<M, D>, const D: usize>(
+pub fn solve_from_initial<M: Models<D>, P: Planner<M, D>, const D: usize>(
     planner: &mut P,
     problem: &mut Problem<D>,
     clock: &dyn Clock,

@@ -16,7 +16,7 @@ use core::f64::consts::PI;
 use nalgebra::{Cholesky, SMatrix, Vector6};
 
 use crate::kinematics::pose_error;
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::rng::Rng;
 
 /// Settings of one IK projection.
@@ -101,10 +101,11 @@ impl core::fmt::Display for IkError {
     }
 }
 
-/// Projects `seed` onto the configurations whose tool frame is at `target` (in the model's
-/// base frame). The answer is usually the solution nearest the seed, which is what trajectory
+/// Projects `seed` onto the configurations of model `model` of `M` whose tool frame is at
+/// `target` (in the model's base frame). The answer is usually the solution nearest the seed, which is what trajectory
 /// tracking wants.
-pub fn ik<M: Model<D>, const D: usize>(
+pub fn ik<M: Models<D>, const D: usize>(
+    model: u8,
     target: &Frame,
     seed: &[f64; D],
     params: &IkParams,
@@ -114,17 +115,18 @@ pub fn ik<M: Model<D>, const D: usize>(
     if seed.iter().any(|x| !x.is_finite()) {
         return Err(IkError::NonFiniteSeed);
     }
-    solve::<M, D>(target, seed, params)
+    solve::<M, D>(model, target, seed, params)
 }
 
 /// The iteration itself, for inputs already checked.
-fn solve<M: Model<D>, const D: usize>(
+fn solve<M: Models<D>, const D: usize>(
+    model: u8,
     target: &Frame,
     seed: &[f64; D],
     params: &IkParams,
 ) -> Result<[f64; D], IkError> {
-    let mut q = clamp::<M, D>(seed);
-    let (frame, mut jac) = M::jacobian(&q);
+    let mut q = clamp::<M, D>(model, seed);
+    let (frame, mut jac) = M::jacobian(model, &q);
     let mut err = pose_error(&frame, target);
     let mut cost = err.norm_squared();
     // Multiplies the damping; grows on rejected steps, shrinks on accepted ones.
@@ -135,9 +137,9 @@ fn solve<M: Model<D>, const D: usize>(
             return Ok(q);
         }
         let lambda = boost * (params.damping + 0.5 * cost);
-        let dq = step::<M, D>(&q, &jac, &err, lambda, params.max_step);
-        let next = clamp::<M, D>(&core::array::from_fn(|i| q[i] + dq[i]));
-        let (next_frame, next_jac) = M::jacobian(&next);
+        let dq = step::<M, D>(model, &q, &jac, &err, lambda, params.max_step);
+        let next = clamp::<M, D>(model, &core::array::from_fn(|i| q[i] + dq[i]));
+        let (next_frame, next_jac) = M::jacobian(model, &next);
         let next_err = pose_error(&next_frame, target);
         let next_cost = next_err.norm_squared();
         // A NaN cost (from overflow on absurd targets) is rejected here too.
@@ -162,7 +164,7 @@ fn solve<M: Model<D>, const D: usize>(
     }
     let position = err.fixed_rows::<3>(0).norm();
     let orientation = err.fixed_rows::<3>(3).norm();
-    match (0..D).find(|&i| at_limit::<M, D>(&q, i)) {
+    match (0..D).find(|&i| at_limit::<M, D>(model, &q, i)) {
         Some(joint) => Err(IkError::BlockedByLimit {
             joint,
             position,
@@ -178,7 +180,8 @@ fn solve<M: Model<D>, const D: usize>(
 /// The damped least-squares step `J^T (J J^T + lambda I)^-1 e`, with the columns of joints
 /// that sit at a limit and would be pushed past it removed, scaled so no joint moves by more
 /// than `max_step`.
-fn step<M: Model<D>, const D: usize>(
+fn step<M: Models<D>, const D: usize>(
+    model: u8,
     q: &[f64; D],
     jac: &SMatrix<f64, 6, D>,
     err: &Vector6<f64>,
@@ -189,8 +192,8 @@ fn step<M: Model<D>, const D: usize>(
     let mut dq = dls(&j, err, lambda);
     let mut blocked = false;
     for i in 0..D {
-        let pushed_out =
-            (dq[i] < 0.0 && q[i] <= M::LOWER[i]) || (dq[i] > 0.0 && q[i] >= M::UPPER[i]);
+        let pushed_out = (dq[i] < 0.0 && q[i] <= M::lower(model)[i])
+            || (dq[i] > 0.0 && q[i] >= M::upper(model)[i]);
         if pushed_out {
             j.column_mut(i).fill(0.0);
             blocked = true;
@@ -232,12 +235,12 @@ fn within(err: &Vector6<f64>, params: &IkParams) -> bool {
         && r <= params.orientation_tolerance * params.orientation_tolerance
 }
 
-fn clamp<M: Model<D>, const D: usize>(q: &[f64; D]) -> [f64; D] {
-    core::array::from_fn(|i| q[i].clamp(M::LOWER[i], M::UPPER[i]))
+fn clamp<M: Models<D>, const D: usize>(model: u8, q: &[f64; D]) -> [f64; D] {
+    core::array::from_fn(|i| q[i].clamp(M::lower(model)[i], M::upper(model)[i]))
 }
 
-fn at_limit<M: Model<D>, const D: usize>(q: &[f64; D], i: usize) -> bool {
-    q[i] <= M::LOWER[i] || q[i] >= M::UPPER[i]
+fn at_limit<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], i: usize) -> bool {
+    q[i] <= M::lower(model)[i] || q[i] >= M::upper(model)[i]
 }
 
 fn check_target(target: &Frame) -> Result<(), IkError> {
@@ -294,7 +297,8 @@ impl Default for MultiStart {
 /// distinct solutions in `out`, stopping when `out` is full or after `multi.attempts` seeds.
 /// Returns how many were stored: pass a one-element `out` for the first solution found. If no
 /// seed succeeds, returns the error of the last attempt.
-pub fn ik_multi_start<M: Model<D>, const D: usize>(
+pub fn ik_multi_start<M: Models<D>, const D: usize>(
+    model: u8,
     target: &Frame,
     params: &IkParams,
     multi: &MultiStart,
@@ -312,12 +316,12 @@ pub fn ik_multi_start<M: Model<D>, const D: usize>(
         if found == out.len() {
             break;
         }
-        let seed = rng.configuration(&M::LOWER, &M::UPPER);
-        match solve::<M, D>(target, &seed, params) {
+        let seed = rng.configuration(M::lower(model), M::upper(model));
+        match solve::<M, D>(model, target, &seed, params) {
             Ok(q) => {
                 if out[..found]
                     .iter()
-                    .all(|s| separation::<M, D>(s, &q) > multi.min_separation)
+                    .all(|s| separation::<M, D>(model, s, &q) > multi.min_separation)
                 {
                     out[found] = q;
                     found += 1;
@@ -334,11 +338,11 @@ pub fn ik_multi_start<M: Model<D>, const D: usize>(
 }
 
 /// Largest joint difference, continuous joints (no limits) taken modulo a full turn.
-fn separation<M: Model<D>, const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+fn separation<M: Models<D>, const D: usize>(model: u8, a: &[f64; D], b: &[f64; D]) -> f64 {
     (0..D)
         .map(|i| {
             let d = (a[i] - b[i]).abs();
-            if M::LOWER[i].is_finite() || M::UPPER[i].is_finite() {
+            if M::lower(model)[i].is_finite() || M::upper(model)[i].is_finite() {
                 d
             } else {
                 let d = d % (2.0 * PI);

@@ -115,5 +115,100 @@ pub trait Model<const D: usize>: 'static {
     fn jacobian(q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
 }
 
+/// The models a planner is compiled for, each robot naming its own by index
+/// ([`crate::problem::Robot::model`]): one [`Model`] (through the blanket impl, index 0), or
+/// a fleet generated over every compiled model of one DoF (`Fleet7`) that dispatches by
+/// index. The per-model queries of [`Model`] as functions of that index.
+///
+/// An index out of range reads as the fleet's last model, so that nothing here can fail;
+/// the host's loader only gives indices below [`Models::COUNT`].
+pub trait Models<const D: usize>: 'static {
+    /// How many models; indices run `0..COUNT`.
+    const COUNT: usize;
+    /// Evaluating it fails compilation for a model an [`crate::collision::ArmPose`] cannot
+    /// hold (see `collision::check_model`).
+    const CHECKED: ();
+    fn name(id: u8) -> &'static str;
+    fn link_names(id: u8) -> &'static [&'static str];
+    fn joint_names(id: u8) -> &'static [&'static str; D];
+    fn lower(id: u8) -> &'static [f64; D];
+    fn upper(id: u8) -> &'static [f64; D];
+    fn velocity(id: u8) -> &'static [f64; D];
+    fn acceleration(id: u8) -> &'static [f64; D];
+    fn capsules(id: u8) -> &'static [LinkCapsule];
+    fn self_pairs(id: u8) -> &'static [(u8, u8)];
+    fn reach(id: u8) -> &'static [f64; D];
+    fn capsule_reach(id: u8) -> &'static [[f64; D]];
+    fn tool_self_capsules(id: u8) -> &'static [u8];
+    fn tool_reach(id: u8) -> &'static [f64; D];
+    fn fk(id: u8, q: &[f64; D]) -> Frame;
+    fn link_frames(id: u8, q: &[f64; D], out: &mut [Frame]) -> Frame;
+    fn jacobian(id: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
+
+    /// The index of the model called `name` ([`Model::NAME`]).
+    fn find(name: &str) -> Option<u8> {
+        (0..Self::COUNT)
+            .filter_map(|i| u8::try_from(i).ok())
+            .find(|&i| Self::name(i) == name)
+    }
+}
+
+/// One model: every index is this model.
+impl<M: Model<D>, const D: usize> Models<D> for M {
+    const COUNT: usize = 1;
+    const CHECKED: () = crate::collision::check_model::<M, D>();
+    fn name(_: u8) -> &'static str {
+        M::NAME
+    }
+    fn link_names(_: u8) -> &'static [&'static str] {
+        M::LINK_NAMES
+    }
+    fn joint_names(_: u8) -> &'static [&'static str; D] {
+        &M::JOINT_NAMES
+    }
+    fn lower(_: u8) -> &'static [f64; D] {
+        &M::LOWER
+    }
+    fn upper(_: u8) -> &'static [f64; D] {
+        &M::UPPER
+    }
+    fn velocity(_: u8) -> &'static [f64; D] {
+        &M::VELOCITY
+    }
+    fn acceleration(_: u8) -> &'static [f64; D] {
+        &M::ACCELERATION
+    }
+    fn capsules(_: u8) -> &'static [LinkCapsule] {
+        M::CAPSULES
+    }
+    fn self_pairs(_: u8) -> &'static [(u8, u8)] {
+        M::SELF_PAIRS
+    }
+    fn reach(_: u8) -> &'static [f64; D] {
+        &M::REACH
+    }
+    fn capsule_reach(_: u8) -> &'static [[f64; D]] {
+        M::CAPSULE_REACH
+    }
+    fn tool_self_capsules(_: u8) -> &'static [u8] {
+        M::TOOL_SELF_CAPSULES
+    }
+    fn tool_reach(_: u8) -> &'static [f64; D] {
+        &M::TOOL_REACH
+    }
+    #[inline]
+    fn fk(_: u8, q: &[f64; D]) -> Frame {
+        M::fk(q)
+    }
+    #[inline]
+    fn link_frames(_: u8, q: &[f64; D], out: &mut [Frame]) -> Frame {
+        M::link_frames(q, out)
+    }
+    #[inline]
+    fn jacobian(_: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>) {
+        M::jacobian(q)
+    }
+}
+
 // The generated models (see `build.rs`).
 include!(concat!(env!("OUT_DIR"), "/models.rs"));

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 
 use crate::collision::{sweeps_collide_posed, ArmPose, Sweep};
 use crate::geometry::Obstacle;
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::tool::Tool;
 
 /// The default largest displacement (m) of any link point between two checked configurations
@@ -20,6 +20,8 @@ pub const MOTION_STEP: f64 = 0.01;
 /// One arm's motion over one step.
 #[derive(Clone, Copy, Debug)]
 pub struct ArmMotion<'a, const D: usize> {
+    /// The arm's model, an index into the planner's [`Models`] ([`crate::problem::Robot::model`]).
+    pub model: u8,
     pub base: &'a Frame,
     pub tool: &'a Tool,
     pub from: &'a [f64; D],
@@ -27,8 +29,8 @@ pub struct ArmMotion<'a, const D: usize> {
 }
 
 impl<'a, const D: usize> ArmMotion<'a, D> {
-    pub fn sweep<M: Model<D>>(&self, max_step: f64) -> Sweep<M, D> {
-        Sweep::new(self.tool, self.from, self.to, max_step)
+    pub fn sweep<M: Models<D>>(&self, max_step: f64) -> Sweep<M, D> {
+        Sweep::new(self.model, self.tool, self.from, self.to, max_step)
     }
 }
 
@@ -45,7 +47,7 @@ pub struct Contact {
 pub const CONTACT_SAMPLES: usize = 4;
 
 /// Whether the motion stays clear of the obstacles and of the arm itself.
-pub fn motion_is_free<M: Model<D>, const D: usize>(
+pub fn motion_is_free<M: Models<D>, const D: usize>(
     m: &ArmMotion<'_, D>,
     obstacles: &[Obstacle],
     max_step: f64,
@@ -54,7 +56,7 @@ pub fn motion_is_free<M: Model<D>, const D: usize>(
 }
 
 /// [`motion_is_free`] for a caller that already placed the arm at both ends of the step.
-pub fn motion_is_free_posed<M: Model<D>, const D: usize>(
+pub fn motion_is_free_posed<M: Models<D>, const D: usize>(
     m: &ArmMotion<'_, D>,
     ends: [&ArmPose; 2],
     obstacles: &[Obstacle],
@@ -66,15 +68,15 @@ pub fn motion_is_free_posed<M: Model<D>, const D: usize>(
 
 /// Whether two arms' simultaneous motions come too close (see
 /// [`crate::collision::sweeps_collide`]).
-pub fn motions_collide<M: Model<D>, const D: usize>(
+pub fn motions_collide<M: Models<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     b: &ArmMotion<'_, D>,
     max_step: f64,
 ) -> bool {
     let ends = |m: &ArmMotion<'_, D>| {
         [
-            ArmPose::new::<M, D>(m.base, m.tool, m.from),
-            ArmPose::new::<M, D>(m.base, m.tool, m.to),
+            ArmPose::new::<M, D>(m.model, m.base, m.tool, m.from),
+            ArmPose::new::<M, D>(m.model, m.base, m.tool, m.to),
         ]
     };
     let ([a0, a1], [b0, b1]) = (ends(a), ends(b));
@@ -82,7 +84,7 @@ pub fn motions_collide<M: Model<D>, const D: usize>(
 }
 
 /// [`motions_collide`] for callers that already placed both arms at both ends of the step.
-pub fn motions_collide_posed<M: Model<D>, const D: usize>(
+pub fn motions_collide_posed<M: Models<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     a_ends: [&ArmPose; 2],
     b: &ArmMotion<'_, D>,
@@ -108,7 +110,7 @@ pub const CONFIRM: f64 = 4.0;
 /// The finer check drops what is only the coarse sweep's inflation (arms passing a few
 /// millimetres apart), which no branching could resolve disjunctively; it is conservative
 /// too, so motions without a conflict never collide.
-pub fn motions_conflict_posed<M: Model<D>, const D: usize>(
+pub fn motions_conflict_posed<M: Models<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     a_ends: [&ArmPose; 2],
     b: &ArmMotion<'_, D>,
@@ -130,7 +132,7 @@ pub fn motions_conflict_posed<M: Model<D>, const D: usize>(
 /// `None` when they stay clear. The sweep is the confirming one of
 /// [`motions_conflict_posed`] (`max_step / CONFIRM`), so its tolerance is the one that counted
 /// the conflict.
-pub fn motions_contact<M: Model<D>, const D: usize>(
+pub fn motions_contact<M: Models<D>, const D: usize>(
     a: &ArmMotion<'_, D>,
     b: &ArmMotion<'_, D>,
     max_step: f64,
@@ -148,8 +150,8 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
         while i < count {
             let s = (i as f64 + 0.5) / count as f64;
             let (pa, pb) = (
-                ArmPose::new::<M, D>(a.base, a.tool, &sa.at(s)),
-                ArmPose::new::<M, D>(b.base, b.tool, &sb.at(s)),
+                ArmPose::new::<M, D>(a.model, a.base, a.tool, &sa.at(s)),
+                ArmPose::new::<M, D>(b.model, b.base, b.tool, &sb.at(s)),
             );
             if pa.arm_hit(&pb, margin).is_some() {
                 return pa.witness(&pb, margin).map(|p| Contact {
@@ -182,7 +184,7 @@ pub fn motions_contact<M: Model<D>, const D: usize>(
 /// sweep's pieces unless the ends alone rule it out: the arm's points travel at most the
 /// sweep's length, so if `p`'s clearances from the arm at the two ends add up to more than
 /// that plus `2 margin`, no configuration between them comes within `margin` of it.
-pub fn motion_near_point<M: Model<D>, const D: usize>(
+pub fn motion_near_point<M: Models<D>, const D: usize>(
     m: &ArmMotion<'_, D>,
     p: &[f64; 3],
     margin: f64,
@@ -193,7 +195,7 @@ pub fn motion_near_point<M: Model<D>, const D: usize>(
 }
 
 /// [`motion_near_point`] for a caller that already placed the arm at both ends of the step.
-pub fn motion_near_point_posed<M: Model<D>, const D: usize>(
+pub fn motion_near_point_posed<M: Models<D>, const D: usize>(
     m: &ArmMotion<'_, D>,
     ends: [&ArmPose; 2],
     p: &[f64; 3],

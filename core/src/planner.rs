@@ -2,7 +2,7 @@
 //! baselines), in OMPL's vocabulary: a problem definition ([`Problem`]), a planner, a
 //! termination condition ([`Clock`] + timeout) and a solution written to caller storage.
 
-use crate::model::Model;
+use crate::model::Models;
 use crate::problem::{Assigned, Problem, Start, MAX_ROBOTS};
 use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::search::Deadline;
@@ -189,7 +189,7 @@ impl core::fmt::Display for PlannerKind {
 }
 
 /// A multi-robot planner for model `M`.
-pub trait Planner<M: Model<D>, const D: usize> {
+pub trait Planner<M: Models<D>, const D: usize> {
     /// The name used on the command line and in benchmark tables.
     fn name(&self) -> &'static str;
 
@@ -217,7 +217,7 @@ pub enum Takes {
 /// the planner's, `takes`), `out` can hold the answer, and no trajectory has a pose out of
 /// every robot's reach (a proof that nothing solves it: `NoSolution`, with the reason in
 /// `stats`). Returns the horizon, or the status to return.
-pub fn open<M: Model<D>, const D: usize>(
+pub fn open<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     out: &Solution<'_, D>,
     takes: Takes,

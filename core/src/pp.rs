@@ -13,7 +13,7 @@
 //! finest is exhausted too, or a trajectory is out of every robot's reach.
 
 use crate::assign::{Choice, Pair, PairTable, HOLD};
-use crate::model::Model;
+use crate::model::Models;
 use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
@@ -64,7 +64,7 @@ impl<'a, const D: usize> Prioritized<'a, D> {
     }
 }
 
-impl<M: Model<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
+impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
     fn name(&self) -> &'static str {
         match self.variant {
             Variant::MultiGoal => PlannerKind::Pp.name(),
@@ -133,7 +133,7 @@ enum Tried {
     OverBudget,
 }
 
-impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
+impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// Refinement levels in turn until one plans, the deadline passes or the finest is
     /// exhausted.
     fn levels(
@@ -325,6 +325,7 @@ impl<M: Model<D>, const D: usize> Run<'_, '_, M, D> {
             for &k in &order[..rank] {
                 let k = usize::from(k);
                 let _ = others.push(OtherArm {
+                    model: self.pr.robots[k].model,
                     base: self.pr.robots[k].base,
                     tool: self.pr.robots[k].tool,
                     path: &out.paths[k * h..(k + 1) * h],

@@ -37,6 +37,9 @@ impl Default for Tolerance {
 /// One robot of the problem.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Robot<const D: usize> {
+    /// The robot's model: an index into the planner's [`crate::model::Models`] (0 when it is
+    /// one model).
+    pub model: u8,
     /// Pose of the model's base frame in the world.
     pub base: Frame,
     /// Tool centre point relative to the model's tool frame.

@@ -2,7 +2,7 @@
 //! trajectory whose poses no single robot can all reach.
 
 use crate::collision::MAX_LINK_FRAMES;
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::problem::{Problem, Robot};
 
 /// An upper bound on the distance from the robot's base origin to its tool centre point over
@@ -10,11 +10,11 @@ use crate::problem::{Problem, Robot};
 /// link frame origins) plus the tool offset. A revolute joint turns its child frame about the
 /// child's origin, so those lengths do not depend on `q`; a model where they do (a prismatic
 /// joint) gets no bound (infinity).
-pub fn tcp_reach<M: Model<D>, const D: usize>(robot: &Robot<D>) -> f64 {
-    let links = M::LINK_NAMES.len();
+pub fn tcp_reach<M: Models<D>, const D: usize>(robot: &Robot<D>) -> f64 {
+    let links = M::link_names(robot.model).len();
     let lengths = |q: &[f64; D]| {
         let mut f = [Frame::IDENTITY; MAX_LINK_FRAMES];
-        let tool = M::link_frames(q, &mut f[..links]);
+        let tool = M::link_frames(robot.model, q, &mut f[..links]);
         let mut sum = (tool.pos - f[links - 1].pos).norm();
         for k in 1..links {
             sum += (f[k].pos - f[k - 1].pos).norm();
@@ -22,7 +22,7 @@ pub fn tcp_reach<M: Model<D>, const D: usize>(robot: &Robot<D>) -> f64 {
         sum
     };
     let mid: [f64; D] = core::array::from_fn(|j| {
-        let (lo, hi) = (M::LOWER[j], M::UPPER[j]);
+        let (lo, hi) = (M::lower(robot.model)[j], M::upper(robot.model)[j]);
         if lo.is_finite() && hi.is_finite() {
             0.5 * (lo + hi) + 0.25 * (hi - lo)
         } else {
@@ -38,7 +38,7 @@ pub fn tcp_reach<M: Model<D>, const D: usize>(robot: &Robot<D>) -> f64 {
 
 /// The first trajectory that no robot can follow because for every robot some pose of it lies
 /// farther from the robot's base than the robot reaches (plus the position tolerance).
-pub fn unreachable_trajectory<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Option<usize> {
+pub fn unreachable_trajectory<M: Models<D>, const D: usize>(problem: &Problem<D>) -> Option<usize> {
     let mut reach = [0.0; crate::problem::MAX_ROBOTS];
     for (r, robot) in reach.iter_mut().zip(&problem.robots) {
         *r = tcp_reach::<M, D>(robot) + problem.tolerance.position;

@@ -1,9 +1,7 @@
 //! The collision shape of what a robot carries on its flange: a few capsules rigid in the
 //! model's tool frame (the frame `tcp` is given in). They are part of the arm for every
 //! check: obstacles, other arms and their tools, and the arm's own links that neither carry
-//! the tool frame nor are adjacent to it ([`Model::TOOL_SELF_CAPSULES`]).
-
-use crate::model::Model;
+//! the tool frame nor are adjacent to it ([`crate::model::Model::TOOL_SELF_CAPSULES`]).
 
 /// Most capsules one tool may have.
 pub const MAX_TOOL_CAPSULES: usize = 4;
@@ -73,12 +71,13 @@ impl Tool {
         &self.capsules[..self.len]
     }
 
-    /// Per joint of model `M`, a bound on how far the points of tool capsule `i` travel
-    /// per radian (or metre) that joint moves: the tool frame origin's bound plus the
-    /// capsule's farthest point from that origin (triangle inequality).
-    pub fn reach<M: Model<D>, const D: usize>(&self, i: usize) -> [f64; D] {
+    /// Per joint of a model whose tool frame origin moves at most `tool_reach[j]` per radian
+    /// (or metre) of joint `j` ([`crate::model::Model::TOOL_REACH`]), a bound on how far the
+    /// points of tool capsule `i` travel per radian that joint moves: the origin's bound plus
+    /// the capsule's farthest point from that origin (triangle inequality).
+    pub fn reach<const D: usize>(&self, tool_reach: &[f64; D], i: usize) -> [f64; D] {
         let extent = self.capsules[i].extent();
-        core::array::from_fn(|j| M::TOOL_REACH[j] + extent)
+        core::array::from_fn(|j| tool_reach[j] + extent)
     }
 }
 

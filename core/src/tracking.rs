@@ -3,14 +3,14 @@
 //! IK-tracking baseline is made of it.
 
 use crate::ik::{ik, IkParams};
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
 
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
 /// state and motion with `valid`. Writes `out[..H]` and returns the collision count with the
 /// other robots (always 0 when `valid` avoids them), or `None` when tracking breaks down.
-pub fn track<M: Model<D>, const D: usize>(
+pub fn track<M: Models<D>, const D: usize>(
     robot: &Robot<D>,
     traj: &Trajectory,
     seed: &[f64; D],
@@ -25,12 +25,12 @@ pub fn track<M: Model<D>, const D: usize>(
         // Online: the path begins where the arm is (pose 0 is not tracked).
         (Start::AtInitial, Some(q)) => q,
         (Start::AtInitial, None) => return None,
-        (Start::Sampled, _) => ik::<M, D>(&target(&traj[0]), seed, ik_params).ok()?,
+        (Start::Sampled, _) => ik::<M, D>(robot.model, &target(&traj[0]), seed, ik_params).ok()?,
     };
     let mut c = valid.state(&q, 0)? as u32;
     out[0] = q;
     for t in 1..traj.len() {
-        let next = ik::<M, D>(&target(&traj[t]), &q, ik_params).ok()?;
+        let next = ik::<M, D>(robot.model, &target(&traj[t]), &q, ik_params).ok()?;
         if !valid.step_within_limits(&q, &next) {
             return None;
         }

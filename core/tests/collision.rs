@@ -70,7 +70,7 @@ fn capsules_follow_the_links() {
     for _ in 0..TRIALS {
         let base = frame(&mut rng, 1.0);
         let q = configuration(&mut rng);
-        let arm = ArmPose::new::<M, D>(&base, &Tool::NONE, &q);
+        let arm = ArmPose::new::<M, D>(0, &base, &Tool::NONE, &q);
         assert_eq!(arm.capsules().len(), M::CAPSULES.len());
         for (c, model) in arm.capsules().iter().zip(M::CAPSULES) {
             // Rigidly moved: same length and radius, and inside the arm's box.
@@ -96,7 +96,7 @@ fn obstacle_hits_match_brute_force_and_skip_the_base() {
     let (mut hits, mut base_only) = (0, 0);
     for _ in 0..TRIALS {
         let q = configuration(&mut rng);
-        let arm = ArmPose::new::<M, D>(&Frame::IDENTITY, &Tool::NONE, &q);
+        let arm = ArmPose::new::<M, D>(0, &Frame::IDENTITY, &Tool::NONE, &q);
         let obstacles: Vec<Obstacle> = (0..3).map(|_| obstacle(&mut rng)).collect();
         let margin = rng.uniform(0.0, 0.02);
         let brute = obstacles.iter().position(|o| {
@@ -134,7 +134,7 @@ fn self_hits_match_brute_force() {
     let mut hits = 0;
     for _ in 0..TRIALS {
         let q = configuration(&mut rng);
-        let arm = ArmPose::new::<M, D>(&Frame::IDENTITY, &Tool::NONE, &q);
+        let arm = ArmPose::new::<M, D>(0, &Frame::IDENTITY, &Tool::NONE, &q);
         let margin = rng.uniform(0.0, 0.05);
         let c = arm.capsules();
         let brute = M::SELF_PAIRS
@@ -156,8 +156,8 @@ fn arm_hits_match_brute_force_and_witnesses_lie_in_both() {
     let mut hits = 0;
     for _ in 0..TRIALS {
         let (base_a, base_b) = (base_at(0.0), base_at(rng.uniform(0.1, 0.7)));
-        let a = ArmPose::new::<M, D>(&base_a, &Tool::NONE, &configuration(&mut rng));
-        let b = ArmPose::new::<M, D>(&base_b, &Tool::NONE, &configuration(&mut rng));
+        let a = ArmPose::new::<M, D>(0, &base_a, &Tool::NONE, &configuration(&mut rng));
+        let b = ArmPose::new::<M, D>(0, &base_b, &Tool::NONE, &configuration(&mut rng));
         let margin = rng.uniform(0.0, 0.02);
         let brute = (0..a.capsules().len()).find_map(|i| {
             (0..b.capsules().len())
@@ -201,8 +201,8 @@ fn arm_clearance_is_a_lower_bound_exact_when_near() {
     let mut exact = 0;
     for _ in 0..TRIALS {
         let (base_a, base_b) = (base_at(0.0), base_at(rng.uniform(0.1, 1.5)));
-        let a = ArmPose::new::<M, D>(&base_a, &Tool::NONE, &configuration(&mut rng));
-        let b = ArmPose::new::<M, D>(&base_b, &Tool::NONE, &configuration(&mut rng));
+        let a = ArmPose::new::<M, D>(0, &base_a, &Tool::NONE, &configuration(&mut rng));
+        let b = ArmPose::new::<M, D>(0, &base_b, &Tool::NONE, &configuration(&mut rng));
         let brute = (a.capsules().iter())
             .flat_map(|ca| b.capsules().iter().map(|cb| ca.signed_distance(cb)))
             .fold(f64::INFINITY, f64::min);
@@ -223,7 +223,7 @@ fn point_containment_matches_brute_force() {
     let mut rng = Rng::new(5);
     let mut inside = 0;
     for _ in 0..TRIALS {
-        let arm = ArmPose::new::<M, D>(&Frame::IDENTITY, &Tool::NONE, &configuration(&mut rng));
+        let arm = ArmPose::new::<M, D>(0, &Frame::IDENTITY, &Tool::NONE, &configuration(&mut rng));
         for _ in 0..20 {
             // Near a random capsule.
             let c = arm.capsules()[(rng.next_u64() % M::CAPSULES.len() as u64) as usize];
@@ -274,7 +274,7 @@ fn sweep_margin_covers_every_intermediate_configuration() {
     let mut checks = 0;
     for _ in 0..TRIALS / 4 {
         let (q0, q1) = motion(&mut rng, 0.5);
-        let sweep = Sweep::<M, D>::new(&tool(), &q0, &q1, max_disp);
+        let sweep = Sweep::<M, D>::new(0, &tool(), &q0, &q1, max_disp);
         assert!(sweep.margin() <= max_disp / 2.0 + 1e-15);
         checks += sweep.count();
         let arms: Vec<ArmPose> = (0..sweep.count())
@@ -283,7 +283,7 @@ fn sweep_margin_covers_every_intermediate_configuration() {
         for k in 0..=200 {
             let s = k as f64 / 200.0;
             let nearest = ((s * sweep.count() as f64) as usize).min(sweep.count() - 1);
-            let arm = ArmPose::new::<M, D>(&Frame::IDENTITY, &tool(), &lerp(&q0, &q1, s));
+            let arm = ArmPose::new::<M, D>(0, &Frame::IDENTITY, &tool(), &lerp(&q0, &q1, s));
             // Segment end points move the most; points between them move by a mix of theirs.
             for (c, at_check) in arm.capsules().iter().zip(arms[nearest].capsules()) {
                 let moved = (c.segment.a - at_check.segment.a)
@@ -309,7 +309,7 @@ fn a_clear_sweep_is_clear_throughout_and_no_stricter_than_uniform_checks() {
     for _ in 0..TRIALS / 4 {
         let (q0, q1) = motion(&mut rng, 0.3);
         let obstacles: Vec<Obstacle> = (0..2).map(|_| obstacle(&mut rng)).collect();
-        let sweep = Sweep::<M, D>::new(&tool(), &q0, &q1, 0.004);
+        let sweep = Sweep::<M, D>::new(0, &tool(), &q0, &q1, 0.004);
         let margin = sweep.margin();
         let uniform = (0..sweep.count()).any(|i| {
             let arm = sweep.arm(&Frame::IDENTITY, i);
@@ -323,8 +323,12 @@ fn a_clear_sweep_is_clear_throughout_and_no_stricter_than_uniform_checks() {
         }
         clear += 1;
         for k in 0..=200 {
-            let arm =
-                ArmPose::new::<M, D>(&Frame::IDENTITY, &tool(), &lerp(&q0, &q1, k as f64 / 200.0));
+            let arm = ArmPose::new::<M, D>(
+                0,
+                &Frame::IDENTITY,
+                &tool(),
+                &lerp(&q0, &q1, k as f64 / 200.0),
+            );
             assert_eq!(arm.obstacle_hit(&obstacles, 0.0), None);
             assert_eq!(arm.self_hit(0.0), None);
         }
@@ -342,8 +346,8 @@ fn clear_simultaneous_sweeps_never_meet() {
     let (mut clear, mut blocked) = (0, 0);
     for _ in 0..TRIALS / 4 {
         let ((a0, a1), (b0, b1)) = (motion(&mut rng, 0.3), motion(&mut rng, 0.1));
-        let a = Sweep::<M, D>::new(&Tool::NONE, &a0, &a1, 0.004);
-        let b = Sweep::<M, D>::new(&Tool::NONE, &b0, &b1, 0.004);
+        let a = Sweep::<M, D>::new(0, &Tool::NONE, &a0, &a1, 0.004);
+        let b = Sweep::<M, D>::new(0, &Tool::NONE, &b0, &b1, 0.004);
         if sweeps_collide(&a, &base_a, &b, &base_b) {
             blocked += 1;
             continue;
@@ -351,8 +355,8 @@ fn clear_simultaneous_sweeps_never_meet() {
         clear += 1;
         for k in 0..=200 {
             let s = k as f64 / 200.0;
-            let arm_a = ArmPose::new::<M, D>(&base_a, &Tool::NONE, &lerp(&a0, &a1, s));
-            let arm_b = ArmPose::new::<M, D>(&base_b, &Tool::NONE, &lerp(&b0, &b1, s));
+            let arm_a = ArmPose::new::<M, D>(0, &base_a, &Tool::NONE, &lerp(&a0, &a1, s));
+            let arm_b = ArmPose::new::<M, D>(0, &base_b, &Tool::NONE, &lerp(&b0, &b1, s));
             assert_eq!(arm_a.arm_hit(&arm_b, 0.0), None);
         }
     }
@@ -366,7 +370,7 @@ fn clear_simultaneous_sweeps_never_meet() {
 fn sweep_counts_follow_the_motion_length() {
     let q = [0.1, 0.0, 0.3, -0.2, 0.5];
     // No motion: one check at the configuration itself, no margin.
-    let still = Sweep::<M, D>::new(&Tool::NONE, &q, &q, 0.004);
+    let still = Sweep::<M, D>::new(0, &Tool::NONE, &q, &q, 0.004);
     assert_eq!(
         (still.count(), still.margin(), still.config(0)),
         (1, 0.0, q)
@@ -375,13 +379,13 @@ fn sweep_counts_follow_the_motion_length() {
     let mut q1 = q;
     q1[0] += 0.1;
     let length = M::REACH[0] * 0.1;
-    let sweep = Sweep::<M, D>::new(&Tool::NONE, &q, &q1, 0.004);
+    let sweep = Sweep::<M, D>::new(0, &Tool::NONE, &q, &q1, 0.004);
     assert_eq!(sweep.count(), (length / 0.004).ceil() as usize);
     assert!((sweep.margin() - length / (2.0 * sweep.count() as f64)).abs() < 1e-15);
     assert!((sweep.config(0)[0] - (q[0] + 0.1 * 0.5 / sweep.count() as f64)).abs() < 1e-15);
     // A spacing that is no spacing still gives a conservative (single, wide) check.
     for bad in [0.0, -1.0, f64::NAN] {
-        let wide = Sweep::<M, D>::new(&Tool::NONE, &q, &q1, bad);
+        let wide = Sweep::<M, D>::new(0, &Tool::NONE, &q, &q1, bad);
         assert_eq!((wide.count(), wide.margin()), (1, length / 2.0));
     }
     // Fewer pieces mean a proportionally wider margin.
@@ -423,7 +427,7 @@ impl Model<1> for Full {
 
 #[test]
 fn a_model_with_the_most_capsules_fits() {
-    let arm = ArmPose::new::<Full, 1>(&base_at(2.0), &Tool::NONE, &[0.0]);
+    let arm = ArmPose::new::<Full, 1>(0, &base_at(2.0), &Tool::NONE, &[0.0]);
     assert_eq!(arm.capsules().len(), MAX_ARM_CAPSULES);
     assert!(arm
         .capsules()

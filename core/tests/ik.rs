@@ -50,7 +50,7 @@ fn reaches_random_reachable_poses_from_random_seeds() {
         let target = random_pose(&mut rng);
         for attempt in 0..SEEDS_PER_POSE {
             let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
-            if let Ok(q) = ik::<Gen3, D>(&target, &seed, &params) {
+            if let Ok(q) = ik::<Gen3, D>(0, &target, &seed, &params) {
                 assert_valid(&q, &target, &params);
                 solved += 1;
                 first_seed += usize::from(attempt == 0);
@@ -78,7 +78,7 @@ fn projects_nearby_seeds_to_nearby_solutions() {
         let seed: [f64; D] = core::array::from_fn(|i| {
             (q0[i] + rng.uniform(-0.02, 0.02)).clamp(Gen3::LOWER[i], Gen3::UPPER[i])
         });
-        let q = ik::<Gen3, D>(&target, &seed, &params).expect("nearby seed must converge");
+        let q = ik::<Gen3, D>(0, &target, &seed, &params).expect("nearby seed must converge");
         assert_valid(&q, &target, &params);
         let moved = (0..D).map(|i| (q[i] - seed[i]).abs()).fold(0.0, f64::max);
         assert!(
@@ -94,7 +94,7 @@ fn answers_are_within_limits_even_from_seeds_outside_them() {
     let mut rng = Rng::new(9);
     let target = random_pose(&mut rng);
     let seed = [10.0, 3.0, -10.0, -3.0, 0.0, 2.5, 0.0];
-    match ik::<Gen3, D>(&target, &seed, &params) {
+    match ik::<Gen3, D>(0, &target, &seed, &params) {
         Ok(q) => assert_valid(&q, &target, &params),
         Err(e) => assert!(
             matches!(
@@ -114,7 +114,7 @@ fn unreachable_poses_give_errors() {
         let mut target = random_pose(&mut rng);
         target.pos = target.pos.normalize() * 2.0; // Gen3 reaches about 1.2 m from its base.
         let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
-        let e = ik::<Gen3, D>(&target, &seed, &params).expect_err("2 m away is unreachable");
+        let e = ik::<Gen3, D>(0, &target, &seed, &params).expect_err("2 m away is unreachable");
         assert!(matches!(
             e,
             IkError::NoConvergence { .. } | IkError::BlockedByLimit { .. }
@@ -128,11 +128,11 @@ fn singular_configurations_never_give_wrong_answers() {
     let zero = [0.0; D]; // arm stretched straight up: shoulder, elbow and wrist singular
     let stretched = Gen3::fk(&zero);
     // Exactly the singular pose from the singular seed: already there.
-    assert_eq!(ik::<Gen3, D>(&stretched, &zero, &params), Ok(zero));
+    assert_eq!(ik::<Gen3, D>(0, &stretched, &zero, &params), Ok(zero));
     // A hair beyond full stretch along the arm is unreachable.
     let mut beyond = stretched;
     beyond.pos += stretched.pos.normalize() * 0.005;
-    let e = ik::<Gen3, D>(&beyond, &zero, &params).expect_err("beyond full stretch");
+    let e = ik::<Gen3, D>(0, &beyond, &zero, &params).expect_err("beyond full stretch");
     assert!(
         matches!(
             e,
@@ -147,7 +147,7 @@ fn singular_configurations_never_give_wrong_answers() {
         let q0: [f64; D] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
         let target = Gen3::fk(&q0);
         for seed in [zero, rng.configuration(&Gen3::LOWER, &Gen3::UPPER)] {
-            if let Ok(q) = ik::<Gen3, D>(&target, &seed, &params) {
+            if let Ok(q) = ik::<Gen3, D>(0, &target, &seed, &params) {
                 assert_valid(&q, &target, &params);
             }
         }
@@ -162,31 +162,31 @@ fn malformed_input_gives_the_matching_error() {
     let mut nan_pos = good;
     nan_pos.pos.x = f64::NAN;
     assert_eq!(
-        ik::<Gen3, D>(&nan_pos, &seed, &params),
+        ik::<Gen3, D>(0, &nan_pos, &seed, &params),
         Err(IkError::NonFiniteTarget)
     );
     let mut inf_rot = good;
     inf_rot.rot[(1, 2)] = f64::INFINITY;
     assert_eq!(
-        ik::<Gen3, D>(&inf_rot, &seed, &params),
+        ik::<Gen3, D>(0, &inf_rot, &seed, &params),
         Err(IkError::NonFiniteTarget)
     );
     let mut skewed = good;
     skewed.rot[(0, 0)] *= 1.01;
     assert_eq!(
-        ik::<Gen3, D>(&skewed, &seed, &params),
+        ik::<Gen3, D>(0, &skewed, &seed, &params),
         Err(IkError::NotARotation)
     );
     let mut mirrored = good;
     mirrored.rot = -mirrored.rot;
     assert_eq!(
-        ik::<Gen3, D>(&mirrored, &seed, &params),
+        ik::<Gen3, D>(0, &mirrored, &seed, &params),
         Err(IkError::NotARotation)
     );
     let mut nan_seed = seed;
     nan_seed[3] = f64::NAN;
     assert_eq!(
-        ik::<Gen3, D>(&good, &nan_seed, &params),
+        ik::<Gen3, D>(0, &good, &nan_seed, &params),
         Err(IkError::NonFiniteSeed)
     );
     for bad in [
@@ -216,14 +216,14 @@ fn malformed_input_gives_the_matching_error() {
         },
     ] {
         assert_eq!(
-            ik::<Gen3, D>(&good, &seed, &bad),
+            ik::<Gen3, D>(0, &good, &seed, &bad),
             Err(IkError::InvalidParams)
         );
     }
     // Huge but finite coordinates must not overflow into a wrong answer or a panic.
     let mut far = good;
     far.pos = Vector3::new(1e300, -1e300, 1e300);
-    assert!(ik::<Gen3, D>(&far, &seed, &params).is_err());
+    assert!(ik::<Gen3, D>(0, &far, &seed, &params).is_err());
 }
 
 #[test]
@@ -234,8 +234,9 @@ fn multi_start_finds_distinct_valid_solutions_deterministically() {
     let target = random_pose(&mut rng);
     let run = |seed: u64| {
         let mut out = [[0.0; D]; 8];
-        let n = ik_multi_start::<Gen3, D>(&target, &params, &multi, &mut Rng::new(seed), &mut out)
-            .expect("a reachable pose has solutions");
+        let n =
+            ik_multi_start::<Gen3, D>(0, &target, &params, &multi, &mut Rng::new(seed), &mut out)
+                .expect("a reachable pose has solutions");
         (n, out)
     };
     let (n, out) = run(1);
@@ -258,14 +259,14 @@ fn multi_start_finds_distinct_valid_solutions_deterministically() {
 
     let mut first = [[0.0; D]; 1];
     assert_eq!(
-        ik_multi_start::<Gen3, D>(&target, &params, &multi, &mut Rng::new(2), &mut first),
+        ik_multi_start::<Gen3, D>(0, &target, &params, &multi, &mut Rng::new(2), &mut first),
         Ok(1)
     );
     assert_valid(&first[0], &target, &params);
 
     let mut far = target;
     far.pos *= 10.0;
-    let e = ik_multi_start::<Gen3, D>(&far, &params, &multi, &mut Rng::new(3), &mut first)
+    let e = ik_multi_start::<Gen3, D>(0, &far, &params, &multi, &mut Rng::new(3), &mut first)
         .expect_err("unreachable");
     assert!(matches!(
         e,

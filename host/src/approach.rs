@@ -3,7 +3,7 @@
 //! the plan ([`omcbsa_core::embody`], called by [`crate::planners::Storage`]).
 
 use omcbsa_core::approach::{check_starts, ApproachError, Blocked, Touch};
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
 use omcbsa_core::problem::Problem;
 
 use crate::error::InputError;
@@ -12,18 +12,19 @@ use crate::format::{ObstacleSpec, ProblemFile, RobotSpec};
 /// Most configurations of an approach per robot (at dt = 0.1 s, 100 s of motion).
 pub const MAX_APPROACH: usize = 1024;
 
-/// What capsule `c` of a robot of model `M` is: its link's name, or the tool.
-fn part<M: Model<D>, const D: usize>(c: usize) -> &'static str {
-    M::CAPSULES
+/// What capsule `c` of a robot of model `model` of `M` is: its link's name, or the tool.
+fn part<M: Models<D>, const D: usize>(model: u8, c: usize) -> &'static str {
+    M::capsules(model)
         .get(c)
-        .and_then(|cap| M::LINK_NAMES.get(usize::from(cap.link)))
+        .and_then(|cap| M::link_names(model).get(usize::from(cap.link)))
         .copied()
         .unwrap_or("tool")
 }
 
-/// `touch` in words, naming robots and obstacles as the lists do; another robot is where it
-/// is `other_at` ("at its initial configuration").
-pub fn describe_touch<M: Model<D>, const D: usize>(
+/// `touch` of a robot of model `model` in words, naming robots and obstacles as the lists
+/// do; another robot is where it is `other_at` ("at its initial configuration").
+pub fn describe_touch<M: Models<D>, const D: usize>(
+    model: u8,
     robots: &[RobotSpec],
     obstacles: &[ObstacleSpec],
     touch: Touch,
@@ -32,7 +33,7 @@ pub fn describe_touch<M: Model<D>, const D: usize>(
     match touch {
         Touch::JointLimit { joint } => format!(
             "joint {joint} ({}) is outside its limits",
-            M::JOINT_NAMES.get(joint).copied().unwrap_or("?")
+            M::joint_names(model).get(joint).copied().unwrap_or("?")
         ),
         Touch::Obstacle { index } => format!(
             "collides with obstacle {index} ({:?})",
@@ -43,8 +44,8 @@ pub fn describe_touch<M: Model<D>, const D: usize>(
             other_capsule,
         } => format!(
             "collides with itself ({} with {})",
-            part::<M, D>(capsule),
-            part::<M, D>(other_capsule)
+            part::<M, D>(model, capsule),
+            part::<M, D>(model, other_capsule)
         ),
         Touch::Robot { robot } => format!(
             "collides with robot {robot} ({:?}) {other_at}",
@@ -55,7 +56,7 @@ pub fn describe_touch<M: Model<D>, const D: usize>(
 
 /// Refuses a problem in which a robot's `initial` is outside its limits or collides: the error
 /// names the robot and what it touches.
-pub fn check_initial<M: Model<D>, const D: usize>(
+pub fn check_initial<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,
 ) -> Result<(), InputError> {
@@ -66,6 +67,7 @@ pub fn check_initial<M: Model<D>, const D: usize>(
                 "robot {:?} cannot start here: it {}",
                 file.robots.get(robot).map_or("?", |r| r.name.as_str()),
                 describe_touch::<M, D>(
+                    problem.robots.get(robot).map_or(0, |r| r.model),
                     &file.robots,
                     &file.obstacles,
                     touch,

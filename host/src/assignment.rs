@@ -2,7 +2,7 @@
 //! object cannot change arms) or a preferred one (tried first; the planner chooses freely
 //! when it has no plan).
 
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
 use omcbsa_core::planner::{PlannerKind, Status};
 use omcbsa_core::problem::{Assigned, Problem};
 use omcbsa_core::reach::tcp_reach;
@@ -129,7 +129,7 @@ fn solve_under(
 /// `None` when no assignment keeps every pose within reach. When only the start of a task is
 /// known (an online policy's first chunk), an arm that has its hand deep in its workspace is
 /// the one most likely to follow it on: an arm at the edge of its reach soon cannot.
-pub fn nearest<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Option<Vec<Option<usize>>> {
+pub fn nearest<M: Models<D>, const D: usize>(problem: &Problem<D>) -> Option<Vec<Option<usize>>> {
     let (n, m) = (problem.robots.len(), problem.trajectories.len());
     if m > n {
         return None;

@@ -16,7 +16,7 @@ use std::fmt;
 use std::path::Path;
 
 use omcbsa_core::ik::{ik, IkParams};
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
 use omcbsa_hw::executor::Progress;
 use omcbsa_hw::fleet::{Fleet, MockKind};
@@ -30,7 +30,7 @@ use crate::format::{
     joint_paths_value, Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec,
     ToolCapsuleSpec, ToolSpec, TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
-use crate::models::ModelKind;
+use crate::models::{self, ModelKind, DOF};
 use crate::pose::from_frame;
 
 pub const NAME: &str = "demo_box_flip_3arms";
@@ -111,10 +111,16 @@ pub(crate) fn hand(k: usize, s: f64) -> Frame {
     )
 }
 
+/// The demo's arms' model: the default one (the Gen3, which the mock drives and the Kortex
+/// transport stand in for).
+fn model() -> ModelKind {
+    ModelKind::default()
+}
+
 /// Arm `k`'s configuration with its hand at `hand`, by IK from `seed`.
 fn reach(k: usize, hand: &Frame, seed: &[f64; 7]) -> Result<[f64; 7], String> {
     let target = base(k).inverse().compose(hand).compose(&tcp().inverse());
-    ik::<KinovaGen3, 7>(&target, seed, &IkParams::default())
+    ik::<models::Fleet, DOF>(model().id(), &target, seed, &IkParams::default())
         .map_err(|e| format!("demo arm {:?} cannot reach its face: {e}", ROBOTS[k]))
 }
 
@@ -143,7 +149,7 @@ pub fn box_flip() -> Result<Demo, String> {
     let robots = (ROBOTS.iter().enumerate())
         .map(|(k, name)| RobotSpec {
             name: name.to_string(),
-            model: KinovaGen3::NAME.to_string(),
+            model: model().name().to_string(),
             base: from_frame(&base(k)),
             initial: None,
             tcp: Some(from_frame(&tcp())),
@@ -154,7 +160,13 @@ pub fn box_flip() -> Result<Demo, String> {
         .map(|(j, &k)| TrajectorySpec {
             name: format!("hand_{j}"),
             poses: (paths[k].iter())
-                .map(|q| from_frame(&base(k).compose(&KinovaGen3::fk(q)).compose(&tcp())))
+                .map(|q| {
+                    from_frame(
+                        &base(k)
+                            .compose(&models::Fleet::fk(model().id(), q))
+                            .compose(&tcp()),
+                    )
+                })
                 .collect::<Vec<Pose>>(),
         })
         .collect();
@@ -252,8 +264,7 @@ pub fn run_on_mock_arms_watched(
     let mocks = Fleet::spawn(kind, python, config.period, &starts, record, &[])
         .map_err(MockRunError::Mocks)?;
     let ports = mocks.ports().map_err(MockRunError::Mocks)?;
-    let limits =
-        joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).map_err(MockRunError::Mocks)?;
+    let limits = joint_limits(model(), CAUTIOUS_SPEED);
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;

@@ -1,13 +1,13 @@
 //! From a solved problem to the hardware adapter (`omcbsa_hw`): the adapter's [`Plan`] for
 //! the robots that have an arm, and its validation gate backed by the host validator.
 
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
 use omcbsa_hw::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 
 use crate::error::{quoted, InputError};
 use crate::format::{ProblemFile, SolutionFile};
 use crate::load;
-use crate::models::{ModelKind, ModelVisitor};
+use crate::models::{Fleet, ModelKind, DOF};
 use crate::validate::{validate, Report};
 
 /// The joint speed the executor keeps to, rad/s, below the arms' own velocity limits: Kinova's
@@ -15,28 +15,41 @@ use crate::validate::{validate, Report};
 /// (`hw-adapter/mock`). A named setting, not a second table: every other limit is the model's.
 pub const CAUTIOUS_SPEED: f64 = 0.8727;
 
+// The executor drives arms of the planned models' joint count.
+const _: () = assert!(JOINTS == DOF);
+
 /// The executor's joint limits for `kind`: the model's position and acceleration limits and
 /// its velocity limits capped at `speed_cap` rad/s.
-pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> Result<[JointLimits; JOINTS], String> {
-    struct Limits(f64);
-    impl ModelVisitor for Limits {
-        type Output = Result<[JointLimits; JOINTS], String>;
-        fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
-            if D != JOINTS {
-                return Err(format!(
-                    "model {} has {D} joints; the executor drives arms of {JOINTS}",
-                    M::NAME
-                ));
-            }
-            Ok(std::array::from_fn(|j| JointLimits {
-                position: (M::LOWER[j].is_finite() || M::UPPER[j].is_finite())
-                    .then_some((M::LOWER[j], M::UPPER[j])),
-                velocity: M::VELOCITY[j].min(self.0),
-                acceleration: M::ACCELERATION[j],
-            }))
-        }
+pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> [JointLimits; JOINTS] {
+    let m = kind.id();
+    let (lower, upper) = (Fleet::lower(m), Fleet::upper(m));
+    std::array::from_fn(|j| JointLimits {
+        position: (lower[j].is_finite() || upper[j].is_finite()).then_some((lower[j], upper[j])),
+        velocity: Fleet::velocity(m)[j].min(speed_cap),
+        acceleration: Fleet::acceleration(m)[j],
+    })
+}
+
+/// One table of executor limits for arms of models `kinds` ([`joint_limits`] each): per joint
+/// the strictest of theirs, so that every arm keeps within its own.
+pub fn fleet_limits(kinds: &[ModelKind], speed_cap: f64) -> Result<[JointLimits; JOINTS], String> {
+    let tables = kinds.iter().map(|&k| joint_limits(k, speed_cap));
+    tables
+        .reduce(|a, b| std::array::from_fn(|j| strictest(&a[j], &b[j])))
+        .ok_or_else(|| "no robot, so no limits".to_string())
+}
+
+/// Limits that keep within both `a` and `b`.
+fn strictest(a: &JointLimits, b: &JointLimits) -> JointLimits {
+    let position = match (a.position, b.position) {
+        (Some((la, ua)), Some((lb, ub))) => Some((la.max(lb), ua.min(ub))),
+        (p, None) | (None, p) => p,
+    };
+    JointLimits {
+        position,
+        velocity: a.velocity.min(b.velocity),
+        acceleration: a.acceleration.min(b.acceleration),
     }
-    kind.visit(Limits(speed_cap))
 }
 
 /// A solution validated against its problem. As a [`PlanValidator`] it accepts exactly the
@@ -51,15 +64,8 @@ impl CheckedSolution {
     /// Checks `problem` and validates `solution` against it; an error only for a problem
     /// file that breaks the spec (an invalid solution is a [`Report`] with violations).
     pub fn new(problem: ProblemFile, solution: SolutionFile) -> Result<Self, InputError> {
-        struct Check<'a>(&'a ProblemFile, &'a SolutionFile);
-        impl ModelVisitor for Check<'_> {
-            type Output = Result<Report, InputError>;
-            fn visit<M: Model<D>, const D: usize>(self) -> Result<Report, InputError> {
-                let core = load::problem::<M, D>(self.0)?;
-                Ok(validate::<M, D>(self.0, &core, self.1))
-            }
-        }
-        let report = load::model_of(&problem)?.visit(Check(&problem, &solution))?;
+        let core = load::problem::<Fleet, DOF>(&problem)?;
+        let report = validate::<Fleet, DOF>(&problem, &core, &solution);
         Ok(CheckedSolution {
             problem,
             solution,
@@ -67,10 +73,12 @@ impl CheckedSolution {
         })
     }
 
-    /// The executor's limits for the problem's model ([`joint_limits`] at [`CAUTIOUS_SPEED`]).
+    /// The executor's limits ([`fleet_limits`] at [`CAUTIOUS_SPEED`]): the model's when every
+    /// robot has the same; for a mixed fleet, per joint the strictest of its models' (the
+    /// executor takes one table for every arm).
     pub fn joint_limits(&self) -> Result<[JointLimits; JOINTS], String> {
-        let kind = load::model_of(&self.problem).map_err(|e| e.to_string())?;
-        joint_limits(kind, CAUTIOUS_SPEED)
+        let kinds = load::models(&self.problem).map_err(|e| e.to_string())?;
+        fleet_limits(&kinds, CAUTIOUS_SPEED)
     }
 
     pub fn report(&self) -> &Report {
@@ -211,13 +219,14 @@ mod tests {
     #[test]
     fn the_executor_limits_are_the_models_with_the_speed_capped() {
         // The Gen3's are exactly the table the executor had (Kinova's joint_limits.yaml).
-        let gen3 = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).unwrap();
+        let gen3 = joint_limits(ModelKind::default(), CAUTIOUS_SPEED);
         assert_eq!(gen3, JointLimits::kinova_gen3());
-        let panda = joint_limits(ModelKind::FrankaPanda, CAUTIOUS_SPEED).unwrap();
+        let panda = ModelKind::parse("franka_panda").unwrap();
+        let panda = joint_limits(panda, CAUTIOUS_SPEED);
         assert_eq!(panda[3].position, Some((-3.0718, -0.0698)));
         assert_eq!(panda[1].acceleration, 7.5);
         assert!(panda.iter().all(|l| l.velocity == CAUTIOUS_SPEED));
-        let fast = joint_limits(ModelKind::FrankaPanda, 10.0).unwrap();
+        let fast = joint_limits(ModelKind::parse("panda").unwrap(), 10.0);
         assert_eq!(fast[6].velocity, 2.61);
     }
 }

@@ -11,7 +11,7 @@ use std::io::Read;
 use std::path::Path;
 
 use omcbsa_core::geometry::{Obstacle, Shape};
-use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::problem::{
     Problem, Robot, Tolerance, Trajectory, MAX_OBSTACLES, MAX_ROBOTS, MAX_STEPS,
 };
@@ -137,64 +137,53 @@ fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError>
     })
 }
 
-/// The one model all robots of the problem use.
-pub fn model_of(file: &ProblemFile) -> Result<ModelKind, InputError> {
+/// Each robot's model; every unknown name is reported.
+pub fn models(file: &ProblemFile) -> Result<Vec<ModelKind>, InputError> {
     let mut errors = Errors::default();
-    let model = check_models(file, &mut errors);
+    let kinds: Vec<_> = (file.robots.iter().enumerate())
+        .filter_map(|(i, robot)| {
+            ModelKind::parse(&robot.model)
+                .map_err(|e| errors.push(format!("robots[{i}].model"), e))
+                .ok()
+        })
+        .collect();
     errors.finish()?;
-    model.ok_or_else(|| InputError::one("robots", "at least 1 robot is required"))
+    Ok(kinds)
 }
 
-/// Checks that the problem's robots use the model planning and the approach take: the Kinova
-/// Gen3 only until they are generic over the model; others (`omcbsa fk`, `ik`, `validate` and
-/// `view` take every model) are refused, naming the robot.
-pub fn planned_model(file: &ProblemFile) -> Result<(), InputError> {
-    match model_of(file)? {
-        ModelKind::KinovaGen3 => Ok(()),
-        other => Err(InputError::one(
-            "robots[0].model",
+/// Robot `i`'s model as an index into `M` (robots may use different models).
+fn model_id<M: Models<D>, const D: usize>(
+    i: usize,
+    spec: &RobotSpec,
+    errors: &mut Errors,
+) -> Option<u8> {
+    let path = format!("robots[{i}].model");
+    let kind = ModelKind::parse(&spec.model)
+        .map_err(|e| errors.push(&path, e))
+        .ok()?;
+    let id = M::find(kind.name());
+    if id.is_none() {
+        let loaded: Vec<&str> = (0..M::COUNT)
+            .filter_map(|m| u8::try_from(m).ok().map(M::name))
+            .collect();
+        errors.push(
+            path,
             format!(
-                "{other}: planning and the approach take kinova_gen3 only so far \
-                 (fk, ik, validate and view take every compiled-in model)"
+                "{kind}, but the problem was loaded for {}",
+                loaded.join(", ")
             ),
-        )),
+        );
     }
+    id
 }
 
-fn check_models(file: &ProblemFile, errors: &mut Errors) -> Option<ModelKind> {
-    let mut first: Option<(usize, ModelKind)> = None;
-    for (i, robot) in file.robots.iter().enumerate() {
-        match (ModelKind::parse(&robot.model), first) {
-            (Err(e), _) => errors.push(format!("robots[{i}].model"), e),
-            (Ok(m), None) => first = Some((i, m)),
-            (Ok(m), Some((f, fm))) if m != fm => errors.push(
-                format!("robots[{i}].model"),
-                format!(
-                    "{m}, but robots[{f}].model is {fm}: all robots of a problem must use \
-                     the same model for now"
-                ),
-            ),
-            (Ok(_), Some(_)) => {}
-        }
-    }
-    first.map(|(_, m)| m)
-}
-
-/// Checks every value of a problem file whose robots use model `M` and converts it into the
-/// core's fixed-capacity problem.
-pub fn problem<M: Model<D>, const D: usize>(file: &ProblemFile) -> Result<Problem<D>, InputError> {
+/// Checks every value of a problem file whose robots use models of `M` and converts it into
+/// the core's fixed-capacity problem, each robot's model an index into `M`.
+pub fn problem<M: Models<D>, const D: usize>(file: &ProblemFile) -> Result<Problem<D>, InputError> {
     let mut errors = Errors::default();
 
     if file.robots.is_empty() {
         errors.push("robots", "at least 1 robot is required");
-    }
-    if let Some(model) = check_models(file, &mut errors) {
-        if model.name() != M::NAME {
-            errors.push(
-                "robots",
-                format!("the problem uses {model}, but was loaded for {}", M::NAME),
-            );
-        }
     }
     if !(file.dt.is_finite() && file.dt > 0.0) {
         errors.push("dt", format!("must be > 0, got {}", file.dt));
@@ -322,20 +311,23 @@ fn check_robot_names(robots: &[RobotSpec], errors: &mut Errors) {
     }
 }
 
-fn robot<M: Model<D>, const D: usize>(
+fn robot<M: Models<D>, const D: usize>(
     i: usize,
     spec: &RobotSpec,
     needs_initial: bool,
     errors: &mut Errors,
 ) -> Option<Robot<D>> {
     let path = format!("robots[{i}]");
+    let model = model_id::<M, D>(i, spec, errors);
     let base = checked(pose::to_frame(&spec.base), &format!("{path}.base"), errors);
     let tcp = match &spec.tcp {
         Some(p) => checked(pose::to_frame(p), &format!("{path}.tcp"), errors),
         None => Some(Frame::IDENTITY),
     };
     let initial = match &spec.initial {
-        Some(q) => joint_values::<M, D>(q, &format!("{path}.initial"), errors).map(Some),
+        // Without a model its joint values cannot be checked (the model's error is reported).
+        Some(q) => model
+            .and_then(|m| joint_values::<M, D>(m, q, &format!("{path}.initial"), errors).map(Some)),
         None if needs_initial => {
             errors.push(
                 format!("{path}.initial"),
@@ -351,6 +343,7 @@ fn robot<M: Model<D>, const D: usize>(
         None => Some(Tool::NONE),
     };
     Some(Robot {
+        model: model?,
         base: base?,
         tcp: tcp?,
         initial: initial?,
@@ -361,12 +354,12 @@ fn robot<M: Model<D>, const D: usize>(
     })
 }
 
-/// The values joint `j` of model `M` may take in a file: its limits, within
+/// The values joint `j` of model `model` of `M` may take in a file: its limits, within
 /// ±[`MAX_JOINT_VALUE`] (which bounds the continuous joints).
-pub fn joint_range<M: Model<D>, const D: usize>(j: usize) -> (f64, f64) {
+pub fn joint_range<M: Models<D>, const D: usize>(model: u8, j: usize) -> (f64, f64) {
     (
-        M::LOWER[j].max(-MAX_JOINT_VALUE),
-        M::UPPER[j].min(MAX_JOINT_VALUE),
+        M::lower(model)[j].max(-MAX_JOINT_VALUE),
+        M::upper(model)[j].min(MAX_JOINT_VALUE),
     )
 }
 
@@ -407,8 +400,9 @@ fn tool(spec: &ToolSpec, path: &str, errors: &mut Errors) -> Option<Tool> {
     }
 }
 
-/// Checks a configuration of model `M` (length, finite values, [`joint_range`]).
-pub fn joint_values<M: Model<D>, const D: usize>(
+/// Checks a configuration of model `model` of `M` (length, finite values, [`joint_range`]).
+pub fn joint_values<M: Models<D>, const D: usize>(
+    model: u8,
     q: &[f64],
     path: &str,
     errors: &mut Errors,
@@ -418,7 +412,7 @@ pub fn joint_values<M: Model<D>, const D: usize>(
             path,
             format!(
                 "expected {D} joint values for model {}, got {}",
-                M::NAME,
+                M::name(model),
                 q.len()
             ),
         );
@@ -426,7 +420,7 @@ pub fn joint_values<M: Model<D>, const D: usize>(
     };
     let mut ok = true;
     for (j, &v) in q.iter().enumerate() {
-        let (lower, upper) = joint_range::<M, D>(j);
+        let (lower, upper) = joint_range::<M, D>(model, j);
         if !v.is_finite() {
             errors.push(
                 format!("{path}[{j}]"),
@@ -441,7 +435,7 @@ pub fn joint_values<M: Model<D>, const D: usize>(
                     short(v),
                     short(lower),
                     short(upper),
-                    M::JOINT_NAMES[j]
+                    M::joint_names(model)[j]
                 ),
             );
             ok = false;

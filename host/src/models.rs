@@ -1,62 +1,57 @@
 //! The robot models compiled into this program, by the names files and the command line use.
 //!
-//! Code that depends on the model is generic over `M: Model<D>`; [`ModelKind::visit`] is the
-//! one place that turns a model's name into its type, so adding a model (a folder under
-//! `robots/` and a line in `core/build.rs`) is one variant and one arm here.
+//! Everything the host plans, validates, views and executes goes through [`Fleet`], the type
+//! codegen generates over every compiled model of [`DOF`] joints (`core/build.rs`): a robot's
+//! model is an index into it ([`ModelKind`], [`omcbsa_core::problem::Robot::model`]), so a
+//! problem may mix models. Adding a model is its folder under `robots/` and a line in
+//! `core/build.rs`; nothing here names one except the aliases.
 
 use std::fmt;
 
-use omcbsa_core::model::{FrankaPanda, KinovaGen3, Model};
+use omcbsa_core::model::Models;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ModelKind {
-    KinovaGen3,
-    FrankaPanda,
-}
+/// The models the host plans for: every compiled-in model of [`DOF`] joints.
+pub type Fleet = omcbsa_core::model::Fleet7;
 
-/// Code generic over the model, run by [`ModelKind::visit`] with the model's type (closures
-/// cannot be generic, so the generic code is a method).
-pub trait ModelVisitor {
-    type Output;
-    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output;
-}
+/// Joints of every arm the host plans for.
+pub const DOF: usize = 7;
+
+/// One of [`Fleet`]'s models, by its index there. The default is the first compiled in
+/// (`kinova_gen3`, the arm of the demo and of the benchmark families that name none).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ModelKind(u8);
 
 impl ModelKind {
-    pub const ALL: [ModelKind; 2] = [ModelKind::KinovaGen3, ModelKind::FrankaPanda];
-
     /// Short names accepted besides [`ModelKind::name`] (the and Franka's own).
-    const ALIASES: [(&'static str, ModelKind); 1] = [("panda", ModelKind::FrankaPanda)];
+    const ALIASES: [(&'static str, &'static str); 1] = [("panda", "franka_panda")];
 
-    /// Runs `visitor` with this model's type.
-    pub fn visit<V: ModelVisitor>(self, visitor: V) -> V::Output {
-        match self {
-            ModelKind::KinovaGen3 => visitor.visit::<KinovaGen3, 7>(),
-            ModelKind::FrankaPanda => visitor.visit::<FrankaPanda, 7>(),
-        }
+    /// Every model, in index order.
+    pub fn all() -> impl Iterator<Item = ModelKind> {
+        (0..Fleet::COUNT).filter_map(|i| u8::try_from(i).ok().map(ModelKind))
+    }
+
+    /// The index into [`Fleet`] (what [`omcbsa_core::problem::Robot::model`] holds).
+    pub fn id(self) -> u8 {
+        self.0
     }
 
     /// The name problem files use.
     pub fn name(self) -> &'static str {
-        struct Name;
-        impl ModelVisitor for Name {
-            type Output = &'static str;
-            fn visit<M: Model<D>, const D: usize>(self) -> &'static str {
-                M::NAME
-            }
-        }
-        self.visit(Name)
+        Fleet::name(self.0)
     }
 
     /// The model named `name` (or one of its aliases).
     pub fn from_name(name: &str) -> Option<ModelKind> {
-        (Self::ALL.into_iter().find(|m| m.name() == name))
-            .or_else(|| (Self::ALIASES.iter()).find_map(|&(a, m)| (a == name).then_some(m)))
+        let name = (Self::ALIASES.iter())
+            .find_map(|&(alias, full)| (alias == name).then_some(full))
+            .unwrap_or(name);
+        Fleet::find(name).map(ModelKind)
     }
 
     /// Like [`ModelKind::from_name`], with an error that lists the models compiled in.
     pub fn parse(name: &str) -> Result<ModelKind, String> {
         Self::from_name(name).ok_or_else(|| {
-            let known: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
+            let known: Vec<&str> = Self::all().map(|m| m.name()).collect();
             let aliases: Vec<String> = (Self::ALIASES.iter())
                 .map(|(a, m)| format!("{a} for {m}"))
                 .collect();
@@ -81,10 +76,13 @@ mod tests {
 
     #[test]
     fn names_and_aliases_parse() {
-        for m in ModelKind::ALL {
+        for m in ModelKind::all() {
             assert_eq!(ModelKind::parse(m.name()), Ok(m));
         }
-        assert_eq!(ModelKind::parse("panda"), Ok(ModelKind::FrankaPanda));
+        let panda = ModelKind::parse("panda").unwrap();
+        assert_eq!(panda.name(), "franka_panda");
+        assert_ne!(panda, ModelKind::default());
+        assert_eq!(ModelKind::default().name(), "kinova_gen3");
         let e = ModelKind::parse("ur5").unwrap_err();
         assert!(
             e.contains("kinova_gen3, franka_panda") && e.contains("ur5"),

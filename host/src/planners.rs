@@ -10,6 +10,7 @@ use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
 };
 use crate::load;
+use crate::models::Fleet;
 use crate::validate::validate;
 use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
@@ -18,7 +19,6 @@ use omcbsa_core::baselines::{
 };
 use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
 use omcbsa_core::embody::{solve_from_initial, Embodied};
-use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
 use omcbsa_core::pp::{Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
@@ -55,8 +55,7 @@ pub fn parse(name: &str) -> Result<PlannerKind, String> {
     })
 }
 
-/// Degrees of freedom of the planned model (Kinova Gen3).
-pub const DOF: usize = 7;
+pub use crate::models::DOF;
 
 /// Sizes of the bounded pools. Bytes: Ω-A* 112 per search node; Ω-CBSA about 220 per CT node,
 /// `H * 56` per pooled path; composite A* about 490 per node.
@@ -412,7 +411,7 @@ struct Rest<'a> {
 }
 
 impl Rest<'_> {
-    fn run<P: Planner<KinovaGen3, DOF>>(
+    fn run<P: Planner<Fleet, DOF>>(
         &mut self,
         planner: &mut P,
         out: &mut Solution<'_, DOF>,
@@ -426,7 +425,7 @@ impl Rest<'_> {
             };
         }
         let n = self.problem.robots.len();
-        solve_from_initial::<KinovaGen3, P, DOF>(
+        solve_from_initial::<Fleet, P, DOF>(
             planner,
             self.problem,
             self.clock,
@@ -554,9 +553,8 @@ pub fn plan_file(
 
 /// The checked core problem of a problem file.
 pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
-    load::planned_model(file).map_err(InputOrPlanError::Input)?;
-    let problem = load::problem::<KinovaGen3, DOF>(file).map_err(InputOrPlanError::Input)?;
-    check_initial::<KinovaGen3, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
+    let problem = load::problem::<Fleet, DOF>(file).map_err(InputOrPlanError::Input)?;
+    check_initial::<Fleet, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
     Ok(problem)
 }
 
@@ -607,7 +605,7 @@ pub fn plan_assigned(
     .map_err(InputOrPlanError::Plan)?;
     let mut solution = outcome.to_solution_file(file, kind.name());
     if solution.status == FileStatus::Solved {
-        let report = validate::<KinovaGen3, DOF>(file, problem, &solution);
+        let report = validate::<Fleet, DOF>(file, problem, &solution);
         if !report.is_valid() {
             solution.status = FileStatus::NoSolution;
             solution.message = format!(

@@ -5,7 +5,7 @@
 use std::fmt;
 
 use omcbsa_core::collision::{ArmPose, Sweep};
-use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::Vector3;
 use omcbsa_core::problem::Problem;
 use serde::Serialize;
@@ -160,8 +160,9 @@ impl Report {
         });
     }
 
-    fn add_contact<M: Model<D>, const D: usize>(
+    fn add_contact<M: Models<D>, const D: usize>(
         &mut self,
+        problem: &Problem<D>,
         contact: &Contact,
         step: usize,
         detail: String,
@@ -172,14 +173,14 @@ impl Report {
             step: Some(step),
             phase: Phase::Path,
             detail,
-            links: contact.links::<M, D>(),
+            links: contact.links::<M, D>(problem),
         });
     }
 }
 
 /// Checks `solution` against `problem` (the checked file and its converted form) for robots of
 /// model `M`.
-pub fn validate<M: Model<D>, const D: usize>(
+pub fn validate<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,
     solution: &SolutionFile,
@@ -211,9 +212,9 @@ pub fn validate<M: Model<D>, const D: usize>(
     let Some(paths) = joint_paths::<M, D>(problem, solution, &mut report) else {
         return report;
     };
-    check_limits::<M, D>(&paths, &mut report);
+    check_limits::<M, D>(problem, &paths, &mut report);
     check_tracking::<M, D>(file, problem, &solution.assignment, &paths, &mut report);
-    check_velocity::<M, D>(problem.dt, &paths, &mut report);
+    check_velocity::<M, D>(problem, &paths, &mut report);
     check_collisions::<M, D>(file, problem, &paths, &mut report);
     check_approach::<M, D>(file, problem, solution, &paths, &mut report);
     report
@@ -222,7 +223,7 @@ pub fn validate<M: Model<D>, const D: usize>(
 /// The optional approach: its shape, then rules 1, 3 and 4 on every robot's timeline from
 /// `initial` through the approach to `joint_paths[i][0]`. Violations name the approach's step
 /// (0 = `initial`, A + 1 = `joint_paths[i][0]`).
-fn check_approach<M: Model<D>, const D: usize>(
+fn check_approach<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,
     solution: &SolutionFile,
@@ -281,7 +282,7 @@ fn check_approach<M: Model<D>, const D: usize>(
                     format!(
                         "approach[{i}][{k}] has {} joint values, model {} has {D}",
                         q.len(),
-                        M::NAME
+                        M::name(robot.model)
                     ),
                 ),
             }
@@ -293,8 +294,8 @@ fn check_approach<M: Model<D>, const D: usize>(
         return;
     }
     let mut sub = Report::default();
-    check_limits::<M, D>(&timelines, &mut sub);
-    check_velocity::<M, D>(problem.dt, &timelines, &mut sub);
+    check_limits::<M, D>(problem, &timelines, &mut sub);
+    check_velocity::<M, D>(problem, &timelines, &mut sub);
     check_collisions::<M, D>(file, problem, &timelines, &mut sub);
     for v in sub.violations {
         if report.violations.len() == MAX_VIOLATIONS {
@@ -373,7 +374,7 @@ fn check_assignment(file: &ProblemFile, solution: &SolutionFile, report: &mut Re
 
 /// Rule 5, the paths: one path per robot of H configurations of D joints. `None` (reported)
 /// if their shape is wrong, since the other rules cannot be checked then.
-fn joint_paths<M: Model<D>, const D: usize>(
+fn joint_paths<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     solution: &SolutionFile,
     report: &mut Report,
@@ -401,7 +402,7 @@ fn joint_paths<M: Model<D>, const D: usize>(
         );
     }
     let mut out = Vec::with_capacity(paths.len());
-    for (i, path) in paths.iter().enumerate() {
+    for (i, (path, robot)) in paths.iter().zip(&problem.robots).enumerate() {
         if path.len() != horizon {
             report.add(
                 Rule::Assignment,
@@ -424,7 +425,7 @@ fn joint_paths<M: Model<D>, const D: usize>(
                     format!(
                         "joint_paths[{i}][{t}] has {} joint values, model {} has {D}",
                         q.len(),
-                        M::NAME
+                        M::name(robot.model)
                     ),
                 ),
             }
@@ -436,11 +437,15 @@ fn joint_paths<M: Model<D>, const D: usize>(
 
 /// Rule 1, with the range of [`joint_range`] (joint limits, and the bus's range for the
 /// continuous joints).
-fn check_limits<M: Model<D>, const D: usize>(paths: &[Vec<[f64; D]>], report: &mut Report) {
-    for (i, path) in paths.iter().enumerate() {
+fn check_limits<M: Models<D>, const D: usize>(
+    problem: &Problem<D>,
+    paths: &[Vec<[f64; D]>],
+    report: &mut Report,
+) {
+    for (i, (path, robot)) in paths.iter().zip(&problem.robots).enumerate() {
         for (t, q) in path.iter().enumerate() {
             for (j, &v) in q.iter().enumerate() {
-                let (lower, upper) = joint_range::<M, D>(j);
+                let (lower, upper) = joint_range::<M, D>(robot.model, j);
                 if !(lower <= v && v <= upper) {
                     report.add(
                         Rule::JointLimits,
@@ -448,7 +453,7 @@ fn check_limits<M: Model<D>, const D: usize>(paths: &[Vec<[f64; D]>], report: &m
                         Some(t),
                         format!(
                             "joint {} = {} is outside its limits [{}, {}]",
-                            M::JOINT_NAMES[j],
+                            M::joint_names(robot.model)[j],
                             short(v),
                             short(lower),
                             short(upper)
@@ -461,7 +466,7 @@ fn check_limits<M: Model<D>, const D: usize>(paths: &[Vec<[f64; D]>], report: &m
 }
 
 /// Rule 2: tracking robots' tool centre points on their trajectory, holding robots still.
-fn check_tracking<M: Model<D>, const D: usize>(
+fn check_tracking<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,
     assignment: &[Option<usize>],
@@ -478,7 +483,10 @@ fn check_tracking<M: Model<D>, const D: usize>(
                 };
                 let name = quoted(&file.trajectories[j].name);
                 for (t, (q, target)) in path.iter().zip(trajectory).enumerate() {
-                    let tcp = robot.base.compose(&M::fk(q)).compose(&robot.tcp);
+                    let tcp = robot
+                        .base
+                        .compose(&M::fk(robot.model, q))
+                        .compose(&robot.tcp);
                     let dp = (tcp.pos - target.pos).norm();
                     let angle = rotation_angle(&tcp, target);
                     if dp > tol.position {
@@ -522,7 +530,7 @@ fn check_tracking<M: Model<D>, const D: usize>(
                             Some(t),
                             format!(
                                 "holds, but joint {} = {} differs from its initial {}",
-                                M::JOINT_NAMES[j],
+                                M::joint_names(robot.model)[j],
                                 short(q[j]),
                                 short(initial[j])
                             ),
@@ -550,16 +558,18 @@ fn rotation_angle(a: &Frame, b: &Frame) -> f64 {
 }
 
 /// Rule 3.
-fn check_velocity<M: Model<D>, const D: usize>(
-    dt: f64,
+fn check_velocity<M: Models<D>, const D: usize>(
+    problem: &Problem<D>,
     paths: &[Vec<[f64; D]>],
     report: &mut Report,
 ) {
-    for (i, path) in paths.iter().enumerate() {
+    let dt = problem.dt;
+    for (i, (path, robot)) in paths.iter().zip(&problem.robots).enumerate() {
+        let (names, velocity) = (M::joint_names(robot.model), M::velocity(robot.model));
         for (t, pair) in path.windows(2).enumerate() {
             for (j, (a, b)) in pair[0].iter().zip(&pair[1]).enumerate() {
                 let dq = (b - a).abs();
-                let max = M::VELOCITY[j] * dt;
+                let max = velocity[j] * dt;
                 if dq > max + VELOCITY_SLACK {
                     report.add(
                         Rule::Velocity,
@@ -568,10 +578,10 @@ fn check_velocity<M: Model<D>, const D: usize>(
                         format!(
                             "joint {} moves {} between steps {t} and {}, more than its velocity \
                              limit {} * dt {} = {}",
-                            M::JOINT_NAMES[j],
+                            names[j],
                             short(dq),
                             t + 1,
-                            short(M::VELOCITY[j]),
+                            short(velocity[j]),
                             short(dt),
                             short(max)
                         ),
@@ -613,44 +623,53 @@ impl Contact {
         }
     }
 
-    /// The link a capsule index is on (`usize::MAX` for none).
-    fn link_of<M: Model<D>, const D: usize>(capsule: usize) -> usize {
-        M::CAPSULES
-            .get(capsule)
-            .map_or(usize::MAX, |c| usize::from(c.link))
-    }
-
     /// `(robot, link)` of every link in contact (an obstacle is not a link).
-    fn links<M: Model<D>, const D: usize>(&self) -> Vec<(usize, usize)> {
-        let link = Self::link_of::<M, D>;
+    fn links<M: Models<D>, const D: usize>(&self, problem: &Problem<D>) -> Vec<(usize, usize)> {
+        let model = |robot: usize| problem.robots.get(robot).map_or(0, |r| r.model);
+        // The link a capsule index is on (`usize::MAX` for none).
+        let link = |robot: usize, capsule: usize| {
+            (M::capsules(model(robot)).get(capsule)).map_or(usize::MAX, |c| usize::from(c.link))
+        };
         let links = match *self {
-            Contact::Obstacle { robot, capsule, .. } => vec![(robot, link(capsule))],
+            Contact::Obstacle { robot, capsule, .. } => vec![(robot, link(robot, capsule))],
             Contact::Robot {
                 robot,
                 capsule,
                 other,
                 other_capsule,
-            } => vec![(robot, link(capsule)), (other, link(other_capsule))],
+            } => vec![
+                (robot, link(robot, capsule)),
+                (other, link(other, other_capsule)),
+            ],
             Contact::SelfLinks {
                 robot,
                 capsule,
                 other_capsule,
-            } => vec![(robot, link(capsule)), (robot, link(other_capsule))],
+            } => vec![
+                (robot, link(robot, capsule)),
+                (robot, link(robot, other_capsule)),
+            ],
         };
         links
             .into_iter()
-            .filter(|&(_, l)| l < M::LINK_NAMES.len())
+            .filter(|&(r, l)| l < M::link_names(model(r)).len())
             .collect()
     }
 
-    fn describe<M: Model<D>, const D: usize>(&self, file: &ProblemFile) -> String {
+    fn describe<M: Models<D>, const D: usize>(
+        &self,
+        file: &ProblemFile,
+        problem: &Problem<D>,
+    ) -> String {
         // `link forearm_link`, or `tool "gripper" (capsule 1)` past the link capsules.
         let part = |robot: usize, capsule: usize| {
-            if let Some(c) = M::CAPSULES.get(capsule) {
-                let link = M::LINK_NAMES.get(usize::from(c.link));
+            let model = problem.robots.get(robot).map_or(0, |r| r.model);
+            let capsules = M::capsules(model);
+            if let Some(c) = capsules.get(capsule) {
+                let link = M::link_names(model).get(usize::from(c.link));
                 return format!("link {}", link.copied().unwrap_or("?"));
             }
-            let k = capsule - M::CAPSULES.len();
+            let k = capsule - capsules.len();
             match file.robots[robot].tool.as_ref() {
                 Some(tool) if k < tool.capsules.len() => {
                     format!("tool {} (capsule {k})", quoted(&tool.name))
@@ -695,7 +714,7 @@ impl Contact {
 }
 
 /// Rule 4, at every step and along every motion between steps.
-fn check_collisions<M: Model<D>, const D: usize>(
+fn check_collisions<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,
     paths: &[Vec<[f64; D]>],
@@ -704,15 +723,15 @@ fn check_collisions<M: Model<D>, const D: usize>(
     let horizon = paths.iter().map(Vec::len).min().unwrap_or(0);
     let arms_at = |configurations: &mut dyn Iterator<Item = [f64; D]>| -> Vec<ArmPose> {
         (problem.robots.iter().zip(configurations))
-            .map(|(robot, q)| ArmPose::new::<M, D>(&robot.base, &robot.tool, &q))
+            .map(|(robot, q)| ArmPose::new::<M, D>(robot.model, &robot.base, &robot.tool, &q))
             .collect()
     };
     let mut step_collides = vec![false; horizon];
     for (t, collides) in step_collides.iter_mut().enumerate() {
-        let contacts = contacts::<M, D>(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
+        let contacts = contacts(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
         *collides = !contacts.is_empty();
         for c in contacts {
-            report.add_contact::<M, D>(&c, t, c.describe::<M, D>(file));
+            report.add_contact::<M, D>(problem, &c, t, c.describe::<M, D>(file, problem));
         }
     }
     for t in 0..horizon.saturating_sub(1) {
@@ -723,21 +742,20 @@ fn check_collisions<M: Model<D>, const D: usize>(
         // All robots move together, checked at the same instants: as many as the robot whose
         // points move farthest needs.
         let sweeps: Vec<Sweep<M, D>> = (paths.iter().zip(&problem.robots))
-            .map(|(p, r)| Sweep::new(&r.tool, &p[t], &p[t + 1], MOTION_CHECK_SPACING))
+            .map(|(p, r)| Sweep::new(r.model, &r.tool, &p[t], &p[t + 1], MOTION_CHECK_SPACING))
             .collect();
         let count = sweeps.iter().map(|s| s.count()).max().unwrap_or(1);
         let sweeps: Vec<_> = sweeps.into_iter().map(|s| s.with_count(count)).collect();
         for k in 0..count {
-            let contacts =
-                contacts::<M, D>(problem, &arms_at(&mut sweeps.iter().map(|s| s.config(k))));
+            let contacts = contacts(problem, &arms_at(&mut sweeps.iter().map(|s| s.config(k))));
             for c in &contacts {
                 let detail = format!(
                     "moving from step {t} to {}, at {:.1} % of the way: {}",
                     t + 1,
                     100.0 * (k as f64 + 0.5) / count as f64,
-                    c.describe::<M, D>(file)
+                    c.describe::<M, D>(file, problem)
                 );
-                report.add_contact::<M, D>(c, t, detail);
+                report.add_contact::<M, D>(problem, c, t, detail);
             }
             if !contacts.is_empty() {
                 break;
@@ -748,24 +766,24 @@ fn check_collisions<M: Model<D>, const D: usize>(
 
 /// What the arms standing at their `initial` configurations overlap, in the validator's words:
 /// empty when they stand clear; `None` when some robot gives no `initial`.
-pub fn initial_contacts<M: Model<D>, const D: usize>(
+pub fn initial_contacts<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,
 ) -> Option<Vec<String>> {
     let standing = (problem.robots.iter())
-        .map(|r| Some(ArmPose::new::<M, D>(&r.base, &r.tool, &r.initial?)))
+        .map(|r| Some(ArmPose::new::<M, D>(r.model, &r.base, &r.tool, &r.initial?)))
         .collect::<Option<Vec<_>>>()?;
     Some(
-        contacts::<M, D>(problem, &standing)
+        contacts(problem, &standing)
             .iter()
-            .map(|c| c.describe::<M, D>(file))
+            .map(|c| c.describe::<M, D>(file, problem))
             .collect(),
     )
 }
 
 /// What overlaps with the arms at `arms` (touching is not overlapping): every obstacle each
 /// arm hits, the first pair of its own links, the first pair of links with each other arm.
-fn contacts<M: Model<D>, const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Contact> {
+fn contacts<const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Contact> {
     let obstacles = problem.obstacles.as_slice();
     let mut found = Vec::new();
     for (robot, arm) in arms.iter().enumerate() {

@@ -33,7 +33,7 @@ impl Model<1> for Stick {
     const LOWER: [f64; 1] = [-10.0];
     const UPPER: [f64; 1] = [10.0];
     const VELOCITY: [f64; 1] = [VMAX];
-    const ACCELERATION: [f64; 1] = [f64::INFINITY];
+    const ACCELERATION: [f64; 1] = [AMAX];
     const CAPSULES: &'static [LinkCapsule] = &[LinkCapsule {
         link: 1,
         a: [0.0; 3],
@@ -91,6 +91,7 @@ fn path_quality_of_a_hand_computed_plan() {
     problem
         .robots
         .push(Robot {
+            model: 0,
             base: at(0.0, 0.0),
             tcp: Frame::IDENTITY,
             tool: Tool::NONE,
@@ -104,6 +105,7 @@ fn path_quality_of_a_hand_computed_plan() {
     problem
         .robots
         .push(Robot {
+            model: 0,
             base: at(3.0, 0.0),
             tcp: Frame::IDENTITY,
             tool: Tool::NONE,
@@ -123,7 +125,7 @@ fn path_quality_of_a_hand_computed_plan() {
         })
         .unwrap();
 
-    let q = path_quality::<Stick, 1>(&problem, &[Some(0), None], &[a_path, b_path], &[AMAX]);
+    let q = path_quality::<Stick, 1>(&problem, &[Some(0), None], &[a_path, b_path]);
     let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
     // Length: |-0.1| + |-0.2| = 0.3 rad (B does not move).
     assert!(near(q.path_length_rad, 0.3), "{q:?}");
@@ -157,6 +159,7 @@ fn a_single_arm_without_obstacles_has_no_clearance_figures() {
     problem
         .robots
         .push(Robot {
+            model: 0,
             base: Frame::IDENTITY,
             tcp: Frame::IDENTITY,
             tool: Tool::NONE,
@@ -170,7 +173,7 @@ fn a_single_arm_without_obstacles_has_no_clearance_figures() {
         .trajectories
         .push(path.iter().map(Stick::fk).collect())
         .unwrap();
-    let q = path_quality::<Stick, 1>(&problem, &[Some(0)], &[path], &[AMAX]);
+    let q = path_quality::<Stick, 1>(&problem, &[Some(0)], &[path]);
     assert_eq!(
         q,
         PathQuality {

@@ -320,7 +320,7 @@ fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
 }
 
 #[test]
-fn a_panda_problem_is_validated_with_the_panda_and_refused_by_the_planners() {
+fn a_panda_problem_is_validated_and_planned_with_the_panda() {
     // Gen3 paths near Q0 (joint 4 at 1.8 rad) break the Panda's joint 4 limit (-3.0718 to
     // -0.0698): validate checks them against the Panda.
     let (p, s) = tiny();
@@ -340,15 +340,10 @@ fn a_panda_problem_is_validated_with_the_panda_and_refused_by_the_planners() {
         stdout.starts_with("invalid: rule 1 (joint limits), robot 0, step 0: joint panda_joint4"),
         "{stdout}"
     );
-    let out = omcbsa(&["plan", &paths[0]], "");
+    // The planners take the Panda too: an answer (solved or not), not a refusal of the input.
+    let out = omcbsa(&["plan", &paths[0], "--timeout", "2"], "");
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(
-        stderr.contains(
-            "robots[0].model: franka_panda: planning and the approach take kinova_gen3 only so far"
-        ),
-        "{stderr}"
-    );
+    assert_ne!(out.status.code(), Some(2), "{stderr}");
 }
 
 #[test]

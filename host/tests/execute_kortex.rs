@@ -118,7 +118,7 @@ fn execute_streams_to_three_mock_gen3s_and_shows_the_password_nowhere() {
     let logged = std::fs::read_to_string(&log).unwrap();
     assert!(logged.contains("Session.CreateSession"));
     assert!(!text.contains(&password) && !logged.contains(&password));
-    let limits = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED).unwrap();
+    let limits = joint_limits(ModelKind::default(), CAUTIOUS_SPEED);
     let traj = interpolate(&plan, &limits, period.as_secs_f64()).unwrap();
     let settle = omcbsa_hw::ExecConfig::default().settle_cycles;
     for ((name, record), cmds) in mocks.finish().unwrap().iter().zip(&traj.commands) {

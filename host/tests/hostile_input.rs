@@ -100,11 +100,11 @@ fn plan_and_validate_into_a_closed_pipe_fail_with_exit_2() {
 fn the_joint_range_of_files_is_the_bus_range() {
     assert_eq!(MAX_JOINT_VALUE, MAX_POSITION_RAD);
     // Joint 1 of the Gen3 is continuous: its range in files is the bus's, and both ends encode.
-    let (lower, upper) = load::joint_range::<KinovaGen3, 7>(0);
+    let (lower, upper) = load::joint_range::<KinovaGen3, 7>(0, 0);
     assert_eq!((lower, upper), (-MAX_POSITION_RAD, MAX_POSITION_RAD));
     assert!(rad_to_counts(lower).is_some() && rad_to_counts(upper).is_some());
     // A joint with limits keeps them.
-    assert_eq!(load::joint_range::<KinovaGen3, 7>(1), (-2.24, 2.24));
+    assert_eq!(load::joint_range::<KinovaGen3, 7>(0, 1), (-2.24, 2.24));
 }
 
 #[test]

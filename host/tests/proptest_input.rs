@@ -7,6 +7,7 @@ mod common;
 use common::*;
 use omcbsa::format::{ProblemFile, SolutionFile, MAX_JOINT_VALUE};
 use omcbsa::load;
+use omcbsa::models::{Fleet, DOF};
 use omcbsa::validate::{validate, HOLD_TOLERANCE, VELOCITY_SLACK};
 use omcbsa_core::model::{KinovaGen3, Model};
 use proptest::prelude::*;
@@ -14,9 +15,7 @@ use proptest::prelude::*;
 /// Everything `plan` does with a problem file's bytes before planning.
 fn load_problem(bytes: &[u8]) {
     if let Ok(file) = load::decode_text(bytes.to_vec()).and_then(|t| load::parse_problem(&t)) {
-        if load::model_of(&file).is_ok() {
-            let _ = load::problem::<KinovaGen3, 7>(&file);
-        }
+        let _ = load::problem::<Fleet, DOF>(&file);
     }
 }
 

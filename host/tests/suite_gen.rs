@@ -7,16 +7,16 @@ use std::path::Path;
 
 use omcbsa::format::SolutionFile;
 use omcbsa::load;
+use omcbsa::models::{Fleet, DOF};
 use omcbsa::planners::{Capacities, Storage};
 use omcbsa::suite::{
     gen_bench, gen_refine, read_index, GenOptions, RefineOptions, Tightness, INDEX_FILE,
 };
 use omcbsa::validate::validate;
-use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{NoClock, Stats, Status};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
-/// Two problems per family: 14 problems, every family, several layouts and arm counts.
+/// Two problems per family: 16 problems, every family, several layouts and arm counts.
 fn small() -> GenOptions {
     GenOptions {
         per_family: 2,
@@ -51,17 +51,26 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
     assert!(fa.contains_key(INDEX_FILE));
 
     let index = read_index(a.path()).unwrap();
-    assert_eq!(index.problems.len(), 14);
-    assert_eq!(report.problems, 14);
+    assert_eq!(index.problems.len(), 16);
+    assert_eq!(report.problems, 16);
     let families: std::collections::BTreeSet<_> =
         index.problems.iter().map(|e| e.family.as_str()).collect();
-    assert_eq!(families.len(), 7, "{families:?}");
+    assert_eq!(families.len(), 8, "{families:?}");
     for entry in &index.problems {
         let text = load::read_text(&a.path().join(&entry.file)).unwrap();
         let file = load::parse_problem(&text).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         let problem =
-            load::problem::<KinovaGen3, 7>(&file).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+            load::problem::<Fleet, DOF>(&file).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         assert_eq!(file.name, entry.name);
+        // The mixed family alternates the Gen3 and the Panda; the others are all Gen3s.
+        let models: Vec<&str> = file.robots.iter().map(|r| r.model.as_str()).collect();
+        let expected: Vec<&str> = (0..file.robots.len())
+            .map(|i| match (entry.family.as_str(), i % 2) {
+                ("mixed", 1) => "franka_panda",
+                _ => "kinova_gen3",
+            })
+            .collect();
+        assert_eq!(models, expected, "{}", entry.name);
         assert_eq!(
             (
                 file.robots.len(),
@@ -76,11 +85,10 @@ fn generation_is_deterministic_and_every_problem_is_valid_input() {
         assert!((20..=40).contains(&entry.horizon));
         assert_eq!(entry.known_solvable, entry.witness.is_some());
         // Issue 22: every arm can stand where the problem puts it (the loader's own check).
-        omcbsa::approach::check_initial::<KinovaGen3, 7>(&file, &problem)
+        omcbsa::approach::check_initial::<Fleet, DOF>(&file, &problem)
             .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         // ... and the validator's.
-        if let Some(contacts) = omcbsa::validate::initial_contacts::<KinovaGen3, 7>(&file, &problem)
-        {
+        if let Some(contacts) = omcbsa::validate::initial_contacts::<Fleet, DOF>(&file, &problem) {
             assert!(contacts.is_empty(), "{}: {contacts:?}", entry.name);
         }
         // The approach family stands every arm where the straight bridge collides.
@@ -122,10 +130,10 @@ fn witnesses_solve_their_problems_and_ik_tracking_solves_at_most_half() {
     for entry in index.problems.iter().filter(|e| e.known_solvable) {
         let file =
             load::parse_problem(&load::read_text(&dir.path().join(&entry.file)).unwrap()).unwrap();
-        let problem = load::problem::<KinovaGen3, 7>(&file).unwrap();
+        let problem = load::problem::<Fleet, DOF>(&file).unwrap();
         let text = load::read_text(&dir.path().join(entry.witness.as_ref().unwrap())).unwrap();
         let witness: SolutionFile = load::parse_solution(&text).unwrap();
-        let report = validate::<KinovaGen3, 7>(&file, &problem, &witness);
+        let report = validate::<Fleet, DOF>(&file, &problem, &witness);
         assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
         // Arms that stand somewhere reach the witness by its approach (validated with it).
         if problem.robots.iter().all(|r| r.initial.is_some()) {
@@ -175,10 +183,10 @@ fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
         assert!(entry.family.starts_with("refine_"), "{}", entry.family);
         let file =
             load::parse_problem(&load::read_text(&a.path().join(&entry.file)).unwrap()).unwrap();
-        let problem = load::problem::<KinovaGen3, 7>(&file).unwrap();
+        let problem = load::problem::<Fleet, DOF>(&file).unwrap();
         let text = load::read_text(&a.path().join(entry.witness.as_ref().unwrap())).unwrap();
         let witness: SolutionFile = load::parse_solution(&text).unwrap();
-        let report = validate::<KinovaGen3, 7>(&file, &problem, &witness);
+        let report = validate::<Fleet, DOF>(&file, &problem, &witness);
         assert!(report.is_valid(), "{}: {}", entry.name, report.summary());
         // Arms that stand somewhere reach the witness by its approach (validated with it).
         if problem.robots.iter().all(|r| r.initial.is_some()) {

@@ -372,67 +372,75 @@ fn the_approach_is_played_before_the_path() {
     );
 }
 
-/// Issue 24: a Franka Panda is drawn with its own meshes and kinematics: the page's joint
-/// angles, read back from the drawn Panda links, are the planned ones.
 #[test]
-fn a_panda_is_drawn_with_its_meshes() {
-    use omcbsa::pose;
-    use omcbsa_core::model::{FrankaPanda, Model};
-    let path: Vec<common::Q> = (0..3)
-        .map(|k| [0.1 * k as f64, -0.4, 0.2, -2.0, 0.1, 1.6, 0.7])
-        .collect();
-    let bases = [common::at([0.0; 3]), common::at([0.0, 1.0, 0.0])];
+fn a_mixed_fleet_is_drawn_each_arm_with_its_own_model() {
+    use omcbsa::format::RobotSpec;
+    use omcbsa::models::{Fleet, ModelKind};
+    use omcbsa::planners::{plan_file, PlannerKind};
+    use omcbsa_core::model::Models;
+    // A Gen3 and a Panda 1.2 m apart, each hand where its own arm's slow motion puts it.
+    let homes = [
+        ("kinova_gen3", common::Q0),
+        (
+            "franka_panda",
+            [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785],
+        ),
+    ];
     let mut robots = Vec::new();
     let mut trajectories = Vec::new();
-    for (i, base) in bases.iter().enumerate() {
-        let mut r = common::robot(&format!("panda_{i}"), *base, None);
-        r.model = "panda".to_string();
-        robots.push(r);
-        let b = pose::to_frame(base).unwrap();
+    for (i, (model, home)) in homes.into_iter().enumerate() {
+        let id = ModelKind::parse(model).unwrap().id();
+        let base = common::at([1.2 * i as f64, 0.0, 0.0]);
+        let frame = omcbsa::pose::to_frame(&base).unwrap();
+        let poses = (0..6)
+            .map(|t| home.map(|v| v + 0.04 * t as f64))
+            .map(|q| omcbsa::pose::from_frame(&frame.compose(&Fleet::fk(id, &q))))
+            .collect();
         trajectories.push(omcbsa::format::TrajectorySpec {
             name: format!("hand_{i}"),
-            poses: (path.iter())
-                .map(|q| pose::from_frame(&b.compose(&FrankaPanda::fk(q))))
-                .collect(),
+            poses,
+        });
+        robots.push(RobotSpec {
+            model: model.to_string(),
+            ..common::robot(model, base, None)
         });
     }
     let problem = common::problem(robots, trajectories, 0.1);
-    let solution = common::solution(vec![Some(0), Some(1)], vec![path.clone(), path.clone()]);
+    let solution = plan_file(&problem, PlannerKind::OmCbsa, 10.0).unwrap();
+    let paths = solution.joint_paths.clone().expect("solved");
     let dir = tempfile::tempdir().unwrap();
-    let page = dir.path().join("panda.html");
+    let page = dir.path().join("mixed.html");
     write_html(&problem, Some(&solution), None, &page).unwrap();
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("\"panda_link3\":") && html.contains("\"forearm_link\":"));
+    let screenshot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plan-view-mixed.png");
 
     let mut browser = Browser::start();
     browser.open(&page);
-    let models: Vec<(String, usize)> =
-        serde_json::from_value(browser.eval("omcbsaView.models()")).unwrap();
-    assert_eq!(models.len(), 2);
-    for (name, meshes) in &models {
-        assert_eq!(name, FrankaPanda::NAME);
-        // panda_link0 to panda_link7 and panda_hand.
-        assert_eq!(*meshes, 9, "{models:?}");
-    }
-    browser.eval("omcbsaView.setStep(2)");
+    assert_eq!(browser.eval("omcbsaView.arms()"), json!(2));
+    // Each arm with its own model's meshes: the Gen3's 8, the Panda's 9 (links 0-7, hand).
+    assert_eq!(
+        browser.eval("omcbsaView.models()"),
+        json!([["kinova_gen3", 8], ["franka_panda", 9]])
+    );
+    let text = browser.eval("document.body.textContent");
+    let text = text.as_str().unwrap();
+    assert!(
+        text.contains("Kinova") && text.contains("Apache License"),
+        "licences missing"
+    );
+    // The drawn joint angles, read back through each arm's own model's joints.
     let drawn: Vec<Vec<f64>> =
         serde_json::from_value(browser.eval("omcbsaView.jointAngles()")).unwrap();
-    for (i, angles) in drawn.iter().enumerate() {
-        assert_eq!(angles.len(), 7);
-        for (j, (&a, &q)) in angles.iter().zip(&path[2]).enumerate() {
+    for (i, (drawn, path)) in drawn.iter().zip(&paths).enumerate() {
+        assert_eq!(drawn.len(), 7);
+        for (j, (&a, &q)) in drawn.iter().zip(&path[0]).enumerate() {
             assert!(
                 same_angle(a, q),
                 "robot {i} joint {j}: drawn {a}, planned {q}"
             );
         }
     }
-    let licences = browser.eval("document.body.textContent");
-    assert!(
-        licences.as_str().unwrap().contains("Apache"),
-        "no Panda licence in the page"
-    );
-    browser.screenshot(&Path::new(env!("CARGO_TARGET_TMPDIR")).join("plan-view-panda.png"));
-    assert_eq!(
-        browser.errors(),
-        Vec::<String>::new(),
-        "the page logged JavaScript errors"
-    );
+    browser.screenshot(&screenshot);
+    assert_eq!(browser.errors(), Vec::<String>::new());
 }

@@ -40,7 +40,7 @@ class Problem:
         obstacles: Optional[Sequence[Mapping[str, Any]]] = None,
         tolerance: Optional[Tuple[float, float]] = None,
         name: str = "problem",
-        model: str = "kinova_gen3",
+        model: Optional[Union[str, Sequence[str]]] = None,
     ) -> Problem:
         """``bases`` (robots, 7) and ``hands`` (hands, H, 7): position + quaternion xyzw;
         ``initial`` (robots, 7) joint values; ``tcp`` (robots, 7) or (7,);
@@ -173,7 +173,7 @@ class Embodier:
         tcp: Optional[ArrayLike] = None,
         obstacles: Optional[Sequence[Mapping[str, Any]]] = None,
         tolerance: Optional[Tuple[float, float]] = None,
-        model: str = "kinova_gen3",
+        model: Optional[Union[str, Sequence[str]]] = None,
         planner: str = "omcbsa",
         chunk_timeout: float = 1.0,
         max_chunk_len: int = 64,

@@ -11,7 +11,9 @@ use pyo3::types::PyDict;
 
 use crate::convert::{field_error, flat, input_error};
 use crate::guard;
-use crate::problem::{check, problem_document, robots_value, rule, to_python, Problem, DOF};
+use crate::problem::{
+    check, problem_document, robots_value, rule, to_python, ModelArg, Problem, DOF,
+};
 use omcbsa::load;
 
 pyo3::create_exception!(
@@ -135,7 +137,7 @@ impl Embodier {
 impl Embodier {
     #[new]
     #[pyo3(signature = (setup=None, *, bases=None, initial=None, dt=None, tcp=None,
-        obstacles=None, tolerance=None, model="kinova_gen3", planner="omcbsa",
+        obstacles=None, tolerance=None, model=None, planner="omcbsa",
         chunk_timeout=1.0, max_chunk_len=64, assignment=None, preferred=false,
         reassign=false))]
     #[allow(clippy::too_many_arguments)]
@@ -148,7 +150,7 @@ impl Embodier {
         tcp: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
         obstacles: Option<&Bound<'_, PyAny>>,
         tolerance: Option<(f64, f64)>,
-        model: &str,
+        model: Option<ModelArg>,
         planner: &str,
         chunk_timeout: f64,
         max_chunk_len: usize,
@@ -167,7 +169,8 @@ impl Embodier {
         let setup = match (setup, bases, initial, dt) {
             (Some(problem), None, None, None) => Setup::of_problem(&problem.file),
             (None, Some(bases), Some(initial), Some(dt)) => {
-                let robots = robots_value(py, &bases, Some(&initial), tcp.as_ref(), model)?;
+                let robots =
+                    robots_value(py, &bases, Some(&initial), tcp.as_ref(), model.as_ref())?;
                 // The loader checks the setup as a problem's; one hand stands in for the
                 // chunks to come.
                 let hand = serde_json::json!({"name": "hand", "poses": [{

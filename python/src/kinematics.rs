@@ -6,9 +6,9 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
 use omcbsa::error::{Errors, InputError};
 use omcbsa::format::Pose;
 use omcbsa::ik::solve as solve_ik;
-use omcbsa::models::{ModelKind, ModelVisitor};
+use omcbsa::models::{Fleet, ModelKind};
 use omcbsa::{load, pose};
-use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::model::{Frame, Models};
 use pyo3::prelude::*;
 
 use crate::convert::{field_error, flat, index_path, input_error};
@@ -20,22 +20,23 @@ fn model(py: Python<'_>, name: &str) -> PyResult<ModelKind> {
     ModelKind::parse(name).map_err(|e| field_error(py, "model", e))
 }
 
-/// Row `k` of `values` as a configuration of `M` (finite, within limits), or the error naming
-/// `name[i][j]`.
-fn configuration<M: Model<D>, const D: usize>(
+/// Row `k` of `values` as a configuration of model `model` (finite, within limits), or the
+/// error naming `name[i][j]`.
+fn configuration(
+    model: u8,
     row: &[f64],
     name: &str,
     lead: &[usize],
     k: usize,
-) -> Result<[f64; D], InputError> {
+) -> Result<[f64; DOF], InputError> {
     let mut errors = Errors::default();
-    let q = load::joint_values::<M, D>(row, "", &mut errors);
+    let q = load::joint_values::<Fleet, DOF>(model, row, "", &mut errors);
     errors.finish().map_err(|e| InputError {
         errors: (e.errors.into_iter())
             .map(|f| f.within(&index_path(name, lead, k)))
             .collect(),
     })?;
-    Ok(q.unwrap_or([0.0; D]))
+    Ok(q.unwrap_or([0.0; DOF]))
 }
 
 /// An optional pose argument (shape (7,): position + quaternion xyzw) as a frame; the
@@ -87,12 +88,13 @@ pub fn fk<'py>(
     let out = py
         .detach(|| {
             guard("fk", || {
-                kind.visit(FkRows {
+                FkRows {
                     values: &values,
                     lead,
                     base: &base,
                     tcp: &tcp,
-                })
+                }
+                .run(kind.id())
             })
         })?
         .map_err(|e| input_error(py, &e))?;
@@ -149,14 +151,15 @@ pub fn ik<'py>(
     let (q, ok) = py
         .detach(|| {
             guard("ik", || {
-                kind.visit(IkRows {
+                IkRows {
                     values: &values,
                     seeds: seeds.as_deref(),
                     lead: &lead,
                     seed,
                     base_inv: &base_inv,
                     tcp_inv: &tcp_inv,
-                })
+                }
+                .run(kind.id())
             })
         })?
         .map_err(|e| input_error(py, &e))?;
@@ -176,13 +179,13 @@ struct FkRows<'a> {
     tcp: &'a Frame,
 }
 
-impl ModelVisitor for FkRows<'_> {
-    type Output = Result<Vec<f64>, InputError>;
-    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+impl FkRows<'_> {
+    /// The poses for model `model`.
+    fn run(self, model: u8) -> Result<Vec<f64>, InputError> {
         let mut out = Vec::with_capacity(self.values.len());
-        for (k, row) in self.values.chunks_exact(D).enumerate() {
-            let q = configuration::<M, D>(row, "q", self.lead, k)?;
-            let p = pose::from_frame(&self.base.compose(&M::fk(&q)).compose(self.tcp));
+        for (k, row) in self.values.chunks_exact(DOF).enumerate() {
+            let q = configuration(model, row, "q", self.lead, k)?;
+            let p = pose::from_frame(&self.base.compose(&Fleet::fk(model, &q)).compose(self.tcp));
             out.extend_from_slice(&p.position);
             out.extend_from_slice(&p.quat_xyzw);
         }
@@ -202,9 +205,10 @@ struct IkRows<'a> {
     tcp_inv: &'a Frame,
 }
 
-impl ModelVisitor for IkRows<'_> {
-    type Output = Result<(Vec<f64>, Vec<bool>), InputError>;
-    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
+impl IkRows<'_> {
+    /// The answers for model `model`.
+    fn run(self, model: u8) -> Result<(Vec<f64>, Vec<bool>), InputError> {
+        const D: usize = DOF;
         let n = self.values.len() / 7;
         let mut q = Vec::with_capacity(n * D);
         let mut ok = Vec::with_capacity(n);
@@ -217,8 +221,9 @@ impl ModelVisitor for IkRows<'_> {
                 .map_err(|e| InputError::from(e.within(&index_path("poses", self.lead, k))))?;
             let target = self.base_inv.compose(&target).compose(self.tcp_inv);
             let start = match self.seeds {
-                Some(s) if s.len() == D => Some(configuration::<M, D>(s, "seeds", &[], 0)?),
-                Some(s) => Some(configuration::<M, D>(
+                Some(s) if s.len() == D => Some(configuration(model, s, "seeds", &[], 0)?),
+                Some(s) => Some(configuration(
+                    model,
                     &s[k * D..(k + 1) * D],
                     "seeds",
                     self.lead,
@@ -226,7 +231,7 @@ impl ModelVisitor for IkRows<'_> {
                 )?),
                 None => None,
             };
-            match solve_ik::<M, D>(&target, start.as_ref(), self.seed) {
+            match solve_ik::<Fleet, D>(model, &target, start.as_ref(), self.seed) {
                 Ok(sol) => {
                     q.extend_from_slice(&sol);
                     ok.push(true);

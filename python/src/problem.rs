@@ -15,7 +15,6 @@ use omcbsa::planners::{
     Storage,
 };
 use omcbsa::validate::validate as check_solution;
-use omcbsa_core::model::KinovaGen3;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -24,8 +23,32 @@ use serde_json::{Map, Value};
 use crate::convert::{field_error, flat, input_error, number, pose_value, to_json};
 use crate::guard;
 
-/// Joint count of the compiled-in model (Kinova Gen3).
-pub const DOF: usize = 7;
+pub use omcbsa::models::DOF;
+use omcbsa::models::{Fleet, ModelKind};
+
+/// `model=`: one model name for every robot, or a list of one per robot (a mixed fleet);
+/// left out, the default model.
+#[derive(FromPyObject)]
+pub enum ModelArg {
+    One(String),
+    Each(Vec<String>),
+}
+
+impl ModelArg {
+    /// The model name of each of `n` robots, or the error naming `model`.
+    fn names(py: Python<'_>, arg: Option<&ModelArg>, n: usize) -> PyResult<Vec<String>> {
+        match arg {
+            None => Ok(vec![ModelKind::default().name().to_string(); n]),
+            Some(ModelArg::One(name)) => Ok(vec![name.clone(); n]),
+            Some(ModelArg::Each(names)) if names.len() == n => Ok(names.clone()),
+            Some(ModelArg::Each(names)) => Err(field_error(
+                py,
+                "model",
+                format!("{} model names, but bases has {n} robots", names.len()),
+            )),
+        }
+    }
+}
 
 /// A planning problem (`omcbsa.problem.v1`), checked when made: bad input raises
 /// `omcbsa.InputError` (a `ValueError`) naming every bad field as the command line does.
@@ -39,9 +62,8 @@ pub struct Problem {
 
 /// Checks a problem file (every rule a file alone can break, and arms standing clear).
 pub fn check(file: ProblemFile) -> Result<ProblemFile, InputError> {
-    load::planned_model(&file)?;
-    let problem = load::problem::<KinovaGen3, DOF>(&file)?;
-    omcbsa::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
+    let problem = load::problem::<Fleet, DOF>(&file)?;
+    omcbsa::approach::check_initial::<Fleet, DOF>(&file, &problem)?;
     Ok(file)
 }
 
@@ -116,10 +138,11 @@ impl Problem {
     /// `hands`: (hands, H, 7) hand (tool centre point) poses; `dt`: seconds between poses;
     /// `initial`: (robots, 7) joint values; `tcp`: (robots, 7) or (7,) tool centre point in
     /// the tool frame; `obstacles`: dicts in the file's layout; `tolerance`: (metres,
-    /// radians).
+    /// radians); `model`: one model name for all robots or a list of one per robot (robots
+    /// of different models mix), the default model (`kinova_gen3`) when left out.
     #[staticmethod]
     #[pyo3(signature = (bases, hands, dt, *, initial=None, tcp=None, obstacles=None,
-        tolerance=None, name="problem", model="kinova_gen3"))]
+        tolerance=None, name="problem", model=None))]
     #[allow(clippy::too_many_arguments)]
     fn from_arrays(
         py: Python<'_>,
@@ -131,9 +154,9 @@ impl Problem {
         obstacles: Option<&Bound<'_, PyAny>>,
         tolerance: Option<(f64, f64)>,
         name: &str,
-        model: &str,
+        model: Option<ModelArg>,
     ) -> PyResult<Problem> {
-        let robots = robots_value(py, &bases, initial.as_ref(), tcp.as_ref(), model)?;
+        let robots = robots_value(py, &bases, initial.as_ref(), tcp.as_ref(), model.as_ref())?;
         let hands = hands.as_array();
         let h = hands.shape().get(1).copied().unwrap_or(0);
         let hand_rows = pose_rows(py, &hands, 3, "hands", "(hands, H, 7)")?;
@@ -236,15 +259,17 @@ pub(crate) fn problem_document(
 }
 
 /// The `robots` of a problem document from arrays: `bases` (robots, 7), `initial` (robots, 7),
-/// `tcp` (robots, 7) or (7,), all of model `model`; robots are named `robot_<i>`.
+/// `tcp` (robots, 7) or (7,), of the models `model` names ([`ModelArg`]); robots are named
+/// `robot_<i>`.
 pub(crate) fn robots_value(
     py: Python<'_>,
     bases: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
     initial: Option<&PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
     tcp: Option<&PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
-    model: &str,
+    model: Option<&ModelArg>,
 ) -> PyResult<Vec<Value>> {
     let base_rows = pose_rows(py, &bases.as_array(), 2, "bases", "(robots, 7)")?;
+    let models = ModelArg::names(py, model, base_rows.len())?;
     let initial_rows = match initial {
         Some(a) => Some(pose_rows(py, &a.as_array(), 2, "initial", "(robots, 7)")?),
         None => None,
@@ -277,7 +302,7 @@ pub(crate) fn robots_value(
     for (i, b) in base_rows.iter().enumerate() {
         let mut r = Map::new();
         r.insert("name".into(), Value::from(format!("robot_{i}")));
-        r.insert("model".into(), Value::from(model));
+        r.insert("model".into(), Value::from(models[i].as_str()));
         r.insert(
             "base".into(),
             pose(b, format!("bases[{i}]")).map_err(|e| fe(py, e))?,
@@ -597,8 +622,8 @@ pub fn validate(py: Python<'_>, problem: &Problem, solution: &Solution) -> PyRes
     let report = py
         .detach(|| {
             guard("validate", || {
-                let p = load::problem::<KinovaGen3, DOF>(file)?;
-                Ok::<_, InputError>(check_solution::<KinovaGen3, DOF>(file, &p, sol))
+                let p = load::problem::<Fleet, DOF>(file)?;
+                Ok::<_, InputError>(check_solution::<Fleet, DOF>(file, &p, sol))
             })
         })?
         .map_err(|e| input_error(py, &e))?;

@@ -181,12 +181,14 @@ pub fn witness_is_valid(
     (0..bases.len()).all(|i| {
         let others: Vec<OtherArm<'_, DOF>> = (0..i)
             .map(|k| OtherArm {
+                model: 0,
                 base: bases[k],
                 tool: Tool::NONE,
                 path: &paths[k],
             })
             .collect();
         let v = Validity::<KinovaGen3, DOF>::new(
+            0,
             bases[i],
             Tool::NONE,
             obstacles,
@@ -223,6 +225,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     let n = *null_space_basis::<DOF>(&j).first()?;
     let shifted: [f64; DOF] = std::array::from_fn(|i| p0[0][i] + 0.8 * n[i]);
     let free = Validity::<KinovaGen3, DOF>::new(
+        0,
         base,
         Tool::NONE,
         &[],
@@ -234,6 +237,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     );
     let traj: omcbsa_core::problem::Trajectory = p0.iter().map(KinovaGen3::fk).collect();
     let robot = Robot {
+        model: 0,
         base,
         tcp: Frame::IDENTITY,
         initial: None,

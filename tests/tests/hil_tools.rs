@@ -102,6 +102,7 @@ fn gripping(elbow: &Vector3<f64>, a_path: &[Q]) -> Q {
     let target = b.inverse().compose(&tool);
     let mut found = [[0.0; DOF]; 16];
     let n = ik_multi_start::<KinovaGen3, DOF>(
+        0,
         &target,
         &IkParams::default(),
         &MultiStart::default(),
@@ -109,7 +110,7 @@ fn gripping(elbow: &Vector3<f64>, a_path: &[Q]) -> Q {
         &mut found,
     )
     .expect("b reaches a's elbow");
-    let bare = |base: &Frame, q: &Q| ArmPose::new::<KinovaGen3, DOF>(base, &Tool::NONE, q);
+    let bare = |base: &Frame, q: &Q| ArmPose::new::<KinovaGen3, DOF>(0, base, &Tool::NONE, q);
     // Largest margin (1 cm steps up to 5 cm) by which `b`'s bare links miss `a` everywhere.
     let margin = |q: &Q| {
         let arm = bare(&b, q);

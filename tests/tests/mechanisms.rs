@@ -29,6 +29,7 @@ fn finds_the_assignment_the_listed_order_gets_wrong() {
     };
     assert!(
         ik_multi_start::<KinovaGen3, DOF>(
+            0,
             &target,
             &Default::default(),
             &multi,

@@ -312,7 +312,14 @@ fn both_models_kinematics_allocate_nothing() {
             let _ = M::jacobian(&q);
             let params = IkParams::default();
             let mut rng = Rng::new(3);
-            ik_multi_start::<M, 7>(&target, &params, &MultiStart::default(), &mut rng, &mut out)
+            ik_multi_start::<M, 7>(
+                0,
+                &target,
+                &params,
+                &MultiStart::default(),
+                &mut rng,
+                &mut out,
+            )
         });
         assert!(solved.is_ok(), "{}: {solved:?}", M::NAME);
         n

@@ -54,6 +54,7 @@ fn motion<'a>(
 ) -> ArmMotion<'a, DOF> {
     let robot = &problem.robots[i];
     ArmMotion {
+        model: robot.model,
         base: &robot.base,
         tool: &robot.tool,
         from: &path[t],
@@ -72,7 +73,7 @@ fn arms_planned_apart_meet_only_between_steps() {
     let paths = [alone(&file, 0), alone(&file, 1)];
     let pose = |i: usize, q: &[f64; DOF]| {
         let robot = &problem.robots[i];
-        ArmPose::new::<KinovaGen3, DOF>(&robot.base, &robot.tool, q)
+        ArmPose::new::<KinovaGen3, DOF>(0, &robot.base, &robot.tool, q)
     };
     for (t, (qa, qb)) in paths[0].iter().zip(&paths[1]).enumerate() {
         let (a, b) = (pose(0, qa), pose(1, qb));

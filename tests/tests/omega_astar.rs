@@ -20,6 +20,7 @@ fn omega_astar_swings_the_elbow_where_ik_tracking_fails() {
         let problem = core_problem(&file);
         let robot = problem.robots[0];
         let valid = Validity::<KinovaGen3, DOF>::new(
+            0,
             robot.base,
             robot.tool,
             &problem.obstacles,

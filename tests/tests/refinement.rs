@@ -117,12 +117,14 @@ fn motion_conflicts_branch_on_a_point_both_arms_hold_at_one_instant() {
             q[k] = std::array::from_fn(|i| q[k - 1][i] + rng.uniform(-0.4, 0.4));
         }
         let ma = ArmMotion {
+            model: 0,
             base: &a_base,
             tool: &Tool::NONE,
             from: &q[0],
             to: &q[1],
         };
         let mb = ArmMotion {
+            model: 0,
             base: &b_base,
             tool: &Tool::NONE,
             from: &q[2],
@@ -130,7 +132,7 @@ fn motion_conflicts_branch_on_a_point_both_arms_hold_at_one_instant() {
         };
         let place = |m: &ArmMotion<'_, 7>, s: f64| {
             let c: [f64; 7] = std::array::from_fn(|i| m.from[i] + s * (m.to[i] - m.from[i]));
-            ArmPose::new::<KinovaGen3, 7>(m.base, m.tool, &c)
+            ArmPose::new::<KinovaGen3, 7>(0, m.base, m.tool, &c)
         };
         // Both arms overlap at the start: a step conflict, not a motion one.
         let ([a0, a1], [b0, b1]) = (

@@ -4,7 +4,7 @@
 //! so a piece of it is again a composite motion (what the time parametrisation relies on).
 
 use crate::collision::ArmPose;
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, ArmMotion};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::tool::Tool;
@@ -43,7 +43,7 @@ pub(crate) struct Fleet<'p, M, const D: usize> {
     _m: core::marker::PhantomData<M>,
 }
 
-impl<'p, M: Model<D>, const D: usize> Fleet<'p, M, D> {
+impl<'p, M: Models<D>, const D: usize> Fleet<'p, M, D> {
     pub fn new(problem: &'p Problem<D>, motion_step: f64) -> Self {
         let n = problem.robots.len();
         Fleet {
@@ -67,6 +67,16 @@ impl<'p, M: Model<D>, const D: usize> Fleet<'p, M, D> {
         self.active[i]
     }
 
+    /// Robot `i`'s model, an index into `M`.
+    pub fn model(&self, i: usize) -> u8 {
+        self.problem.robots[i].model
+    }
+
+    /// Every robot's model (0 past the last robot).
+    pub fn models(&self) -> [u8; MAX_ROBOTS] {
+        core::array::from_fn(|i| self.problem.robots.get(i).map_or(0, |r| r.model))
+    }
+
     fn base(&self, i: usize) -> &'p Frame {
         &self.problem.robots[i].base
     }
@@ -76,7 +86,7 @@ impl<'p, M: Model<D>, const D: usize> Fleet<'p, M, D> {
     }
 
     fn pose(&self, i: usize, q: &[f64; D]) -> ArmPose {
-        ArmPose::new::<M, D>(self.base(i), self.tool(i), q)
+        ArmPose::new::<M, D>(self.model(i), self.base(i), self.tool(i), q)
     }
 
     /// The first robot (in index order) whose configuration in `q` is outside its limits or
@@ -85,7 +95,8 @@ impl<'p, M: Model<D>, const D: usize> Fleet<'p, M, D> {
         let mut poses = [ArmPose::EMPTY; MAX_ROBOTS];
         for i in (0..self.n).filter(|&i| self.active[i]) {
             // Written so that NaN is refused too.
-            let out = (0..D).find(|&j| !(q[i][j] >= M::LOWER[j] && q[i][j] <= M::UPPER[j]));
+            let (lower, upper) = (M::lower(self.model(i)), M::upper(self.model(i)));
+            let out = (0..D).find(|&j| !(q[i][j] >= lower[j] && q[i][j] <= upper[j]));
             if let Some(joint) = out {
                 return Some(Blocked {
                     robot: i,
@@ -131,6 +142,7 @@ impl<'p, M: Model<D>, const D: usize> Fleet<'p, M, D> {
             };
         }
         let motion = |i: usize| ArmMotion {
+            model: self.model(i),
             base: self.base(i),
             tool: self.tool(i),
             from: &a[i],

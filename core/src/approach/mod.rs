@@ -29,7 +29,7 @@ mod timing;
 
 pub use fleet::{Blocked, Touch};
 
-use crate::model::Model;
+use crate::model::Models;
 use crate::pp::{identity, next_permutation};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::Deadline;
@@ -149,7 +149,7 @@ pub struct ApproachStorage<'a, const D: usize> {
 
 /// The first robot whose `initial` is outside its limits or touches an obstacle, itself or
 /// another robot's `initial`. Robots without `initial` are left out.
-pub fn check_starts<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Result<(), Blocked> {
+pub fn check_starts<M: Models<D>, const D: usize>(problem: &Problem<D>) -> Result<(), Blocked> {
     let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP)
         .restricted(|i| problem.robots[i].initial.is_some());
     let q: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
@@ -167,7 +167,7 @@ pub fn check_starts<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Result
 
 /// The first robot whose configuration `q[i]` is outside its limits or touches an obstacle,
 /// itself or another robot's `q` (every robot of `problem`, one configuration each).
-pub fn configurations_blocked<M: Model<D>, const D: usize>(
+pub fn configurations_blocked<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     q: &[[f64; D]],
 ) -> Option<Blocked> {
@@ -209,7 +209,7 @@ impl<const D: usize> Ends<D> {
 /// RRT-Connect on the composite space, with `samples` samples.
 /// Writes robot `i`'s approach to `out[i * cap..i * cap + A]` with `cap = out.len() / robots`.
 #[allow(clippy::too_many_arguments)]
-pub fn plan_approach<M: Model<D>, const D: usize>(
+pub fn plan_approach<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     paths: &[[f64; D]],
     h: usize,
@@ -230,7 +230,14 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
         return Err(ApproachError::OutOfMemory("approach waypoints"));
     }
     let timed = |m: usize, method: Method, st: &ApproachStorage<'_, D>, out: &mut [[f64; D]]| {
-        let len = timing::write::<M, D>(&st.waypoints[..m * n], n, problem.dt, params, out)?;
+        let len = timing::write::<M, D>(
+            &fleet.models(),
+            &st.waypoints[..m * n],
+            n,
+            problem.dt,
+            params,
+            out,
+        )?;
         let method = if len == 0 && starts == goals {
             Method::None
         } else {
@@ -327,7 +334,7 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
 /// The robots whose approach fails even with the other arms out of the way (RRT-Connect with
 /// `samples` samples for that arm alone), as a bit set. Ok(0): each arm alone can make it.
 #[allow(clippy::too_many_arguments)]
-pub fn blocked_alone<M: Model<D>, const D: usize>(
+pub fn blocked_alone<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     paths: &[[f64; D]],
     h: usize,
@@ -369,7 +376,7 @@ pub fn blocked_alone<M: Model<D>, const D: usize>(
 /// when that is blocked, an RRT-Connect path of that arm alone around the others standing.
 /// Writes the waypoints and returns how many; `None` when some arm's path was not found.
 #[allow(clippy::too_many_arguments)]
-fn one_at_a_time<M: Model<D>, const D: usize>(
+fn one_at_a_time<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     starts: &[[f64; D]],
     goals: &[[f64; D]],

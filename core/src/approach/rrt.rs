@@ -19,7 +19,7 @@
 
 use core::f64::consts::PI;
 
-use crate::model::Model;
+use crate::model::Models;
 use crate::problem::MAX_ROBOTS;
 use crate::rng::Rng;
 use crate::search::Deadline;
@@ -84,11 +84,16 @@ impl<const D: usize> Trees<'_, '_, D> {
 }
 
 /// Seconds at full speed from `a` to `b` (the arms moving together).
-fn distance<M: Model<D>, const D: usize>(a: &[[f64; D]], b: &[[f64; D]]) -> f64 {
+fn distance<M: Models<D>, const D: usize>(
+    fleet: &Fleet<'_, M, D>,
+    a: &[[f64; D]],
+    b: &[[f64; D]],
+) -> f64 {
     let mut d = 0.0f64;
-    for (qa, qb) in a.iter().zip(b) {
+    for (i, (qa, qb)) in a.iter().zip(b).enumerate() {
+        let velocity = M::velocity(fleet.model(i));
         for j in 0..D {
-            d = d.max(libm::fabs(qb[j] - qa[j]) / M::VELOCITY[j]);
+            d = d.max(libm::fabs(qb[j] - qa[j]) / velocity[j]);
         }
     }
     d
@@ -99,7 +104,7 @@ fn distance<M: Model<D>, const D: usize>(a: &[[f64; D]], b: &[[f64; D]]) -> f64 
 /// robots in the bit set `free` are sampled; the others keep their start (they are still
 /// checked, as obstacles when `start` and `goal` agree on them).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn connect<M: Model<D>, const D: usize>(
+pub(super) fn connect<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     start: &[[f64; D]],
     goal: &[[f64; D]],
@@ -164,7 +169,7 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
 
 /// A sample: each active arm in `free` uniform within its bounds or on its own bridge, even
 /// odds; the others at their start.
-fn draw<M: Model<D>, const D: usize>(
+fn draw<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     start: &[[f64; D]],
     goal: &[[f64; D]],
@@ -180,14 +185,15 @@ fn draw<M: Model<D>, const D: usize>(
             let f = rng.next_f64();
             *q = core::array::from_fn(|j| s[j] + f * (g[j] - s[j]));
         } else {
+            let (lower, upper) = (M::lower(fleet.model(i)), M::upper(fleet.model(i)));
             *q = core::array::from_fn(|j| {
-                let lo = if M::LOWER[j].is_finite() {
-                    M::LOWER[j]
+                let lo = if lower[j].is_finite() {
+                    lower[j]
                 } else {
                     s[j].min(g[j]) - PI
                 };
-                let hi = if M::UPPER[j].is_finite() {
-                    M::UPPER[j]
+                let hi = if upper[j].is_finite() {
+                    upper[j]
                 } else {
                     s[j].max(g[j]) + PI
                 };
@@ -198,7 +204,7 @@ fn draw<M: Model<D>, const D: usize>(
 }
 
 /// One step of tree `t` from its node nearest `target` towards it.
-fn extend<M: Model<D>, const D: usize>(
+fn extend<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     trees: &mut Trees<'_, '_, D>,
     t: usize,
@@ -208,7 +214,7 @@ fn extend<M: Model<D>, const D: usize>(
     let n = trees.n;
     let (mut near, mut best) = (0, f64::INFINITY);
     for k in 0..trees.len[t] {
-        let d = distance::<M, D>(trees.config(t, k), target);
+        let d = distance::<M, D>(fleet, trees.config(t, k), target);
         if d < best {
             (near, best) = (k, d);
         }
@@ -277,7 +283,7 @@ fn trace<const D: usize>(
 /// Random shortcutting: `tries` times, two waypoints `a < b - 1` are drawn and, when the
 /// straight composite motion between them is free, the ones between are dropped; then one pass
 /// drops single waypoints. Returns the waypoints left.
-fn shortcut<M: Model<D>, const D: usize>(
+fn shortcut<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     st: &mut ApproachStorage<'_, D>,
     n: usize,

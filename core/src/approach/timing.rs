@@ -7,26 +7,28 @@
 
 use core::f64::consts::PI;
 
-use crate::model::Model;
+use crate::model::Models;
 
 use super::{ApproachError, ApproachParams};
 
 /// Samples (`dt` apart) the composite segment `a -> b` needs under the cosine profile: its
 /// largest step is `pi / 2N` of the distance and its largest second difference
 /// `(pi / N)^2 / 2` of it. 0 when nothing moves.
-pub(super) fn samples<M: Model<D>, const D: usize>(
+pub(super) fn samples<M: Models<D>, const D: usize>(
+    models: &[u8],
     a: &[[f64; D]],
     b: &[[f64; D]],
     dt: f64,
     params: &ApproachParams,
 ) -> usize {
     let mut need = 0.0f64;
-    for (qa, qb) in a.iter().zip(b) {
+    for ((qa, qb), &model) in a.iter().zip(b).zip(models) {
+        let (velocity, acceleration) = (M::velocity(model), M::acceleration(model));
         for j in 0..D {
             let d = libm::fabs(qb[j] - qa[j]);
-            need = need.max(PI * d / (2.0 * params.speed * M::VELOCITY[j] * dt));
+            need = need.max(PI * d / (2.0 * params.speed * velocity[j] * dt));
             if params.acceleration > 0.0 {
-                let limit = params.acceleration * M::ACCELERATION[j];
+                let limit = params.acceleration * acceleration[j];
                 need = need.max(PI * libm::sqrt(d / (2.0 * limit)) / dt);
             }
         }
@@ -38,7 +40,8 @@ pub(super) fn samples<M: Model<D>, const D: usize>(
 /// robots, `waypoints[k * n + i]`), the first excluded and the last excluded too (it is the
 /// path's first configuration, which follows): robot `i`'s approach goes to
 /// `out[i * cap..i * cap + A]`. Returns `A`.
-pub(super) fn write<M: Model<D>, const D: usize>(
+pub(super) fn write<M: Models<D>, const D: usize>(
+    models: &[u8],
     waypoints: &[[f64; D]],
     n: usize,
     dt: f64,
@@ -56,7 +59,7 @@ pub(super) fn write<M: Model<D>, const D: usize>(
     let counts = || {
         (0..m.saturating_sub(1)).map(|k| {
             let (a, b) = segment(k);
-            samples::<M, D>(a, b, dt, params)
+            samples::<M, D>(models, a, b, dt, params)
         })
     };
     let total: usize = counts().sum();

@@ -7,7 +7,7 @@
 
 use crate::collision::ArmPose;
 use crate::ik::{ik_multi_start, MultiStart};
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::motion::{motions_collide, ArmMotion};
 use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::pp::Orders;
@@ -80,7 +80,7 @@ impl<'a, const D: usize> CompositeAstar<'a, D> {
     }
 }
 
-impl<M: Model<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
+impl<M: Models<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
     fn name(&self) -> &'static str {
         PlannerKind::CompositeAstar.name()
     }
@@ -126,7 +126,7 @@ struct Search<'r, M, const D: usize> {
     _m: core::marker::PhantomData<M>,
 }
 
-impl<M: Model<D>, const D: usize> Search<'_, M, D> {
+impl<M: Models<D>, const D: usize> Search<'_, M, D> {
     fn run(&mut self, out: &mut Solution<'_, D>) -> Status {
         if let Err(s) = self.seed() {
             return s;
@@ -153,6 +153,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
     fn validity(&self, r: usize) -> Validity<'_, M, D> {
         let robot = &self.pr.robots[r];
         Validity::new(
+            robot.model,
             robot.base,
             robot.tool,
             &self.pr.obstacles,
@@ -214,6 +215,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
                         let want = self.p.start_solutions.clamp(1, 4);
                         let mut found = [[0.0; D]; 4];
                         let k = ik_multi_start::<M, D>(
+                            self.pr.robots[r].model,
                             &self.target(r, j, 0),
                             &self.p.low.ik,
                             &multi,
@@ -269,9 +271,9 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
     fn robots_clear(&self, q: &[[f64; D]; MAX_ROBOTS]) -> bool {
         let robots = &self.pr.robots[..self.n];
         for (i, (ri, qi)) in robots.iter().zip(q).enumerate() {
-            let a = ArmPose::new::<M, D>(&ri.base, &ri.tool, qi);
+            let a = ArmPose::new::<M, D>(ri.model, &ri.base, &ri.tool, qi);
             for (rk, qk) in robots.iter().zip(q).skip(i + 1) {
-                if a.arm_hit(&ArmPose::new::<M, D>(&rk.base, &rk.tool, qk), 0.0)
+                if a.arm_hit(&ArmPose::new::<M, D>(rk.model, &rk.base, &rk.tool, qk), 0.0)
                     .is_some()
                 {
                     return false;
@@ -295,6 +297,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
             let valid = self.validity(r);
             let mut cand = [[0.0; D]; MAX_MOVES];
             let k = manifold_moves::<M, D>(
+                self.pr.robots[r].model,
                 &self.target(r, node.assign[r] as usize, t1),
                 q,
                 &self.p.low,
@@ -339,6 +342,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
     fn motions_clear(&self, from: &[[f64; D]; MAX_ROBOTS], to: &[[f64; D]; MAX_ROBOTS]) -> bool {
         for i in 0..self.n {
             let a = ArmMotion {
+                model: self.pr.robots[i].model,
                 base: &self.pr.robots[i].base,
                 tool: &self.pr.robots[i].tool,
                 from: &from[i],
@@ -346,6 +350,7 @@ impl<M: Model<D>, const D: usize> Search<'_, M, D> {
             };
             for k in i + 1..self.n {
                 let b = ArmMotion {
+                    model: self.pr.robots[k].model,
                     base: &self.pr.robots[k].base,
                     tool: &self.pr.robots[k].tool,
                     from: &from[k],

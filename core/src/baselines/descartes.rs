@@ -5,7 +5,7 @@
 //! through the layers. The next order, then the next assignment, on failure.
 
 use crate::ik::{ik, IkParams};
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, Robot, Trajectory, MAX_ROBOTS};
@@ -53,7 +53,7 @@ impl<'a, const D: usize> Descartes<'a, D> {
     }
 }
 
-impl<M: Model<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
+impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
     fn name(&self) -> &'static str {
         PlannerKind::Descartes.name()
     }
@@ -100,7 +100,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
 }
 
 impl<const D: usize> Descartes<'_, D> {
-    fn attempt<M: Model<D>>(
+    fn attempt<M: Models<D>>(
         &mut self,
         problem: &Problem<D>,
         h: usize,
@@ -117,12 +117,14 @@ impl<const D: usize> Descartes<'_, D> {
             for &o in &orders.order[..rank] {
                 let o = o as usize;
                 let _ = others.push(OtherArm {
+                    model: problem.robots[o].model,
                     base: problem.robots[o].base,
                     tool: problem.robots[o].tool,
                     path: &out.paths[o * h..(o + 1) * h],
                 });
             }
             let valid = Validity::<M, D>::new(
+                robot.model,
                 robot.base,
                 robot.tool,
                 &problem.obstacles,
@@ -162,7 +164,7 @@ impl<const D: usize> Descartes<'_, D> {
 
     /// Builds the roadmap of one robot on one trajectory and searches it; returns the index in
     /// the last layer of the best path's end (or `None` if the layers do not connect).
-    fn roadmap<M: Model<D>>(
+    fn roadmap<M: Models<D>>(
         &mut self,
         robot: &Robot<D>,
         traj: &Trajectory,
@@ -196,10 +198,10 @@ impl<const D: usize> Descartes<'_, D> {
                 } else if attempt < prev {
                     self.st.layers[(t - 1) * k + attempt]
                 } else {
-                    rng.configuration(&M::LOWER, &M::UPPER)
+                    rng.configuration(M::lower(robot.model), M::upper(robot.model))
                 };
                 attempt += 1;
-                let Ok(q) = ik::<M, D>(&goal, &seed, &self.params.ik) else {
+                let Ok(q) = ik::<M, D>(robot.model, &goal, &seed, &self.params.ik) else {
                     continue;
                 };
                 if valid.state(&q, t).is_none() {

@@ -4,7 +4,7 @@
 //! failure.
 
 use crate::ik::IkParams;
-use crate::model::Model;
+use crate::model::Models;
 use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
@@ -37,7 +37,7 @@ pub struct IkTracking {
     pub params: IkTrackingParams,
 }
 
-impl<M: Model<D>, const D: usize> Planner<M, D> for IkTracking {
+impl<M: Models<D>, const D: usize> Planner<M, D> for IkTracking {
     fn name(&self) -> &'static str {
         PlannerKind::IkTracking.name()
     }
@@ -73,7 +73,7 @@ impl<M: Model<D>, const D: usize> Planner<M, D> for IkTracking {
 }
 
 impl IkTracking {
-    fn attempt<M: Model<D>, const D: usize>(
+    fn attempt<M: Models<D>, const D: usize>(
         &self,
         problem: &Problem<D>,
         h: usize,
@@ -88,12 +88,14 @@ impl IkTracking {
             let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
             for k in 0..r {
                 let _ = others.push(OtherArm {
+                    model: problem.robots[k].model,
                     base: problem.robots[k].base,
                     tool: problem.robots[k].tool,
                     path: &done[k * h..(k + 1) * h],
                 });
             }
             let valid = Validity::<M, D>::new(
+                robot.model,
                 robot.base,
                 robot.tool,
                 &problem.obstacles,
@@ -115,7 +117,7 @@ impl IkTracking {
                         }
                         let seed = match (attempt, robot.initial) {
                             (0, Some(init)) => init,
-                            _ => rng.configuration(&M::LOWER, &M::UPPER),
+                            _ => rng.configuration(M::lower(robot.model), M::upper(robot.model)),
                         };
                         track::<M, D>(
                             &robot,

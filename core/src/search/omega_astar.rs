@@ -15,7 +15,7 @@ use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
 use crate::tool::Tool;
@@ -95,6 +95,8 @@ impl Default for OmegaParams {
 /// Another robot's path: a moving obstacle.
 #[derive(Clone, Copy, Debug)]
 pub struct OtherArm<'a, const D: usize> {
+    /// Its model, an index into the planner's [`crate::model::Models`].
+    pub model: u8,
     pub base: Frame,
     pub tool: Tool,
     /// One configuration per step.
@@ -234,18 +236,19 @@ pub const MAX_MOVES: usize = 7;
 /// The candidate successors of `q` on the manifold of `target` (before any validity check):
 /// the IK projection `q'` of `q`, then `IK(target, q' ± ε n)` for each null-space basis
 /// direction `n` at `q'`. Returns how many were written to `out`.
-pub fn manifold_moves<M: Model<D>, const D: usize>(
+pub fn manifold_moves<M: Models<D>, const D: usize>(
+    model: u8,
     target: &Frame,
     q: &[f64; D],
     p: &OmegaParams,
     out: &mut [[f64; D]; MAX_MOVES],
 ) -> usize {
-    let Ok(proj) = ik::<M, D>(target, q, &p.ik) else {
+    let Ok(proj) = ik::<M, D>(model, target, q, &p.ik) else {
         return 0;
     };
     out[0] = proj;
     let mut n = 1;
-    let (_, jac) = M::jacobian(&proj);
+    let (_, jac) = M::jacobian(model, &proj);
     let basis = null_space_basis::<D>(&jac);
     for dir in basis.iter() {
         for sign in [1.0, -1.0] {
@@ -256,7 +259,7 @@ pub fn manifold_moves<M: Model<D>, const D: usize>(
             for i in 0..D {
                 moved[i] += sign * p.epsilon * dir[i];
             }
-            if let Ok(q2) = ik::<M, D>(target, &moved, &p.ik) {
+            if let Ok(q2) = ik::<M, D>(model, target, &moved, &p.ik) {
                 out[n] = q2;
                 n += 1;
             }
@@ -266,7 +269,7 @@ pub fn manifold_moves<M: Model<D>, const D: usize>(
 }
 
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
-pub fn plan<M: Model<D>, const D: usize>(
+pub fn plan<M: Models<D>, const D: usize>(
     query: &Query<'_, D>,
     params: &OmegaParams,
     ws: &mut Workspace<'_, D>,
@@ -356,9 +359,10 @@ struct Ctx<'q, 'a, M, const D: usize> {
     valid: Validity<'q, M, D>,
 }
 
-impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
+impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
     fn new(q: &'q Query<'a, D>, p: &'q OmegaParams, h: usize) -> Self {
         let valid = Validity::new(
+            q.robot.model,
             q.robot.base,
             q.robot.tool,
             q.obstacles,
@@ -452,10 +456,13 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let parent = ws.node(node.parent);
         let (base, tool) = (&self.q.robot.base, &self.q.robot.tool);
         if parent_pose.as_ref().is_none_or(|(i, _)| *i != node.parent) {
-            *parent_pose = Some((node.parent, ArmPose::new::<M, D>(base, tool, &parent.q)));
+            *parent_pose = Some((
+                node.parent,
+                ArmPose::new::<M, D>(self.q.robot.model, base, tool, &parent.q),
+            ));
         }
         let from = &parent_pose.as_ref()?.1;
-        let to = ArmPose::new::<M, D>(base, tool, &node.q);
+        let to = ArmPose::new::<M, D>(self.q.robot.model, base, tool, &node.q);
         self.valid
             .motion_posed(&parent.q, &node.q, [from, &to], parent.t as usize)
     }
@@ -485,10 +492,13 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
             // more constraint explores the same start states.
             let mut rng = Rng::new(self.p.seed ^ (j as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
             let before = ws.used();
-            let seeds =
-                self.q.robot.initial.into_iter().chain(
-                    (0..self.p.start_attempts).map(|_| rng.configuration(&M::LOWER, &M::UPPER)),
-                );
+            let (lower, upper) = (M::lower(self.q.robot.model), M::upper(self.q.robot.model));
+            let seeds = self
+                .q
+                .robot
+                .initial
+                .into_iter()
+                .chain((0..self.p.start_attempts).map(|_| rng.configuration(lower, upper)));
             // The cache holds the first seeds of each trajectory (a finer refinement level
             // draws more, the first ones the same).
             let stride = self.q.starts.len() / self.q.trajectories.len();
@@ -496,7 +506,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 if ws.used() - before >= self.p.start_solutions {
                     break;
                 }
-                let solve = || ik::<M, D>(&target, &seed, &self.p.ik).ok();
+                let solve = || ik::<M, D>(self.q.robot.model, &target, &seed, &self.p.ik).ok();
                 let cached = (k < stride).then(|| self.q.starts.get(j * stride + k));
                 let answer = match cached.flatten() {
                     None => solve(),
@@ -543,7 +553,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
                     .q
                     .robot
                     .base
-                    .compose(&M::fk(init))
+                    .compose(&M::fk(self.q.robot.model, init))
                     .compose(&self.q.robot.tcp);
                 (tool.pos - self.q.trajectories[j][0].pos).norm()
             }
@@ -560,7 +570,7 @@ impl<'q, 'a: 'q, M: Model<D>, const D: usize> Ctx<'q, 'a, M, D> {
     ) -> Result<(), SearchError> {
         let target = self.target(node.j as usize, node.t as usize + 1);
         let mut moves = [[0.0; D]; MAX_MOVES];
-        let n = manifold_moves::<M, D>(&target, &node.q, self.p, &mut moves);
+        let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
         for q in &moves[..n] {
             if !self.valid.step_within_limits(&node.q, q) {

@@ -5,7 +5,7 @@ use core::cell::RefCell;
 
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
-use crate::model::{Frame, Model};
+use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
 use crate::problem::{StartExclusions, MAX_ROBOTS};
 use crate::tool::Tool;
@@ -14,6 +14,8 @@ use super::{OtherArm, OthersMode, PointConstraint};
 
 /// Everything that constrains one robot's states and motions.
 pub struct Validity<'q, M, const D: usize> {
+    /// The robot's model, an index into `M`.
+    pub model: u8,
     pub base: Frame,
     pub tool: Tool,
     pub obstacles: &'q [Obstacle],
@@ -33,9 +35,10 @@ pub struct Validity<'q, M, const D: usize> {
     _model: core::marker::PhantomData<M>,
 }
 
-impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
+impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
+        model: u8,
         base: Frame,
         tool: Tool,
         obstacles: &'q [Obstacle],
@@ -46,10 +49,11 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         motion_step: f64,
     ) -> Self {
         let mut step_limit = [0.0; D];
-        for (s, v) in step_limit.iter_mut().zip(M::VELOCITY.iter()) {
+        for (s, v) in step_limit.iter_mut().zip(M::velocity(model).iter()) {
             *s = v * dt;
         }
         Validity {
+            model,
             base,
             tool,
             obstacles,
@@ -76,7 +80,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         let (at, poses) = &mut cache[t % 2];
         if *at != t {
             for (p, other) in poses.iter_mut().zip(self.others) {
-                *p = ArmPose::new::<M, D>(&other.base, &other.tool, &other.path[t]);
+                *p = ArmPose::new::<M, D>(other.model, &other.base, &other.tool, &other.path[t]);
             }
             *at = t;
         }
@@ -99,13 +103,17 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     pub fn state(&self, q: &[f64; D], t: usize) -> Option<u16> {
         // Written so that NaN is refused too.
         let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
-        if !q.iter().zip(M::LOWER.iter().zip(&M::UPPER)).all(within) {
+        if !q
+            .iter()
+            .zip(M::lower(self.model).iter().zip(M::upper(self.model)))
+            .all(within)
+        {
             return None;
         }
         if t == 0 && self.excluded.excludes(q) {
             return None;
         }
-        let pose = ArmPose::new::<M, D>(&self.base, &self.tool, q);
+        let pose = ArmPose::new::<M, D>(self.model, &self.base, &self.tool, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
             return None;
         }
@@ -132,8 +140,8 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
     /// [`crate::motion`]). Returns the number of other robots met on the way.
     pub fn motion(&self, a: &[f64; D], b: &[f64; D], t: usize) -> Option<u16> {
         let ends = [
-            ArmPose::new::<M, D>(&self.base, &self.tool, a),
-            ArmPose::new::<M, D>(&self.base, &self.tool, b),
+            ArmPose::new::<M, D>(self.model, &self.base, &self.tool, a),
+            ArmPose::new::<M, D>(self.model, &self.base, &self.tool, b),
         ];
         self.motion_posed(a, b, [&ends[0], &ends[1]], t)
     }
@@ -147,6 +155,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         t: usize,
     ) -> Option<u16> {
         let me = ArmMotion {
+            model: self.model,
             base: &self.base,
             tool: &self.tool,
             from: a,
@@ -159,7 +168,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
             if pc.segment && pc.t as usize == t {
                 let q: [f64; D] = core::array::from_fn(|i| a[i] + pc.s * (b[i] - a[i]));
                 if near_point(
-                    &ArmPose::new::<M, D>(&self.base, &self.tool, &q),
+                    &ArmPose::new::<M, D>(self.model, &self.base, &self.tool, &q),
                     &pc.p,
                     pc.margin,
                 ) {
@@ -173,6 +182,7 @@ impl<'q, M: Model<D>, const D: usize> Validity<'q, M, D> {
         let mut c = 0u16;
         for (o, other) in self.others.iter().enumerate() {
             let theirs = ArmMotion {
+                model: other.model,
                 base: &other.base,
                 tool: &other.tool,
                 from: &other.path[t],

@@ -47,7 +47,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
   grid.rotation.x = Math.PI / 2;
   world.add(grid);
 
-  // ---- the models' meshes (binary STL), per model and link
+  // ---- the models' meshes (binary STL)
   function stlGeometry(b64) {
     const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
     const dv = new DataView(bytes.buffer);
@@ -89,11 +89,11 @@ function start(THREE, OrbitControls, data, meshes, view) {
   const capsuleObjects = [];
   const arms = data.robots.map((robot, i) => {
     const color = COLORS[i % COLORS.length];
-    const model = data.models[robot.model];
-    const shapes = geometries[model.name] || {};
     const group = new THREE.Group();
     group.name = "arm";
     group.userData.robot = i;
+    const model = data.models[robot.model];
+    const shapes = geometries[model.name] || {};
     const links = model.links.map((name, l) => {
       const link = new THREE.Group();
       link.name = name;
@@ -115,7 +115,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
       return link;
     });
     world.add(group);
-    return { robot, model, links };
+    return { robot, links, joints: model.joints };
   });
 
   // ---- trajectories in their arm's colour, and the target pose of the current step
@@ -280,7 +280,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
   // The joint angles as drawn: from the world frames of each joint's two link objects,
   // rel = parent^T child = origin * rot(axis, q).
   function jointAngles() {
-    return arms.map(({ model, links }) => model.joints.map((j) => {
+    return arms.map(({ links, joints }) => joints.map((j) => {
       const rot = (obj) => new THREE.Matrix3().setFromMatrix4(obj.matrixWorld);
       const o = new THREE.Matrix3().fromArray(j.origin);
       const m = o.transpose().multiply(rot(links[j.parent]).transpose()).multiply(rot(links[j.child]));
@@ -299,7 +299,7 @@ function start(THREE, OrbitControls, data, meshes, view) {
     setStep,
     jointAngles,
     // Per robot: its model's name and how many of its links are drawn with a mesh.
-    models: () => arms.map(({ model, links }) => [model.name,
+    models: () => arms.map(({ robot, links }) => [data.models[robot.model].name,
       links.filter((l) => l.children.some((c) => !capsuleObjects.includes(c))).length]),
     // [robot, link name] of every link drawn in the clash colour.
     marked: () => arms.flatMap(({ links }, r) => links

@@ -28,7 +28,6 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
-use omcbsa_core::model::{KinovaGen3, Model};
 use omcbsa_core::problem::Problem;
 
 use crate::format::{ProblemFile, SolutionFile, Status};
@@ -40,6 +39,7 @@ pub use quality::{path_quality, PathQuality};
 pub use results::Row;
 pub use summary::{Cell, Spread, Summary};
 
+use crate::models::{Fleet, DOF};
 use crate::planners::{self, PlannerKind};
 /// `--quick` runs every this-many-th problem of the suite...
 pub const QUICK_STRIDE: usize = 15;
@@ -399,7 +399,7 @@ fn run_one(
     let path = suite_dir.join(&entry.file);
     let loaded = load::read_text(&path)
         .and_then(|text| load::parse_problem(&text))
-        .and_then(|file| load::problem::<KinovaGen3, 7>(&file).map(|p| (file, Box::new(p))));
+        .and_then(|file| load::problem::<Fleet, DOF>(&file).map(|p| (file, Box::new(p))));
     let (file, problem) = match loaded {
         Ok(x) => x,
         Err(e) => {
@@ -442,17 +442,16 @@ fn run_one(
         if let Err(e) = save_solution(out_dir, &entry.name, planner, &solution) {
             row.message = format!("{} (solution not saved: {e})", row.message);
         }
-        let report = validate::validate::<KinovaGen3, 7>(&file, &problem, &solution);
+        let report = validate::validate::<Fleet, DOF>(&file, &problem, &solution);
         row.valid = Some(report.is_valid());
         row.success = report.is_valid();
         if !report.is_valid() {
             row.message = report.summary();
         } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
-            row.set_quality(&path_quality::<KinovaGen3, 7>(
+            row.set_quality(&path_quality::<Fleet, DOF>(
                 &problem,
                 &solution.assignment,
                 &paths,
-                &KinovaGen3::ACCELERATION,
             ));
         }
     }
@@ -461,12 +460,12 @@ fn run_one(
 
 /// A valid solution's joint paths as configurations (`None` if one has the wrong length,
 /// which validation has ruled out).
-fn config_paths(paths: &[Vec<Vec<f64>>]) -> Option<Vec<Vec<[f64; 7]>>> {
+fn config_paths(paths: &[Vec<Vec<f64>>]) -> Option<Vec<Vec<[f64; DOF]>>> {
     paths
         .iter()
         .map(|p| {
             p.iter()
-                .map(|q| <[f64; 7]>::try_from(q.as_slice()).ok())
+                .map(|q| <[f64; DOF]>::try_from(q.as_slice()).ok())
                 .collect()
         })
         .collect()

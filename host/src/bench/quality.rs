@@ -3,7 +3,7 @@
 //! obstacles, and the planners' search cost.
 
 use omcbsa_core::collision::ArmPose;
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
 use omcbsa_core::problem::Problem;
 
 /// One plan's figures. `None` where a figure does not apply (no other arm, no obstacle, fewer
@@ -29,23 +29,24 @@ pub struct PathQuality {
 }
 
 /// The figures of `paths[i][t]` (robot i at step t) on `problem`, where `assignment[i]` is the
-/// trajectory robot i tracks and `accel[j]` joint j's acceleration limit (rad/s²); speed
-/// limits are the model's. `paths` must hold one path of the problem's horizon per robot.
-pub fn path_quality<M: Model<D>, const D: usize>(
+/// trajectory robot i tracks; speed and acceleration limits are each robot's model's. `paths`
+/// must hold one path of the problem's horizon per robot.
+pub fn path_quality<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     assignment: &[Option<usize>],
     paths: &[Vec<[f64; D]>],
-    accel: &[f64; D],
 ) -> PathQuality {
     let dt = problem.dt;
     let mut q = PathQuality::default();
     for (i, path) in paths.iter().enumerate() {
+        let robot = &problem.robots[i];
+        let (velocity, accel) = (M::velocity(robot.model), M::acceleration(robot.model));
         let mut length = 0.0;
         for w in path.windows(2) {
             let step2: f64 = (0..D).map(|j| (w[1][j] - w[0][j]).powi(2)).sum();
             length += step2.sqrt();
             for j in 0..D {
-                let speed = (w[1][j] - w[0][j]).abs() / dt / M::VELOCITY[j];
+                let speed = (w[1][j] - w[0][j]).abs() / dt / velocity[j];
                 q.max_speed_frac = q.max_speed_frac.max(speed);
             }
         }
@@ -56,7 +57,6 @@ pub fn path_quality<M: Model<D>, const D: usize>(
             }
         }
         q.path_length_rad += length;
-        let robot = &problem.robots[i];
         let Some(trajectory) =
             (assignment.get(i).copied().flatten()).and_then(|j| problem.trajectories.get(j))
         else {
@@ -64,7 +64,10 @@ pub fn path_quality<M: Model<D>, const D: usize>(
         };
         q.path_cost += length;
         if let (Some(initial), Some(first)) = (robot.initial.as_ref(), trajectory.first()) {
-            let tool = robot.base.compose(&M::fk(initial)).compose(&robot.tcp);
+            let tool = robot
+                .base
+                .compose(&M::fk(robot.model, initial))
+                .compose(&robot.tcp);
             q.path_cost += (tool.pos - first.pos).norm();
         }
     }
@@ -72,9 +75,9 @@ pub fn path_quality<M: Model<D>, const D: usize>(
     let min = |acc: &mut Option<f64>, d: f64| *acc = Some(acc.map_or(d, |m| m.min(d)));
     for t in 0..horizon {
         let arms: Vec<ArmPose> = (problem.robots.iter().zip(paths))
-            .map(|(r, p)| ArmPose::new::<M, D>(&r.base, &r.tool, &p[t]))
+            .map(|(r, p)| ArmPose::new::<M, D>(r.model, &r.base, &r.tool, &p[t]))
             .collect();
-        for (a, arm) in arms.iter().enumerate() {
+        for (a, (arm, robot)) in arms.iter().zip(&problem.robots).enumerate() {
             for other in &arms[a + 1..] {
                 for c in arm.capsules() {
                     for d in other.capsules() {
@@ -84,7 +87,7 @@ pub fn path_quality<M: Model<D>, const D: usize>(
             }
             // Base capsules are mounted, and never checked against obstacles; tool capsules
             // (past the link capsules) move.
-            let on_base = |k: usize| M::CAPSULES.get(k).is_some_and(|c| c.link == 0);
+            let on_base = |k: usize| (M::capsules(robot.model).get(k)).is_some_and(|c| c.link == 0);
             let moving = (arm.capsules().iter().enumerate()).filter(|&(k, _)| !on_base(k));
             for (_, c) in moving {
                 for o in problem.obstacles.iter() {

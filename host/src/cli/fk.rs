@@ -2,10 +2,9 @@
 
 use std::process::ExitCode;
 
-use omcbsa::models::{ModelKind, ModelVisitor};
+use omcbsa::models::{Fleet, ModelKind, DOF};
 use omcbsa::pose;
-use omcbsa_core::model::Model;
-use serde_json::Value;
+use omcbsa_core::model::Models;
 
 use super::{configuration, lines};
 
@@ -20,17 +19,9 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    struct Fk;
-    impl ModelVisitor for Fk {
-        type Output = ExitCode;
-        fn visit<M: Model<D>, const D: usize>(self) -> ExitCode {
-            lines::answer_each(fk_line::<M, D>)
-        }
-    }
-    args.model.visit(Fk)
-}
-
-fn fk_line<M: Model<D>, const D: usize>(line: &str) -> Result<Value, String> {
-    let q = configuration::<M, D>(line, "q")?;
-    serde_json::to_value(pose::from_frame(&M::fk(&q))).map_err(|e| e.to_string())
+    let model = args.model.id();
+    lines::answer_each(|line| {
+        let q = configuration::<Fleet, DOF>(model, line, "q")?;
+        serde_json::to_value(pose::from_frame(&Fleet::fk(model, &q))).map_err(|e| e.to_string())
+    })
 }

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use omcbsa::suite::{gen_bench, gen_refine, GenOptions, RefineOptions, Tightness};
+use omcbsa::suite::{gen_bench, gen_refine, Family, GenOptions, RefineOptions, Tightness};
 
 use super::{bad_input, print};
 
@@ -12,10 +12,14 @@ use super::{bad_input, print};
 #[derive(clap::Args)]
 pub struct Args {
     outdir: PathBuf,
-    /// Problems per motion family, 1 to 10000 (the published suite: 76, 456 problems in all).
+    /// Problems per motion family, 1 to 10000 (the published suite: 76, 608 problems in all).
     #[arg(long, default_value_t = GenOptions::default().per_family as u16,
           value_parser = clap::value_parser!(u16).range(1..=10_000))]
     per_family: u16,
+    /// Comma-separated families to generate (default: all); each gets the same problems as
+    /// in the whole suite.
+    #[arg(long, value_delimiter = ',', value_parser = Family::parse)]
+    families: Vec<Family>,
     /// Seed of the suite (of the refinement family: its own by default).
     #[arg(long)]
     seed: Option<u64>,
@@ -50,6 +54,11 @@ pub fn run(args: &Args) -> ExitCode {
             &GenOptions {
                 seed: args.seed.unwrap_or(GenOptions::default().seed),
                 per_family: usize::from(args.per_family),
+                families: if args.families.is_empty() {
+                    Family::ALL.to_vec()
+                } else {
+                    args.families.clone()
+                },
             },
         ),
     };

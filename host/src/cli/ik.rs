@@ -4,9 +4,8 @@ use std::process::ExitCode;
 
 use omcbsa::format::Pose;
 use omcbsa::ik::solve;
-use omcbsa::models::{ModelKind, ModelVisitor};
+use omcbsa::models::{Fleet, ModelKind, DOF};
 use omcbsa::pose;
-use omcbsa_core::model::Model;
 
 use super::{bad_input, configuration, lines};
 
@@ -30,21 +29,11 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> ExitCode {
-    struct Ik<'a>(&'a Args);
-    impl ModelVisitor for Ik<'_> {
-        type Output = ExitCode;
-        fn visit<M: Model<D>, const D: usize>(self) -> ExitCode {
-            solve_lines::<M, D>(self.0)
-        }
-    }
-    args.model.visit(Ik(args))
-}
-
-fn solve_lines<M: Model<D>, const D: usize>(args: &Args) -> ExitCode {
+    let model = args.model.id();
     let start = match args
         .seed_config
         .as_deref()
-        .map(|s| configuration::<M, D>(s, "--seed-config"))
+        .map(|s| configuration::<Fleet, DOF>(model, s, "--seed-config"))
     {
         None => None,
         Some(Ok(q)) => Some(q),
@@ -55,7 +44,8 @@ fn solve_lines<M: Model<D>, const D: usize>(args: &Args) -> ExitCode {
             format!("not a pose {{\"position\":[x,y,z],\"quat_xyzw\":[x,y,z,w]}}: {e}")
         })?;
         let target = pose::to_frame(&pose).map_err(|e| e.to_string())?;
-        let q = solve::<M, D>(&target, start.as_ref(), args.seed).map_err(|e| e.to_string())?;
+        let q = solve::<Fleet, DOF>(model, &target, start.as_ref(), args.seed)
+            .map_err(|e| e.to_string())?;
         serde_json::to_value(q.to_vec()).map_err(|e| e.to_string())
     })
 }

@@ -25,7 +25,7 @@ use std::process::ExitCode;
 
 use omcbsa::error::{Errors, InputError};
 use omcbsa::load;
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
 
 /// Exit code 1.
 pub fn negative() -> ExitCode {
@@ -77,16 +77,17 @@ impl InputLimit {
     }
 }
 
-/// Parses a JSON array of joint values of model `M` (length, finite, within limits); errors
-/// name the value as `{name}[j]`.
-pub fn configuration<M: Model<D>, const D: usize>(
+/// Parses a JSON array of joint values of model `model` of `M` (length, finite, within
+/// limits); errors name the value as `{name}[j]`.
+pub fn configuration<M: Models<D>, const D: usize>(
+    model: u8,
     text: &str,
     name: &str,
 ) -> Result<[f64; D], String> {
     let values: Vec<f64> = serde_json::from_str(text)
         .map_err(|e| format!("{name}: not a JSON array of {D} numbers: {e}"))?;
     let mut errors = Errors::default();
-    let q = load::joint_values::<M, D>(&values, name, &mut errors);
+    let q = load::joint_values::<M, D>(model, &values, name, &mut errors);
     errors
         .finish()
         .map_err(|e| e.to_string().replace('\n', "; "))?;

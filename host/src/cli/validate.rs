@@ -3,11 +3,9 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use omcbsa::format::{ProblemFile, SolutionFile};
 use omcbsa::load;
-use omcbsa::models::ModelVisitor;
+use omcbsa::models::{Fleet, DOF};
 use omcbsa::validate::{validate, Report};
-use omcbsa_core::model::Model;
 
 use super::{bad_input, in_file, negative, print, InputLimit};
 
@@ -68,22 +66,6 @@ fn check(args: &Args) -> Result<Report, String> {
     let file = load::parse_problem(&read(&args.problem)?).map_err(|e| in_file(&args.problem, e))?;
     let solution =
         load::parse_solution(&read(&args.solution)?).map_err(|e| in_file(&args.solution, e))?;
-    let model = load::model_of(&file).map_err(|e| in_file(&args.problem, e))?;
-    struct Check<'a>(&'a Args, &'a ProblemFile, &'a SolutionFile);
-    impl ModelVisitor for Check<'_> {
-        type Output = Result<Report, String>;
-        fn visit<M: Model<D>, const D: usize>(self) -> Result<Report, String> {
-            check_with::<M, D>(self.0, self.1, self.2)
-        }
-    }
-    model.visit(Check(args, &file, &solution))
-}
-
-fn check_with<M: Model<D>, const D: usize>(
-    args: &Args,
-    file: &ProblemFile,
-    solution: &SolutionFile,
-) -> Result<Report, String> {
-    let problem = load::problem::<M, D>(file).map_err(|e| in_file(&args.problem, e))?;
-    Ok(validate::<M, D>(file, &problem, solution))
+    let problem = load::problem::<Fleet, DOF>(&file).map_err(|e| in_file(&args.problem, e))?;
+    Ok(validate::<Fleet, DOF>(&file, &problem, &solution))
 }

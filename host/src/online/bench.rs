@@ -12,6 +12,7 @@ use std::path::Path;
 use super::{Embodier, OnlineOptions, Setup};
 use crate::format::Pose;
 use crate::load;
+use crate::models::{Fleet, DOF};
 use crate::planners::{Capacities, Storage};
 
 /// Timings of one arm count.
@@ -65,8 +66,7 @@ pub fn bench_online(
             }
             let text = load::read_text(&dir.join(&entry.file)).map_err(|e| e.to_string())?;
             let file = load::parse_problem(&text).map_err(|e| e.to_string())?;
-            let problem = load::problem::<omcbsa_core::model::KinovaGen3, 7>(&file)
-                .map_err(|e| e.to_string())?;
+            let problem = load::problem::<Fleet, DOF>(&file).map_err(|e| e.to_string())?;
             let outcome = whole.solve(crate::planners::parse(&options.planner)?, &problem, 5.0)?;
             if outcome.status != omcbsa_core::planner::Status::Solved {
                 continue;
@@ -234,11 +234,8 @@ pub fn run_episode(
     let windows = record.windows(&episode.setup, &e, omcbsa_core::problem::MAX_STEPS - 1);
     let mut valid = !windows.is_empty();
     for (problem, solution) in &windows {
-        let core = load::problem::<omcbsa_core::model::KinovaGen3, 7>(problem)
-            .map_err(|e| e.to_string())?;
-        let report = crate::validate::validate::<omcbsa_core::model::KinovaGen3, 7>(
-            problem, &core, solution,
-        );
+        let core = load::problem::<Fleet, DOF>(problem).map_err(|e| e.to_string())?;
+        let report = crate::validate::validate::<Fleet, DOF>(problem, &core, solution);
         if let Some(v) = report.violations.first() {
             run.error.get_or_insert(format!("{}: {v:?}", problem.name));
             valid = false;

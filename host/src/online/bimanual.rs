@@ -17,7 +17,9 @@
 //! when one is not (the planner still chooses the assignment).
 
 use omcbsa_core::ik::{ik_multi_start, IkParams, MultiStart};
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::model::Frame;
+
+use crate::models::{Fleet, ModelKind, DOF};
 use omcbsa_core::nalgebra::{Rotation3, UnitQuaternion};
 use omcbsa_core::rng::Rng;
 
@@ -209,11 +211,12 @@ fn reachable(base: &Frame, keys: &[Key], rng: &mut Rng) -> bool {
         attempts: 32,
         ..MultiStart::default()
     };
-    let mut out = [[0.0; 7]; 1];
+    let mut out = [[0.0; DOF]; 1];
+    let model = ModelKind::default().id();
     keys.iter().all(|(_, pose)| {
         let target = base.inverse().compose(pose).compose(&tcp().inverse());
         matches!(
-            ik_multi_start::<KinovaGen3, 7>(&target, &params, &multi, rng, &mut out),
+            ik_multi_start::<Fleet, DOF>(model, &target, &params, &multi, rng, &mut out),
             Ok(1)
         )
     })
@@ -242,7 +245,7 @@ pub fn episode(task: Task, arms: usize, seed: u64, hz: f64) -> Option<Episode> {
         robots: (bases.iter().zip(names))
             .map(|(b, name)| RobotSpec {
                 name: name.to_string(),
-                model: KinovaGen3::NAME.to_string(),
+                model: ModelKind::default().name().to_string(),
                 base: from_frame(b),
                 initial: Some(RETRACT.to_vec()),
                 tcp: Some(from_frame(&tcp())),
@@ -289,7 +292,7 @@ fn witnessed(setup: &Setup, hands: &[Vec<Pose>], rng: &mut Rng) -> bool {
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
         };
-        let mut p = crate::load::problem::<KinovaGen3, 7>(&file).ok()?;
+        let mut p = crate::load::problem::<Fleet, DOF>(&file).ok()?;
         for (i, r) in p.robots.iter_mut().enumerate() {
             r.assigned = match i {
                 0 | 1 => Assigned::Track(i as u8),
@@ -314,9 +317,10 @@ fn witnessed(setup: &Setup, hands: &[Vec<Pose>], rng: &mut Rng) -> bool {
                 return false;
             };
             let target = base.inverse().compose(&first).compose(&tcp().inverse());
-            let mut out = [[0.0; 7]; 1];
+            let mut out = [[0.0; DOF]; 1];
+            let model = ModelKind::default().id();
             if !matches!(
-                ik_multi_start::<KinovaGen3, 7>(&target, &params, &multi, rng, &mut out),
+                ik_multi_start::<Fleet, DOF>(model, &target, &params, &multi, rng, &mut out),
                 Ok(1)
             ) {
                 return false;
@@ -328,7 +332,7 @@ fn witnessed(setup: &Setup, hands: &[Vec<Pose>], rng: &mut Rng) -> bool {
             let Some(p) = window(from, &q) else {
                 return false;
             };
-            match follow::<KinovaGen3, 7>(&p, usize::from(from > 0), setup) {
+            match follow::<Fleet, DOF>(&p, usize::from(from > 0), setup) {
                 Ok(end) => q = end[..n].to_vec(),
                 Err(_) => return false,
             }

@@ -9,7 +9,7 @@
 
 use omcbsa_core::approach::{configurations_blocked, Blocked};
 use omcbsa_core::ik::{ik, IkParams};
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
 use omcbsa_core::problem::{Assigned, Problem, MAX_ROBOTS};
 use omcbsa_core::reach::tcp_reach;
 
@@ -30,7 +30,7 @@ pub struct Blocking {
 /// The first blocking step of `problem` (every robot with its assignment set and its
 /// `initial` where it stands before step `first`); `what` names robots and obstacles as
 /// `setup` does.
-pub fn first_blocking<M: Model<D>, const D: usize>(
+pub fn first_blocking<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     first: usize,
     setup: &Setup,
@@ -40,7 +40,7 @@ pub fn first_blocking<M: Model<D>, const D: usize>(
 
 /// Follows the hands as [`first_blocking`] does: the configurations at the last step, or
 /// where it is blocked.
-pub fn follow<M: Model<D>, const D: usize>(
+pub fn follow<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     first: usize,
     setup: &Setup,
@@ -80,7 +80,7 @@ pub fn follow<M: Model<D>, const D: usize>(
                 )));
             }
             let target = r.base.inverse().compose(pose).compose(&r.tcp.inverse());
-            let Ok(next) = ik::<M, D>(&target, &prev[i], &params) else {
+            let Ok(next) = ik::<M, D>(r.model, &target, &prev[i], &params) else {
                 return Err(blocked(
                     "no configuration within the joint limits near the last one puts the hand \
                      there (a joint limit or the edge of the workspace)"
@@ -88,13 +88,14 @@ pub fn follow<M: Model<D>, const D: usize>(
                 ));
             };
             let dt = problem.dt;
-            let fast = (0..D).find(|&d| (next[d] - prev[i][d]).abs() > M::VELOCITY[d] * dt);
+            let fast =
+                (0..D).find(|&d| (next[d] - prev[i][d]).abs() > M::velocity(r.model)[d] * dt);
             if let Some(d) = fast {
                 return Err(blocked(format!(
                     "joint {d} ({}) would turn at {:.2} rad/s, above its limit of {:.2} rad/s",
-                    M::JOINT_NAMES[d],
+                    M::joint_names(r.model)[d],
                     (next[d] - prev[i][d]).abs() / dt,
-                    M::VELOCITY[d]
+                    M::velocity(r.model)[d]
                 )));
             }
             q[i] = next;
@@ -102,7 +103,13 @@ pub fn follow<M: Model<D>, const D: usize>(
         if let Some(Blocked { robot, touch }) = configurations_blocked::<M, D>(problem, &q[..n]) {
             let what = format!(
                 "it {}",
-                describe_touch::<M, D>(&setup.robots, &setup.obstacles, touch, "at that step")
+                describe_touch::<M, D>(
+                    problem.robots[robot].model,
+                    &setup.robots,
+                    &setup.obstacles,
+                    touch,
+                    "at that step"
+                )
             );
             return Err(Blocking {
                 robot,

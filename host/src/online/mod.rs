@@ -35,7 +35,6 @@ pub use error::OnlineError;
 
 use omcbsa_core::approach::ApproachParams;
 use omcbsa_core::ik::{ik, ik_multi_start, MultiStart};
-use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::planner::{Stats, Status};
 use omcbsa_core::problem::{Assigned, Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
 use omcbsa_core::rng::Rng;
@@ -44,6 +43,7 @@ use crate::assignment::{self, nearest, AssignmentRule};
 use crate::error::{Errors, InputError};
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
+use crate::models::Fleet;
 use crate::planners::{self, Capacities, PlannerKind, Storage, DOF};
 use crate::pose;
 
@@ -236,9 +236,8 @@ impl Embodier {
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
         };
-        load::model_of(&file)?;
-        let mut problem = load::problem::<KinovaGen3, DOF>(&file)?;
-        crate::approach::check_initial::<KinovaGen3, DOF>(&file, &problem)?;
+        let mut problem = load::problem::<Fleet, DOF>(&file)?;
+        crate::approach::check_initial::<Fleet, DOF>(&file, &problem)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
         let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
@@ -407,7 +406,7 @@ impl Embodier {
     ) -> Result<ChunkReport, OnlineError> {
         let mut problem = self.problem(hands.iter().cloned(), Start::Sampled, None);
         let rule = match &self.options.assignment {
-            AssignmentRule::Free => nearest::<KinovaGen3, DOF>(&problem)
+            AssignmentRule::Free => nearest::<Fleet, DOF>(&problem)
                 .map_or(AssignmentRule::Free, AssignmentRule::Preferred),
             given => {
                 given.check("assignment", self.robots.len(), hands.len())?;
@@ -669,9 +668,7 @@ impl Embodier {
         let first = usize::from(problem.robots.first().map(|r| r.start) == Some(Start::AtInitial));
         let assigned = (problem.robots.iter()).all(|r| r.assigned != Assigned::Free);
         if assigned {
-            if let Some(b) =
-                diagnose::first_blocking::<KinovaGen3, DOF>(problem, first, &self.setup)
-            {
+            if let Some(b) = diagnose::first_blocking::<Fleet, DOF>(problem, first, &self.setup) {
                 return Err(OnlineError::Blocked {
                     start_step,
                     robot: self.names[b.robot].clone(),
@@ -722,12 +719,12 @@ impl Embodier {
                     let target = r.base.inverse().compose(&traj[k]).compose(&r.tcp.inverse());
                     let seed = last[j][i].or(r.initial);
                     let mut q =
-                        seed.and_then(|s| ik::<KinovaGen3, DOF>(&target, &s, &ik_params).ok());
+                        seed.and_then(|s| ik::<Fleet, DOF>(r.model, &target, &s, &ik_params).ok());
                     if q.is_none() {
                         let mut rng = Rng::new(0x0e1b ^ (k as u64) << 8 ^ j as u64);
                         let mut out = [[0.0; DOF]; 1];
-                        if let Ok(1) = ik_multi_start::<KinovaGen3, DOF>(
-                            &target, &ik_params, &multi, &mut rng, &mut out,
+                        if let Ok(1) = ik_multi_start::<Fleet, DOF>(
+                            r.model, &target, &ik_params, &multi, &mut rng, &mut out,
                         ) {
                             q = Some(out[0]);
                         }

@@ -6,7 +6,9 @@
 
 use std::f64::consts::PI;
 
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::model::Frame;
+
+use crate::models::ModelKind;
 use omcbsa_core::nalgebra::Vector3;
 use omcbsa_core::rng::Rng;
 
@@ -60,7 +62,7 @@ impl BoxFlipPolicy {
             robots: (ROBOTS.iter().enumerate())
                 .map(|(k, name)| RobotSpec {
                     name: name.to_string(),
-                    model: KinovaGen3::NAME.to_string(),
+                    model: ModelKind::default().name().to_string(),
                     base: from_frame(&base(k)),
                     initial: Some(RETRACT.to_vec()),
                     tcp: Some(from_frame(&tcp())),

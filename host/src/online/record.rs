@@ -13,7 +13,9 @@ use crate::format::{
 };
 use crate::planners::DOF;
 use crate::pose;
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::model::{Frame, Models};
+
+use crate::models::{Fleet, ModelKind};
 
 /// Records the sent timeline and the poses it tracks, as the run goes.
 #[derive(Clone, Debug, Default)]
@@ -58,6 +60,7 @@ impl RunRecord {
         let found = robot.and_then(|i| {
             let q = self.sent.get(i)?.get(index)?;
             let spec = setup.robots.get(i)?;
+            let model = ModelKind::from_name(&spec.model)?.id();
             let base = pose::to_frame(&spec.base).ok()?;
             let tcp = spec
                 .tcp
@@ -65,7 +68,7 @@ impl RunRecord {
                 .map_or(Ok(Frame::IDENTITY), pose::to_frame)
                 .ok()?;
             Some(pose::from_frame(
-                &base.compose(&KinovaGen3::fk(q)).compose(&tcp),
+                &base.compose(&Fleet::fk(model, q)).compose(&tcp),
             ))
         });
         found.unwrap_or(Pose::IDENTITY)

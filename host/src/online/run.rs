@@ -6,7 +6,6 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use omcbsa_core::model::KinovaGen3;
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::mock::exec_config;
@@ -16,9 +15,9 @@ use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, WatchSetting
 use super::policy::BoxFlipPolicy;
 use super::record::RunRecord;
 use super::{Embodier, OnlineError, OnlineOptions};
-use crate::execute::{joint_limits, CAUTIOUS_SPEED};
+use crate::execute::{fleet_limits, CAUTIOUS_SPEED};
 use crate::format::{ProblemFile, SolutionFile};
-use crate::models::ModelKind;
+use crate::models::{self, ModelKind};
 use crate::planners::DOF;
 use crate::validate::{validate, Report as Validation};
 
@@ -106,7 +105,10 @@ pub fn run_on_mock_arms(
     rec.chunk(first.start_step, &first.hands, 0);
     let mut latencies = vec![report.planning_time_s];
     let n = e.robot_names().len();
-    let limits = joint_limits(ModelKind::KinovaGen3, CAUTIOUS_SPEED)?;
+    let kinds = (setup.robots.iter())
+        .map(|r| ModelKind::parse(&r.model))
+        .collect::<Result<Vec<_>, _>>()?;
+    let limits = fleet_limits(&kinds, CAUTIOUS_SPEED)?;
     let dt = setup.dt;
     let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
     progress(&format!(
@@ -256,8 +258,8 @@ pub fn run_on_mock_arms(
     let (problem, solution) = rec
         .files(&setup, &e)
         .ok_or("nothing was sent to the arms")?;
-    let core = crate::load::problem::<KinovaGen3, DOF>(&problem).map_err(|e| e.to_string())?;
-    let validation = validate::<KinovaGen3, DOF>(&problem, &core, &solution);
+    let core = crate::load::problem::<models::Fleet, DOF>(&problem).map_err(|e| e.to_string())?;
+    let validation = validate::<models::Fleet, DOF>(&problem, &core, &solution);
     Ok(RunOutcome {
         latencies,
         chunk_errors,

@@ -2,7 +2,7 @@
 //! into the file formats, checking the witness with the host validator.
 
 use omcbsa_core::geometry::Shape;
-use omcbsa_core::model::Frame;
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::problem::Problem;
 use omcbsa_core::rng::Rng;
 use serde_json::Map;
@@ -13,12 +13,15 @@ use super::layout::{Layout, NamedObstacle};
 use super::myopic::ik_tracking_solves;
 use super::standing::{clear_of, stand_anywhere, stand_clear, witness_approach};
 use super::trap::traps;
-use super::witness::{random_motion, shuffle, task_witness, Gen3, Placed, Scene, Q, RETRACT};
-use super::{Error, Spec, SuiteEntry, HARD_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR};
+use super::witness::{random_motion, retract, shuffle, task_witness, Arms, Placed, Scene, Q};
+use super::{
+    Error, Spec, SuiteEntry, HARD_SAMPLES, MIXED_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR,
+};
 use crate::format::{
     ObstacleSpec, Pose, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToleranceSpec,
     TrajectorySpec, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
+use crate::models::DOF;
 use crate::{load, pose, validate};
 use omcbsa_core::approach::ApproachError;
 
@@ -44,7 +47,9 @@ struct Sample {
 }
 
 pub fn generate(spec: &Spec) -> Result<Generated, Error> {
-    let samples = if matches!(spec.family, Family::Random | Family::Approach) {
+    let samples = if spec.family == Family::Mixed {
+        MIXED_SAMPLES
+    } else if matches!(spec.family, Family::Random | Family::Approach) {
         RANDOM_SAMPLES
     } else {
         TASK_SAMPLES
@@ -105,11 +110,12 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
     };
     match hands {
         Some(hands) => {
-            let witness = task_witness(&scene, &layout.bases, &hands, rng);
+            let witness = task_witness(&scene, &layout.models, &layout.bases, &hands, rng);
             if let Some(paths) = &witness {
                 layout.obstacles.extend(traps(
                     spec.traps,
                     &scene,
+                    &layout.models,
                     &layout.bases,
                     &hands,
                     paths,
@@ -131,16 +137,18 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
             shuffle(&mut order, rng);
             let mut placed: Vec<(usize, Placed)> = Vec::with_capacity(n);
             for arm in order {
-                let base = layout.bases[arm];
+                let (model, base) = (layout.models[arm], layout.bases[arm]);
                 let others: Vec<Placed> = placed
                     .iter()
                     .map(|(_, p)| Placed {
+                        model: p.model,
                         base: p.base,
                         path: p.path.clone(),
                     })
                     .collect();
                 let path = random_motion(
                     &scene,
+                    model,
                     &base,
                     &layout.stations[arm],
                     h,
@@ -148,7 +156,7 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
                     &others,
                     rng,
                 )?;
-                placed.push((arm, Placed { base, path }));
+                placed.push((arm, Placed { model, base, path }));
             }
             placed.sort_by_key(|(arm, _)| *arm);
             let paths: Vec<Vec<Q>> = placed.into_iter().map(|(_, p)| p.path).collect();
@@ -158,13 +166,14 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
                     arm,
                     poses: paths[arm]
                         .iter()
-                        .map(|q| scene.tcp_pose(&layout.bases[arm], q))
+                        .map(|q| scene.tcp_pose(layout.models[arm], &layout.bases[arm], q))
                         .collect(),
                 })
                 .collect::<Vec<_>>();
             layout.obstacles.extend(traps(
                 spec.traps,
                 &scene,
+                &layout.models,
                 &layout.bases,
                 &hands,
                 &paths,
@@ -186,8 +195,9 @@ fn files(
     spec: &Spec,
     sample: &Sample,
     rng: &mut Rng,
-) -> Result<Option<(Generated, Box<Problem<7>>)>, Error> {
+) -> Result<Option<(Generated, Box<Problem<DOF>>)>, Error> {
     let n = sample.layout.bases.len();
+    let models = &sample.layout.models;
     let hands = &sample.hands;
     // listed[j] = the hand listed j-th; never the identity when it could be.
     let mut listed: Vec<usize> = (0..hands.len()).collect();
@@ -206,9 +216,9 @@ fn files(
     // the others get the retract pose. The approach family stands every arm somewhere hard.
     let initial: Vec<Option<Q>> = (0..n)
         .map(|i| match (spec.stance, starts[i], assignment[i]) {
-            (Some(stance), Some(start), _) => Some(stance.initial(i, &start, &RETRACT)),
+            (Some(stance), Some(start), _) => Some(stance.initial(i, &start, &retract(models[i]))),
             (_, Some(start), None) => Some(start),
-            _ => holds.then_some(RETRACT),
+            _ => holds.then(|| retract(models[i])),
         })
         .collect();
     let mut obstacles = sample.layout.obstacles.clone();
@@ -216,15 +226,15 @@ fn files(
         for i in 0..n {
             if let (Some(q), Some(start)) = (initial[i], starts[i]) {
                 let post = stance
-                    .post(&sample.layout.bases[i], &q, &start, &tcp())
-                    .filter(|o| clear_of(o, &sample.layout.bases, paths));
+                    .post(models[i], &sample.layout.bases[i], &q, &start, &tcp())
+                    .filter(|o| clear_of(o, models, &sample.layout.bases, paths));
                 obstacles.extend(post.map(|o| (format!("post_{i}"), o)));
             }
         }
     }
     let robot_spec = |i: usize, base: &Frame, initial: &Option<Q>| RobotSpec {
         name: format!("arm_{i}"),
-        model: "kinova_gen3".to_string(),
+        model: Arms::name(models[i]).to_string(),
         base: rounded(base),
         initial: initial.map(|q| q.iter().map(|&x| round(x)).collect()),
         tcp: Some(rounded(&tcp())),
@@ -254,7 +264,7 @@ fn files(
         problem: spec.name.clone(),
         message,
     };
-    let mut core = load::problem::<Gen3, 7>(&problem)
+    let mut core = load::problem::<Arms, DOF>(&problem)
         .map(Box::new)
         .map_err(|e| generation(e.to_string()))?;
     // Where the arms stand: clear of everything, with an approach to the witness.
@@ -288,10 +298,11 @@ fn files(
                 .initial
                 .map(|q| q.iter().map(|&x| round(x)).collect());
         }
-        let rounded = load::problem::<Gen3, 7>(&problem).map_err(|e| generation(e.to_string()))?;
+        let rounded =
+            load::problem::<Arms, DOF>(&problem).map_err(|e| generation(e.to_string()))?;
         // The validator's own check of where the arms stand (after rounding): never an
         // `initial` that collides.
-        let contacts = validate::initial_contacts::<Gen3, 7>(&problem, &rounded);
+        let contacts = validate::initial_contacts::<Arms, DOF>(&problem, &rounded);
         if contacts.is_some_and(|c| !c.is_empty()) {
             return Ok(None);
         }
@@ -329,8 +340,9 @@ fn files(
             };
             // A witness of a problem that gives every `initial` needs its approach.
             let needs_approach = core.robots.iter().all(|r| r.initial.is_some());
-            let core = load::problem::<Gen3, 7>(&problem).map_err(|e| generation(e.to_string()))?;
-            (validate::validate::<Gen3, 7>(&problem, &core, &solution).is_valid()
+            let core =
+                load::problem::<Arms, DOF>(&problem).map_err(|e| generation(e.to_string()))?;
+            (validate::validate::<Arms, DOF>(&problem, &core, &solution).is_valid()
                 && (approach.is_some() || !needs_approach))
                 .then_some(solution)
         }

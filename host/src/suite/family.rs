@@ -10,6 +10,7 @@ use omcbsa_core::rng::Rng;
 
 use super::frames::{aligned, ease, heading, rot, v3, yaw, V3};
 use super::layout::{self, obstacle_box, post, Layout, LayoutKind};
+use crate::models::ModelKind;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
@@ -28,10 +29,18 @@ pub enum Family {
     /// The random family's motions, with every arm standing where a straight bridge to its
     /// hand collides (see `standing`): the approach is the hard part.
     Approach,
+    /// The random family's motions on a mixed fleet: the arms alternate between the models of
+    /// [`MIXED_MODELS`] (2 + 2 and 3 + 3).
+    Mixed,
 }
 
+/// The models the mixed family alternates, by the names problem files use.
+pub const MIXED_MODELS: [&str; 2] = ["kinova_gen3", "franka_panda"];
+/// How much higher than the layout's the hands of each of [`MIXED_MODELS`] work, metres.
+const MIXED_LIFT: [f64; 2] = [0.0, 0.3];
+
 impl Family {
-    pub const ALL: [Family; 7] = [
+    pub const ALL: [Family; 8] = [
         Family::Sweep,
         Family::BoxFlip,
         Family::ClothRotation,
@@ -39,7 +48,16 @@ impl Family {
         Family::Bimanual,
         Family::Random,
         Family::Approach,
+        Family::Mixed,
     ];
+
+    /// The family called `name`, or an error listing them.
+    pub fn parse(name: &str) -> Result<Family, String> {
+        (Self::ALL.into_iter().find(|f| f.name() == name)).ok_or_else(|| {
+            let known: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
+            format!("unknown family {name:?} (known: {})", known.join(", "))
+        })
+    }
 
     pub fn name(self) -> &'static str {
         match self {
@@ -50,6 +68,7 @@ impl Family {
             Family::Bimanual => "bimanual",
             Family::Random => "random",
             Family::Approach => "approach",
+            Family::Mixed => "mixed",
         }
     }
 
@@ -75,12 +94,33 @@ impl Family {
             Family::Random | Family::Approach => {
                 on(&[Row, FacingRows, Ring, Torso], &[2, 3, 4, 5, 6])
             }
+            Family::Mixed => {
+                // Six arms of two models in one row leave no room to move.
+                let mut cells = on(&[Row, FacingRows, Ring], &[4]);
+                cells.extend(on(&[FacingRows, Ring], &[6]));
+                cells
+            }
         }
     }
 
     /// The layout of `n` arms of `kind` this family works in (a box flip on a ring puts the
     /// arms at the box's faces).
     pub fn layout(self, kind: LayoutKind, n: usize, rng: &mut Rng) -> Layout {
+        let mut layout = self.places(kind, n, rng);
+        if self == Family::Mixed {
+            let ids = MIXED_MODELS.map(|m| ModelKind::parse(m).map_or(0, |k| k.id()));
+            layout.models = (0..n).map(|i| ids[i % ids.len()]).collect();
+            // The Panda's shoulder is higher than the Gen3's and its forearm hangs low when the
+            // hand works near the table: its hands work higher.
+            for (station, lift) in layout.stations.iter_mut().zip(MIXED_LIFT.iter().cycle()) {
+                station.point.z += lift;
+            }
+        }
+        layout
+    }
+
+    /// Where the arms of [`Family::layout`] stand.
+    fn places(self, kind: LayoutKind, n: usize, rng: &mut Rng) -> Layout {
         match kind {
             LayoutKind::Row => layout::row(n, rng),
             LayoutKind::FacingRows if matches!(self, Family::Sweep | Family::BoxFlip) => {
@@ -114,7 +154,7 @@ impl Family {
             Family::ClothRotation => cloth(layout, rng, &steps),
             Family::Pushing => pushing(layout, rng, &steps),
             Family::Bimanual => bimanual(layout, rng, &steps),
-            Family::Random | Family::Approach => return None,
+            Family::Random | Family::Approach | Family::Mixed => return None,
         };
         Some(hands)
     }

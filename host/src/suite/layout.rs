@@ -9,6 +9,7 @@ use omcbsa_core::model::Frame;
 use omcbsa_core::rng::Rng;
 
 use super::frames::{aligned, at, heading, v3, yaw, V3};
+use super::witness::default_model;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LayoutKind {
@@ -43,6 +44,9 @@ pub struct Station {
 pub struct Layout {
     pub kind: LayoutKind,
     pub bases: Vec<Frame>,
+    /// Each arm's model (an index into [`super::witness::Arms`]): the default model unless
+    /// the family mixes models.
+    pub models: Vec<u8>,
     pub stations: Vec<Station>,
     pub obstacles: Vec<NamedObstacle>,
     /// Height of the table top.
@@ -100,9 +104,10 @@ fn upright(pos: V3, front: V3, reach: f64, hand_z: f64) -> (Frame, Station) {
 fn on_floor(kind: LayoutKind, arms: Vec<(Frame, Station)>, table: ([f64; 2], [f64; 2])) -> Layout {
     let ([x0, x1], [y0, y1]) = table;
     let centre = v3(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0);
-    let (bases, stations) = arms.into_iter().unzip();
+    let (bases, stations): (Vec<Frame>, _) = arms.into_iter().unzip();
     Layout {
         kind,
+        models: vec![default_model(); bases.len()],
         bases,
         stations,
         obstacles: vec![obstacle_box(
@@ -210,7 +215,7 @@ pub fn ring(angles: &[f64], rng: &mut Rng) -> Layout {
     } else {
         0.6 + 0.04 * (n - 3) as f64
     };
-    let (bases, stations) = (angles.iter())
+    let (bases, stations): (Vec<Frame>, _) = (angles.iter())
         .map(|&a| upright(heading(a) * radius, -heading(a), 0.45, 0.2))
         .unzip();
     let table_radius = radius - 0.3;
@@ -238,6 +243,7 @@ pub fn ring(angles: &[f64], rng: &mut Rng) -> Layout {
     }
     Layout {
         kind: LayoutKind::Ring,
+        models: vec![default_model(); bases.len()],
         bases,
         stations,
         obstacles,
@@ -343,6 +349,7 @@ pub fn torsos(n: usize, rng: &mut Rng) -> Layout {
     obstacles.push(table);
     Layout {
         kind: LayoutKind::Torso,
+        models: vec![default_model(); bases.len()],
         bases,
         stations,
         obstacles,

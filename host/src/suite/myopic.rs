@@ -8,7 +8,8 @@ use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 
-use super::witness::{Gen3, MOTION_STEP};
+use super::witness::{Arms, MOTION_STEP};
+use crate::models::DOF;
 
 /// Looks at the clock IK tracking may take: it looks once per assignment and once per seed
 /// of every robot, so this bounds the tracks it tries.
@@ -27,8 +28,8 @@ impl Clock for Ticks {
 
 /// Whether IK tracking (the baseline, with its default parameters but the suite's motion step)
 /// solves `problem` within [`BUDGET`].
-pub fn ik_tracking_solves(problem: &Problem<7>) -> bool {
-    let mut paths = vec![[0.0; 7]; MAX_ROBOTS * problem.horizon()];
+pub fn ik_tracking_solves(problem: &Problem<DOF>) -> bool {
+    let mut paths = vec![[0.0; DOF]; MAX_ROBOTS * problem.horizon()];
     let mut out = Solution::new(&mut paths);
     let mut planner = IkTracking {
         params: IkTrackingParams {
@@ -37,7 +38,7 @@ pub fn ik_tracking_solves(problem: &Problem<7>) -> bool {
         },
     };
     let clock = Ticks(Cell::new(0));
-    let status = Planner::<Gen3, 7>::solve(
+    let status = Planner::<Arms, DOF>::solve(
         &mut planner,
         problem,
         &clock,

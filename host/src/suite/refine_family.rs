@@ -23,9 +23,10 @@ use omcbsa_core::planner::{NoClock, PlannerKind, Stats, Status};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
 use super::emit::{self, Generated};
-use super::witness::Gen3;
-use super::{specs, write_suite, Error, GenOptions, GenReport, Tightness};
+use super::witness::Arms;
+use super::{specs, write_suite, Error, Family, GenOptions, GenReport, Tightness};
 use crate::load;
+use crate::models::DOF;
 use crate::planners::{Capacities, Storage};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -64,6 +65,10 @@ pub fn gen_refine(outdir: &Path, opts: &RefineOptions) -> Result<GenReport, Erro
         &GenOptions {
             seed: opts.seed,
             per_family,
+            // The Gen3 families it was made from (the same problems as before mixed fleets).
+            families: (Family::ALL.into_iter())
+                .filter(|&f| f != Family::Mixed)
+                .collect(),
         },
         opts.traps,
     );
@@ -100,14 +105,14 @@ fn level0_misses(g: &Generated) -> Result<bool, Error> {
     if g.witness.is_none() {
         return Ok(false);
     }
-    let problem = load::problem::<Gen3, 7>(&g.problem).map_err(|e| Error::Generation {
+    let problem = load::problem::<Arms, DOF>(&g.problem).map_err(|e| Error::Generation {
         problem: g.entry.name.clone(),
         message: e.to_string(),
     })?;
     let standing: Vec<ArmPose> = (problem.robots.iter())
         .filter_map(|r| {
             r.initial
-                .map(|q| ArmPose::new::<Gen3, 7>(&r.base, &r.tool, &q))
+                .map(|q| ArmPose::new::<Arms, DOF>(r.model, &r.base, &r.tool, &q))
         })
         .collect();
     let blocked = standing.iter().enumerate().any(|(i, a)| {

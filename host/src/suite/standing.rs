@@ -17,13 +17,14 @@ use omcbsa_core::approach::{
     check_starts, plan_approach, ApproachError, ApproachParams, ApproachStorage,
 };
 use omcbsa_core::geometry::{Obstacle, Shape};
-use omcbsa_core::model::Frame;
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::problem::Problem;
 use omcbsa_core::rng::Rng;
 use omcbsa_core::search::NoDeadline;
 
 use super::frames::{at, v3};
-use super::witness::{Gen3, Q};
+use super::witness::{Arms, Q};
+use crate::models::DOF;
 
 /// How the approach family's arms stand, by problem.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,15 +59,22 @@ impl Stance {
         q
     }
 
-    /// The post of a far-side arm on `base`: a thin column under where its tool passes half
-    /// way along the straight bridge from `initial` to `start`, up to that height.
-    pub fn post(self, base: &Frame, initial: &Q, start: &Q, tcp: &Frame) -> Option<Obstacle> {
+    /// The post of a far-side arm of model `model` on `base`: a thin column under where its
+    /// tool passes half way along the straight bridge from `initial` to `start`, up to that
+    /// height.
+    pub fn post(
+        self,
+        model: u8,
+        base: &Frame,
+        initial: &Q,
+        start: &Q,
+        tcp: &Frame,
+    ) -> Option<Obstacle> {
         if self != Stance::FarSide {
             return None;
         }
         let mid: Q = std::array::from_fn(|j| 0.5 * (initial[j] + start[j]));
-        use omcbsa_core::model::Model;
-        let hand = base.compose(&Gen3::fk(&mid)).compose(tcp).pos;
+        let hand = base.compose(&Arms::fk(model, &mid)).compose(tcp).pos;
         let top = hand.z - 0.02;
         (top > 0.1).then(|| Obstacle {
             shape: Shape::Box {
@@ -77,21 +85,22 @@ impl Stance {
     }
 }
 
-/// Whether every arm (on `bases`, with a tool frame `tcp` and no tool) stays clear of
-/// `obstacle` along its witness path, steps and motions, by the planners' checks.
-pub fn clear_of(obstacle: &Obstacle, bases: &[Frame], paths: &[Vec<Q>]) -> bool {
+/// Whether every arm (of `models`, on `bases`, with no tool) stays clear of `obstacle` along
+/// its witness path, steps and motions, by the planners' checks.
+pub fn clear_of(obstacle: &Obstacle, models: &[u8], bases: &[Frame], paths: &[Vec<Q>]) -> bool {
     use omcbsa_core::motion::{motion_is_free, ArmMotion, MOTION_STEP};
     use omcbsa_core::tool::Tool;
     let obstacles = [*obstacle];
-    bases.iter().zip(paths).all(|(base, path)| {
+    (models.iter().zip(bases).zip(paths)).all(|((&model, base), path)| {
         path.windows(2).all(|w| {
             let m = ArmMotion {
+                model,
                 base,
                 tool: &Tool::NONE,
                 from: &w[0],
                 to: &w[1],
             };
-            motion_is_free::<Gen3, 7>(&m, &obstacles, MOTION_STEP)
+            motion_is_free::<Arms, DOF>(&m, &obstacles, MOTION_STEP)
         })
     })
 }
@@ -103,7 +112,7 @@ const WITNESS_SAMPLES: u32 = 6400;
 /// all the same length), with the core's planner; `rrt` false keeps it to the straight bridge
 /// of all arms together. Per robot, its configurations.
 pub fn witness_approach(
-    problem: &Problem<7>,
+    problem: &Problem<DOF>,
     paths: &[Vec<Q>],
     rrt: bool,
 ) -> Result<Vec<Vec<Q>>, ApproachError> {
@@ -112,9 +121,9 @@ pub fn witness_approach(
     let flat: Vec<Q> = paths.iter().flatten().copied().collect();
     let nodes = 1 << 12;
     let (mut tree, mut parent, mut waypoints) = (
-        vec![[0.0; 7]; nodes * n],
+        vec![[0.0; DOF]; nodes * n],
         vec![0u32; nodes],
-        vec![[0.0; 7]; 512 * n],
+        vec![[0.0; DOF]; 512 * n],
     );
     let mut storage = ApproachStorage {
         tree: &mut tree,
@@ -122,7 +131,7 @@ pub fn witness_approach(
         waypoints: &mut waypoints,
     };
     let cap = crate::approach::MAX_APPROACH;
-    let mut out = vec![[0.0; 7]; cap * n];
+    let mut out = vec![[0.0; DOF]; cap * n];
     let params = ApproachParams {
         max_orders: if rrt {
             ApproachParams::default().max_orders
@@ -137,7 +146,7 @@ pub fn witness_approach(
         ..ApproachParams::default()
     };
     let samples = if rrt { WITNESS_SAMPLES } else { 0 };
-    let a = plan_approach::<Gen3, 7>(
+    let a = plan_approach::<Arms, DOF>(
         problem,
         &flat,
         h,
@@ -155,9 +164,9 @@ pub fn witness_approach(
 /// Moves arms that cannot stand at their `initial` (limits, collisions, as the loader checks)
 /// to their `fallback` configuration until all can: the arm found blocked, else the arm it
 /// touches. Returns `false` when some arm still cannot stand and has nowhere else to go.
-pub fn stand_clear(problem: &mut Problem<7>, fallback: &[Option<Q>]) -> bool {
+pub fn stand_clear(problem: &mut Problem<DOF>, fallback: &[Option<Q>]) -> bool {
     use omcbsa_core::approach::Touch;
-    while let Err(b) = check_starts::<Gen3, 7>(problem) {
+    while let Err(b) = check_starts::<Arms, DOF>(problem) {
         let other = match b.touch {
             Touch::Robot { robot } => Some(robot),
             _ => None,
@@ -176,13 +185,14 @@ pub fn stand_clear(problem: &mut Problem<7>, fallback: &[Option<Q>]) -> bool {
 
 /// For a problem without a witness: moves each arm that cannot stand to random
 /// configurations (from `rng`) until all can, at most `tries` moves. Returns whether they can.
-pub fn stand_anywhere(problem: &mut Problem<7>, rng: &mut Rng, tries: usize) -> bool {
-    use omcbsa_core::model::Model;
+pub fn stand_anywhere(problem: &mut Problem<DOF>, rng: &mut Rng, tries: usize) -> bool {
     for _ in 0..tries {
-        let Err(b) = check_starts::<Gen3, 7>(problem) else {
+        let Err(b) = check_starts::<Arms, DOF>(problem) else {
             return true;
         };
-        problem.robots[b.robot].initial = Some(rng.configuration(&Gen3::LOWER, &Gen3::UPPER));
+        let model = problem.robots[b.robot].model;
+        problem.robots[b.robot].initial =
+            Some(rng.configuration(Arms::lower(model), Arms::upper(model)));
     }
-    check_starts::<Gen3, 7>(problem).is_ok()
+    check_starts::<Arms, DOF>(problem).is_ok()
 }

@@ -10,7 +10,7 @@
 use omcbsa_core::collision::ArmPose;
 use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::ik::{ik, IkParams};
-use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
@@ -18,7 +18,8 @@ use omcbsa_core::tool::Tool;
 use super::family::Hand;
 use super::frames::{at, V3};
 use super::layout::NamedObstacle;
-use super::witness::{Gen3, Scene, MOTION_STEP, Q, RETRACT};
+use super::witness::{retract, Arms, Scene, MOTION_STEP, Q};
+use crate::models::DOF;
 
 /// Fixture radii tried, largest first: the largest that keeps the clearance from the witness.
 const RADII: [f64; 4] = [0.08, 0.065, 0.05, 0.04];
@@ -55,36 +56,38 @@ impl Tightness {
 const FIRST_STEP: f64 = 0.2;
 /// Arms whose base is farther than this from a hand's first position are not tried on it.
 const REACH: f64 = 1.0;
-/// The points a fixture may sit on: the origins of joints 3 to 5 (upper arm, elbow, forearm).
-const PROBE_LINKS: [&str; 3] = ["half_arm_2_link", "forearm_link", "spherical_wrist_1_link"];
+/// The points a fixture may sit on: the origins of joints 3 to 5 (upper arm, elbow, forearm),
+/// as link frame indices (the Gen3's `half_arm_2_link` to `spherical_wrist_1_link`, the
+/// Panda's `panda_link3` to `panda_link5`: both chains have no fixed joint before them).
+const PROBES: [usize; 3] = [3, 4, 5];
 
 /// Fixtures for every hand (named `fixture_<k>`), given the witness `paths` of every arm.
 pub fn traps(
     tight: Tightness,
     scene: &Scene,
+    models: &[u8],
     bases: &[Frame],
     hands: &[Hand],
     paths: &[Vec<Q>],
     rng: &mut Rng,
 ) -> Vec<NamedObstacle> {
-    let probes: Vec<usize> = (PROBE_LINKS.iter())
-        .filter_map(|l| Gen3::LINK_NAMES.iter().position(|n| n == l))
-        .collect();
-    let witness = Witness::new(bases, paths, tight.clearance);
+    let witness = Witness::new(models, bases, paths, tight.clearance);
     let mut fixtures: Vec<Obstacle> = Vec::new();
     for hand in hands {
         let mut live: Vec<(usize, Vec<Q>)> = Vec::new();
-        for (arm, base) in bases.iter().enumerate() {
+        for (arm, (&model, base)) in models.iter().zip(bases).enumerate() {
             if (base.pos - hand.poses[0].pos).norm() > REACH {
                 continue;
             }
             let own = (arm == hand.arm).then_some(paths[arm][0]);
-            let starts: Vec<Q> = (own.into_iter().chain([RETRACT]))
-                .chain((0..tight.starts).map(|_| rng.configuration(&Gen3::LOWER, &Gen3::UPPER)))
+            let (lower, upper) = (Arms::lower(model), Arms::upper(model));
+            let starts: Vec<Q> = (own.into_iter().chain([retract(model)]))
+                .chain((0..tight.starts).map(|_| rng.configuration(lower, upper)))
                 .collect();
             for start in starts {
-                if let Some(path) = track_plainly(scene, base, &hand.poses, &start) {
-                    let clear = |obstacles: &[Obstacle]| path_is_free(base, &path, obstacles);
+                if let Some(path) = track_plainly(scene, model, base, &hand.poses, &start) {
+                    let clear =
+                        |obstacles: &[Obstacle]| path_is_free(model, base, &path, obstacles);
                     if clear(scene.obstacles) && clear(&fixtures) {
                         live.push((arm, path));
                     }
@@ -96,10 +99,11 @@ pub fn traps(
             let Some((arm, path)) = live.pop() else {
                 break;
             };
-            let Some(fixture) = witness.block(&bases[arm], &path, &probes) else {
+            let Some(fixture) = witness.block(models[arm], &bases[arm], &path) else {
                 continue;
             };
-            live.retain(|(a, p)| path_is_free(&bases[*a], p, std::slice::from_ref(&fixture)));
+            let fixture_only = std::slice::from_ref(&fixture);
+            live.retain(|(a, p)| path_is_free(models[*a], &bases[*a], p, fixture_only));
             fixtures.push(fixture);
             placed += 1;
         }
@@ -111,6 +115,7 @@ pub fn traps(
 
 /// Every witness arm at every step and half-step, to measure how far a point is from it.
 struct Witness<'a> {
+    models: &'a [u8],
     bases: &'a [Frame],
     paths: &'a [Vec<Q>],
     poses: Vec<ArmPose>,
@@ -118,18 +123,19 @@ struct Witness<'a> {
 }
 
 impl<'a> Witness<'a> {
-    fn new(bases: &'a [Frame], paths: &'a [Vec<Q>], clearance: f64) -> Self {
+    fn new(models: &'a [u8], bases: &'a [Frame], paths: &'a [Vec<Q>], clearance: f64) -> Self {
         let mut poses = Vec::new();
-        for (base, path) in bases.iter().zip(paths) {
+        for ((&model, base), path) in models.iter().zip(bases).zip(paths) {
             for (t, q) in path.iter().enumerate() {
                 let prev = &path[t.saturating_sub(1)];
                 let mid: Q = std::array::from_fn(|j| 0.5 * (prev[j] + q[j]));
                 // The suite's arms carry no tool.
-                poses.push(ArmPose::new::<Gen3, 7>(base, &Tool::NONE, &mid));
-                poses.push(ArmPose::new::<Gen3, 7>(base, &Tool::NONE, q));
+                poses.push(ArmPose::new::<Arms, DOF>(model, base, &Tool::NONE, &mid));
+                poses.push(ArmPose::new::<Arms, DOF>(model, base, &Tool::NONE, q));
             }
         }
         Witness {
+            models,
             bases,
             paths,
             poses,
@@ -148,28 +154,30 @@ impl<'a> Witness<'a> {
     /// Whether a sphere of `radius` at `p` keeps the clearance from every witness motion.
     fn clears(&self, p: &V3, radius: f64) -> bool {
         let point = [p.x, p.y, p.z];
-        (self.bases.iter().zip(self.paths)).all(|(base, path)| {
+        (self.models.iter().zip(self.bases).zip(self.paths)).all(|((&model, base), path)| {
             (0..path.len()).all(|t| {
                 let m = ArmMotion {
+                    model,
                     base,
                     tool: &Tool::NONE,
                     from: &path[t.saturating_sub(1)],
                     to: &path[t],
                 };
-                !motion_near_point::<Gen3, 7>(&m, &point, radius + self.clearance, MOTION_STEP)
+                !motion_near_point::<Arms, DOF>(&m, &point, radius + self.clearance, MOTION_STEP)
             })
         })
     }
 
-    /// A fixture on one of the `probes` points of the arm at `base` along `path`, as far from
-    /// the witness as can be, as large as keeps clear of it; `None` when none fits.
-    fn block(&self, base: &Frame, path: &[Q], probes: &[usize]) -> Option<Obstacle> {
-        let mut frames = vec![Frame::IDENTITY; Gen3::LINK_NAMES.len()];
+    /// A fixture on one of the [`PROBES`] points of the arm of model `model` at `base` along
+    /// `path`, as far from the witness as can be, as large as keeps clear of it; `None` when
+    /// none fits.
+    fn block(&self, model: u8, base: &Frame, path: &[Q]) -> Option<Obstacle> {
+        let mut frames = vec![Frame::IDENTITY; Arms::link_names(model).len()];
         let mut points: Vec<(f64, V3)> = Vec::new();
         let first = (FIRST_STEP * path.len() as f64).ceil() as usize;
         for q in &path[first..] {
-            Gen3::link_frames(q, &mut frames);
-            for &l in probes {
+            Arms::link_frames(model, q, &mut frames);
+            for &l in PROBES.iter().filter(|&&l| l < frames.len()) {
                 let p = base.compose(&frames[l]).pos;
                 points.push((self.gap(&p), p));
             }
@@ -190,13 +198,20 @@ impl<'a> Witness<'a> {
 
 /// IK tracking of `poses` from the IK solution nearest `start`, with nothing in mind but the
 /// joint speed limits; `None` where it breaks down.
-fn track_plainly(scene: &Scene, base: &Frame, poses: &[Frame], start: &Q) -> Option<Vec<Q>> {
+fn track_plainly(
+    scene: &Scene,
+    model: u8,
+    base: &Frame,
+    poses: &[Frame],
+    start: &Q,
+) -> Option<Vec<Q>> {
     let params = IkParams::default();
-    let mut q = ik::<Gen3, 7>(&scene.target(base, &poses[0]), start, &params).ok()?;
+    let velocity = Arms::velocity(model);
+    let mut q = ik::<Arms, DOF>(model, &scene.target(base, &poses[0]), start, &params).ok()?;
     let mut path = vec![q];
     for pose in &poses[1..] {
-        let next = ik::<Gen3, 7>(&scene.target(base, pose), &q, &params).ok()?;
-        if (0..7).any(|j| (next[j] - q[j]).abs() > Gen3::VELOCITY[j] * scene.dt) {
+        let next = ik::<Arms, DOF>(model, &scene.target(base, pose), &q, &params).ok()?;
+        if (0..DOF).any(|j| (next[j] - q[j]).abs() > velocity[j] * scene.dt) {
             return None;
         }
         q = next;
@@ -205,15 +220,17 @@ fn track_plainly(scene: &Scene, base: &Frame, poses: &[Frame], start: &Q) -> Opt
     Some(path)
 }
 
-/// Whether the arm at `base` moves along `path` clear of `obstacles` and of itself.
-fn path_is_free(base: &Frame, path: &[Q], obstacles: &[Obstacle]) -> bool {
+/// Whether the arm of model `model` at `base` moves along `path` clear of `obstacles` and of
+/// itself.
+fn path_is_free(model: u8, base: &Frame, path: &[Q], obstacles: &[Obstacle]) -> bool {
     (0..path.len()).all(|t| {
         let m = ArmMotion {
+            model,
             base,
             tool: &Tool::NONE,
             from: &path[t.saturating_sub(1)],
             to: &path[t],
         };
-        motion_is_free::<Gen3, 7>(&m, obstacles, MOTION_STEP)
+        motion_is_free::<Arms, DOF>(&m, obstacles, MOTION_STEP)
     })
 }

@@ -9,7 +9,7 @@
 use omcbsa_core::geometry::Obstacle;
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::kinematics::null_space_basis;
-use omcbsa_core::model::{Frame, KinovaGen3, Model};
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::motion::{motion_is_free, motions_collide, ArmMotion};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
@@ -17,9 +17,11 @@ use omcbsa_core::tool::Tool;
 use super::family::Hand;
 use super::frames::{aligned, rot, v3, V3};
 use super::layout::Station;
+use crate::models::{ModelKind, DOF};
 
-pub type Gen3 = KinovaGen3;
-pub type Q = [f64; 7];
+/// The models the suite's arms are of (each arm's an index into it).
+pub type Arms = crate::models::Fleet;
+pub type Q = [f64; DOF];
 
 /// Share of `velocity * dt` a witness joint may move per step.
 pub const STEP_FRACTION: f64 = 0.75;
@@ -55,51 +57,76 @@ pub struct Scene<'a> {
     pub tcp: Frame,
 }
 
+/// Kinova's [`RETRACT`] within the joint limits of model `model` (the pose itself for the
+/// Gen3; for another arm a folded pose to try first, checked like any other).
+pub fn retract(model: u8) -> Q {
+    let (lower, upper) = (Arms::lower(model), Arms::upper(model));
+    std::array::from_fn(|j| RETRACT[j].clamp(lower[j], upper[j]))
+}
+
+/// The model of arms whose family names none.
+pub fn default_model() -> u8 {
+    ModelKind::default().id()
+}
+
 /// An arm whose path is fixed.
 pub struct Placed {
+    pub model: u8,
     pub base: Frame,
     pub path: Vec<Q>,
 }
 
 impl Scene<'_> {
-    fn step_ok(&self, a: &Q, b: &Q) -> bool {
-        (0..7).all(|j| (b[j] - a[j]).abs() <= STEP_FRACTION * Gen3::VELOCITY[j] * self.dt)
+    fn step_ok(&self, model: u8, a: &Q, b: &Q) -> bool {
+        let velocity = Arms::velocity(model);
+        (0..DOF).all(|j| (b[j] - a[j]).abs() <= STEP_FRACTION * velocity[j] * self.dt)
     }
 
     /// The motion of an arm at `base` from `from` to `to` over step `t - 1 -> t` (standing
     /// still at step 0), against the obstacles, itself and `placed`.
-    fn motion_ok(&self, base: &Frame, from: &Q, to: &Q, t: usize, placed: &[Placed]) -> bool {
+    fn motion_ok(
+        &self,
+        model: u8,
+        base: &Frame,
+        from: &Q,
+        to: &Q,
+        t: usize,
+        placed: &[Placed],
+    ) -> bool {
         // The suite's arms carry no tool.
         let tool = &Tool::NONE;
         let m = ArmMotion {
+            model,
             base,
             tool,
             from,
             to,
         };
-        motion_is_free::<Gen3, 7>(&m, self.obstacles, MOTION_STEP)
+        motion_is_free::<Arms, DOF>(&m, self.obstacles, MOTION_STEP)
             && placed.iter().all(|o| {
                 let other = ArmMotion {
+                    model: o.model,
                     base: &o.base,
                     tool,
                     from: &o.path[t.saturating_sub(1)],
                     to: &o.path[t],
                 };
-                !motions_collide::<Gen3, 7>(&m, &other, MOTION_STEP)
+                !motions_collide::<Arms, DOF>(&m, &other, MOTION_STEP)
             })
     }
 
-    /// Whether `path` is a valid motion for an arm at `base` among `placed`.
-    pub fn path_ok(&self, base: &Frame, path: &[Q], placed: &[Placed]) -> bool {
+    /// Whether `path` is a valid motion for an arm of model `model` at `base` among `placed`.
+    pub fn path_ok(&self, model: u8, base: &Frame, path: &[Q], placed: &[Placed]) -> bool {
         (0..path.len()).all(|t| {
             let from = &path[t.saturating_sub(1)];
-            self.step_ok(from, &path[t]) && self.motion_ok(base, from, &path[t], t, placed)
+            self.step_ok(model, from, &path[t])
+                && self.motion_ok(model, base, from, &path[t], t, placed)
         })
     }
 
     /// The world pose of the tool centre point.
-    pub fn tcp_pose(&self, base: &Frame, q: &Q) -> Frame {
-        base.compose(&Gen3::fk(q)).compose(&self.tcp)
+    pub fn tcp_pose(&self, model: u8, base: &Frame, q: &Q) -> Frame {
+        base.compose(&Arms::fk(model, q)).compose(&self.tcp)
     }
 
     /// IK target in the model's base frame for a world TCP pose.
@@ -115,6 +142,7 @@ impl Scene<'_> {
     /// The first path that passes, if any.
     pub fn track(
         &self,
+        model: u8,
         base: &Frame,
         poses: &[Frame],
         placed: &[Placed],
@@ -122,13 +150,14 @@ impl Scene<'_> {
     ) -> Option<Vec<Q>> {
         let params = IkParams::default();
         'attempt: for attempt in 0..TRACK_ATTEMPTS {
-            let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
+            let seed = rng.configuration(Arms::lower(model), Arms::upper(model));
             let swing = if attempt + PLAIN_ATTEMPTS < TRACK_ATTEMPTS {
                 rng.uniform(0.6, 1.0) * NULL_SWING * if rng.next_f64() < 0.5 { 1.0 } else { -1.0 }
             } else {
                 0.0
             };
-            let Ok(mut q) = ik::<Gen3, 7>(&self.target(base, &poses[0]), &seed, &params) else {
+            let Ok(mut q) = ik::<Arms, DOF>(model, &self.target(base, &poses[0]), &seed, &params)
+            else {
                 continue;
             };
             let mut path = Vec::with_capacity(poses.len());
@@ -136,13 +165,15 @@ impl Scene<'_> {
                 let next = if t == 0 {
                     q
                 } else {
-                    let seed = along_null_space(&q, swing);
-                    match ik::<Gen3, 7>(&self.target(base, pose), &seed, &params) {
+                    let seed = along_null_space(model, &q, swing);
+                    match ik::<Arms, DOF>(model, &self.target(base, pose), &seed, &params) {
                         Ok(next) => next,
                         Err(_) => continue 'attempt,
                     }
                 };
-                if !self.step_ok(&q, &next) || !self.motion_ok(base, &q, &next, t, placed) {
+                if !self.step_ok(model, &q, &next)
+                    || !self.motion_ok(model, base, &q, &next, t, placed)
+                {
                     continue 'attempt;
                 }
                 q = next;
@@ -155,11 +186,19 @@ impl Scene<'_> {
 
     /// A configuration an idle arm can hold among `placed` for `h` steps: the retract pose if
     /// it is clear, else a random clear one.
-    pub fn hold(&self, base: &Frame, h: usize, placed: &[Placed], rng: &mut Rng) -> Option<Q> {
-        let candidates = std::iter::once(RETRACT)
-            .chain((0..TRACK_ATTEMPTS).map(|_| rng.configuration(&Gen3::LOWER, &Gen3::UPPER)));
+    pub fn hold(
+        &self,
+        model: u8,
+        base: &Frame,
+        h: usize,
+        placed: &[Placed],
+        rng: &mut Rng,
+    ) -> Option<Q> {
+        let (lower, upper) = (Arms::lower(model), Arms::upper(model));
+        let candidates = std::iter::once(retract(model))
+            .chain((0..TRACK_ATTEMPTS).map(|_| rng.configuration(lower, upper)));
         for q in candidates {
-            if self.path_ok(base, &vec![q; h], placed) {
+            if self.path_ok(model, base, &vec![q; h], placed) {
                 return Some(q);
             }
         }
@@ -172,6 +211,7 @@ impl Scene<'_> {
 /// arm's path (holding arms included) in arm order.
 pub fn task_witness(
     scene: &Scene,
+    models: &[u8],
     bases: &[Frame],
     hands: &[Hand],
     rng: &mut Rng,
@@ -183,20 +223,23 @@ pub fn task_witness(
         let mut owners: Vec<usize> = Vec::with_capacity(bases.len());
         let mut placed: Vec<Placed> = Vec::with_capacity(bases.len());
         for arm in (0..bases.len()).filter(|a| hands.iter().all(|hand| hand.arm != *a)) {
-            let q = scene.hold(&bases[arm], h, &placed, rng)?;
+            let q = scene.hold(models[arm], &bases[arm], h, &placed, rng)?;
             owners.push(arm);
             placed.push(Placed {
+                model: models[arm],
                 base: bases[arm],
                 path: vec![q; h],
             });
         }
         for &k in &order {
             let arm = hands[k].arm;
-            let Some(path) = scene.track(&bases[arm], &hands[k].poses, &placed, rng) else {
+            let poses = &hands[k].poses;
+            let Some(path) = scene.track(models[arm], &bases[arm], poses, &placed, rng) else {
                 continue 'order;
             };
             owners.push(arm);
             placed.push(Placed {
+                model: models[arm],
                 base: bases[arm],
                 path,
             });
@@ -215,8 +258,10 @@ pub fn task_witness(
 /// the arm's station (pointing forward and down by a random amount), then every joint follows
 /// a sum of two slow sines whose speeds add up to at most half the step limit. `moving: false`
 /// gives a still arm in the same kind of pose.
+#[allow(clippy::too_many_arguments)]
 pub fn random_motion(
     scene: &Scene,
+    model: u8,
     base: &Frame,
     station: &Station,
     h: usize,
@@ -236,15 +281,16 @@ pub fn random_motion(
         let pitch = rng.uniform(0.0, 1.3);
         let approach: V3 = rot(side, pitch) * station.front;
         let start = aligned(station.point + jitter, approach, side);
-        let seed = rng.configuration(&Gen3::LOWER, &Gen3::UPPER);
-        let Ok(q0) = ik::<Gen3, 7>(&scene.target(base, &start), &seed, &params) else {
+        let (lower, upper) = (Arms::lower(model), Arms::upper(model));
+        let seed = rng.configuration(lower, upper);
+        let Ok(q0) = ik::<Arms, DOF>(model, &scene.target(base, &start), &seed, &params) else {
             continue;
         };
         // Per joint: two sines (cycles over the horizon, amplitude, phase).
-        let waves: Vec<[(f64, f64, f64); 2]> = (0..7)
+        let waves: Vec<[(f64, f64, f64); 2]> = (0..DOF)
             .map(|j| {
                 let budget = if moving {
-                    0.5 * STEP_FRACTION * Gen3::VELOCITY[j] * scene.dt
+                    0.5 * STEP_FRACTION * Arms::velocity(model)[j] * scene.dt
                 } else {
                     0.0
                 };
@@ -270,11 +316,11 @@ pub fn random_motion(
                             a * ((w * t as f64 + phase).sin() - phase.sin())
                         })
                         .sum();
-                    (q0[j] + offset).clamp(Gen3::LOWER[j], Gen3::UPPER[j])
+                    (q0[j] + offset).clamp(lower[j], upper[j])
                 })
             })
             .collect();
-        if scene.path_ok(base, &path, placed) {
+        if scene.path_ok(model, base, &path, placed) {
             return Some(path);
         }
     }
@@ -282,8 +328,8 @@ pub fn random_motion(
 }
 
 /// `q` moved by `amount` along the null space of its Jacobian (unchanged at a singularity).
-fn along_null_space(q: &Q, amount: f64) -> Q {
-    let (_, jacobian) = Gen3::jacobian(q);
+fn along_null_space(model: u8, q: &Q, amount: f64) -> Q {
+    let (_, jacobian) = Arms::jacobian(model, q);
     match null_space_basis(&jacobian).first() {
         Some(n) => std::array::from_fn(|j| q[j] + amount * n[j]),
         None => *q,

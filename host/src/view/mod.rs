@@ -15,12 +15,13 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
-use omcbsa_core::model::Model;
+use omcbsa_core::model::Models;
+
+use crate::models::{Fleet, DOF};
 
 use crate::error::InputError;
 use crate::format::{ProblemFile, SolutionFile};
 use crate::load;
-use crate::models::ModelVisitor;
 use crate::validate::{validate, Report};
 
 pub use scene::Scene;
@@ -95,13 +96,7 @@ pub fn html(
     report: Option<&Report>,
     assets: Assets,
 ) -> Result<String, ViewError> {
-    let kind = load::model_of(problem).map_err(ViewError::Input)?;
-    kind.visit(Page {
-        file: problem,
-        solution,
-        report,
-        assets,
-    })
+    page::<Fleet, DOF>(problem, solution, report, assets)
 }
 
 /// Writes the self-contained [`html`] page to `path`.
@@ -116,7 +111,7 @@ pub fn write_html(
 
 /// Writes the script that pages made with [`Assets::Shared`] load.
 pub fn write_assets(path: &Path) -> Result<(), ViewError> {
-    let all: Vec<&str> = VIEW_MODELS.iter().map(|m| m.name).collect();
+    let all = model_names::<Fleet, DOF>();
     let text = format!("window.omcbsaAssets = {};\n", assets_json(&all));
     write(path, &text)
 }
@@ -131,6 +126,14 @@ fn write(path: &Path, text: &str) -> Result<(), ViewError> {
 /// The embedded meshes of the models named `names` (none for a model without).
 fn view_models<'n>(names: &'n [&str]) -> impl Iterator<Item = &'static ViewModel> + 'n {
     VIEW_MODELS.iter().filter(|m| names.contains(&m.name))
+}
+
+/// The names of `M`'s models.
+fn model_names<M: Models<D>, const D: usize>() -> Vec<&'static str> {
+    (0..M::COUNT)
+        .filter_map(|m| u8::try_from(m).ok())
+        .map(M::name)
+        .collect()
 }
 
 /// three.js, its orbit controls and the meshes of the models named `names` (per model, per
@@ -154,22 +157,7 @@ fn script_safe(json: &str) -> String {
     json.replace("</", "<\\/")
 }
 
-/// [`html`] for the problem's model.
-struct Page<'a> {
-    file: &'a ProblemFile,
-    solution: Option<&'a SolutionFile>,
-    report: Option<&'a Report>,
-    assets: Assets<'a>,
-}
-
-impl ModelVisitor for Page<'_> {
-    type Output = Result<String, ViewError>;
-    fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
-        page::<M, D>(self.file, self.solution, self.report, self.assets)
-    }
-}
-
-fn page<M: Model<D>, const D: usize>(
+fn page<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     solution: Option<&SolutionFile>,
     report: Option<&Report>,
@@ -186,7 +174,11 @@ fn page<M: Model<D>, const D: usize>(
     };
     let scene = scene::scene::<M, D>(file, &problem, solution.zip(report));
     let data = serde_json::to_string(&scene).map_err(|e| ViewError::Encode(e.to_string()))?;
-    let used: Vec<&str> = scene.models.iter().map(|m| m.name).collect();
+    // The models the robots use: their meshes and their licences.
+    let used: Vec<&str> = (scene.robots.iter())
+        .filter_map(|r| scene.models.get(usize::from(r.model)))
+        .map(|m| m.name)
+        .collect();
     let licences: String = view_models(&used)
         .map(|m| {
             format!(
@@ -256,20 +248,15 @@ fn escape_html(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::ModelKind;
 
     /// Every embedded mesh belongs to a link of a compiled-in model (a mesh for a link the
-    /// model lacks would never be drawn), and the models the viewer draws have meshes.
+    /// model lacks would never be drawn), and every model of the fleet has meshes.
     #[test]
     fn view_meshes_name_links_of_their_models() {
-        struct Links;
-        impl ModelVisitor for Links {
-            type Output = (&'static str, &'static [&'static str]);
-            fn visit<M: Model<D>, const D: usize>(self) -> Self::Output {
-                (M::NAME, M::LINK_NAMES)
-            }
-        }
-        let models: Vec<_> = ModelKind::ALL.iter().map(|k| k.visit(Links)).collect();
+        let ids = (0..Fleet::COUNT).filter_map(|m| u8::try_from(m).ok());
+        let models: Vec<_> = ids
+            .map(|m| (Fleet::name(m), Fleet::link_names(m)))
+            .collect();
         for view in VIEW_MODELS {
             let (_, links) = (models.iter().find(|(name, _)| *name == view.name))
                 .unwrap_or_else(|| panic!("meshes for {}, which is not compiled in", view.name));

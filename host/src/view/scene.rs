@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use omcbsa_core::model::{Frame, Model};
+use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::Matrix3;
 use omcbsa_core::problem::Problem;
 
@@ -26,7 +26,7 @@ pub struct Scene<'a> {
     pub lead: usize,
     /// Absent when only the problem is shown.
     pub solution: Option<SolutionInfo<'a>>,
-    /// The models the robots use; each robot names its own.
+    /// The models the robots use (every compiled one), indexed by [`RobotView::model`].
     pub models: Vec<ModelView>,
     pub robots: Vec<RobotView<'a>>,
     pub trajectories: Vec<TrajectoryView<'a>>,
@@ -42,6 +42,15 @@ pub struct SolutionInfo<'a> {
     pub valid: bool,
     pub summary: String,
     pub violations: &'a [Violation],
+}
+
+/// One model: its links (named as the page's meshes are), joints and capsules.
+#[derive(Serialize)]
+pub struct ModelView {
+    pub name: &'static str,
+    pub links: &'static [&'static str],
+    pub joints: Vec<Joint>,
+    pub capsules: Vec<CapsuleData>,
 }
 
 /// A joint between two links of a serial chain.
@@ -64,39 +73,11 @@ pub struct CapsuleData {
     pub radius: f64,
 }
 
-/// What the page needs of a model: its links (the meshes are found by the model's and the
-/// link's name), the joints to read angles back, the capsules.
-#[derive(Serialize)]
-pub struct ModelView {
-    pub name: &'static str,
-    pub links: &'static [&'static str],
-    pub joints: Vec<Joint>,
-    pub capsules: Vec<CapsuleData>,
-}
-
-impl ModelView {
-    pub fn of<M: Model<D>, const D: usize>() -> ModelView {
-        ModelView {
-            name: M::NAME,
-            links: M::LINK_NAMES,
-            joints: joints::<M, D>(),
-            capsules: (M::CAPSULES.iter())
-                .map(|c| CapsuleData {
-                    link: usize::from(c.link),
-                    a: c.a,
-                    b: c.b,
-                    radius: c.radius,
-                })
-                .collect(),
-        }
-    }
-}
-
 #[derive(Serialize)]
 pub struct RobotView<'a> {
     pub name: &'a str,
     /// Index into [`Scene::models`].
-    pub model: usize,
+    pub model: u8,
     /// The trajectory it tracks, when a solution assigns one.
     pub trajectory: Option<usize>,
     /// Whether the frames follow the solution's joint path (else they hold one configuration:
@@ -124,23 +105,40 @@ fn columns(r: &Matrix3<f64>) -> [f32; 9] {
     std::array::from_fn(|k| r[(k % 3, k / 3)] as f32)
 }
 
-/// Every link frame of model `M` at `q`, in the model's base frame.
-fn link_frames<M: Model<D>, const D: usize>(q: &[f64; D]) -> Vec<Frame> {
-    let mut frames = vec![Frame::IDENTITY; M::LINK_NAMES.len()];
-    M::link_frames(q, &mut frames);
+/// Every link frame of model `model` of `M` at `q`, in the model's base frame.
+fn link_frames<M: Models<D>, const D: usize>(model: u8, q: &[f64; D]) -> Vec<Frame> {
+    let mut frames = vec![Frame::IDENTITY; M::link_names(model).len()];
+    M::link_frames(model, q, &mut frames);
     frames
 }
 
-/// The joints of `M`, found from its forward kinematics: joint `j` turns the first link whose
-/// frame moves when only `j` does, about the axis of that small rotation.
-fn joints<M: Model<D>, const D: usize>() -> Vec<Joint> {
-    let zero = link_frames::<M, D>(&[0.0; D]);
+/// Model `model` of `M` as the page draws it.
+fn model_view<M: Models<D>, const D: usize>(model: u8) -> ModelView {
+    ModelView {
+        name: M::name(model),
+        links: M::link_names(model),
+        joints: joints::<M, D>(model),
+        capsules: (M::capsules(model).iter())
+            .map(|c| CapsuleData {
+                link: usize::from(c.link),
+                a: c.a,
+                b: c.b,
+                radius: c.radius,
+            })
+            .collect(),
+    }
+}
+
+/// The joints of model `model`, found from its forward kinematics: joint `j` turns the first
+/// link whose frame moves when only `j` does, about the axis of that small rotation.
+fn joints<M: Models<D>, const D: usize>(model: u8) -> Vec<Joint> {
+    let zero = link_frames::<M, D>(model, &[0.0; D]);
     const PROBE: f64 = 0.5;
     (0..D)
         .filter_map(|j| {
             let mut q = [0.0; D];
             q[j] = PROBE;
-            let moved = link_frames::<M, D>(&q);
+            let moved = link_frames::<M, D>(model, &q);
             let child = (1..zero.len()).find(|&l| (moved[l].rot - zero[l].rot).norm() > 1e-9)?;
             let parent = child - 1;
             let origin = zero[parent].rot.transpose() * zero[child].rot;
@@ -150,7 +148,7 @@ fn joints<M: Model<D>, const D: usize>() -> Vec<Joint> {
             let axis = [skew[(2, 1)], skew[(0, 2)], skew[(1, 0)]];
             let s = 2.0 * PROBE.sin();
             Some(Joint {
-                name: M::JOINT_NAMES[j],
+                name: M::joint_names(model)[j],
                 parent,
                 child,
                 origin: columns(&origin),
@@ -162,7 +160,7 @@ fn joints<M: Model<D>, const D: usize>() -> Vec<Joint> {
 
 /// The scene of `file` (checked and loaded as `problem`), with `solution` and its validation
 /// `report` when given.
-pub fn scene<'a, M: Model<D>, const D: usize>(
+pub fn scene<'a, M: Models<D>, const D: usize>(
     file: &'a ProblemFile,
     problem: &Problem<D>,
     solution: Option<(&'a SolutionFile, &'a Report)>,
@@ -196,7 +194,7 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
         .enumerate()
         .map(|(i, (spec, robot))| {
             let at = |q: &[f64; D]| -> Vec<FrameData> {
-                (link_frames::<M, D>(q).iter())
+                (link_frames::<M, D>(robot.model, q).iter())
                     .map(|f| frame_data(&robot.base.compose(f)))
                     .collect()
             };
@@ -206,7 +204,7 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
             };
             RobotView {
                 name: &spec.name,
-                model: 0,
+                model: robot.model,
                 trajectory: assignment(i),
                 planned: paths.is_some(),
                 frames,
@@ -240,7 +238,10 @@ pub fn scene<'a, M: Model<D>, const D: usize>(
             summary: report.summary(),
             violations: &report.violations,
         }),
-        models: vec![ModelView::of::<M, D>()],
+        models: (0..M::COUNT)
+            .filter_map(|m| u8::try_from(m).ok())
+            .map(model_view::<M, D>)
+            .collect(),
         robots,
         trajectories,
         obstacles: &file.obstacles,
