@@ -264,12 +264,13 @@ pub fn run_on_mock_arms_watched(
     let mocks = Fleet::spawn(kind, python, config.period, &starts, record, &[])
         .map_err(MockRunError::Mocks)?;
     let ports = mocks.ports().map_err(MockRunError::Mocks)?;
-    let limits = joint_limits(model(), CAUTIOUS_SPEED);
+    // The demo's arms are all of its one model.
+    let limits = vec![joint_limits(model(), CAUTIOUS_SPEED); plan.arms.len()];
     let period = config.period.as_secs_f64();
     let traj = interpolate(&plan, &limits, period)
         .map_err(|e| MockRunError::Exec(ExecError::Limits(e)))?;
     let settle = config.settle_cycles;
-    let run = Executor::new(plan, limits, ports, config)
+    let run = Executor::new(plan, limits.clone(), ports, config)
         .and_then(|e| e.on_progress(progress).run(validator));
     let report = match run {
         Ok(report) => report,
@@ -281,8 +282,8 @@ pub fn run_on_mock_arms_watched(
         }
     };
     let records = mocks.finish().map_err(MockRunError::Mocks)?;
-    for ((arm, record), cmds) in records.into_iter().zip(&traj.commands) {
-        kind.check_followed(&record, cmds, settle, &limits, period)
+    for (((arm, record), cmds), limits) in records.into_iter().zip(&traj.commands).zip(&limits) {
+        kind.check_followed(&record, cmds, settle, limits, period)
             .map_err(|error| MockRunError::Record { arm, error })?;
     }
     Ok(report)

@@ -2,7 +2,7 @@
 //! the robots that have an arm, and its validation gate backed by the host validator.
 
 use omcbsa_core::model::Models;
-use omcbsa_hw::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
+use omcbsa_hw::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 
 use crate::error::{quoted, InputError};
 use crate::format::{ProblemFile, SolutionFile};
@@ -20,7 +20,7 @@ const _: () = assert!(JOINTS == DOF);
 
 /// The executor's joint limits for `kind`: the model's position and acceleration limits and
 /// its velocity limits capped at `speed_cap` rad/s.
-pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> [JointLimits; JOINTS] {
+pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> ArmLimits {
     let m = kind.id();
     let (lower, upper) = (Fleet::lower(m), Fleet::upper(m));
     std::array::from_fn(|j| JointLimits {
@@ -28,28 +28,6 @@ pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> [JointLimits; JOINTS] {
         velocity: Fleet::velocity(m)[j].min(speed_cap),
         acceleration: Fleet::acceleration(m)[j],
     })
-}
-
-/// One table of executor limits for arms of models `kinds` ([`joint_limits`] each): per joint
-/// the strictest of theirs, so that every arm keeps within its own.
-pub fn fleet_limits(kinds: &[ModelKind], speed_cap: f64) -> Result<[JointLimits; JOINTS], String> {
-    let tables = kinds.iter().map(|&k| joint_limits(k, speed_cap));
-    tables
-        .reduce(|a, b| std::array::from_fn(|j| strictest(&a[j], &b[j])))
-        .ok_or_else(|| "no robot, so no limits".to_string())
-}
-
-/// Limits that keep within both `a` and `b`.
-fn strictest(a: &JointLimits, b: &JointLimits) -> JointLimits {
-    let position = match (a.position, b.position) {
-        (Some((la, ua)), Some((lb, ub))) => Some((la.max(lb), ua.min(ub))),
-        (p, None) | (None, p) => p,
-    };
-    JointLimits {
-        position,
-        velocity: a.velocity.min(b.velocity),
-        acceleration: a.acceleration.min(b.acceleration),
-    }
 }
 
 /// A solution validated against its problem. As a [`PlanValidator`] it accepts exactly the
@@ -73,12 +51,18 @@ impl CheckedSolution {
         })
     }
 
-    /// The executor's limits ([`fleet_limits`] at [`CAUTIOUS_SPEED`]): the model's when every
-    /// robot has the same; for a mixed fleet, per joint the strictest of its models' (the
-    /// executor takes one table for every arm).
-    pub fn joint_limits(&self) -> Result<[JointLimits; JOINTS], String> {
+    /// The executor's limits for each arm of `plan` (made by [`CheckedSolution::plan`]), in
+    /// its order: each arm's own model's ([`joint_limits`] at [`CAUTIOUS_SPEED`]).
+    pub fn joint_limits(&self, plan: &Plan) -> Result<Vec<ArmLimits>, String> {
         let kinds = load::models(&self.problem).map_err(|e| e.to_string())?;
-        fleet_limits(&kinds, CAUTIOUS_SPEED)
+        (plan.arms.iter())
+            .map(|a| {
+                let i = (self.problem.robots.iter())
+                    .position(|r| r.name == a.name)
+                    .ok_or_else(|| format!("arm {} is no robot of the problem", quoted(&a.name)))?;
+                Ok(joint_limits(kinds[i], CAUTIOUS_SPEED))
+            })
+            .collect()
     }
 
     pub fn report(&self) -> &Report {
@@ -220,7 +204,7 @@ mod tests {
     fn the_executor_limits_are_the_models_with_the_speed_capped() {
         // The Gen3's are exactly the table the executor had (Kinova's joint_limits.yaml).
         let gen3 = joint_limits(ModelKind::default(), CAUTIOUS_SPEED);
-        assert_eq!(gen3, JointLimits::kinova_gen3());
+        assert_eq!(gen3, omcbsa_hw::testing::arm_limits());
         let panda = ModelKind::parse("franka_panda").unwrap();
         let panda = joint_limits(panda, CAUTIOUS_SPEED);
         assert_eq!(panda[3].position, Some((-3.0718, -0.0698)));

@@ -83,13 +83,8 @@ fn the_executor_gate_sends_nothing_for_an_invalid_solution() {
     assert!(!checked.report().is_valid());
     let plan = checked.plan(&ROBOTS).unwrap();
     let (buses, devices) = MockTransport::buses(&ROBOTS);
-    let exec = Executor::new(
-        plan,
-        checked.joint_limits().unwrap(),
-        buses,
-        ExecConfig::default(),
-    )
-    .unwrap();
+    let limits = checked.joint_limits(&plan).unwrap();
+    let exec = Executor::new(plan, limits, buses, ExecConfig::default()).unwrap();
     let e = exec.run(&checked).unwrap_err();
     assert!(matches!(e, ExecError::Refused(_)), "{e}");
     for mut d in devices {

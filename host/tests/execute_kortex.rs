@@ -119,7 +119,7 @@ fn execute_streams_to_three_mock_gen3s_and_shows_the_password_nowhere() {
     assert!(logged.contains("Session.CreateSession"));
     assert!(!text.contains(&password) && !logged.contains(&password));
     let limits = joint_limits(ModelKind::default(), CAUTIOUS_SPEED);
-    let traj = interpolate(&plan, &limits, period.as_secs_f64()).unwrap();
+    let traj = interpolate(&plan, &vec![limits; plan.arms.len()], period.as_secs_f64()).unwrap();
     let settle = omcbsa_hw::ExecConfig::default().settle_cycles;
     for ((name, record), cmds) in mocks.finish().unwrap().iter().zip(&traj.commands) {
         MockKind::Kortex

@@ -141,3 +141,37 @@ fn omega_astar_solves_a_panda() {
     let solution = plan_file(&file, PlannerKind::OmegaAstar, 20.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);
 }
+
+/// What `validate` accepts, `execute` runs: the executor holds each arm to its own model's
+/// limits. The Gen3s' elbows stand at 1.8 rad, outside the Panda's joint 4 range
+/// [-3.07, -0.07]: one table for the whole fleet would refuse them.
+#[test]
+fn each_arm_is_executed_within_its_own_models_limits() {
+    use omcbsa::execute::CheckedSolution;
+    use omcbsa_hw::{link::ArmPorts, ExecConfig, Executor};
+    let file = mixed(&TWO_AND_TWO, 8);
+    let solution = plan_file(&file, PlannerKind::OmCbsa, 20.0).unwrap();
+    assert_eq!(solution.status, Status::Solved, "{}", solution.message);
+    let checked = CheckedSolution::new(file.clone(), solution).unwrap();
+    assert!(
+        checked.report().is_valid(),
+        "{}",
+        checked.report().summary()
+    );
+    let names: Vec<&str> = file.robots.iter().map(|r| r.name.as_str()).collect();
+    let plan = checked.plan(&names).unwrap();
+    let limits = checked.joint_limits(&plan).unwrap();
+    assert_eq!(limits.len(), 4);
+    assert_eq!(limits[0][3].position, Some((-2.57, 2.57)));
+    assert_eq!(limits[1][3].position, Some((-3.0718, -0.0698)));
+    assert_eq!((limits[2], limits[3]), (limits[0], limits[1]));
+    let config = ExecConfig {
+        dry_run: true,
+        ..ExecConfig::default()
+    };
+    let report = Executor::new(plan, limits, ArmPorts::new(), config)
+        .unwrap()
+        .run(&checked)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(report.dry_run && report.cycles > 0);
+}

@@ -9,7 +9,7 @@
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::plan::{ArmPlan, Plan, PlanValidator};
-use omcbsa_hw::{ExecConfig, Executor, JointLimits, WatchSettings};
+use omcbsa_hw::{ExecConfig, Executor, WatchSettings};
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -90,7 +90,8 @@ fn main() -> Result<(), String> {
         },
         ..exec_config()
     };
-    let report = Executor::new(plan, JointLimits::kinova_gen3(), mocks.ports()?, cfg)
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let report = Executor::new(plan, limits, mocks.ports()?, cfg)
         .map_err(|e| e.to_string())?
         .run(&AcceptAll);
     drop(mocks.finish());

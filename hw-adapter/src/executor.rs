@@ -7,7 +7,7 @@ use crate::interpolate::{peak_speeds, plan_generator};
 use crate::link::ArmPort;
 use crate::live::{self, RunInfo, StreamHandle};
 use crate::log::LogEntry;
-use crate::plan::{JointLimits, Plan, PlanValidator, JOINTS};
+use crate::plan::{ArmLimits, Plan, PlanValidator, JOINTS};
 use crate::stream::Generator;
 use crate::watch::WatchSettings;
 use crate::watchdog::CycleFault;
@@ -349,7 +349,8 @@ pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
 
 pub struct Executor {
     plan: Plan,
-    limits: [JointLimits; JOINTS],
+    /// One table per plan arm, in plan order.
+    limits: Vec<ArmLimits>,
     /// One port per plan arm, in plan order.
     buses: Vec<ArmPort>,
     config: ExecConfig,
@@ -358,16 +359,24 @@ pub struct Executor {
 
 impl Executor {
     /// `arms` pairs each plan arm's name with its bus or Kortex connection ([`ArmPort`]);
-    /// every plan arm needs exactly one (none in a dry run).
+    /// every plan arm needs exactly one (none in a dry run). `limits` holds each plan arm's
+    /// joint limits, in plan order.
     pub fn new<P: Into<ArmPort>>(
         plan: Plan,
-        limits: [JointLimits; JOINTS],
+        limits: Vec<ArmLimits>,
         arms: Vec<(String, P)>,
         config: ExecConfig,
     ) -> Result<Self, ExecError> {
         let mut arms: Vec<(String, ArmPort)> =
             arms.into_iter().map(|(n, p)| (n, p.into())).collect();
         plan.check_shape().map_err(ExecError::InvalidPlan)?;
+        if limits.len() != plan.arms.len() {
+            return Err(ExecError::InvalidPlan(format!(
+                "{} tables of joint limits for {} arms: one per arm",
+                limits.len(),
+                plan.arms.len()
+            )));
+        }
         config.watch.check().map_err(ExecError::Settings)?;
         let mut buses = Vec::with_capacity(plan.arms.len());
         if !config.dry_run {
@@ -445,14 +454,15 @@ impl Executor {
     /// Online execution: starts every arm holding still at its start configuration and returns
     /// the handle that pushes segments (waypoints `dt` apart, streamed slowed down uniformly by
     /// `time_scale` >= 1) while the arms move. `arms` pairs each arm's name with its start
-    /// configuration and its bus; the handle's pushes take the arms in this order. A dry run
+    /// configuration and its bus, `limits` each arm's joint limits in the same order; the
+    /// handle's pushes take the arms in this order. A dry run
     /// is not supported here. Each push may queue at most [`ExecConfig::online_horizon`] of
     /// motion ahead.
     pub fn online<P: Into<ArmPort>>(
         arms: Vec<(String, [f64; JOINTS], P)>,
         dt: f64,
         time_scale: f64,
-        limits: [JointLimits; JOINTS],
+        limits: &[ArmLimits],
         config: ExecConfig,
     ) -> Result<StreamHandle, ExecError> {
         if config.dry_run {
@@ -485,16 +495,18 @@ impl Executor {
             });
         let buses = arms.into_iter().map(|a| a.2.into()).collect();
         // Online segments are not known in advance: they may use the joints' whole range.
-        let span: Span = std::array::from_fn(|j| match limits[j].position {
-            Some((lo, hi)) => (to_counts(lo), to_counts(hi)),
-            None => (-i32::MAX, i32::MAX),
-        });
+        let span = |l: &ArmLimits| -> Span {
+            std::array::from_fn(|j| match l[j].position {
+                Some((lo, hi)) => (to_counts(lo), to_counts(hi)),
+                None => (-i32::MAX, i32::MAX),
+            })
+        };
         let info = RunInfo {
             time_scale,
             total_cycles: None,
-            spans: vec![span; names.len()],
+            spans: limits.iter().map(span).collect(),
             // Likewise their speeds: up to the joints' limits.
-            speeds: vec![limits.map(|l| l.velocity); names.len()],
+            speeds: limits.iter().map(|l| l.map(|j| j.velocity)).collect(),
         };
         live::start(names, generator, buses, config, None, false, info)
     }

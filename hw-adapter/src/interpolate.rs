@@ -8,7 +8,7 @@
 //! alike, so the arms stay coordinated) is slowed down uniformly.
 
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
-use crate::plan::{JointLimits, Plan, JOINTS};
+use crate::plan::{ArmLimits, JointLimits, Plan, JOINTS};
 use crate::stream::{Generator, PushError};
 
 /// The fraction of each velocity and acceleration limit the interpolation aims for; the rest
@@ -101,16 +101,16 @@ fn segment(path: &[[f64; JOINTS]], j: usize, i: usize) -> Segment {
 }
 
 /// The smallest uniform slow-down `s` that keeps every joint of every path (waypoints `dt`
-/// apart, each at rest at both ends) within [`LIMIT_MARGIN`] of its velocity and acceleration
-/// limits: with segment duration h = dt·s, velocity = slope/h and acceleration = curvature/h².
-/// At least 1.
+/// apart, each at rest at both ends) within [`LIMIT_MARGIN`] of its arm's velocity and
+/// acceleration limits (`limits[i]` for path `i`): with segment duration h = dt·s, velocity =
+/// slope/h and acceleration = curvature/h². At least 1.
 pub fn min_time_scale<'a>(
     paths: impl IntoIterator<Item = &'a [[f64; JOINTS]]>,
-    limits: &[JointLimits; JOINTS],
+    limits: &[ArmLimits],
     dt: f64,
 ) -> f64 {
     let mut s_min: f64 = 1.0;
-    for path in paths {
+    for (path, limits) in paths.into_iter().zip(limits) {
         for (j, l) in limits.iter().enumerate() {
             for i in 0..path.len().saturating_sub(1) {
                 let seg = segment(path, j, i);
@@ -152,9 +152,17 @@ pub struct Timing {
     pub cycles: f64,
 }
 
-pub fn timing(plan: &Plan, limits: &[JointLimits; JOINTS], period: f64) -> Result<Timing, String> {
+/// `limits` holds one table per arm of the plan.
+pub fn timing(plan: &Plan, limits: &[ArmLimits], period: f64) -> Result<Timing, String> {
     if !(period.is_finite() && period > 0.0) {
         return Err(format!("control period must be positive, got {period} s"));
+    }
+    if limits.len() != plan.arms.len() {
+        return Err(format!(
+            "{} tables of joint limits for {} arms: one per arm",
+            limits.len(),
+            plan.arms.len()
+        ));
     }
     let paths = plan.arms.iter().map(|a| a.joint_path.as_slice());
     let s_min = min_time_scale(paths, limits, plan.dt);
@@ -189,12 +197,12 @@ pub fn timing(plan: &Plan, limits: &[JointLimits; JOINTS], period: f64) -> Resul
 /// waypoints, with the rest queued and checked in full (nothing is sent before that).
 pub fn plan_generator(
     plan: &Plan,
-    limits: &[JointLimits; JOINTS],
+    limits: &[ArmLimits],
     period: f64,
 ) -> Result<(Generator, Timing), String> {
     let timing = timing(plan, limits, period)?;
     let starts: Vec<[f64; JOINTS]> = plan.arms.iter().map(|a| a.joint_path[0]).collect();
-    let mut generator = Generator::new(&starts, *limits, period, timing.step_time)?;
+    let mut generator = Generator::new(&starts, limits, period, timing.step_time)?;
     if plan.arms[0].joint_path.len() > 1 {
         let rest: Vec<&[[f64; JOINTS]]> = plan.arms.iter().map(|a| &a.joint_path[1..]).collect();
         generator.push(1, &rest).map_err(|e| match e {
@@ -210,11 +218,7 @@ pub fn plan_generator(
 /// Every command of `plan` (whose shape must be valid) interpolated to `period`, slowed down if
 /// needed, from the first waypoint to the last: the commands the executor streams, collected
 /// (for checks and tests; the executor itself never holds them all).
-pub fn interpolate(
-    plan: &Plan,
-    limits: &[JointLimits; JOINTS],
-    period: f64,
-) -> Result<Trajectory, String> {
+pub fn interpolate(plan: &Plan, limits: &[ArmLimits], period: f64) -> Result<Trajectory, String> {
     let (mut generator, timing) = plan_generator(plan, limits, period)?;
     let mut commands = vec![Vec::new(); plan.arms.len()];
     let mut out = vec![[0; JOINTS]; plan.arms.len()];
@@ -317,9 +321,9 @@ mod tests {
 
     #[test]
     fn fast_plan_is_slowed_down_and_respects_limits() {
-        let limits = JointLimits::kinova_gen3();
+        let limits = crate::testing::arm_limits();
         let plan = one_arm(0.05, wave(12));
-        let t = interpolate(&plan, &limits, 0.002).unwrap();
+        let t = interpolate(&plan, &[limits], 0.002).unwrap();
         assert!(t.time_scale > 1.0, "{}", t.time_scale);
         let cmds = &t.commands[0];
         // lands exactly on the last waypoint after whole periods
@@ -355,7 +359,7 @@ mod tests {
     #[test]
     fn slow_plan_keeps_its_timing() {
         let plan = one_arm(2.0, wave(3));
-        let t = interpolate(&plan, &JointLimits::kinova_gen3(), 0.002).unwrap();
+        let t = interpolate(&plan, &crate::testing::fleet_limits(1), 0.002).unwrap();
         assert_eq!(t.time_scale, 1.0);
         assert_eq!(t.commands[0].len(), 2001);
     }
@@ -363,7 +367,7 @@ mod tests {
     #[test]
     fn single_waypoint_is_a_hold() {
         let plan = one_arm(0.1, vec![[0.1; JOINTS]]);
-        let t = interpolate(&plan, &JointLimits::kinova_gen3(), 0.002).unwrap();
+        let t = interpolate(&plan, &crate::testing::fleet_limits(1), 0.002).unwrap();
         assert_eq!(t.commands[0], vec![[1_000_000; JOINTS]]);
     }
 
@@ -371,13 +375,47 @@ mod tests {
     fn out_of_range_waypoint_is_refused() {
         let mut path = wave(3);
         path[1][1] = 2.5; // joint 2 limited to ±2.24
-        let e = interpolate(&one_arm(1.0, path), &JointLimits::kinova_gen3(), 0.002).unwrap_err();
+        let e =
+            interpolate(&one_arm(1.0, path), &crate::testing::fleet_limits(1), 0.002).unwrap_err();
         assert!(e.contains("joint 2: position"), "{e}");
+    }
+
+    /// Each arm is held to its own limits (a mixed fleet): a waypoint within one arm's range
+    /// and outside the other's is refused only on the other, and the slower arm slows the
+    /// plan down.
+    #[test]
+    fn each_arm_keeps_its_own_limits() {
+        let mut path = wave(3);
+        path[1][1] = 2.5;
+        let mut plan = one_arm(1.0, path);
+        plan.arms.push(ArmPlan {
+            name: "b".into(),
+            joint_path: wave(3),
+        });
+        let wide = crate::testing::arm_limits().map(|l| JointLimits {
+            position: None,
+            ..l
+        });
+        let narrow = crate::testing::arm_limits();
+        assert!(interpolate(&plan, &[wide, narrow], 0.002).is_ok());
+        let e = interpolate(&plan, &[narrow, wide], 0.002).unwrap_err();
+        assert!(e.contains("joint 2: position"), "{e}");
+        let slow = wide.map(|l| JointLimits {
+            velocity: l.velocity / 10.0,
+            ..l
+        });
+        let (fast, slowed) = (
+            timing(&plan, &[wide, wide], 0.002).unwrap(),
+            timing(&plan, &[wide, slow], 0.002).unwrap(),
+        );
+        assert!(slowed.time_scale > fast.time_scale);
+        let e = timing(&plan, &[wide], 0.002).unwrap_err();
+        assert!(e.contains("1 tables of joint limits for 2 arms"), "{e}");
     }
 
     #[test]
     fn check_command_names_the_broken_limit() {
-        let l = JointLimits::kinova_gen3();
+        let l = crate::testing::arm_limits();
         let z = [0; JOINTS];
         let mut c = z;
         c[0] = 20_000; // 2 mrad in 2 ms = 1 rad/s

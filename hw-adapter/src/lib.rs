@@ -15,6 +15,7 @@
 //! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
 //!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
 //!   logs (candump), and fault reaction times measured from them.
+//! - [`testing`]: joint limits for tests and examples run without the host.
 //! - [`priority`]: real-time scheduling of the arm threads.
 //! - [`watch`]: the fault-detection settings of a run; [`watchdog`]: per-cycle accounting of the answers to each cycle, independent of the transport.
 
@@ -36,6 +37,7 @@ pub mod plan;
 pub mod priority;
 pub mod record;
 pub mod stream;
+pub mod testing;
 pub mod transport;
 pub mod watch;
 pub mod watchdog;
@@ -43,7 +45,7 @@ pub mod watchdog;
 pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
 pub use frame::CanFrame;
 pub use live::{Event, StreamHandle, StreamProgress};
-pub use plan::{ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
+pub use plan::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 pub use stream::PushError;
 pub use transport::{Transport, TransportError};
 pub use watch::WatchSettings;

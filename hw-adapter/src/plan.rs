@@ -18,6 +18,10 @@ pub struct ArmPlan {
     pub joint_path: Vec<[f64; JOINTS]>,
 }
 
+/// One arm's limits, per joint: each arm of a plan has its own (a mixed fleet's arms are of
+/// different models).
+pub type ArmLimits = [JointLimits; JOINTS];
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointLimits {
     /// Position bounds, rad; `None` for a continuous joint.
@@ -26,22 +30,6 @@ pub struct JointLimits {
     pub velocity: f64,
     /// rad/s²
     pub acceleration: f64,
-}
-
-impl JointLimits {
-    /// The Kinova Gen3 7-DoF. Position bounds: `GEN3-7DOF-NOVISION_FOR_URDF_ARM_V12.urdf`
-    /// (joints 2, 4, 6 revolute ±2.24, ±2.57, ±2.09 rad; 1, 3, 5, 7 continuous). Velocity and
-    /// acceleration: Kinova's `joint_limits.yaml` (ros2_kortex), 0.8727 rad/s for every joint,
-    /// 1.0 rad/s² for joints 1-4 and 10.0 rad/s² for joints 5-7.
-    pub fn kinova_gen3() -> [JointLimits; JOINTS] {
-        let position = [None, Some(2.24), None, Some(2.57), None, Some(2.09), None];
-        let acceleration = [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0];
-        std::array::from_fn(|j| JointLimits {
-            position: position[j].map(|b| (-b, b)),
-            velocity: 0.8727,
-            acceleration: acceleration[j],
-        })
-    }
 }
 
 /// Proof that a plan solves its problem (collision-free, constraints met). The host implements
@@ -106,15 +94,6 @@ mod tests {
                 })
                 .collect(),
         }
-    }
-
-    #[test]
-    fn gen3_limits_match_sources() {
-        let l = JointLimits::kinova_gen3();
-        assert_eq!(l[0].position, None);
-        assert_eq!(l[3].position, Some((-2.57, 2.57)));
-        assert_eq!(l[4].acceleration, 10.0);
-        assert!(l.iter().all(|j| j.velocity == 0.8727));
     }
 
     #[test]

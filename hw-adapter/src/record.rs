@@ -151,7 +151,7 @@ mod tests {
 
     #[test]
     fn finds_every_way_a_record_can_differ() {
-        let limits = JointLimits::kinova_gen3();
+        let limits = crate::testing::arm_limits();
         let cmds: Vec<Command> = (0..5).map(|k| [k * 10; JOINTS]).collect();
         let ok = record_of(&cmds);
         assert_eq!(check_followed(&ok, &cmds, 0, &limits, 0.002), Ok(5));

@@ -18,7 +18,7 @@
 
 use crate::cia402::rad_to_counts;
 use crate::interpolate::{check_command, fritsch_butland, Command, Segment};
-use crate::plan::{JointLimits, JOINTS};
+use crate::plan::{ArmLimits, JOINTS};
 use std::collections::VecDeque;
 
 /// One arm's queue and its frozen part.
@@ -30,6 +30,8 @@ struct Track {
     tangents: [[f64; JOINTS]; 2],
     /// The two commands sent before the next one.
     prev: [Command; 2],
+    /// This arm's limits.
+    limits: ArmLimits,
 }
 
 /// What one cycle was.
@@ -93,7 +95,6 @@ pub enum PushError {
 /// Commands for every arm, one control cycle at a time. See the module documentation.
 #[derive(Clone, Debug)]
 pub struct Generator {
-    limits: [JointLimits; JOINTS],
     period: f64,
     /// Steps per control cycle.
     rate: f64,
@@ -117,11 +118,11 @@ pub struct Generator {
 }
 
 impl Generator {
-    /// Arms holding still at `starts` (waypoint 0), with steps of `step_time` s and control
-    /// cycles of `period` s.
+    /// Arms holding still at `starts` (waypoint 0), each within its own `limits` (one table
+    /// per arm), with steps of `step_time` s and control cycles of `period` s.
     pub fn new(
         starts: &[[f64; JOINTS]],
-        limits: [JointLimits; JOINTS],
+        limits: &[ArmLimits],
         period: f64,
         step_time: f64,
     ) -> Result<Self, String> {
@@ -144,8 +145,15 @@ impl Generator {
         if starts.is_empty() {
             return Err("no arms".into());
         }
-        let tracks = (starts.iter().enumerate())
-            .map(|(a, q)| {
+        if limits.len() != starts.len() {
+            return Err(format!(
+                "{} tables of joint limits for {} arms: one per arm",
+                limits.len(),
+                starts.len()
+            ));
+        }
+        let tracks = (starts.iter().zip(limits).enumerate())
+            .map(|(a, (q, limits))| {
                 let counts = to_counts(q).map_err(|e| format!("arm {a} start: {e}"))?;
                 for (j, l) in limits.iter().enumerate() {
                     if let Some((lo, hi)) = l.position {
@@ -162,11 +170,11 @@ impl Generator {
                     queue: VecDeque::from([*q]),
                     tangents: [[0.0; JOINTS]; 2],
                     prev: [counts; 2],
+                    limits: *limits,
                 })
             })
             .collect::<Result<_, String>>()?;
         Ok(Self {
-            limits,
             period,
             rate,
             tracks,
@@ -325,7 +333,7 @@ impl Generator {
             };
             let q = self.position(t);
             *o = to_counts(&q).map_err(error)?;
-            check_command(&self.limits, &t.prev[0], &t.prev[1], o, self.period).map_err(error)?;
+            check_command(&t.limits, &t.prev[0], &t.prev[1], o, self.period).map_err(error)?;
         }
         for (t, o) in self.tracks.iter_mut().zip(out.iter()) {
             t.prev = [t.prev[1], *o];
@@ -436,7 +444,7 @@ mod tests {
     fn generator() -> Generator {
         let mut start = [0.1; JOINTS];
         (start[0], start[4]) = (0.0, 0.0);
-        Generator::new(&[start], JointLimits::kinova_gen3(), PERIOD, 0.5).unwrap()
+        Generator::new(&[start], &crate::testing::fleet_limits(1), PERIOD, 0.5).unwrap()
     }
 
     /// Runs `cycles` cycles (or until the hold at the end); the commands and ticks.

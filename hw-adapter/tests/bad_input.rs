@@ -7,7 +7,7 @@ use common::*;
 use omcbsa_hw::link::ArmPorts;
 use omcbsa_hw::plan::{Plan, PlanValidator};
 use omcbsa_hw::transport::{self, mock::MockTransport};
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits, Transport};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Transport};
 use std::sync::Mutex;
 
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -24,13 +24,8 @@ fn plan_that_does_not_validate_is_refused_before_anything_is_sent() {
     let _one = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let plan = three_arm_plan(5);
     let mocks = spawn_arms(&plan, "refused", &[]);
-    let exec = Executor::new(
-        plan,
-        JointLimits::kinova_gen3(),
-        open_buses(&mocks),
-        mock_config(),
-    )
-    .unwrap();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let exec = Executor::new(plan, limits, open_buses(&mocks), mock_config()).unwrap();
     let e = exec.run(&Reject).unwrap_err();
     assert!(matches!(e, ExecError::Refused(_)), "{e}");
     assert!(
@@ -75,13 +70,8 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
     let plan = three_arm_plan(5);
     let silent = vec!["--stop-after-syncs".to_string(), "0".to_string()];
     let mocks = spawn_arms(&plan, "mute", &[vec![], silent, vec![]]);
-    let exec = Executor::new(
-        plan,
-        JointLimits::kinova_gen3(),
-        open_buses(&mocks),
-        mock_config(),
-    )
-    .unwrap();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let exec = Executor::new(plan, limits, open_buses(&mocks), mock_config()).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err();
     let text = e.to_string();
     assert!(matches!(e, ExecError::Startup(_)), "{text}");
@@ -113,13 +103,8 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
 fn in_process_arm_that_never_answers_receives_only_the_first_sdo() {
     let plan = three_arm_plan(3);
     let (buses, devices) = MockTransport::buses(&ARMS);
-    let exec = Executor::new(
-        plan,
-        JointLimits::kinova_gen3(),
-        buses,
-        ExecConfig::default(),
-    )
-    .unwrap();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let exec = Executor::new(plan, limits, buses, ExecConfig::default()).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err().to_string();
     for n in ARMS {
         assert!(
@@ -145,7 +130,8 @@ fn dry_run_logs_every_command_and_needs_no_bus() {
         log_path: Some(log.clone()),
         ..ExecConfig::default()
     };
-    let report = Executor::new(plan, JointLimits::kinova_gen3(), ArmPorts::new(), cfg)
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let report = Executor::new(plan, limits, ArmPorts::new(), cfg)
         .unwrap()
         .run(&AcceptAll)
         .unwrap();
@@ -168,9 +154,10 @@ fn dry_run_logs_every_command_and_needs_no_bus() {
 fn buses_must_match_the_plan_arms() {
     let plan = three_arm_plan(3);
     let (host, _dev) = MockTransport::pair("x");
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
     let e = Executor::new(
         plan,
-        JointLimits::kinova_gen3(),
+        limits,
         vec![("left".into(), Box::new(host) as Box<dyn Transport>)],
         ExecConfig::default(),
     )

@@ -18,7 +18,7 @@ use omcbsa_hw::buslog::{self, first_sign, quick_stop_time, targets_after_stop, L
 use omcbsa_hw::cia402::{CW_QUICK_STOP, EMCY_FOLLOWING_ERROR};
 use omcbsa_hw::executor::STOP_BOUND_PERIODS;
 use omcbsa_hw::mock::bus_log_path;
-use omcbsa_hw::{ExecError, Executor, Fault, FaultReport, JointLimits};
+use omcbsa_hw::{ExecError, Executor, Fault, FaultReport};
 use serde_json::Value;
 use std::sync::Mutex;
 
@@ -131,13 +131,8 @@ fn run_with_fault(case: &Case) -> (FaultReport, Vec<Seen>) {
         vec![],
     ];
     let mocks = spawn_arms(&plan, case.tag, &extra);
-    let exec = Executor::new(
-        plan,
-        JointLimits::kinova_gen3(),
-        open_buses(&mocks),
-        mock_config(),
-    )
-    .unwrap();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let exec = Executor::new(plan, limits, open_buses(&mocks), mock_config()).unwrap();
     let report = match exec.run(&AcceptAll) {
         Err(ExecError::Fault(r)) => *r,
         other => panic!("expected a fault, got {other:?}"),

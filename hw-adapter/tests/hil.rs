@@ -7,19 +7,25 @@ use common::*;
 use omcbsa_hw::cia402::counts_to_rad;
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::record::check_followed;
-use omcbsa_hw::{ExecConfig, Executor, JointLimits, JOINTS};
+use omcbsa_hw::{ExecConfig, Executor, JOINTS};
 
 #[test]
 fn three_arms_follow_the_interpolated_plan() {
     let plan = three_arm_plan(8);
-    let limits = JointLimits::kinova_gen3();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
     let mocks = spawn_arms(&plan, "ok", &[]);
     let log = std::env::temp_dir().join(format!("omcbsa-hw-ok-log-{}.jsonl", std::process::id()));
     let cfg = ExecConfig {
         log_path: Some(log.clone()),
         ..mock_config()
     };
-    let exec = Executor::new(plan.clone(), limits, open_buses(&mocks), cfg.clone()).unwrap();
+    let exec = Executor::new(
+        plan.clone(),
+        limits.clone(),
+        open_buses(&mocks),
+        cfg.clone(),
+    )
+    .unwrap();
     let report = exec.run(&AcceptAll).unwrap_or_else(|e| panic!("{e}"));
     println!("{report}");
 
@@ -29,7 +35,7 @@ fn three_arms_follow_the_interpolated_plan() {
         let name = mock.name.clone();
         let record = record_of(mock);
         let cmds = &traj.commands[arm];
-        let cycles = check_followed(&record, cmds, cfg.settle_cycles, &limits, period)
+        let cycles = check_followed(&record, cmds, cfg.settle_cycles, &limits[arm], period)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(cycles, cmds.len() + cfg.settle_cycles);
         // the plan's waypoints themselves are reached: first and last exactly (to 1e-7)

@@ -14,7 +14,7 @@ use omcbsa_hw::kortex::proto::{self, base, base_cyclic};
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::mock_gen3::{self, MockGen3};
 use omcbsa_hw::watchdog::CycleFault;
-use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, JointLimits, Plan};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, Plan};
 use prost::Message;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -62,7 +62,7 @@ fn records(mocks: Fleet) -> Vec<Vec<Value>> {
 fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let _one = serial();
     let plan = three_arm_plan(8);
-    let limits = JointLimits::kinova_gen3();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
     let log = record_path("ok", "log");
     let cfg = ExecConfig {
         log_path: Some(log.clone()),
@@ -70,7 +70,7 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     };
     let mocks = spawn(&plan, "ok", &[]);
     let conns = mocks.ports().unwrap();
-    let report = Executor::new(plan.clone(), limits, conns, cfg.clone())
+    let report = Executor::new(plan.clone(), limits.clone(), conns, cfg.clone())
         .unwrap()
         .run(&AcceptAll)
         .unwrap_or_else(|e| panic!("{e}"));
@@ -79,7 +79,7 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let traj = interpolate(&plan, &limits, period).unwrap();
     for (arm, record) in records(mocks).iter().enumerate() {
         let cmds = &traj.commands[arm];
-        let n = mock_gen3::check_followed(record, cmds, cfg.settle_cycles, &limits, period)
+        let n = mock_gen3::check_followed(record, cmds, cfg.settle_cycles, &limits[arm], period)
             .unwrap_or_else(|e| panic!("{}: {e}", plan.arms[arm].name));
         assert_eq!(n, cmds.len() + cfg.settle_cycles);
         // One session per link, both closed at the end.
@@ -107,7 +107,8 @@ fn fault_run(tag: &str, flags: &[&str]) -> (Fault, Vec<mock_gen3::Stop>) {
     ];
     let mocks = spawn(&plan, tag, &extra);
     let conns = mocks.ports().unwrap();
-    let err = Executor::new(plan, JointLimits::kinova_gen3(), conns, cfg)
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let err = Executor::new(plan, limits, conns, cfg)
         .unwrap()
         .run(&AcceptAll)
         .expect_err("the run must stop on the fault");

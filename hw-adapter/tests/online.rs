@@ -11,9 +11,7 @@ use common::*;
 use omcbsa_hw::interpolate::{min_time_scale, Command};
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::stream::Generator;
-use omcbsa_hw::{
-    Event, ExecConfig, Executor, JointLimits, PushError, StreamHandle, WatchSettings, JOINTS,
-};
+use omcbsa_hw::{Event, ExecConfig, Executor, PushError, StreamHandle, WatchSettings, JOINTS};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -56,7 +54,7 @@ fn start(tag: &str) -> (Online, Vec<Path>) {
         arms,
         DT,
         time_scale,
-        JointLimits::kinova_gen3(),
+        &omcbsa_hw::testing::fleet_limits(starts.len()),
         // About online streaming, not fault detection (tests/faults.rs keeps the defaults):
         // seconds-long runs of three Python mocks on a loaded 2-core machine see a mock stall
         // for 20-60 ms at times, which the default accounting (2 periods) rightly stops.
@@ -128,9 +126,10 @@ impl Online {
         let cfg = mock_config();
         let report = self.handle.finish().unwrap_or_else(|e| panic!("{e}"));
         println!("{report}");
-        let limits = JointLimits::kinova_gen3();
+        let limits = omcbsa_hw::testing::arm_limits();
         let period = cfg.period.as_secs_f64();
-        let mut g = Generator::new(&self.starts, limits, period, DT * self.time_scale).unwrap();
+        let fleet = vec![limits; self.starts.len()];
+        let mut g = Generator::new(&self.starts, &fleet, period, DT * self.time_scale).unwrap();
         let mut out = vec![[0; JOINTS]; self.starts.len()];
         let mut cmds: Vec<Vec<Command>> = vec![Vec::new(); self.starts.len()];
         let mut step = |g: &mut Generator| {
@@ -181,7 +180,7 @@ fn continuation(from: &[[f64; JOINTS]], n: usize, amplitude: f64) -> Vec<Path> {
 fn scale(paths: &[Path]) -> f64 {
     1.5 * min_time_scale(
         paths.iter().map(|p| p.as_slice()),
-        &JointLimits::kinova_gen3(),
+        &omcbsa_hw::testing::fleet_limits(paths.len()),
         DT,
     )
 }

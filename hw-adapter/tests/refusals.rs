@@ -10,7 +10,7 @@ use common::*;
 use omcbsa_hw::arm::SetupOverride;
 use omcbsa_hw::canopen::SdoValue;
 use omcbsa_hw::cia402;
-use omcbsa_hw::{ExecConfig, ExecError, Executor, JointLimits};
+use omcbsa_hw::{ExecConfig, ExecError, Executor};
 use serde_json::Value;
 use std::sync::Mutex;
 
@@ -27,7 +27,8 @@ fn refused(tag: &str, change: SetupOverride) -> (String, Vec<(String, Vec<Value>
         setup_override: Some(change),
         ..mock_config()
     };
-    let exec = Executor::new(plan, JointLimits::kinova_gen3(), open_buses(&mocks), cfg).unwrap();
+    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let exec = Executor::new(plan, limits, open_buses(&mocks), cfg).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err();
     let text = e.to_string();
     assert!(matches!(e, ExecError::Startup(_)), "{text}");

@@ -68,7 +68,8 @@ fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {
     let buses: Vec<(String, Box<dyn Transport>)> = (mocks.iter())
         .map(|m| (m.name.clone(), m.open_bus().unwrap()))
         .collect();
-    let err = Executor::new(plan, checked.joint_limits().unwrap(), buses, exec_config())
+    let limits = checked.joint_limits(&plan).unwrap();
+    let err = Executor::new(plan, limits, buses, exec_config())
         .unwrap()
         .run(&checked)
         .unwrap_err()

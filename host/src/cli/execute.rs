@@ -191,7 +191,7 @@ fn stream(
     checked: &CheckedSolution,
 ) -> Result<Report, ExitCode> {
     let names = plan.arms.iter().map(|a| a.name.clone()).collect();
-    let limits = checked.joint_limits().map_err(bad_input)?;
+    let limits = checked.joint_limits(&plan).map_err(bad_input)?;
     let report = Executor::new(plan, limits, buses, config)
         .and_then(|e| e.on_progress(progress_printer(names)).run(checked))
         .map_err(failure)?;

@@ -10,12 +10,12 @@ use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::mock::exec_config;
 use omcbsa_hw::stream::Generator;
-use omcbsa_hw::{Event, Executor, JointLimits, Report, StreamHandle, WatchSettings, JOINTS};
+use omcbsa_hw::{ArmLimits, Event, Executor, Report, StreamHandle, WatchSettings, JOINTS};
 
 use super::policy::BoxFlipPolicy;
 use super::record::RunRecord;
 use super::{Embodier, OnlineError, OnlineOptions};
-use crate::execute::{fleet_limits, CAUTIOUS_SPEED};
+use crate::execute::{joint_limits, CAUTIOUS_SPEED};
 use crate::format::{ProblemFile, SolutionFile};
 use crate::models::{self, ModelKind};
 use crate::planners::DOF;
@@ -108,7 +108,9 @@ pub fn run_on_mock_arms(
     let kinds = (setup.robots.iter())
         .map(|r| ModelKind::parse(&r.model))
         .collect::<Result<Vec<_>, _>>()?;
-    let limits = fleet_limits(&kinds, CAUTIOUS_SPEED)?;
+    let limits: Vec<ArmLimits> = (kinds.iter())
+        .map(|&k| joint_limits(k, CAUTIOUS_SPEED))
+        .collect();
     let dt = setup.dt;
     let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
     progress(&format!(
@@ -140,7 +142,7 @@ pub fn run_on_mock_arms(
         .map(|((name, port), q)| (name, q, port))
         .collect();
     let handle =
-        Executor::online(arms, dt, scale, limits, config.clone()).map_err(|e| e.to_string())?;
+        Executor::online(arms, dt, scale, &limits, config.clone()).map_err(|e| e.to_string())?;
     let mut pushes = Vec::new();
     push(&handle, &e, 1, &mut pushes)?;
     let mut events = Vec::new();
@@ -250,7 +252,7 @@ pub fn run_on_mock_arms(
         let motion = enabled.saturating_sub(config.settle_cycles);
         let cmds: Vec<_> = replay(motion).into_iter().map(|c| c[i]).collect();
         let period = config.period.as_secs_f64();
-        let got = (kind.check_followed(&record, &cmds, config.settle_cycles, &limits, period))
+        let got = (kind.check_followed(&record, &cmds, config.settle_cycles, &limits[i], period))
             .map_err(|err| format!("mock arm {name:?}: {err}"))?;
         cycles.push(got);
     }
@@ -326,12 +328,12 @@ fn replay<'a>(
     pushes: &'a [Push],
     step_time: f64,
     config: &'a omcbsa_hw::ExecConfig,
-    limits: &'a [JointLimits; JOINTS],
+    limits: &'a [ArmLimits],
 ) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::interpolate::Command>> + 'a, String> {
     let max_queued = (config.online_horizon.as_secs_f64() / step_time)
         .floor()
         .max(1.0);
-    let generator = Generator::new(starts, *limits, config.period.as_secs_f64(), step_time)?
+    let generator = Generator::new(starts, limits, config.period.as_secs_f64(), step_time)?
         .with_max_queued(max_queued as usize);
     Ok(move |cycles: usize| {
         let mut g = generator.clone();

@@ -54,7 +54,7 @@ fn value(v: &Value, prev: f64) -> f64 {
 }
 
 fuzz_target!(|input: Input| {
-    let limits = JointLimits::kinova_gen3();
+    let limits = omcbsa_hw::testing::arm_limits();
     let arms = usize::from(input.arms % 3) + 1;
     let starts: Vec<[f64; JOINTS]> = (0..arms)
         .map(|a| match input.starts.get(a) {
