@@ -150,7 +150,7 @@ pub struct ApproachStorage<'a, const D: usize> {
 /// The first robot whose `initial` is outside its limits or touches an obstacle, itself or
 /// another robot's `initial`. Robots without `initial` are left out.
 pub fn check_starts<M: Model<D>, const D: usize>(problem: &Problem<D>) -> Result<(), Blocked> {
-    let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP)
+    let mut fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP)
         .restricted(|i| problem.robots[i].initial.is_some());
     let q: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
         problem
@@ -171,7 +171,7 @@ pub fn configurations_blocked<M: Model<D>, const D: usize>(
     problem: &Problem<D>,
     q: &[[f64; D]],
 ) -> Option<Blocked> {
-    let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
+    let mut fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
     fleet.state_blocked(&q[..fleet.n.min(q.len())])
 }
 
@@ -220,7 +220,7 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
     out: &mut [[f64; D]],
 ) -> Result<Approach, ApproachError> {
     let ends = Ends::new(problem, paths, h)?;
-    let fleet = Fleet::<M, D>::new(problem, params.motion_step);
+    let mut fleet = Fleet::<M, D>::new(problem, params.motion_step);
     let n = fleet.n;
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
     if let Some(b) = fleet.state_blocked(starts) {
@@ -291,7 +291,7 @@ pub fn plan_approach<M: Model<D>, const D: usize>(
     let mut order = identity(n);
     for _ in 0..params.rrt_orders {
         let m = one_at_a_time(
-            &fleet,
+            &mut fleet,
             starts,
             goals,
             &order[..n],
@@ -342,7 +342,7 @@ pub fn blocked_alone<M: Model<D>, const D: usize>(
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
     let mut blocked = 0u32;
     for i in (0..n).filter(|&i| starts[i] != goals[i]) {
-        let alone = all.restricted(|k| k == i);
+        let mut alone = all.restricted(|k| k == i);
         if alone.motion_blocked(starts, goals).is_none() {
             continue;
         }
@@ -370,7 +370,7 @@ pub fn blocked_alone<M: Model<D>, const D: usize>(
 /// Writes the waypoints and returns how many; `None` when some arm's path was not found.
 #[allow(clippy::too_many_arguments)]
 fn one_at_a_time<M: Model<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    fleet: &mut Fleet<'_, M, D>,
     starts: &[[f64; D]],
     goals: &[[f64; D]],
     order: &[u8],

@@ -83,10 +83,16 @@ impl<const D: usize> Trees<'_, '_, D> {
     }
 }
 
-/// Seconds at full speed from `a` to `b` (the arms moving together).
-fn distance<M: Model<D>, const D: usize>(a: &[[f64; D]], b: &[[f64; D]]) -> f64 {
+/// Seconds at full speed from `a` to `b` (the arms moving together), over the robots in the
+/// bit set `free` (the others are where they stand in both).
+fn distance<M: Model<D>, const D: usize>(a: &[[f64; D]], b: &[[f64; D]], free: u32) -> f64 {
     let mut d = 0.0f64;
-    for (qa, qb) in a.iter().zip(b) {
+    let arms = a
+        .iter()
+        .zip(b)
+        .enumerate()
+        .filter(|(i, _)| free & (1 << i) != 0);
+    for (_, (qa, qb)) in arms {
         for j in 0..D {
             d = d.max(libm::fabs(qb[j] - qa[j]) / M::VELOCITY[j]);
         }
@@ -111,6 +117,8 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
     deadline: &dyn Deadline,
 ) -> Result<usize, Miss> {
     let n = fleet.n;
+    // The arms not sampled stand where they start in every node: placed once.
+    let fleet = &mut fleet.standing(start, free);
     let cap = (st.tree.len() / n).min(st.parent.len()) / 2;
     if cap < 2 || st.waypoints.len() / n < 2 {
         return Err(Miss::Failed(ApproachError::OutOfMemory("approach tree")));
@@ -133,7 +141,7 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
         }
         draw::<M, D>(fleet, start, goal, free, &mut rng, &mut sample[..n]);
         if let Extend::Advanced(k) | Extend::Reached(k) =
-            extend(fleet, &mut trees, grow, &sample[..n], params)?
+            extend(fleet, &mut trees, grow, &sample[..n], free, params)?
         {
             let target: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
                 if i < n {
@@ -144,7 +152,7 @@ pub(super) fn connect<M: Model<D>, const D: usize>(
             });
             let other = 1 - grow;
             loop {
-                match extend(fleet, &mut trees, other, &target[..n], params)? {
+                match extend(fleet, &mut trees, other, &target[..n], free, params)? {
                     Extend::Advanced(_) => continue,
                     Extend::Trapped => break,
                     Extend::Reached(r) => {
@@ -199,16 +207,17 @@ fn draw<M: Model<D>, const D: usize>(
 
 /// One step of tree `t` from its node nearest `target` towards it.
 fn extend<M: Model<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    fleet: &mut Fleet<'_, M, D>,
     trees: &mut Trees<'_, '_, D>,
     t: usize,
     target: &[[f64; D]],
+    free: u32,
     params: &ApproachParams,
 ) -> Result<Extend, Miss> {
     let n = trees.n;
     let (mut near, mut best) = (0, f64::INFINITY);
     for k in 0..trees.len[t] {
-        let d = distance::<M, D>(trees.config(t, k), target);
+        let d = distance::<M, D>(trees.config(t, k), target, free);
         if d < best {
             (near, best) = (k, d);
         }
@@ -225,7 +234,7 @@ fn extend<M: Model<D>, const D: usize>(
             core::array::from_fn(|j| from[i][j] + f * (target[i][j] - from[i][j]))
         }
     });
-    if fleet.state_blocked(&new[..n]).is_some() || fleet.motion_blocked(from, &new[..n]).is_some() {
+    if fleet.step_blocked(from, &new[..n]) {
         return Ok(Extend::Trapped);
     }
     let k = trees.push(t, &new[..n], near as u32)?;
@@ -278,7 +287,7 @@ fn trace<const D: usize>(
 /// straight composite motion between them is free, the ones between are dropped; then one pass
 /// drops single waypoints. Returns the waypoints left.
 fn shortcut<M: Model<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    fleet: &mut Fleet<'_, M, D>,
     st: &mut ApproachStorage<'_, D>,
     n: usize,
     mut m: usize,
