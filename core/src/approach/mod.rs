@@ -7,8 +7,9 @@
 //! first, and the first that finds a collision-free approach wins ([`Method`]):
 //! 1. all arms together along their straight joint-space bridges;
 //! 2. one arm at a time along its bridge, in up to [`ApproachParams::max_orders`] orders;
-//! 3. one arm at a time again, each arm whose straight bridge is blocked along an RRT-Connect
-//!    path in its own space around the others standing, in up to
+//! 3. one arm at a time again, each arm whose straight bridge is blocked through a via
+//!    configuration (turn about the base first, or take the shape first: [`via`]) or else
+//!    along an RRT-Connect path in its own space around the others standing, in up to
 //!    [`ApproachParams::rrt_orders`] orders;
 //! 4. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
@@ -26,6 +27,7 @@
 mod fleet;
 mod rrt;
 mod timing;
+mod via;
 
 pub use fleet::{Blocked, Touch};
 
@@ -56,8 +58,6 @@ pub struct ApproachParams {
     pub rrt_step: f64,
     /// RRT-Connect's samples in a first attempt ([`crate::embody`] doubles it on each retry).
     pub rrt_samples: u32,
-    /// Shortcut attempts on an RRT-Connect path.
-    pub shortcuts: u32,
     /// Seed of RRT-Connect's samples.
     pub seed: u64,
     /// Radius (joint space, rad) around a start whose approach failed in which
@@ -75,7 +75,6 @@ impl Default for ApproachParams {
             rrt_orders: 6,
             rrt_step: 0.25,
             rrt_samples: 400,
-            shortcuts: 16,
             seed: 0x0a99_7a0c,
             exclusion_radius: 0.5,
         }
@@ -366,7 +365,8 @@ pub fn blocked_alone<M: Model<D>, const D: usize>(
 }
 
 /// Moves the arms to their goals one at a time in `order`, each along its straight bridge or,
-/// when that is blocked, an RRT-Connect path of that arm alone around the others standing.
+/// when that is blocked, a detour through a via configuration or an RRT-Connect path of that
+/// arm alone around the others standing.
 /// Writes the waypoints and returns how many; `None` when some arm's path was not found.
 #[allow(clippy::too_many_arguments)]
 fn one_at_a_time<M: Model<D>, const D: usize>(
@@ -398,6 +398,10 @@ fn one_at_a_time<M: Model<D>, const D: usize>(
         if fleet.motion_blocked(&at[..n], &target[..n]).is_none() {
             st.waypoints[from + n..from + 2 * n].copy_from_slice(&target[..n]);
             m += 1;
+            continue;
+        }
+        if let Some(k) = via::detour(fleet, &at[..n], r, &goals[r], &mut st.waypoints[from + n..]) {
+            m += k;
             continue;
         }
         let mut sub = ApproachStorage {
