@@ -367,7 +367,7 @@ impl<'p, M: Model<D>, const D: usize> Arms<'p, M, D> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::geometry::{Obstacle, Shape};
     use crate::model::KinovaGen3;
@@ -376,7 +376,7 @@ mod tests {
     use nalgebra::{Matrix3, Vector3};
 
     /// Three arms 0.5 m apart in a row, a box in front of the middle one.
-    fn row() -> Problem<7> {
+    pub(crate) fn row() -> Problem<7> {
         let frame = |x: f64, y: f64, z: f64| Frame {
             rot: Matrix3::identity(),
             pos: Vector3::new(x, y, z),
@@ -410,7 +410,7 @@ mod tests {
         p
     }
 
-    fn draw(rng: &mut Rng) -> [f64; 7] {
+    pub(crate) fn draw(rng: &mut Rng) -> [f64; 7] {
         core::array::from_fn(|j| {
             let (lo, hi) = (KinovaGen3::LOWER[j], KinovaGen3::UPPER[j]);
             let (lo, hi) = (lo.max(-3.0), hi.min(3.0));

@@ -53,3 +53,50 @@ pub(super) fn detour<M: Model<D>, const D: usize>(
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::fleet::tests::{draw, row};
+    use super::*;
+    use crate::model::KinovaGen3;
+    use crate::rng::Rng;
+
+    /// A detour found is two legs the fleet finds free, through a via that differs from the
+    /// start or the goal in joint 0 alone; and some are found where the bridge is blocked.
+    #[test]
+    fn a_detour_is_two_free_legs_through_a_turned_via() {
+        let problem = row();
+        let mut fleet = Fleet::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
+        let mut rng = Rng::new(11);
+        let mut found = 0;
+        for round in 0..400 {
+            let at: [[f64; 7]; 3] = core::array::from_fn(|_| draw(&mut rng));
+            let (r, goal) = (round % 3, draw(&mut rng));
+            let mut end = at;
+            end[r] = goal;
+            if fleet.state_blocked(&at).is_some()
+                || fleet.state_blocked(&end).is_some()
+                || fleet.motion_blocked(&at, &end).is_none()
+            {
+                continue;
+            }
+            let mut out = [[0.0; 7]; 6];
+            let Some(k) = detour(&fleet, &at, r, &goal, &mut out) else {
+                continue;
+            };
+            found += 1;
+            assert_eq!(k, 2);
+            let (via, last) = (&out[..3], &out[3..6]);
+            assert_eq!(last, &end[..]);
+            let turned = |q: &[f64; 7]| (1..7).all(|j| via[r][j] == q[j]);
+            assert!(turned(&at[r]) || turned(&goal), "round {round}");
+            for k in (0..3).filter(|&k| k != r) {
+                assert_eq!(via[k], at[k]);
+            }
+            assert!(fleet.state_blocked(via).is_none());
+            assert!(fleet.motion_blocked(&at, via).is_none());
+            assert!(fleet.motion_blocked(via, last).is_none());
+        }
+        assert!(found >= 3, "{found} detours found");
+    }
+}
