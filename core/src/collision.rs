@@ -649,15 +649,31 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         return false;
     }
     let count = a.count.max(b.count);
+    // An arm that stands still is where its ends have it all along: never placed again.
+    let (a_still, b_still) = (
+        a.dq.iter().all(|&d| d == 0.0),
+        b.dq.iter().all(|&d| d == 0.0),
+    );
     bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
         let (rows, columns) = rows_and_columns(pairs);
-        let arm_a = ArmPose::new_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
-        let arm_b = ArmPose::new_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
+        let (placed_a, placed_b);
+        let arm_a = if a_still {
+            a0
+        } else {
+            placed_a = ArmPose::new_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
+            &placed_a
+        };
+        let arm_b = if b_still {
+            b0
+        } else {
+            placed_b = ArmPose::new_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
+            &placed_b
+        };
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
         for (i, &row) in pairs.iter().enumerate() {
             for j in bits(row) {
                 let m = (a.travel(i) + b.travel(j)) * w;
-                if arm_a.pair_hits(i, &arm_b, j, m) {
+                if arm_a.pair_hits(i, arm_b, j, m) {
                     left[i] |= 1 << j;
                 }
             }

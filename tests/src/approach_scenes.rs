@@ -21,7 +21,8 @@ pub use omcbsa::online::policy::RETRACT as TUCKED;
 pub type Paths = Vec<Vec<[f64; DOF]>>;
 
 /// Plans the approach of `problem` from `initial` to `goals` with the core's planner:
-/// `rrt_samples` 0 keeps it to the straight bridges (together, then one at a time).
+/// `rrt_samples` 0 keeps it to the straight bridges (together, then one at a time) and the
+/// detours through one via configuration.
 pub fn approach(
     problem: &Problem<DOF>,
     goals: &[[f64; DOF]],
@@ -109,7 +110,8 @@ pub fn crossing_scene(seed: u64) -> Option<(ProblemFile, [[f64; DOF]; 2])> {
         r.initial = Some(*g);
     }
     check_starts::<KinovaGen3, DOF>(&at_goals).ok()?;
-    // Straight bridges, together and in both orders, all collide.
+    // Straight bridges, together and in both orders, and the detours through a via all
+    // collide.
     matches!(
         approach(&problem, &goals, 0),
         Err(ApproachError::Blocked { .. })
@@ -118,7 +120,7 @@ pub fn crossing_scene(seed: u64) -> Option<(ProblemFile, [[f64; DOF]; 2])> {
 }
 
 /// One arm tucked at Kinova's retract pose, its hand behind a post: the straight bridge to
-/// the hand's first configuration runs through the post.
+/// the hand's first configuration runs through the post (and so do both via detours).
 pub fn post_scene(seed: u64) -> Option<(ProblemFile, [f64; DOF])> {
     let base = frame([0.0; 3], [0.0; 3]);
     let mut rng = Rng::new(seed);

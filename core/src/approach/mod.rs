@@ -7,8 +7,9 @@
 //! first, and the first that finds a collision-free approach wins ([`Method`]):
 //! 1. all arms together along their straight joint-space bridges;
 //! 2. one arm at a time along its bridge, in up to [`ApproachParams::max_orders`] orders;
-//! 3. one arm at a time again, each arm whose straight bridge is blocked along an RRT-Connect
-//!    path in its own space around the others standing, in up to
+//! 3. one arm at a time again, each arm whose straight bridge is blocked through a via
+//!    configuration (turn about the base first, or take the shape first: [`via`]) or else
+//!    along an RRT-Connect path in its own space around the others standing, in up to
 //!    [`ApproachParams::rrt_orders`] orders;
 //! 4. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
@@ -26,6 +27,7 @@
 mod fleet;
 mod rrt;
 mod timing;
+mod via;
 
 pub use fleet::{Blocked, Touch};
 
@@ -56,8 +58,6 @@ pub struct ApproachParams {
     pub rrt_step: f64,
     /// RRT-Connect's samples in a first attempt ([`crate::embody`] doubles it on each retry).
     pub rrt_samples: u32,
-    /// Shortcut attempts on an RRT-Connect path.
-    pub shortcuts: u32,
     /// Seed of RRT-Connect's samples.
     pub seed: u64,
     /// Radius (joint space, rad) around a start whose approach failed in which
@@ -75,7 +75,6 @@ impl Default for ApproachParams {
             rrt_orders: 6,
             rrt_step: 0.25,
             rrt_samples: 400,
-            shortcuts: 16,
             seed: 0x0a99_7a0c,
             exclusion_radius: 0.5,
         }
@@ -150,7 +149,7 @@ pub struct ApproachStorage<'a, const D: usize> {
 /// The first robot whose `initial` is outside its limits or touches an obstacle, itself or
 /// another robot's `initial`. Robots without `initial` are left out.
 pub fn check_starts<M: Models<D>, const D: usize>(problem: &Problem<D>) -> Result<(), Blocked> {
-    let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP)
+    let mut fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP)
         .restricted(|i| problem.robots[i].initial.is_some());
     let q: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
         problem
@@ -171,7 +170,7 @@ pub fn configurations_blocked<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     q: &[[f64; D]],
 ) -> Option<Blocked> {
-    let fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
+    let mut fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
     fleet.state_blocked(&q[..fleet.n.min(q.len())])
 }
 
@@ -220,7 +219,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     out: &mut [[f64; D]],
 ) -> Result<Approach, ApproachError> {
     let ends = Ends::new(problem, paths, h)?;
-    let fleet = Fleet::<M, D>::new(problem, params.motion_step);
+    let mut fleet = Fleet::<M, D>::new(problem, params.motion_step);
     let n = fleet.n;
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
     if let Some(b) = fleet.state_blocked(starts) {
@@ -229,15 +228,10 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     if storage.waypoints.len() < (n + 1) * n {
         return Err(ApproachError::OutOfMemory("approach waypoints"));
     }
+    let models = fleet.models();
     let timed = |m: usize, method: Method, st: &ApproachStorage<'_, D>, out: &mut [[f64; D]]| {
-        let len = timing::write::<M, D>(
-            &fleet.models(),
-            &st.waypoints[..m * n],
-            n,
-            problem.dt,
-            params,
-            out,
-        )?;
+        let len =
+            timing::write::<M, D>(&models, &st.waypoints[..m * n], n, problem.dt, params, out)?;
         let method = if len == 0 && starts == goals {
             Method::None
         } else {
@@ -298,7 +292,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     let mut order = identity(n);
     for _ in 0..params.rrt_orders {
         let m = one_at_a_time(
-            &fleet,
+            &mut fleet,
             starts,
             goals,
             &order[..n],
@@ -349,7 +343,7 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
     let mut blocked = 0u32;
     for i in (0..n).filter(|&i| starts[i] != goals[i]) {
-        let alone = all.restricted(|k| k == i);
+        let mut alone = all.restricted(|k| k == i);
         if alone.motion_blocked(starts, goals).is_none() {
             continue;
         }
@@ -373,11 +367,12 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
 }
 
 /// Moves the arms to their goals one at a time in `order`, each along its straight bridge or,
-/// when that is blocked, an RRT-Connect path of that arm alone around the others standing.
+/// when that is blocked, a detour through a via configuration or an RRT-Connect path of that
+/// arm alone around the others standing.
 /// Writes the waypoints and returns how many; `None` when some arm's path was not found.
 #[allow(clippy::too_many_arguments)]
 fn one_at_a_time<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    fleet: &mut Fleet<'_, M, D>,
     starts: &[[f64; D]],
     goals: &[[f64; D]],
     order: &[u8],
@@ -405,6 +400,10 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
         if fleet.motion_blocked(&at[..n], &target[..n]).is_none() {
             st.waypoints[from + n..from + 2 * n].copy_from_slice(&target[..n]);
             m += 1;
+            continue;
+        }
+        if let Some(k) = via::detour(fleet, &at[..n], r, &goals[r], &mut st.waypoints[from + n..]) {
+            m += k;
             continue;
         }
         let mut sub = ApproachStorage {

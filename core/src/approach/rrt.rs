@@ -1,5 +1,5 @@
 //! RRT-Connect (Kuffner and LaValle, 2000) on the composite configuration space of the arms,
-//! then random shortcutting, as OMPL's `RRTConnect` plus its path simplifier do.
+//! then greedy shortcutting.
 //!
 //! Two trees grow from the start (where the arms stand) and from the goal (the plan's first
 //! configurations) in caller storage: each node is one composite configuration. Each round
@@ -14,6 +14,11 @@
 //!   draw of every arm at once has positive density everywhere, so the planner keeps
 //!   RRT-Connect's probabilistic completeness: if an approach with some clearance exists, the
 //!   chance of missing it goes to 0 as the sample budget grows.
+//! - When only some arms are sampled (one arm finding its way around the others), the others
+//!   are placed once ([`Fleet::standing`]) and distance counts the sampled arms only.
+//! - Shortcutting: from the start, each waypoint kept is joined to the farthest one it sees,
+//!   found by bisection over those after it (a few long checks where trying random pairs and
+//!   then every single waypoint took many).
 //! - Deterministic: the samples come from [`Rng`] with the caller's seed, and the deadline is
 //!   the only thing that depends on the clock (it ends the search, never changes it).
 
@@ -83,14 +88,21 @@ impl<const D: usize> Trees<'_, '_, D> {
     }
 }
 
-/// Seconds at full speed from `a` to `b` (the arms moving together).
+/// Seconds at full speed from `a` to `b` (the arms moving together), over the robots in the
+/// bit set `free` (the others are where they stand in both).
 fn distance<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
     a: &[[f64; D]],
     b: &[[f64; D]],
+    free: u32,
 ) -> f64 {
     let mut d = 0.0f64;
-    for (i, (qa, qb)) in a.iter().zip(b).enumerate() {
+    let arms = a
+        .iter()
+        .zip(b)
+        .enumerate()
+        .filter(|(i, _)| free & (1 << i) != 0);
+    for (i, (qa, qb)) in arms {
         let velocity = M::velocity(fleet.model(i));
         for j in 0..D {
             d = d.max(libm::fabs(qb[j] - qa[j]) / velocity[j]);
@@ -116,6 +128,8 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
     deadline: &dyn Deadline,
 ) -> Result<usize, Miss> {
     let n = fleet.n;
+    // The arms not sampled stand where they start in every node: placed once.
+    let fleet = &mut fleet.standing(start, free);
     let cap = (st.tree.len() / n).min(st.parent.len()) / 2;
     if cap < 2 || st.waypoints.len() / n < 2 {
         return Err(Miss::Failed(ApproachError::OutOfMemory("approach tree")));
@@ -138,7 +152,7 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
         }
         draw::<M, D>(fleet, start, goal, free, &mut rng, &mut sample[..n]);
         if let Extend::Advanced(k) | Extend::Reached(k) =
-            extend(fleet, &mut trees, grow, &sample[..n], params)?
+            extend(fleet, &mut trees, grow, &sample[..n], free, params)?
         {
             let target: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
                 if i < n {
@@ -149,14 +163,13 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
             });
             let other = 1 - grow;
             loop {
-                match extend(fleet, &mut trees, other, &target[..n], params)? {
+                match extend(fleet, &mut trees, other, &target[..n], free, params)? {
                     Extend::Advanced(_) => continue,
                     Extend::Trapped => break,
                     Extend::Reached(r) => {
                         let (from_start, from_goal) = if grow == 0 { (k, r) } else { (r, k) };
                         let m = trace(&mut trees, from_start, from_goal).map_err(fail)?;
-                        let m =
-                            shortcut(fleet, trees.st, n, m, params.shortcuts, &mut rng, deadline);
+                        let m = shortcut(fleet, trees.st, n, m, deadline);
                         return Ok(m);
                     }
                 }
@@ -205,16 +218,17 @@ fn draw<M: Models<D>, const D: usize>(
 
 /// One step of tree `t` from its node nearest `target` towards it.
 fn extend<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    fleet: &mut Fleet<'_, M, D>,
     trees: &mut Trees<'_, '_, D>,
     t: usize,
     target: &[[f64; D]],
+    free: u32,
     params: &ApproachParams,
 ) -> Result<Extend, Miss> {
     let n = trees.n;
     let (mut near, mut best) = (0, f64::INFINITY);
     for k in 0..trees.len[t] {
-        let d = distance::<M, D>(fleet, trees.config(t, k), target);
+        let d = distance::<M, D>(fleet, trees.config(t, k), target, free);
         if d < best {
             (near, best) = (k, d);
         }
@@ -231,7 +245,7 @@ fn extend<M: Models<D>, const D: usize>(
             core::array::from_fn(|j| from[i][j] + f * (target[i][j] - from[i][j]))
         }
     });
-    if fleet.state_blocked(&new[..n]).is_some() || fleet.motion_blocked(from, &new[..n]).is_some() {
+    if fleet.step_blocked(from, &new[..n]) {
         return Ok(Extend::Trapped);
     }
     let k = trees.push(t, &new[..n], near as u32)?;
@@ -280,46 +294,46 @@ fn trace<const D: usize>(
     Ok(m)
 }
 
-/// Random shortcutting: `tries` times, two waypoints `a < b - 1` are drawn and, when the
-/// straight composite motion between them is free, the ones between are dropped; then one pass
-/// drops single waypoints. Returns the waypoints left.
+/// Greedy shortcutting: from the start, each waypoint kept is joined to the farthest one it
+/// sees (the straight composite motion between them free), found by bisection over the
+/// waypoints after it, and the ones between are dropped. Each motion kept was checked, or is an
+/// edge of the path. Returns the waypoints left.
 fn shortcut<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    fleet: &mut Fleet<'_, M, D>,
     st: &mut ApproachStorage<'_, D>,
     n: usize,
-    mut m: usize,
-    tries: u32,
-    rng: &mut Rng,
+    m: usize,
     deadline: &dyn Deadline,
 ) -> usize {
     let w = &mut *st.waypoints;
-    for _ in 0..tries {
-        if m < 3 || deadline.expired() {
-            break;
-        }
-        let a = (rng.next_u64() % (m as u64 - 2)) as usize;
-        let b = a + 2 + (rng.next_u64() % (m - a - 2) as u64) as usize;
-        if fleet
-            .motion_blocked(&w[a * n..(a + 1) * n], &w[b * n..(b + 1) * n])
-            .is_none()
-        {
-            w.copy_within(b * n..m * n, (a + 1) * n);
-            m -= b - a - 1;
-        }
-    }
-    // Then each waypoint left whose neighbours see each other goes: short motions, cheap to
-    // check, and every waypoint dropped is a stop less in the timed approach.
-    let mut k = 1;
-    while k + 1 < m && !deadline.expired() {
-        if fleet
-            .motion_blocked(&w[(k - 1) * n..k * n], &w[(k + 1) * n..(k + 2) * n])
-            .is_none()
-        {
-            w.copy_within((k + 1) * n..m * n, k * n);
-            m -= 1;
+    // `a`: the last waypoint kept, at `kept - 1` of the compacted path; waypoints from `a + 1`
+    // on are still where the tree put them.
+    let (mut a, mut kept) = (0, 1);
+    while a + 1 < m {
+        let at = (kept - 1) * n;
+        let sees = |fleet: &mut Fleet<'_, M, D>, w: &[[f64; D]], b: usize| {
+            !deadline.expired()
+                && fleet
+                    .motion_blocked(&w[at..at + n], &w[b * n..(b + 1) * n])
+                    .is_none()
+        };
+        let b = if a + 2 < m && sees(fleet, w, m - 1) {
+            m - 1
         } else {
-            k += 1;
-        }
+            // `lo` is seen (the path's own edge), `hi` is not.
+            let (mut lo, mut hi) = (a + 1, m - 1);
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if sees(fleet, w, mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
+        };
+        w.copy_within(b * n..(b + 1) * n, kept * n);
+        (a, kept) = (b, kept + 1);
     }
-    m
+    kept
 }
