@@ -238,6 +238,22 @@ pub fn interpolate(plan: &Plan, limits: &[ArmLimits], period: f64) -> Result<Tra
     })
 }
 
+/// Checks a run of commands sent one period apart, from rest at the first, with
+/// [`check_command`]: the first failure, with its cycle.
+pub fn check_commands<'a>(
+    limits: &ArmLimits,
+    cmds: impl IntoIterator<Item = &'a Command>,
+    period: f64,
+) -> Result<(), (usize, String)> {
+    let mut prev: Option<[Command; 2]> = None;
+    for (k, cmd) in cmds.into_iter().enumerate() {
+        let [p2, p1] = *prev.get_or_insert([*cmd; 2]);
+        check_command(limits, &p2, &p1, cmd, period).map_err(|e| (k, e))?;
+        prev = Some([p1, *cmd]);
+    }
+    Ok(())
+}
+
 /// Checks `cmd` against the position limits, and the velocity and acceleration it implies after
 /// the two previous commands `prev2`, `prev1` sent one period apart.
 pub fn check_command(

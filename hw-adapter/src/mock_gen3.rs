@@ -4,7 +4,7 @@
 //! the command line's fault detection at a 10 ms period): the commands it took, checked against the streamed trajectory, and
 //! how soon every arm was stopped after a fault's first sign.
 
-use crate::interpolate::{check_command, Command};
+use crate::interpolate::{check_commands, Command};
 use crate::kortex::{self, Connection, Credentials, KortexSpec};
 use crate::plan::{JointLimits, JOINTS};
 use crate::record::{self, TOLERANCE};
@@ -206,13 +206,9 @@ pub fn check_followed(
     // Speeds and accelerations of what was received are those of the plan's commands, which
     // it matches to TOLERANCE: checked on the plan's, since f32 degrees (3e-5 degrees of
     // rounding) make a second difference over 1 or 2 ms meaningless.
-    let streamed: Vec<&Command> = (0..want).map(|k| cmds.get(k).unwrap_or(last)).collect();
-    let mut prev = [*streamed[0]; 2];
-    for (k, cmd) in streamed.iter().enumerate() {
-        check_command(limits, &prev[0], &prev[1], cmd, period)
-            .map_err(|e| format!("command of cycle {k} breaks a limit: {e}"))?;
-        prev = [prev[1], **cmd];
-    }
+    let streamed = (0..want).map(|k| cmds.get(k).unwrap_or(last));
+    check_commands(limits, streamed, period)
+        .map_err(|(k, e)| format!("command of cycle {k} breaks a limit: {e}"))?;
     let events: Vec<&str> = (record.iter())
         .filter_map(|e| e["event"].as_str())
         .filter(|e| ["servoing", "close_session"].contains(e))

@@ -3,7 +3,7 @@
 //! it to confirm what the arms were actually sent.
 
 use crate::cia402::{counts_to_rad, CW_DISABLE_OPERATION, CW_ENABLE_OPERATION};
-use crate::interpolate::{check_command, Command};
+use crate::interpolate::{check_commands, Command};
 use crate::plan::{JointLimits, JOINTS};
 use serde_json::Value;
 use std::path::Path;
@@ -123,12 +123,8 @@ pub fn check_followed(
     let received: Vec<Command> = (0..want)
         .map(|k| std::array::from_fn(|j| streamed[j][k]))
         .collect();
-    let mut prev = [received[0]; 2];
-    for (k, cmd) in received.iter().enumerate() {
-        check_command(limits, &prev[0], &prev[1], cmd, period)
-            .map_err(|e| format!("received command of cycle {k} breaks a limit: {e}"))?;
-        prev = [prev[1], *cmd];
-    }
+    check_commands(limits, &received, period)
+        .map_err(|(k, e)| format!("received command of cycle {k} breaks a limit: {e}"))?;
     Ok(want)
 }
 
