@@ -514,6 +514,7 @@ pub fn model(
     acceleration: &[f64],
     limits_source: Option<&str>,
     geometry: &Geometry,
+    rest: Option<&crate::Rest>,
 ) -> String {
     let actuated: Vec<_> = chain.actuated().collect();
     let d = actuated.len();
@@ -528,6 +529,13 @@ pub fn model(
             w,
             "///\n/// Velocity and acceleration limits: {}",
             source.replace('\n', " ")
+        );
+    }
+    if let Some(rest) = rest {
+        let _ = writeln!(
+            w,
+            "///\n/// Rest configuration: {}",
+            rest.source.replace('\n', " ")
         );
     }
     let _ = writeln!(w, "#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]");
@@ -611,6 +619,13 @@ pub fn model(
         "    const TOOL_REACH: [f64; {d}] = [{}];",
         list(&geometry.tool_reach, |&r| limit(r))
     );
+    if let Some(rest) = rest {
+        let _ = writeln!(
+            w,
+            "    const REST: Option<[f64; {d}]> = Some([{}]);",
+            list(rest.q, |&q| lit(q))
+        );
+    }
     let _ = writeln!(w);
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(
