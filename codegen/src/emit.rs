@@ -506,16 +506,17 @@ fn jacobian_body(chain: &Chain, dof: usize) -> String {
     e.code
 }
 
+/// The model's source: `spec` names it and gives its limits' source and rest configuration
+/// (checked), `source` is the URDF's file name.
 pub fn model(
-    type_name: &str,
-    name: &str,
+    spec: &crate::ModelSpec,
     source: &str,
     chain: &Chain,
     acceleration: &[f64],
-    limits_source: Option<&str>,
     geometry: &Geometry,
-    rest: Option<&crate::Rest>,
 ) -> String {
+    let (type_name, name) = (spec.type_name, spec.name);
+    let (limits_source, rest) = (spec.limits.map(|l| l.source), spec.rest);
     let actuated: Vec<_> = chain.actuated().collect();
     let d = actuated.len();
     let mut out = String::new();

@@ -109,14 +109,11 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         .file_name()
         .map_or(urdf_source.clone(), |f| f.to_string_lossy().into_owned());
     Ok(emit::model(
-        spec.type_name,
-        spec.name,
+        &ModelSpec { rest, ..*spec },
         &source,
         &chain,
         &acceleration,
-        spec.limits.map(|l| l.source),
         &geometry,
-        rest.as_ref(),
     ))
 }
 
