@@ -8,9 +8,10 @@
 //! 1. all arms together along their straight joint-space bridges;
 //! 2. one arm at a time along its bridge, in any order in which every bridge is free (found
 //!    over all orders from a few checks of one arm against one other: [`orders`]);
-//! 3. one arm at a time again, each arm whose straight bridge is blocked through a via
-//!    configuration (turn about the base first, or take the shape first: [`via`]) or else
-//!    along an RRT-Connect path in its own space around the others standing, in up to
+//! 3. one arm at a time again, first in the order with the fewest blocked bridges, each arm
+//!    whose straight bridge is blocked through via configurations (turn about the base first,
+//!    take the shape first, or fold to the model's rest configuration: [`via`]) or else along
+//!    an RRT-Connect path in its own space around the others standing, in up to
 //!    [`ApproachParams::rrt_orders`] orders;
 //! 4. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
@@ -58,7 +59,9 @@ pub struct ApproachParams {
     /// Most priority orders tried one arm at a time with RRT-Connect per arm, before
     /// RRT-Connect on the composite space.
     pub rrt_orders: usize,
-    /// RRT-Connect's longest edge, in seconds of motion at full speed.
+    /// RRT-Connect's longest edge, in seconds of motion at full speed. A motion check costs
+    /// far less than in proportion to its length (the sweeps bisect, and a far-away motion is
+    /// one check), so long edges reach as far with fewer nodes and checks.
     pub rrt_step: f64,
     /// RRT-Connect's samples in a first attempt ([`crate::embody`] doubles it on each retry).
     pub rrt_samples: u32,
