@@ -7,13 +7,13 @@
 //! first, and the first that finds a collision-free approach wins ([`Method`]):
 //! 1. all arms together along their straight joint-space bridges;
 //! 2. one arm at a time along its bridge, in any order in which every bridge is free (found
-//!    over all orders from a few checks of one arm against one other: [`orders`]);
+//!    over all orders from a few checks of one arm against one other: `orders.rs`);
 //! 3. one arm at a time again, first in the order with the fewest blocked bridges, each arm
 //!    whose straight bridge is blocked through via configurations (turn about the base first,
-//!    take the shape first, or fold to the model's rest configuration: [`via`]) or else along
+//!    take the shape first, or fold to the model's rest configuration: `via.rs`) or else along
 //!    an RRT-Connect path in its own space around the others standing, in up to
 //!    [`ApproachParams::rrt_orders`] orders;
-//! 4. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
+//! 4. RRT-Connect on the arms' composite configuration space with shortcutting (`rrt.rs`):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
 //!    has some clearance ([`crate::embody`] grows the budget until the deadline).
 //!
@@ -255,7 +255,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     }
     let (robot, other) = together.unwrap_or((0, None));
     // One at a time: an order in which every straight bridge is free, found over all orders
-    // from each bridge's checks against each other arm at either end ([`orders`]).
+    // from each bridge's checks against each other arm at either end (`orders.rs`).
     let mut bridges = Bridges::new(&fleet, starts, goals);
     let moving = bridges.moving();
     if let Some(order) = params.ordered.then(|| bridges.free_order(&fleet)).flatten() {
