@@ -18,7 +18,7 @@
 //!    has some clearance ([`crate::embody`] grows the budget until the deadline).
 //!
 //! Every motion is checked like a planned one (obstacles, the arm itself, the other arms; the
-//! conservative sweeps of [`crate::motion`]). The waypoints found are then timed ([`timing`]):
+//! conservative sweeps of [`crate::motion`]). The waypoints found are then timed (`timing.rs`):
 //! straight segments with a cosine profile from rest to rest, slow enough for the velocity
 //! and acceleration limits. Deterministic for a given [`ApproachParams::seed`].
 //!
@@ -48,7 +48,7 @@ use rrt::Miss;
 pub struct ApproachParams {
     /// Share of each joint's velocity limit the approach may use (0 < speed <= 1).
     pub speed: f64,
-    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`]) the approach may
+    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`](crate::model::Model::ACCELERATION)) the approach may
     /// use (0: no acceleration limit).
     pub acceleration: f64,
     /// See [`crate::search::OmegaParams::motion_step`].
