@@ -16,7 +16,7 @@ use std::path::Path;
 use omcbsa::load;
 use omcbsa::planners::{Capacities, PlannerKind, Storage};
 use omcbsa::suite::read_index;
-use omcbsa_core::model::KinovaGen3;
+use omcbsa::models::Fleet;
 use omcbsa_core::planner::Status;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -46,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         let file = load::parse_problem(&load::read_text(&dir.join(&entry.file))?)?;
-        let problem = load::problem::<KinovaGen3, 7>(&file)?;
+        let problem = load::problem::<Fleet, 7>(&file)?;
         for kind in [PlannerKind::OmCbsa, PlannerKind::PpSingle] {
             let mut best = [f64::INFINITY; 2];
             let mut solved = [true; 2];
