@@ -110,8 +110,6 @@ pub enum Error {
         what: &'static str,
         message: String,
     },
-    /// The rest configuration has the wrong length or a value outside its joint's limits.
-    BadRest(String),
 }
 
 impl fmt::Display for Error {
@@ -239,7 +237,6 @@ impl fmt::Display for Error {
                 write!(f, "{source}: invalid model manifest: {message}")
             }
             BadLimit { what, message } => write!(f, "{what} limits: {message}"),
-            BadRest(message) => write!(f, "rest configuration: {message}"),
         }
     }
 }

@@ -9,9 +9,9 @@
 //! 2. one arm at a time along its bridge, in any order in which every bridge is free (found
 //!    over all orders from a few checks of one arm against one other: `orders.rs`);
 //! 3. one arm at a time again, first in the order with the fewest blocked bridges, each arm
-//!    whose straight bridge is blocked through via configurations (turn about the base first,
-//!    take the shape first, or fold to the model's rest configuration: `via.rs`) or else along
-//!    an RRT-Connect path in its own space around the others standing, in up to
+//!    whose straight bridge is blocked through a via configuration (turn about the base first,
+//!    or take the shape first: `via.rs`) or else along an RRT-Connect path in its own space
+//!    around the others standing, in up to
 //!    [`ApproachParams::rrt_orders`] orders;
 //! 4. RRT-Connect on the arms' composite configuration space with shortcutting (`rrt.rs`):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
