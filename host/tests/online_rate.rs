@@ -42,6 +42,17 @@ fn no_dead_end() {
         assert!(run.embodied, "{arms} arms: {:?}", run.error);
         assert_eq!((run.planned, run.recovered), (run.chunks, 0), "{arms} arms");
     }
+    // A weight that is no cost is refused, naming the option.
+    for bad in [-1.0, f64::NAN, f64::INFINITY] {
+        let options = OnlineOptions {
+            axis_weight: bad,
+            ..OnlineOptions::default()
+        };
+        match Embodier::new(&transfer(2, 13).setup, options) {
+            Err(OnlineError::Input(e)) => assert!(e.has("axis_weight", "finite"), "{e}"),
+            other => panic!("{bad}: {:?}", other.err()),
+        }
+    }
 }
 
 /// The same episode planned greedily (`axis_weight` 0): the chunk at step 384 cannot be
