@@ -6,6 +6,7 @@ use crate::ik::{ik, IkParams};
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
+use crate::search::{axes_cost, manifold_moves, OmegaParams, MAX_MOVES};
 
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
 /// state and motion with `valid`. Writes `out[..H]` and returns the collision count with the
@@ -17,6 +18,55 @@ pub fn track<M: Models<D>, const D: usize>(
     valid: &Validity<'_, M, D>,
     ik_params: &IkParams,
     out: &mut [[f64; D]],
+) -> Option<u32> {
+    let next = |target: &Frame, q: &[f64; D]| {
+        ik::<M, D>(robot.model, target, q, ik_params)
+            .ok()
+            .filter(|next| valid.step_within_limits(q, next))
+    };
+    follow(robot, traj, seed, valid, ik_params, out, next)
+}
+
+/// [`track`] whose every step takes, of Ω-A*'s successors ([`manifold_moves`]: the IK
+/// projection and the null-space moves of `params`, already at the problem's step), the
+/// one within the velocity limits with the least joint motion plus
+/// [`axes_cost`]: the search's first descent,
+/// without its backtracking, so that a warm start follows the same costs as the search.
+pub fn track_steered<M: Models<D>, const D: usize>(
+    robot: &Robot<D>,
+    traj: &Trajectory,
+    seed: &[f64; D],
+    valid: &Validity<'_, M, D>,
+    params: &OmegaParams,
+    out: &mut [[f64; D]],
+) -> Option<u32> {
+    let next = |target: &Frame, q: &[f64; D]| {
+        let mut moves = [[0.0; D]; MAX_MOVES];
+        let n = manifold_moves::<M, D>(robot.model, target, q, params, &mut moves);
+        let cost = |m: &[f64; D]| {
+            let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, params)
+        };
+        moves[..n]
+            .iter()
+            .filter(|m| valid.step_within_limits(q, m))
+            .map(|m| (cost(m), *m))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, m)| m)
+    };
+    follow(robot, traj, seed, valid, &params.ik, out, next)
+}
+
+/// The loop of [`track`]: `next(target, q)` gives the configuration at the next pose (within
+/// the velocity limits from `q`), or `None` where tracking breaks down.
+fn follow<M: Models<D>, const D: usize>(
+    robot: &Robot<D>,
+    traj: &Trajectory,
+    seed: &[f64; D],
+    valid: &Validity<'_, M, D>,
+    ik_params: &IkParams,
+    out: &mut [[f64; D]],
+    next: impl Fn(&Frame, &[f64; D]) -> Option<[f64; D]>,
 ) -> Option<u32> {
     let base_inv = robot.base.inverse();
     let tcp_inv = robot.tcp.inverse();
@@ -30,14 +80,74 @@ pub fn track<M: Models<D>, const D: usize>(
     let mut c = valid.state(&q, 0)? as u32;
     out[0] = q;
     for t in 1..traj.len() {
-        let next = ik::<M, D>(robot.model, &target(&traj[t]), &q, ik_params).ok()?;
-        if !valid.step_within_limits(&q, &next) {
-            return None;
-        }
+        let next = next(&target(&traj[t]), &q)?;
         c += valid.state(&next, t)? as u32;
         c += valid.motion(&q, &next, t - 1)? as u32;
         q = next;
         out[t] = q;
     }
     Some(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::axis_separation;
+    use crate::model::{KinovaGen3, Model};
+    use crate::problem::{Assigned, StartExclusions};
+    use crate::search::{OthersMode, REFERENCE_DT};
+    use crate::tool::Tool;
+
+    /// A hand held still in front of a Gen3 whose shoulder stands nearly straight up (its
+    /// first and third axes 0.1 rad apart): plain tracking stays where it is; steered by the
+    /// axes' cost, the arm turns in its null space, the hand unmoved, until they part.
+    #[test]
+    fn steered_tracking_parts_the_axes_and_plain_tracking_stays() {
+        let q0 = [0.3, -0.1, 1.1, -2.2, 0.6, 0.4, 2.5];
+        let robot = Robot {
+            model: 0,
+            base: Frame::IDENTITY,
+            tcp: Frame::IDENTITY,
+            initial: Some(q0),
+            tool: Tool::NONE,
+            start: Start::AtInitial,
+            assigned: Assigned::Track(0),
+            excluded: StartExclusions::NONE,
+        };
+        let hand = <KinovaGen3 as Model<7>>::fk(&q0);
+        let traj: Trajectory = (0..40).map(|_| hand).collect();
+        let dt = 0.02;
+        let valid = Validity::<KinovaGen3, 7>::new(
+            0,
+            Frame::IDENTITY,
+            Tool::NONE,
+            &[],
+            &[],
+            OthersMode::Avoid,
+            &[],
+            dt,
+            crate::motion::MOTION_STEP,
+        );
+        let separation = |q: &[f64; 7]| axis_separation(&<KinovaGen3 as Model<7>>::jacobian(q).1);
+        let mut plain = [[0.0; 7]; 40];
+        track(&robot, &traj, &q0, &valid, &IkParams::default(), &mut plain).unwrap();
+        let moved = |p: &[[f64; 7]]| (0..7).map(|d| (p[39][d] - q0[d]).abs()).fold(0.0, f64::max);
+        assert!(moved(&plain) < 1e-6, "{}", moved(&plain));
+        // Here a null-space step of ε parts the axes by only 0.13 ε: a weight above 8 pays
+        // for the step's own length.
+        let params = OmegaParams {
+            w_a: 20.0,
+            ..OmegaParams::default()
+        }
+        .at_step(dt);
+        assert!(dt < REFERENCE_DT && params.epsilon < 0.2);
+        let mut steered = [[0.0; 7]; 40];
+        track_steered(&robot, &traj, &q0, &valid, &params, &mut steered).unwrap();
+        let (before, after) = (separation(&q0), separation(&steered[39]));
+        assert!(after > before + 0.1, "{before} -> {after}");
+        for q in &steered {
+            let err = (<KinovaGen3 as Model<7>>::fk(q).pos - hand.pos).norm();
+            assert!(err < 1e-3, "the hand moved {err} m");
+        }
+    }
 }

@@ -278,6 +278,15 @@ pub fn manifold_moves<M: Models<D>, const D: usize>(
     n
 }
 
+/// The step cost of `q` nearing two collinear joint axes (see [`OmegaParams::w_a`]).
+pub fn axes_cost<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], p: &OmegaParams) -> f64 {
+    if p.w_a <= 0.0 {
+        return 0.0;
+    }
+    let (_, jac) = M::jacobian(model, q);
+    p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0)
+}
+
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
 pub fn plan<M: Models<D>, const D: usize>(
     query: &Query<'_, D>,
@@ -608,13 +617,8 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         Ok(())
     }
 
-    /// The step cost of `q` nearing two collinear joint axes (see [`OmegaParams::w_a`]).
     fn axes_cost(&self, q: &[f64; D]) -> f64 {
-        if self.p.w_a <= 0.0 {
-            return 0.0;
-        }
-        let (_, jac) = M::jacobian(self.q.robot.model, q);
-        self.p.w_a * (self.p.axis_margin - axis_separation::<D>(&jac)).max(0.0)
+        axes_cost::<M, D>(self.q.robot.model, q, self.p)
     }
 
     /// Inserts a generated state, or improves the stored one in its cell (or takes the cell

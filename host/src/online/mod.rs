@@ -93,17 +93,18 @@ pub struct OnlineOptions {
     /// by default: a hand holding an object cannot change arms.
     pub reassign: bool,
     /// Weight of Ω-A*'s cost of two joint axes nearing one line
-    /// ([`omcbsa_core::search::OmegaParams::w_a`]; 0 plans as a whole problem is planned,
-    /// IK tracking first). A chunk cannot see the hands' motion past its end; planned
+    /// ([`omcbsa_core::search::OmegaParams::w_a`]; 0 plans as a whole problem is planned:
+    /// IK tracking to the nearest IK answer first). A chunk cannot see the hands' motion past its end; planned
     /// greedily, it may leave an arm where two of its axes nearly line up, and the next
     /// chunk then needs a joint faster than its limit (bimanual transfer 013 at 50 Hz,
     /// 16-step chunks sent just in time). The cost makes the null space keep them apart.
     pub axis_weight: f64,
 }
 
-/// [`OnlineOptions::axis_weight`] by default. A null-space step of ε rad that separates the
-/// axes by about 1.2 ε (the Gen3 near its shoulder's alignment) pays for its own length from
-/// a weight of about 0.9; 2 to 8 all embody transfer 013 (1 does not), 4 is in the middle.
+/// [`OnlineOptions::axis_weight`] by default. A null-space step pays for its own length
+/// when the separation it gains, times the weight, exceeds it; on transfer 013 (the Gen3's
+/// shoulder nearing upright, about 0.3 of separation per rad of null-space motion) weights
+/// of 2 to 8 all embody the episode and 1 does not; 4 is in the middle (log scale).
 pub const AXIS_WEIGHT: f64 = 4.0;
 
 impl Default for OnlineOptions {
@@ -258,12 +259,8 @@ impl Embodier {
         let robots = problem.robots.clone();
         let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
+        // Ω-A* and the warm start (`tracking::track_steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;
-        if options.axis_weight > 0.0 {
-            // The warm start (IK tracking, the nearest IK answer step by step) knows no step
-            // cost: the chunk is planned by Ω-A*, which weighs the axes' separation.
-            storage.cbs_params.warm_start_seconds = 0.0;
-        }
         storage.approach_params = options.approach;
         Ok(Embodier {
             robots,
