@@ -1,6 +1,6 @@
 //! IK tracking: follow a trajectory by projecting each pose from the previous configuration,
-//! `q_t = IK(x_t, q_{t-1})`. Myopic but fast; Ω-CBSA warm-starts its root with it and the
-//! IK-tracking baseline is made of it.
+//! `q_t = IK(x_t, q_{t-1})`, or steered by Ω-A*'s step cost ([`Steps`]). Myopic but fast;
+//! Ω-CBSA warm-starts its root with it and the IK-tracking baseline is made of it.
 
 use crate::ik::{ik, IkParams};
 use crate::model::{Frame, Models};
@@ -8,66 +8,53 @@ use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
 use crate::search::{axes_cost, manifold_moves, OmegaParams, MAX_MOVES};
 
+/// How [`track`] takes each step.
+#[derive(Clone, Copy, Debug)]
+pub enum Steps<'p> {
+    /// The IK answer nearest the last configuration.
+    Nearest(&'p IkParams),
+    /// Of Ω-A*'s successors ([`manifold_moves`]: the IK projection and the null-space moves
+    /// of these settings, already at the problem's step), the one within the velocity limits
+    /// with the least joint motion plus [`axes_cost`]: the search's first descent without its
+    /// backtracking, so that a warm start weighs what the search weighs.
+    Steered(&'p OmegaParams),
+}
+
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
-/// state and motion with `valid`. Writes `out[..H]` and returns the collision count with the
-/// other robots (always 0 when `valid` avoids them), or `None` when tracking breaks down.
+/// state and motion with `valid`, each step taken as `steps` says. Writes `out[..H]` and
+/// returns the collision count with the other robots (always 0 when `valid` avoids them), or
+/// `None` when tracking breaks down.
 pub fn track<M: Models<D>, const D: usize>(
     robot: &Robot<D>,
     traj: &Trajectory,
     seed: &[f64; D],
     valid: &Validity<'_, M, D>,
-    ik_params: &IkParams,
+    steps: Steps<'_>,
     out: &mut [[f64; D]],
 ) -> Option<u32> {
-    let next = |target: &Frame, q: &[f64; D]| {
-        ik::<M, D>(robot.model, target, q, ik_params)
+    let ik_params = match steps {
+        Steps::Nearest(p) => p,
+        Steps::Steered(p) => &p.ik,
+    };
+    let next = |target: &Frame, q: &[f64; D]| match steps {
+        Steps::Nearest(p) => ik::<M, D>(robot.model, target, q, p)
             .ok()
-            .filter(|next| valid.step_within_limits(q, next))
+            .filter(|next| valid.step_within_limits(q, next)),
+        Steps::Steered(p) => {
+            let mut moves = [[0.0; D]; MAX_MOVES];
+            let n = manifold_moves::<M, D>(robot.model, target, q, p, &mut moves);
+            let cost = |m: &[f64; D]| {
+                let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+                libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, p)
+            };
+            moves[..n]
+                .iter()
+                .filter(|m| valid.step_within_limits(q, m))
+                .map(|m| (cost(m), *m))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, m)| m)
+        }
     };
-    follow(robot, traj, seed, valid, ik_params, out, next)
-}
-
-/// [`track`] whose every step takes, of Ω-A*'s successors ([`manifold_moves`]: the IK
-/// projection and the null-space moves of `params`, already at the problem's step), the
-/// one within the velocity limits with the least joint motion plus
-/// [`axes_cost`]: the search's first descent,
-/// without its backtracking, so that a warm start follows the same costs as the search.
-pub fn track_steered<M: Models<D>, const D: usize>(
-    robot: &Robot<D>,
-    traj: &Trajectory,
-    seed: &[f64; D],
-    valid: &Validity<'_, M, D>,
-    params: &OmegaParams,
-    out: &mut [[f64; D]],
-) -> Option<u32> {
-    let next = |target: &Frame, q: &[f64; D]| {
-        let mut moves = [[0.0; D]; MAX_MOVES];
-        let n = manifold_moves::<M, D>(robot.model, target, q, params, &mut moves);
-        let cost = |m: &[f64; D]| {
-            let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
-            libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, params)
-        };
-        moves[..n]
-            .iter()
-            .filter(|m| valid.step_within_limits(q, m))
-            .map(|m| (cost(m), *m))
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(_, m)| m)
-    };
-    follow(robot, traj, seed, valid, &params.ik, out, next)
-}
-
-/// The loop of [`track`]: `next(target, q)` gives the configuration at the next pose (within
-/// the velocity limits from `q`), or `None` where tracking breaks down.
-fn follow<M: Models<D>, const D: usize>(
-    robot: &Robot<D>,
-    traj: &Trajectory,
-    seed: &[f64; D],
-    valid: &Validity<'_, M, D>,
-    ik_params: &IkParams,
-    out: &mut [[f64; D]],
-    next: impl Fn(&Frame, &[f64; D]) -> Option<[f64; D]>,
-) -> Option<u32> {
     let base_inv = robot.base.inverse();
     let tcp_inv = robot.tcp.inverse();
     let target = |x: &Frame| base_inv.compose(x).compose(&tcp_inv);
@@ -130,7 +117,16 @@ mod tests {
         );
         let separation = |q: &[f64; 7]| axis_separation(&<KinovaGen3 as Model<7>>::jacobian(q).1);
         let mut plain = [[0.0; 7]; 40];
-        track(&robot, &traj, &q0, &valid, &IkParams::default(), &mut plain).unwrap();
+        let ik_params = IkParams::default();
+        track(
+            &robot,
+            &traj,
+            &q0,
+            &valid,
+            Steps::Nearest(&ik_params),
+            &mut plain,
+        )
+        .unwrap();
         let moved = |p: &[[f64; 7]]| (0..7).map(|d| (p[39][d] - q0[d]).abs()).fold(0.0, f64::max);
         assert!(moved(&plain) < 1e-6, "{}", moved(&plain));
         // Here a null-space step of ε parts the axes by only 0.13 ε: a weight above 8 pays
@@ -142,7 +138,15 @@ mod tests {
         .at_step(dt);
         assert!(dt < REFERENCE_DT && params.epsilon < 0.2);
         let mut steered = [[0.0; 7]; 40];
-        track_steered(&robot, &traj, &q0, &valid, &params, &mut steered).unwrap();
+        track(
+            &robot,
+            &traj,
+            &q0,
+            &valid,
+            Steps::Steered(&params),
+            &mut steered,
+        )
+        .unwrap();
         let (before, after) = (separation(&q0), separation(&steered[39]));
         assert!(after > before + 0.1, "{before} -> {after}");
         for q in &steered {

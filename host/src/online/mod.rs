@@ -259,7 +259,7 @@ impl Embodier {
         let robots = problem.robots.clone();
         let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
-        // Ω-A* and the warm start (`tracking::track_steered`) weigh the axes' separation.
+        // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;
         storage.approach_params = options.approach;
         Ok(Embodier {
