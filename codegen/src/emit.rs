@@ -506,15 +506,17 @@ fn jacobian_body(chain: &Chain, dof: usize) -> String {
     e.code
 }
 
+/// The model's source: `spec` names it and gives its limits' source and rest configuration
+/// (checked), `source` is the URDF's file name.
 pub fn model(
-    type_name: &str,
-    name: &str,
+    spec: &crate::ModelSpec,
     source: &str,
     chain: &Chain,
     acceleration: &[f64],
-    limits_source: Option<&str>,
     geometry: &Geometry,
 ) -> String {
+    let (type_name, name) = (spec.type_name, spec.name);
+    let (limits_source, rest) = (spec.limits.map(|l| l.source), spec.rest);
     let actuated: Vec<_> = chain.actuated().collect();
     let d = actuated.len();
     let mut out = String::new();
@@ -528,6 +530,13 @@ pub fn model(
             w,
             "///\n/// Velocity and acceleration limits: {}",
             source.replace('\n', " ")
+        );
+    }
+    if let Some(rest) = rest {
+        let _ = writeln!(
+            w,
+            "///\n/// Rest configuration: {}",
+            rest.source.replace('\n', " ")
         );
     }
     let _ = writeln!(w, "#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]");
@@ -611,6 +620,13 @@ pub fn model(
         "    const TOOL_REACH: [f64; {d}] = [{}];",
         list(&geometry.tool_reach, |&r| limit(r))
     );
+    if let Some(rest) = rest {
+        let _ = writeln!(
+            w,
+            "    const REST: Option<[f64; {d}]> = Some([{}]);",
+            list(rest.q, |&q| lit(q))
+        );
+    }
     let _ = writeln!(w);
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(

@@ -110,6 +110,8 @@ pub enum Error {
         what: &'static str,
         message: String,
     },
+    /// The rest configuration has the wrong length or a value outside its joint's limits.
+    BadRest(String),
 }
 
 impl fmt::Display for Error {
@@ -237,6 +239,7 @@ impl fmt::Display for Error {
                 write!(f, "{source}: invalid model manifest: {message}")
             }
             BadLimit { what, message } => write!(f, "{what} limits: {message}"),
+            BadRest(message) => write!(f, "rest configuration: {message}"),
         }
     }
 }

@@ -63,6 +63,16 @@ pub struct ModelSpec<'a> {
     /// The vendor's limits; without them the URDF's velocity limits and no acceleration limit
     /// (`f64::INFINITY`).
     pub limits: Option<Limits<'a>>,
+    /// A compact configuration the arm can pass through (`Model::REST`), if the vendor names one.
+    pub rest: Option<Rest<'a>>,
+}
+
+/// The vendor's compact configuration (a retract or ready pose), one value per actuated joint.
+#[derive(Clone, Copy, Debug)]
+pub struct Rest<'a> {
+    pub q: &'a [f64],
+    /// Where it comes from (written into the generated type's documentation).
+    pub source: &'a str,
 }
 
 /// Joint limits given beside the URDF, one value per actuated joint in chain order.
@@ -89,6 +99,7 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         Some(limits) => apply_limits(&mut chain, &limits)?,
         None => vec![f64::INFINITY; chain.actuated().count()],
     };
+    let rest = spec.rest.map(|r| check_rest(&chain, &r)).transpose()?;
     let collision = spec.collision.map(|c| c.read()).transpose()?;
     let file = collision
         .as_ref()
@@ -98,14 +109,33 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         .file_name()
         .map_or(urdf_source.clone(), |f| f.to_string_lossy().into_owned());
     Ok(emit::model(
-        spec.type_name,
-        spec.name,
+        &ModelSpec { rest, ..*spec },
         &source,
         &chain,
         &acceleration,
-        spec.limits.map(|l| l.source),
         &geometry,
     ))
+}
+
+/// `rest` after checking it has one value per actuated joint, each within the joint's limits.
+fn check_rest<'a>(chain: &chain::Chain, rest: &Rest<'a>) -> Result<Rest<'a>, Error> {
+    let actuated: Vec<_> = chain.actuated().collect();
+    if rest.q.len() != actuated.len() {
+        return Err(Error::BadRest(format!(
+            "{} values for {} actuated joints",
+            rest.q.len(),
+            actuated.len()
+        )));
+    }
+    for (joint, &q) in actuated.iter().zip(rest.q) {
+        if !(q >= joint.lower && q <= joint.upper) {
+            return Err(Error::BadRest(format!(
+                "joint `{}`: {q} is outside its limits [{}, {}]",
+                joint.name, joint.lower, joint.upper
+            )));
+        }
+    }
+    Ok(*rest)
 }
 
 /// Replaces the chain's velocity limits with `limits.velocity` and returns the accelerations,

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use crate::chain::Ends;
-use crate::{Error, Input, Limits, ModelSpec};
+use crate::{Error, Input, Limits, ModelSpec, Rest};
 
 /// The manifest's name inside a model's folder.
 pub const FILE: &str = "model.json";
@@ -33,6 +33,19 @@ pub struct Manifest {
     /// What the plan viewer draws for the links (none: it draws the capsules).
     #[serde(default)]
     pub view: Option<ViewMeshes>,
+    /// The vendor's compact configuration, if it names one.
+    #[serde(default)]
+    pub rest: Option<ManifestRest>,
+}
+
+/// `Model::REST`: a configuration the vendor names for the arm folded out of the way.
+#[derive(Deserialize, Debug, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ManifestRest {
+    /// Per actuated joint, in chain order.
+    pub q: Vec<f64>,
+    /// Where it comes from.
+    pub source: String,
 }
 
 /// Meshes the plan viewer (`omcbsa view`) draws, read by the host's build script.
@@ -143,6 +156,10 @@ impl Folder {
                 velocity: &m.limits.velocity,
                 acceleration: &m.limits.acceleration,
                 source: &m.limits.source,
+            }),
+            rest: m.rest.as_ref().map(|r| Rest {
+                q: &r.q,
+                source: &r.source,
             }),
         }
     }

@@ -13,6 +13,7 @@ fn generate(urdf: &str, collision: Option<&str>) -> Result<String, Error> {
         collision: collision.map(Input::Text),
         ends: None,
         limits: None,
+        rest: None,
     })
 }
 
@@ -169,6 +170,7 @@ fn a_bad_type_name_or_missing_file_is_refused() {
         collision: None,
         ends: None,
         limits: None,
+        rest: None,
     };
     assert_mentions(&generate_model(&spec).unwrap_err().to_string(), &["9lives"]);
     let path = Path::new("/nonexistent/arm.urdf");
@@ -179,6 +181,7 @@ fn a_bad_type_name_or_missing_file_is_refused() {
         collision: None,
         ends: None,
         limits: None,
+        rest: None,
     };
     assert_mentions(
         &generate_model(&spec).unwrap_err().to_string(),
@@ -227,6 +230,7 @@ fn with(urdf: &str, ends: Option<Ends>, limits: Option<Limits>) -> Result<String
         collision: None,
         ends,
         limits,
+        rest: None,
     })
 }
 
@@ -285,4 +289,37 @@ fn manifest_limits_replace_the_urdfs_and_are_checked() {
     assert_mentions(&e.to_string(), &["acceleration", "1 values for 2"]);
     let e = with(&urdf, None, Some(limits(&[2.0, -1.0], &[9.0, 3.0]))).unwrap_err();
     assert_mentions(&e.to_string(), &["velocity", "value 1", "-1"]);
+}
+
+#[test]
+fn a_rest_configuration_is_emitted_and_a_bad_one_refused() {
+    let urdf = robot(&two_joint_arm());
+    let spec = |q: &'static [f64]| ModelSpec {
+        type_name: "Arm",
+        name: "arm",
+        urdf: Input::Text(Box::leak(urdf.clone().into_boxed_str())),
+        collision: None,
+        ends: None,
+        limits: None,
+        rest: Some(omcbsa_codegen::Rest {
+            q,
+            source: "the arm's manual",
+        }),
+    };
+    let code = generate_model(&spec(&[0.5, -0.25])).unwrap();
+    assert!(
+        code.contains("const REST: Option<[f64; 2]> = Some([0.5, -0.25]);"),
+        "{code}"
+    );
+    assert!(code.contains("Rest configuration: the arm's manual"));
+    // No rest named: the trait's default (None) stands.
+    assert!(!generate(&urdf, None).unwrap().contains("REST"));
+    assert_mentions(
+        &generate_model(&spec(&[0.5])).unwrap_err().to_string(),
+        &["rest configuration", "1 values for 2 actuated joints"],
+    );
+    assert_mentions(
+        &generate_model(&spec(&[0.5, 1.5])).unwrap_err().to_string(),
+        &["rest configuration", "j2", "1.5", "outside its limits"],
+    );
 }

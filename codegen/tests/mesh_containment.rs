@@ -134,3 +134,42 @@ fn disabled_pairs_are_the_adjacent_links_and_the_srdfs() {
     // A pair Kinova leaves enabled: the base against the wrist.
     assert!(!has_pair("base_link", "spherical_wrist_1_link"));
 }
+
+/// Each model's rest configuration is the SRDF's group state its manifest names.
+#[test]
+fn rest_configurations_are_the_srdfs_group_states() {
+    for (model, state) in [("kinova_gen3", "retract"), ("franka_panda", "default")] {
+        let f = folder(model);
+        let rest = f.manifest.rest.as_ref().unwrap();
+        assert!(rest.source.contains(&format!("\"{state}\"")), "{model}");
+        let xml = std::fs::read_to_string(f.srdf().unwrap()).unwrap();
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let group = doc
+            .descendants()
+            .find(|n| n.has_tag_name("group_state") && n.attribute("name") == Some(state))
+            .unwrap();
+        let value = |joint: &str| {
+            group
+                .children()
+                .find(|j| j.attribute("name").is_some_and(|n| n.ends_with(joint)))
+                .and_then(|j| j.attribute("value"))
+                .map(|v| v.parse::<f64>().unwrap())
+        };
+        // The joints in chain order, as the generated model names them.
+        let code = omcbsa_codegen::manifest::generate_folder(&f.dir).unwrap();
+        let line = code
+            .lines()
+            .find(|l| l.contains("const JOINT_NAMES"))
+            .unwrap();
+        let list = &line[line.find("= [").unwrap() + 3..line.rfind(']').unwrap()];
+        let names: Vec<&str> = list.split(", ").map(|n| n.trim_matches('"')).collect();
+        assert!(
+            code.contains("const REST: Option<[f64; 7]> = Some(["),
+            "{model}"
+        );
+        assert_eq!(names.len(), rest.q.len(), "{model}");
+        for (name, &q) in names.iter().zip(&rest.q) {
+            assert_eq!(value(name), Some(q), "{model} {name}");
+        }
+    }
+}

@@ -102,6 +102,9 @@ pub trait Model<const D: usize>: 'static {
     /// ([`Model::REACH`] bounds it too): a tool point `r` from that origin moves at most
     /// `(TOOL_REACH[j] + r) * |dq|` when joint `j` moves by `dq`.
     const TOOL_REACH: [f64; D] = Self::REACH;
+    /// A configuration the vendor names for the arm folded out of the way (a retract or ready
+    /// pose), if it names one: the approach passes through it when the direct ways are blocked.
+    const REST: Option<[f64; D]> = None;
 
     /// Pose of the tool frame in the base frame.
     fn fk(q: &[f64; D]) -> Frame;
@@ -141,6 +144,7 @@ pub trait Models<const D: usize>: 'static {
     fn capsule_reach(id: u8) -> &'static [[f64; D]];
     fn tool_self_capsules(id: u8) -> &'static [u8];
     fn tool_reach(id: u8) -> &'static [f64; D];
+    fn rest(id: u8) -> &'static Option<[f64; D]>;
     fn fk(id: u8, q: &[f64; D]) -> Frame;
     fn link_frames(id: u8, q: &[f64; D], out: &mut [Frame]) -> Frame;
     fn jacobian(id: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
@@ -195,6 +199,9 @@ impl<M: Model<D>, const D: usize> Models<D> for M {
     }
     fn tool_reach(_: u8) -> &'static [f64; D] {
         &M::TOOL_REACH
+    }
+    fn rest(_: u8) -> &'static Option<[f64; D]> {
+        &M::REST
     }
     #[inline]
     fn fk(_: u8, q: &[f64; D]) -> Frame {

@@ -18,6 +18,7 @@ fn same<A: Model<7>>(id: u8) {
     assert_eq!(Fleet7::capsule_reach(id), A::CAPSULE_REACH);
     assert_eq!(Fleet7::tool_self_capsules(id), A::TOOL_SELF_CAPSULES);
     assert_eq!(Fleet7::tool_reach(id), &A::TOOL_REACH);
+    assert_eq!(Fleet7::rest(id), &A::REST);
     let mut rng = Rng::new(u64::from(id) + 7);
     for _ in 0..20 {
         let q = rng.configuration(&A::LOWER, &A::UPPER);

@@ -184,3 +184,26 @@ fn restarts_are_complete_and_deterministic() {
         );
     }
 }
+
+/// Two arms 0.5 m apart, each able to reach both hands' paths, each path near one arm and the
+/// paths listed in the other order. The root's warm start gives each arm, in turn, the
+/// trajectory nearest its base that it can track: the root is already the plan (one
+/// constraint-tree node, no conflict). Taking them in listed order would cross the arms.
+#[test]
+fn the_root_gives_each_arm_the_nearest_trajectory_first() {
+    let b0 = frame([0.0, -0.25, 0.0], [0.0, 0.0, 0.0]);
+    let b1 = frame([0.0, 0.25, 0.0], [0.0, 0.0, 0.0]);
+    let p0 = smooth_path(&HOME, &[0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
+    let p1 = smooth_path(&HOME, &[-0.3, 0.1, 0.0, 0.2, 0.0, 0.1, 0.0], 15);
+    let file = swapped_pair_problem("nearest_first", [b0, b1], [&p0, &p1], vec![]);
+    let sol = plan_and_validate(&file, "omcbsa", 5.0);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    assert_eq!(sol.assignment, vec![Some(1), Some(0)]);
+    assert_eq!(sol.stats["ct_nodes"], json!(1), "{:?}", sol.stats);
+    assert_eq!(
+        sol.stats["warm_start_solved"],
+        json!(true),
+        "{:?}",
+        sol.stats
+    );
+}

@@ -127,6 +127,26 @@ impl<'p, M: Models<D>, const D: usize> Fleet<'p, M, D> {
         self.arms.step_blocked(a, b, &mut self.placed)
     }
 
+    /// Whether robot `r` moving `from -> to` touches an obstacle or itself: the part of
+    /// [`Fleet::motion_blocked`] that no other arm changes.
+    pub fn own_motion_blocked(&self, r: usize, from: &[f64; D], to: &[f64; D]) -> bool {
+        self.arms.own_motion_blocked(r, from, to)
+    }
+
+    /// Whether robot `r` moving `from -> to` comes too close to robot `k` standing at `at`:
+    /// [`Fleet::motion_blocked`] of that one pair, so a one-arm motion is blocked exactly when
+    /// its own check or the check against some other active robot is.
+    pub fn pair_motion_blocked(
+        &self,
+        r: usize,
+        from: &[f64; D],
+        to: &[f64; D],
+        k: usize,
+        at: &[f64; D],
+    ) -> bool {
+        self.arms.pair_motion_blocked(r, from, to, k, at)
+    }
+
     /// Checks the composite motion `a -> b` (every arm along its straight segment, at the same
     /// pace): each moving arm against the obstacles and itself, each pair with a moving arm
     /// against each other. The first failure found, as (robot, other robot).
@@ -346,6 +366,55 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
         self.placed_motion_blocked(a, b, placed)
     }
 
+    fn motion<'a>(&'a self, i: usize, from: &'a [f64; D], to: &'a [f64; D]) -> ArmMotion<'a, D> {
+        ArmMotion {
+            model: self.model(i),
+            base: self.base(i),
+            tool: self.tool(i),
+            from,
+            to,
+        }
+    }
+
+    fn own_motion_blocked(&self, r: usize, from: &[f64; D], to: &[f64; D]) -> bool {
+        let ends = [self.pose(r, from), self.pose(r, to)];
+        !motion_is_free_posed::<M, D>(
+            &self.motion(r, from, to),
+            [&ends[0], &ends[1]],
+            &self.problem.obstacles,
+            self.motion_step,
+        )
+    }
+
+    fn pair_motion_blocked(
+        &self,
+        r: usize,
+        from: &[f64; D],
+        to: &[f64; D],
+        k: usize,
+        at: &[f64; D],
+    ) -> bool {
+        let moving = (
+            self.motion(r, from, to),
+            [self.pose(r, from), self.pose(r, to)],
+        );
+        let still = self.pose(k, at);
+        let standing = (self.motion(k, at, at), [still, still]);
+        // In index order, as the composite check pairs them.
+        let ((a, a_ends), (b, b_ends)) = if r < k {
+            (&moving, &standing)
+        } else {
+            (&standing, &moving)
+        };
+        motions_collide_posed::<M, D>(
+            a,
+            [&a_ends[0], &a_ends[1]],
+            b,
+            [&b_ends[0], &b_ends[1]],
+            self.motion_step,
+        )
+    }
+
     /// [`Fleet::motion_blocked`] with both ends placed.
     fn placed_motion_blocked(
         &self,
@@ -356,13 +425,7 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
         let moving: [bool; MAX_ROBOTS] =
             core::array::from_fn(|i| i < self.n && self.active[i] && a[i] != b[i]);
         let ends = |i: usize| [self.at(placed, i, 0), self.at(placed, i, 1)];
-        let motion = |i: usize| ArmMotion {
-            model: self.model(i),
-            base: self.base(i),
-            tool: self.tool(i),
-            from: &a[i],
-            to: &b[i],
-        };
+        let motion = |i: usize| self.motion(i, &a[i], &b[i]);
         let obstacles = &self.problem.obstacles;
         for i in (0..self.n).filter(|&i| moving[i]) {
             if !motion_is_free_posed::<M, D>(&motion(i), ends(i), obstacles, self.motion_step) {

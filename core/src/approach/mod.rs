@@ -6,17 +6,19 @@
 //! move at once; an arm may wait while another passes. Four planners are tried, cheapest
 //! first, and the first that finds a collision-free approach wins ([`Method`]):
 //! 1. all arms together along their straight joint-space bridges;
-//! 2. one arm at a time along its bridge, in up to [`ApproachParams::max_orders`] orders;
-//! 3. one arm at a time again, each arm whose straight bridge is blocked through a via
-//!    configuration (turn about the base first, or take the shape first: [`via`]) or else
-//!    along an RRT-Connect path in its own space around the others standing, in up to
+//! 2. one arm at a time along its bridge, in any order in which every bridge is free (found
+//!    over all orders from a few checks of one arm against one other: `orders.rs`);
+//! 3. one arm at a time again, first in the order with the fewest blocked bridges, each arm
+//!    whose straight bridge is blocked through via configurations (turn about the base first,
+//!    take the shape first, or fold to the model's rest configuration: `via.rs`) or else along
+//!    an RRT-Connect path in its own space around the others standing, in up to
 //!    [`ApproachParams::rrt_orders`] orders;
-//! 4. RRT-Connect on the arms' composite configuration space with shortcutting ([`rrt`]):
+//! 4. RRT-Connect on the arms' composite configuration space with shortcutting (`rrt.rs`):
 //!    probabilistically complete, so with a growing sample budget it finds any approach that
 //!    has some clearance ([`crate::embody`] grows the budget until the deadline).
 //!
 //! Every motion is checked like a planned one (obstacles, the arm itself, the other arms; the
-//! conservative sweeps of [`crate::motion`]). The waypoints found are then timed ([`timing`]):
+//! conservative sweeps of [`crate::motion`]). The waypoints found are then timed (`timing.rs`):
 //! straight segments with a cosine profile from rest to rest, slow enough for the velocity
 //! and acceleration limits. Deterministic for a given [`ApproachParams::seed`].
 //!
@@ -25,6 +27,7 @@
 //! two).
 
 mod fleet;
+mod orders;
 mod rrt;
 mod timing;
 mod via;
@@ -37,6 +40,7 @@ use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::Deadline;
 
 use fleet::Fleet;
+use orders::Bridges;
 use rrt::Miss;
 
 /// Tunables of the approach.
@@ -44,17 +48,20 @@ use rrt::Miss;
 pub struct ApproachParams {
     /// Share of each joint's velocity limit the approach may use (0 < speed <= 1).
     pub speed: f64,
-    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`]) the approach may
+    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`](crate::model::Model::ACCELERATION)) the approach may
     /// use (0: no acceleration limit).
     pub acceleration: f64,
     /// See [`crate::search::OmegaParams::motion_step`].
     pub motion_step: f64,
-    /// Most priority orders tried when the arms cannot all move together.
-    pub max_orders: usize,
+    /// Whether the arms may take their straight bridges one at a time, in any order, when
+    /// they cannot all move together.
+    pub ordered: bool,
     /// Most priority orders tried one arm at a time with RRT-Connect per arm, before
     /// RRT-Connect on the composite space.
     pub rrt_orders: usize,
-    /// RRT-Connect's longest edge, in seconds of motion at full speed.
+    /// RRT-Connect's longest edge, in seconds of motion at full speed. A motion check costs
+    /// far less than in proportion to its length (the sweeps bisect, and a far-away motion is
+    /// one check), so long edges reach as far with fewer nodes and checks.
     pub rrt_step: f64,
     /// RRT-Connect's samples in a first attempt ([`crate::embody`] doubles it on each retry).
     pub rrt_samples: u32,
@@ -71,9 +78,9 @@ impl Default for ApproachParams {
             speed: 0.9,
             acceleration: 1.0,
             motion_step: crate::motion::MOTION_STEP,
-            max_orders: 24,
+            ordered: true,
             rrt_orders: 6,
-            rrt_step: 0.25,
+            rrt_step: 0.5,
             rrt_samples: 400,
             seed: 0x0a99_7a0c,
             exclusion_radius: 0.5,
@@ -247,55 +254,49 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
         return timed(2, Method::Together, storage, out);
     }
     let (robot, other) = together.unwrap_or((0, None));
-    // One at a time, in priority orders: waypoint k has the first k of the order at their goals.
-    // Not when an arm's straight bridge hits an obstacle or the arm itself (`other` is None:
-    // those are checked first, for every moving arm): no order changes that.
-    let orders = if other.is_none() {
-        0
-    } else {
-        params.max_orders
-    };
-    let mut order = identity(n);
-    for _ in 0..orders {
-        if deadline.expired() {
-            return Err(ApproachError::Timeout);
-        }
+    // One at a time: an order in which every straight bridge is free, found over all orders
+    // from each bridge's checks against each other arm at either end (`orders.rs`).
+    let mut bridges = Bridges::new(&fleet, starts, goals);
+    let moving = bridges.moving();
+    if let Some(order) = params.ordered.then(|| bridges.free_order(&fleet)).flatten() {
         let w = &mut *storage.waypoints;
         w[..n].copy_from_slice(starts);
-        let mut m = 1;
-        let mut free = true;
-        for &r in &order[..n] {
-            let r = r as usize;
-            if starts[r] == goals[r] {
+        for (m, &r) in order[..moving].iter().enumerate() {
+            let r = usize::from(r);
+            w.copy_within(m * n..(m + 1) * n, (m + 1) * n);
+            w[(m + 1) * n + r] = goals[r];
+        }
+        return timed(moving + 1, Method::Ordered, storage, out);
+    }
+    if deadline.expired() {
+        return Err(ApproachError::Timeout);
+    }
+    // One arm at a time, each around the others standing (a detour or RRT-Connect in its own
+    // space when its straight bridge is blocked): cheap where one composite search would be
+    // slow. First the order with the fewest blocked bridges, then others in turn.
+    let mut best = [0u8; MAX_ROBOTS];
+    let mut order = identity(n);
+    for attempt in 0..params.rrt_orders {
+        let this = if attempt == 0 {
+            best = bridges.fewest_blocked(&fleet);
+            &best[..moving]
+        } else {
+            let moves = |r: &&u8| starts[usize::from(**r)] != goals[usize::from(**r)];
+            if order[..n].iter().filter(moves).eq(&best[..moving]) {
+                // Tried first.
+                if !next_permutation(&mut order[..n]) {
+                    break;
+                }
                 continue;
             }
-            w.copy_within((m - 1) * n..m * n, m * n);
-            w[m * n + r] = goals[r];
-            if fleet
-                .motion_blocked(&w[(m - 1) * n..m * n], &w[m * n..(m + 1) * n])
-                .is_some()
-            {
-                free = false;
-                break;
-            }
-            m += 1;
-        }
-        if free {
-            return timed(m, Method::Ordered, storage, out);
-        }
-        if !next_permutation(&mut order[..n]) {
-            break;
-        }
-    }
-    // One arm at a time, each around the others standing (RRT-Connect in its own space when
-    // its straight bridge is blocked): cheap where one composite search would be slow.
-    let mut order = identity(n);
-    for _ in 0..params.rrt_orders {
+            &order[..n]
+        };
         let m = one_at_a_time(
             &mut fleet,
+            &mut bridges,
             starts,
             goals,
-            &order[..n],
+            this,
             params,
             samples,
             storage,
@@ -304,7 +305,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
         if let Some(m) = m {
             return timed(m, Method::OrderedRrt, storage, out);
         }
-        if !next_permutation(&mut order[..n]) {
+        if attempt > 0 && !next_permutation(&mut order[..n]) {
             break;
         }
     }
@@ -373,6 +374,7 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
 #[allow(clippy::too_many_arguments)]
 fn one_at_a_time<M: Models<D>, const D: usize>(
     fleet: &mut Fleet<'_, M, D>,
+    bridges: &mut Bridges<'_, D>,
     starts: &[[f64; D]],
     goals: &[[f64; D]],
     order: &[u8],
@@ -383,7 +385,7 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
 ) -> Result<Option<usize>, ApproachError> {
     let n = fleet.n;
     st.waypoints[..n].copy_from_slice(starts);
-    let mut m = 1;
+    let (mut m, mut done) = (1, 0u32);
     for &r in order {
         let r = usize::from(r);
         if starts[r] == goals[r] {
@@ -397,7 +399,8 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
         at[..n].copy_from_slice(&st.waypoints[from..from + n]);
         let mut target = at;
         target[r] = goals[r];
-        if fleet.motion_blocked(&at[..n], &target[..n]).is_none() {
+        done |= 1 << r;
+        if !bridges.blocked(fleet, r, done & !(1 << r)) {
             st.waypoints[from + n..from + 2 * n].copy_from_slice(&target[..n]);
             m += 1;
             continue;

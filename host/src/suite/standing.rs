@@ -133,11 +133,7 @@ pub fn witness_approach(
     let cap = crate::approach::MAX_APPROACH;
     let mut out = vec![[0.0; DOF]; cap * n];
     let params = ApproachParams {
-        max_orders: if rrt {
-            ApproachParams::default().max_orders
-        } else {
-            0
-        },
+        ordered: rrt,
         rrt_orders: if rrt {
             ApproachParams::default().rrt_orders
         } else {
