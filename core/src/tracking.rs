@@ -1,24 +1,34 @@
 //! IK tracking: follow a trajectory by projecting each pose from the previous configuration,
-//! `q_t = IK(x_t, q_{t-1})`, or steered by Ω-A*'s step cost ([`Steps`]). Myopic but fast;
+//! `q_t = IK(x_t, q_{t-1})`, or steered along the null space by Ω-A*'s step cost
+//! ([`Steps`]). Myopic but fast;
 //! Ω-CBSA warm-starts its root with it and the IK-tracking baseline is made of it.
 
+use core::cell::Cell;
+
 use crate::ik::{ik, IkParams};
+use crate::kinematics::null_space_basis;
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
-use crate::search::{axes_cost, manifold_moves, OmegaParams, MAX_MOVES};
+use crate::search::{axes_cost, OmegaParams};
 
 /// How [`track`] takes each step.
 #[derive(Clone, Copy, Debug)]
 pub enum Steps<'p> {
     /// The IK answer nearest the last configuration.
     Nearest(&'p IkParams),
-    /// Of Ω-A*'s successors ([`manifold_moves`]: the IK projection and the null-space moves
-    /// of these settings, already at the problem's step), the one within the velocity limits
-    /// with the least joint motion plus [`axes_cost`]: the search's first descent without its
-    /// backtracking, so that a warm start weighs what the search weighs.
+    /// The IK projection moved along the null space (then back onto the pose by IK), at a
+    /// rate of at most Ω-A*'s null-space step `epsilon` (these settings, already at the
+    /// problem's step) that changes by at most `epsilon /` [`NULL_RATE_STEPS`] a step: each
+    /// step keeps, slows or speeds up the rate, whichever gives the least joint motion plus
+    /// [`axes_cost`]. The search's costs without its backtracking, and without the jumps of
+    /// its `± epsilon` moves, which a streamed path could not follow within the joints'
+    /// accelerations.
     Steered(&'p OmegaParams),
 }
+
+/// Steps of [`Steps::Steered`] from rest to the full null-space rate.
+pub const NULL_RATE_STEPS: f64 = 8.0;
 
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
 /// state and motion with `valid`, each step taken as `steps` says. Writes `out[..H]` and
@@ -36,24 +46,49 @@ pub fn track<M: Models<D>, const D: usize>(
         Steps::Nearest(p) => p,
         Steps::Steered(p) => &p.ik,
     };
-    let next = |target: &Frame, q: &[f64; D]| match steps {
-        Steps::Nearest(p) => ik::<M, D>(robot.model, target, q, p)
-            .ok()
-            .filter(|next| valid.step_within_limits(q, next)),
-        Steps::Steered(p) => {
-            let mut moves = [[0.0; D]; MAX_MOVES];
-            let n = manifold_moves::<M, D>(robot.model, target, q, p, &mut moves);
-            let cost = |m: &[f64; D]| {
-                let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
-                libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, p)
-            };
-            moves[..n]
-                .iter()
-                .filter(|m| valid.step_within_limits(q, m))
-                .map(|m| (cost(m), *m))
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|(_, m)| m)
+    // Steered: the null-space rate (rad a step) and direction of the last step.
+    let rate = Cell::new(0.0);
+    let last_dir = Cell::new([0.0; D]);
+    let next = |target: &Frame, q: &[f64; D]| {
+        let proj = ik::<M, D>(robot.model, target, q, ik_params).ok()?;
+        let Steps::Steered(p) = steps else {
+            return Some(proj).filter(|next| valid.step_within_limits(q, next));
+        };
+        let (_, jac) = M::jacobian(robot.model, &proj);
+        let mut dir = [0.0; D];
+        if let Some(n) = null_space_basis::<D>(&jac).first() {
+            dir.iter_mut().zip(n.iter()).for_each(|(d, x)| *d = *x);
         }
+        // The basis fixes its sign by its first component: keep the last step's sense.
+        let along: f64 = dir.iter().zip(&last_dir.get()).map(|(a, b)| a * b).sum();
+        if along < 0.0 {
+            dir.iter_mut().for_each(|d| *d = -*d);
+        }
+        last_dir.set(dir);
+        let (a, d) = (rate.get(), p.epsilon / NULL_RATE_STEPS);
+        let moved = |alpha: f64| {
+            let mut s = proj;
+            s.iter_mut().zip(&dir).for_each(|(x, n)| *x += alpha * n);
+            ik::<M, D>(robot.model, target, &s, ik_params).ok()
+        };
+        let cost = |m: &[f64; D]| {
+            let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, p)
+        };
+        let best = [a - d, a, a + d]
+            .into_iter()
+            .map(|alpha| alpha.clamp(-p.epsilon, p.epsilon))
+            .filter_map(|alpha| Some((alpha, moved(alpha)?)))
+            .filter(|(_, m)| valid.step_within_limits(q, m))
+            .map(|(alpha, m)| (cost(&m), alpha, m))
+            .min_by(|x, y| x.0.total_cmp(&y.0));
+        // None within the limits: the projection, if it is, from rest.
+        let (alpha, next) = match best {
+            Some((_, alpha, m)) => (alpha, m),
+            None => (0.0, Some(proj).filter(|m| valid.step_within_limits(q, m))?),
+        };
+        rate.set(alpha);
+        Some(next)
     };
     let base_inv = robot.base.inverse();
     let tcp_inv = robot.tcp.inverse();
