@@ -28,7 +28,7 @@ use crate::search::{
     plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
     SearchError, SearchStats, StartCache, StartIk, Validity, Workspace,
 };
-use crate::tracking::track;
+use crate::tracking::{track, Steps};
 
 /// Margin (m) of the witness of two arms that touch at a step without overlapping.
 const TOUCH: f64 = 1e-6;
@@ -507,6 +507,13 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             self.low.motion_step,
         )
         .excluding(robot.excluded);
+        // With a step cost, the warm start weighs it as the search would.
+        let steered = self.low.at_step(self.pr.dt);
+        let steps = if steered.w_a > 0.0 {
+            Steps::Steered(&steered)
+        } else {
+            Steps::Nearest(&self.low.ik)
+        };
         let t = self.pr.trajectories.len();
         // Ties (and trajectories without poses, last) in listed order.
         let far = |j: usize| {
@@ -531,8 +538,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                     _ => rng.configuration(M::lower(robot.model), M::upper(robot.model)),
                 };
                 let traj = &self.pr.trajectories[j];
-                if track::<M, D>(&robot, traj, &seed, &valid, &self.low.ik, self.scratch).is_some()
-                {
+                if track::<M, D>(&robot, traj, &seed, &valid, steps, self.scratch).is_some() {
                     return Some(j as u8);
                 }
             }

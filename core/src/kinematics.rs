@@ -132,6 +132,24 @@ pub fn null_space_basis<const D: usize>(jacobian: &SMatrix<f64, 6, D>) -> Vec<SV
     basis
 }
 
+/// How far the arm is from two of its joint axes lying on one line: the least distance,
+/// up to sign, between two columns of the Jacobian (metres for the linear rows, radians for
+/// the angular ones). Two collinear axes give equal columns: the two joints then only turn
+/// against each other, and the hand moving past such a configuration needs one of them to
+/// spin (for a redundant arm this is where following the hand within the joints' speeds
+/// becomes impossible although the Jacobian keeps full rank). `f64::INFINITY` for fewer
+/// than two joints.
+pub fn axis_separation<const D: usize>(jacobian: &SMatrix<f64, 6, D>) -> f64 {
+    let mut least = f64::INFINITY;
+    for a in 0..D {
+        for b in a + 1..D {
+            let (ca, cb) = (jacobian.column(a), jacobian.column(b));
+            least = least.min((ca - cb).norm()).min((ca + cb).norm());
+        }
+    }
+    least
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -231,5 +249,29 @@ mod tests {
         assert!(null_space_basis(&SMatrix::<f64, 6, 6>::identity()).is_empty());
         j[(0, 0)] = f64::NAN;
         assert!(null_space_basis(&j).is_empty());
+    }
+
+    #[test]
+    fn collinear_axes_have_no_separation() {
+        use crate::model::{KinovaGen3, Model};
+        // The Gen3's shoulder straight up: joints 1 and 3 turn about vertical lines 12 mm
+        // apart (the links' offsets).
+        let mut q = [0.3, 0.0, 1.1, -2.2, 0.6, 0.4, 2.5];
+        let (_, jac) = KinovaGen3::jacobian(&q);
+        assert!(axis_separation(&jac) < 0.02, "{}", axis_separation(&jac));
+        // Tilted, the two columns part; more tilt, more separation (until another pair is
+        // the nearest).
+        let mut last = 0.0;
+        for tilt in [0.1, 0.2, 0.3] {
+            q[1] = -tilt;
+            let (_, jac) = KinovaGen3::jacobian(&q);
+            let s = axis_separation(&jac);
+            assert!(s > last, "tilt {tilt}: {s} after {last}");
+            last = s;
+        }
+        assert_eq!(
+            axis_separation(&SMatrix::<f64, 6, 1>::zeros()),
+            f64::INFINITY
+        );
     }
 }

@@ -1,23 +1,95 @@
 //! IK tracking: follow a trajectory by projecting each pose from the previous configuration,
-//! `q_t = IK(x_t, q_{t-1})`. Myopic but fast; Ω-CBSA warm-starts its root with it and the
-//! IK-tracking baseline is made of it.
+//! `q_t = IK(x_t, q_{t-1})`, or steered along the null space by Ω-A*'s step cost
+//! ([`Steps`]). Myopic but fast;
+//! Ω-CBSA warm-starts its root with it and the IK-tracking baseline is made of it.
+
+use core::cell::Cell;
 
 use crate::ik::{ik, IkParams};
+use crate::kinematics::null_space_basis;
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
+use crate::search::{axes_cost, OmegaParams};
+
+/// How [`track`] takes each step.
+#[derive(Clone, Copy, Debug)]
+pub enum Steps<'p> {
+    /// The IK answer nearest the last configuration.
+    Nearest(&'p IkParams),
+    /// The IK projection moved along the null space (then back onto the pose by IK), at a
+    /// rate of at most Ω-A*'s null-space step `epsilon` (these settings, already at the
+    /// problem's step) that changes by at most `epsilon /` [`NULL_RATE_STEPS`] a step: each
+    /// step keeps, slows or speeds up the rate, whichever gives the least joint motion plus
+    /// [`axes_cost`]. The search's costs without its backtracking, and without the jumps of
+    /// its `± epsilon` moves, which a streamed path could not follow within the joints'
+    /// accelerations.
+    Steered(&'p OmegaParams),
+}
+
+/// Steps of [`Steps::Steered`] from rest to the full null-space rate.
+pub const NULL_RATE_STEPS: f64 = 8.0;
 
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
-/// state and motion with `valid`. Writes `out[..H]` and returns the collision count with the
-/// other robots (always 0 when `valid` avoids them), or `None` when tracking breaks down.
+/// state and motion with `valid`, each step taken as `steps` says. Writes `out[..H]` and
+/// returns the collision count with the other robots (always 0 when `valid` avoids them), or
+/// `None` when tracking breaks down.
 pub fn track<M: Models<D>, const D: usize>(
     robot: &Robot<D>,
     traj: &Trajectory,
     seed: &[f64; D],
     valid: &Validity<'_, M, D>,
-    ik_params: &IkParams,
+    steps: Steps<'_>,
     out: &mut [[f64; D]],
 ) -> Option<u32> {
+    let ik_params = match steps {
+        Steps::Nearest(p) => p,
+        Steps::Steered(p) => &p.ik,
+    };
+    // Steered: the null-space rate (rad a step) and direction of the last step.
+    let rate = Cell::new(0.0);
+    let last_dir = Cell::new([0.0; D]);
+    let next = |target: &Frame, q: &[f64; D]| {
+        let proj = ik::<M, D>(robot.model, target, q, ik_params).ok()?;
+        let Steps::Steered(p) = steps else {
+            return Some(proj).filter(|next| valid.step_within_limits(q, next));
+        };
+        let (_, jac) = M::jacobian(robot.model, &proj);
+        let mut dir = [0.0; D];
+        if let Some(n) = null_space_basis::<D>(&jac).first() {
+            dir.iter_mut().zip(n.iter()).for_each(|(d, x)| *d = *x);
+        }
+        // The basis fixes its sign by its first component: keep the last step's sense.
+        let along: f64 = dir.iter().zip(&last_dir.get()).map(|(a, b)| a * b).sum();
+        if along < 0.0 {
+            dir.iter_mut().for_each(|d| *d = -*d);
+        }
+        last_dir.set(dir);
+        let (a, d) = (rate.get(), p.epsilon / NULL_RATE_STEPS);
+        let moved = |alpha: f64| {
+            let mut s = proj;
+            s.iter_mut().zip(&dir).for_each(|(x, n)| *x += alpha * n);
+            ik::<M, D>(robot.model, target, &s, ik_params).ok()
+        };
+        let cost = |m: &[f64; D]| {
+            let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, p)
+        };
+        let best = [a - d, a, a + d]
+            .into_iter()
+            .map(|alpha| alpha.clamp(-p.epsilon, p.epsilon))
+            .filter_map(|alpha| Some((alpha, moved(alpha)?)))
+            .filter(|(_, m)| valid.step_within_limits(q, m))
+            .map(|(alpha, m)| (cost(&m), alpha, m))
+            .min_by(|x, y| x.0.total_cmp(&y.0));
+        // None within the limits: the projection, if it is, from rest.
+        let (alpha, next) = match best {
+            Some((_, alpha, m)) => (alpha, m),
+            None => (0.0, Some(proj).filter(|m| valid.step_within_limits(q, m))?),
+        };
+        rate.set(alpha);
+        Some(next)
+    };
     let base_inv = robot.base.inverse();
     let tcp_inv = robot.tcp.inverse();
     let target = |x: &Frame| base_inv.compose(x).compose(&tcp_inv);
@@ -30,14 +102,91 @@ pub fn track<M: Models<D>, const D: usize>(
     let mut c = valid.state(&q, 0)? as u32;
     out[0] = q;
     for t in 1..traj.len() {
-        let next = ik::<M, D>(robot.model, &target(&traj[t]), &q, ik_params).ok()?;
-        if !valid.step_within_limits(&q, &next) {
-            return None;
-        }
+        let next = next(&target(&traj[t]), &q)?;
         c += valid.state(&next, t)? as u32;
         c += valid.motion(&q, &next, t - 1)? as u32;
         q = next;
         out[t] = q;
     }
     Some(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::axis_separation;
+    use crate::model::{KinovaGen3, Model};
+    use crate::problem::{Assigned, StartExclusions};
+    use crate::search::{OthersMode, REFERENCE_DT};
+    use crate::tool::Tool;
+
+    /// A hand held still in front of a Gen3 whose shoulder stands nearly straight up (its
+    /// first and third axes 0.1 rad apart): plain tracking stays where it is; steered by the
+    /// axes' cost, the arm turns in its null space, the hand unmoved, until they part.
+    #[test]
+    fn steered_tracking_parts_the_axes_and_plain_tracking_stays() {
+        let q0 = [0.3, -0.1, 1.1, -2.2, 0.6, 0.4, 2.5];
+        let robot = Robot {
+            model: 0,
+            base: Frame::IDENTITY,
+            tcp: Frame::IDENTITY,
+            initial: Some(q0),
+            tool: Tool::NONE,
+            start: Start::AtInitial,
+            assigned: Assigned::Track(0),
+            excluded: StartExclusions::NONE,
+        };
+        let hand = <KinovaGen3 as Model<7>>::fk(&q0);
+        let traj: Trajectory = (0..40).map(|_| hand).collect();
+        let dt = 0.02;
+        let valid = Validity::<KinovaGen3, 7>::new(
+            0,
+            Frame::IDENTITY,
+            Tool::NONE,
+            &[],
+            &[],
+            OthersMode::Avoid,
+            &[],
+            dt,
+            crate::motion::MOTION_STEP,
+        );
+        let separation = |q: &[f64; 7]| axis_separation(&<KinovaGen3 as Model<7>>::jacobian(q).1);
+        let mut plain = [[0.0; 7]; 40];
+        let ik_params = IkParams::default();
+        track(
+            &robot,
+            &traj,
+            &q0,
+            &valid,
+            Steps::Nearest(&ik_params),
+            &mut plain,
+        )
+        .unwrap();
+        let moved = |p: &[[f64; 7]]| (0..7).map(|d| (p[39][d] - q0[d]).abs()).fold(0.0, f64::max);
+        assert!(moved(&plain) < 1e-6, "{}", moved(&plain));
+        // Here a null-space step of ε parts the axes by only 0.13 ε: a weight above 8 pays
+        // for the step's own length.
+        let params = OmegaParams {
+            w_a: 20.0,
+            ..OmegaParams::default()
+        }
+        .at_step(dt);
+        assert!(dt < REFERENCE_DT && params.epsilon < 0.2);
+        let mut steered = [[0.0; 7]; 40];
+        track(
+            &robot,
+            &traj,
+            &q0,
+            &valid,
+            Steps::Steered(&params),
+            &mut steered,
+        )
+        .unwrap();
+        let (before, after) = (separation(&q0), separation(&steered[39]));
+        assert!(after > before + 0.1, "{before} -> {after}");
+        for q in &steered {
+            let err = (<KinovaGen3 as Model<7>>::fk(q).pos - hand.pos).norm();
+            assert!(err < 1e-3, "the hand moved {err} m");
+        }
+    }
 }

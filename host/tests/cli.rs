@@ -307,6 +307,20 @@ fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
             "16",
         ],
         &["bench-online", "--family", "shelves"],
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--axis-weight",
+            "-1",
+        ],
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--axis-weight",
+            "NaN",
+        ],
         &["bench-online", "/nonexistent", "--hz", "50"],
         &["bench-online"],
     ] {

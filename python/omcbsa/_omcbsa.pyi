@@ -161,6 +161,9 @@ class Embodier:
     (fixed, or tried first with ``preferred=True``) says which arm takes which hand;
     ``reassign=True`` lets a chunk that has no plan under the assignment take a new one from
     where the arms stand (off: a hand holding an object cannot change arms).
+    ``axis_weight`` weighs the search's cost of two joint axes nearing one line, which keeps
+    a chunk from leaving an arm where the next one would need a joint past its speed (0:
+    chunks planned greedily, IK tracking first).
     """
 
     def __init__(
@@ -180,6 +183,7 @@ class Embodier:
         assignment: Optional[Sequence[Optional[int]]] = None,
         preferred: bool = False,
         reassign: bool = False,
+        axis_weight: float = 4.0,
     ) -> None: ...
     def embody(self, hands: ArrayLike, chunk_len: Optional[int] = None) -> npt.NDArray[np.float64]:
         """A whole episode, however long: ``hands`` (hands, T, 7) -> every robot's timeline

@@ -139,7 +139,7 @@ impl Embodier {
     #[pyo3(signature = (setup=None, *, bases=None, initial=None, dt=None, tcp=None,
         obstacles=None, tolerance=None, model=None, planner="omcbsa",
         chunk_timeout=1.0, max_chunk_len=64, assignment=None, preferred=false,
-        reassign=false))]
+        reassign=false, axis_weight=omcbsa::online::AXIS_WEIGHT))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -157,6 +157,7 @@ impl Embodier {
         assignment: Option<Vec<Option<usize>>>,
         preferred: bool,
         reassign: bool,
+        axis_weight: f64,
     ) -> PyResult<Embodier> {
         let options = OnlineOptions {
             planner: planner.to_string(),
@@ -164,6 +165,7 @@ impl Embodier {
             max_chunk_len,
             assignment: rule(assignment, preferred),
             reassign,
+            axis_weight,
             ..OnlineOptions::default()
         };
         let setup = match (setup, bases, initial, dt) {

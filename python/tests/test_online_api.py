@@ -115,6 +115,19 @@ def test_a_fixed_assignment_is_kept_by_plan_and_by_the_embodier():
     assert e.assignment == [None, 0]
 
 
+def test_the_axis_weight_is_an_option_and_a_bad_one_is_refused():
+    hands = episode(20, np.random.default_rng(11))
+    for weight in (0.0, 4.0):
+        e = omcbsa.Embodier(bases=BASES, initial=[RETRACT, RETRACT], dt=0.05, tcp=TCP,
+                            axis_weight=weight)
+        e.push_chunk(0, hands[:, :10])
+        assert e.assignment == [0, 1]
+    for bad in (-1.0, float("nan")):
+        with pytest.raises(omcbsa.InputError, match="axis_weight"):
+            omcbsa.Embodier(bases=BASES, initial=[RETRACT, RETRACT], dt=0.05, tcp=TCP,
+                            axis_weight=bad)
+
+
 def test_a_blocked_chunk_names_the_robot_the_hand_and_the_step():
     hands = episode(40, np.random.default_rng(13))
     e = omcbsa.Embodier(bases=BASES, initial=[RETRACT, RETRACT], dt=0.05, tcp=TCP,

@@ -252,7 +252,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
         &traj,
         &shifted,
         &free,
-        &Default::default(),
+        omcbsa_core::tracking::Steps::Nearest(&Default::default()),
         &mut alt,
     )?;
     let mut f = [Frame::IDENTITY; 9];

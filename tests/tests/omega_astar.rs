@@ -4,7 +4,7 @@ use omcbsa::format::Status;
 use omcbsa::planners::DOF;
 use omcbsa_core::model::KinovaGen3;
 use omcbsa_core::search::{OthersMode, Validity};
-use omcbsa_core::tracking::track;
+use omcbsa_core::tracking::{track, Steps};
 use omcbsa_tests::*;
 
 /// IK tracking keeps the elbow family of its first IK solution (the one nearest `initial`):
@@ -38,7 +38,7 @@ fn omega_astar_swings_the_elbow_where_ik_tracking_fails() {
                 &problem.trajectories[0],
                 &init,
                 &valid,
-                &Default::default(),
+                Steps::Nearest(&Default::default()),
                 &mut path
             )
             .is_none(),

@@ -10,7 +10,7 @@ use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{Deadline, OtherArm, OthersMode, Validity};
-use crate::tracking::track;
+use crate::tracking::{track, Steps};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IkTrackingParams {
@@ -124,7 +124,7 @@ impl IkTracking {
                             &problem.trajectories[j],
                             &seed,
                             &valid,
-                            &self.params.ik,
+                            Steps::Nearest(&self.params.ik),
                             path,
                         )
                         .is_some()

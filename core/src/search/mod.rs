@@ -8,8 +8,8 @@ mod validity;
 mod workspace;
 
 pub use omega_astar::{
-    manifold_moves, plan, Found, OmegaParams, OtherArm, OthersMode, PointConstraint, Query,
-    SearchError, SearchStats, StartCache, StartIk, MAX_MOVES, REFERENCE_DT,
+    axes_cost, manifold_moves, plan, Found, OmegaParams, OtherArm, OthersMode, PointConstraint,
+    Query, SearchError, SearchStats, StartCache, StartIk, MAX_MOVES, REFERENCE_DT,
 };
 pub use open::{OpenEntry, OpenList};
 pub use validity::Validity;

@@ -14,7 +14,7 @@ use core::cell::Cell;
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::ik::{ik, IkParams};
-use crate::kinematics::null_space_basis;
+use crate::kinematics::{axis_separation, null_space_basis};
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
@@ -33,6 +33,14 @@ pub struct OmegaParams {
     pub w_h: f64,
     /// Weight of the collision count.
     pub w_c: f64,
+    /// Weight of the cost of coming near two collinear joint axes: each step adds `w_a`
+    /// times how far [`axis_separation`] is below `axis_margin`. 0 (the paper's) leaves it
+    /// out; online planning, which cannot see the hand's motion beyond a chunk, uses it so
+    /// that the null space keeps the arm away from configurations it could not leave fast
+    /// enough.
+    pub w_a: f64,
+    /// Separation (see [`axis_separation`]) below which `w_a` counts.
+    pub axis_margin: f64,
     /// Most valid IK solutions of the first pose put in OPEN per trajectory.
     pub start_solutions: usize,
     /// Most random IK seeds tried per trajectory to find them.
@@ -82,6 +90,8 @@ impl Default for OmegaParams {
             epsilon: 0.2,
             w_h: 10.0,
             w_c: 0.1,
+            w_a: 0.0,
+            axis_margin: 0.5,
             start_solutions: 16,
             start_attempts: 96,
             resolution: 0.6,
@@ -266,6 +276,15 @@ pub fn manifold_moves<M: Models<D>, const D: usize>(
         }
     }
     n
+}
+
+/// The step cost of `q` nearing two collinear joint axes (see [`OmegaParams::w_a`]).
+pub fn axes_cost<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], p: &OmegaParams) -> f64 {
+    if p.w_a <= 0.0 {
+        return 0.0;
+    }
+    let (_, jac) = M::jacobian(model, q);
+    p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0)
 }
 
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
@@ -584,7 +603,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 .sum();
             let child = Node {
                 q: *q,
-                g: node.g + libm::sqrt(dist2),
+                g: node.g + libm::sqrt(dist2) + self.axes_cost(q),
                 parent: index,
                 t: t1 as u16,
                 c: node.c.saturating_add(c_state),
@@ -596,6 +615,10 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
             self.add(ws, child, stats)?;
         }
         Ok(())
+    }
+
+    fn axes_cost(&self, q: &[f64; D]) -> f64 {
+        axes_cost::<M, D>(self.q.robot.model, q, self.p)
     }
 
     /// Inserts a generated state, or improves the stored one in its cell (or takes the cell

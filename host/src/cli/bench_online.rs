@@ -54,6 +54,10 @@ pub struct Args {
     /// stand (the Embodier's `reassign`).
     #[arg(long)]
     reassign: bool,
+    /// Weight of the cost of two joint axes nearing one line in the chunks' plans (0: none,
+    /// IK tracking first, as before issue 26's transfer 013 was fixed).
+    #[arg(long, default_value_t = omcbsa::online::AXIS_WEIGHT)]
+    axis_weight: f64,
     /// omcbsa or pp.
     #[arg(long, default_value = "omcbsa")]
     planner: String,
@@ -69,12 +73,16 @@ pub fn run(args: &Args) -> ExitCode {
             "--chunk-len and --stride must be at least 1, --stride at most --chunk-len",
         );
     }
+    if !(args.axis_weight.is_finite() && args.axis_weight >= 0.0) {
+        return bad_input("--axis-weight must be a finite number, 0 or more");
+    }
     if args.chunk_len >= MAX_STEPS {
         return bad_input(format!("--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"));
     }
     let options = OnlineOptions {
         planner: args.planner.clone(),
         reassign: args.reassign,
+        axis_weight: args.axis_weight,
         ..OnlineOptions::default()
     };
     match (&args.suite, args.family.as_deref()) {

@@ -92,7 +92,20 @@ pub struct OnlineOptions {
     /// where the arms stand (an approach; the poses it cannot reach in time are dropped). Off
     /// by default: a hand holding an object cannot change arms.
     pub reassign: bool,
+    /// Weight of Ω-A*'s cost of two joint axes nearing one line
+    /// ([`omcbsa_core::search::OmegaParams::w_a`]; 0 plans as a whole problem is planned:
+    /// IK tracking to the nearest IK answer first). A chunk cannot see the hands' motion past its end; planned
+    /// greedily, it may leave an arm where two of its axes nearly line up, and the next
+    /// chunk then needs a joint faster than its limit (bimanual transfer 013 at 50 Hz,
+    /// 16-step chunks sent just in time). The cost makes the null space keep them apart.
+    pub axis_weight: f64,
 }
+
+/// [`OnlineOptions::axis_weight`] by default. `bench-online --family bimanual` at 50 Hz, 2
+/// arms, 16-step chunks just in time: weights from 0.5 to 8 embody all 40 episodes; 0.25 loses
+/// transfer 013 (the dead end this cost is for), 16 steers so hard that two others lose a
+/// wrist joint's speed. 4 is in the middle (log scale).
+pub const AXIS_WEIGHT: f64 = 4.0;
 
 impl Default for OnlineOptions {
     fn default() -> Self {
@@ -108,6 +121,7 @@ impl Default for OnlineOptions {
             },
             assignment: AssignmentRule::Free,
             reassign: false,
+            axis_weight: AXIS_WEIGHT,
         }
     }
 }
@@ -207,6 +221,9 @@ impl Embodier {
         if !(options.chunk_timeout_s.is_finite() && options.chunk_timeout_s > 0.0) {
             errors.push("chunk_timeout_s", "must be a positive number of seconds");
         }
+        if !(options.axis_weight.is_finite() && options.axis_weight >= 0.0) {
+            errors.push("axis_weight", "must be a finite number, 0 or more");
+        }
         if options.max_chunk_len == 0 || options.max_chunk_len >= MAX_STEPS {
             errors.push(
                 "max_chunk_len",
@@ -242,6 +259,8 @@ impl Embodier {
         let robots = problem.robots.clone();
         let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
+        // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
+        storage.cbs_params.low.w_a = options.axis_weight;
         storage.approach_params = options.approach;
         Ok(Embodier {
             robots,
