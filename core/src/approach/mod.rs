@@ -399,8 +399,9 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
         at[..n].copy_from_slice(&st.waypoints[from..from + n]);
         let mut target = at;
         target[r] = goals[r];
+        let blocked = bridges.blocked(fleet, r, done);
         done |= 1 << r;
-        if !bridges.blocked(fleet, r, done & !(1 << r)) {
+        if !blocked {
             st.waypoints[from + n..from + 2 * n].copy_from_slice(&target[..n]);
             m += 1;
             continue;
