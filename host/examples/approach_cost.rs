@@ -14,9 +14,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use omcbsa::load;
+use omcbsa::models::Fleet;
 use omcbsa::planners::{Capacities, PlannerKind, Storage};
 use omcbsa::suite::read_index;
-use omcbsa::models::Fleet;
 use omcbsa_core::planner::Status;
 
 fn median(mut v: Vec<f64>) -> f64 {
