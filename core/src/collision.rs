@@ -527,6 +527,35 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         self.travel[i]
     }
 
+    /// Per joint, a bound on how far capsule `i`'s points travel per radian (or metre) of it:
+    /// 0 for the joints that do not carry it. `None` when the model has no per-capsule bound.
+    fn capsule_reach(&self, i: usize) -> Option<[f64; D]> {
+        let links = M::capsules(self.model).len();
+        if i >= links {
+            return Some(self.tool.reach(M::tool_reach(self.model), i - links));
+        }
+        match M::capsule_reach(self.model).get(i) {
+            Some(reach) => Some(*reach),
+            None if M::capsules(self.model)[i].link == 0 => Some([0.0; D]),
+            None => None,
+        }
+    }
+
+    /// Bound on how far capsules `a` and `b` of this arm move relative to each other: a joint
+    /// that carries both turns them as one body, so only the joints that carry one of them
+    /// alone count (a serial chain: those between their links). A joint carries a capsule
+    /// when its reach for it is positive; a capsule on the axis of a joint that carries it
+    /// counts as not carried, which only makes the bound larger.
+    pub fn pair_travel(&self, a: usize, b: usize) -> f64 {
+        let (Some(ra), Some(rb)) = (self.capsule_reach(a), self.capsule_reach(b)) else {
+            return self.travel(a) + self.travel(b);
+        };
+        (0..D)
+            .filter(|&j| (ra[j] > 0.0) != (rb[j] > 0.0))
+            .map(|j| (ra[j] + rb[j]) * libm::fabs(self.dq[j]))
+            .sum()
+    }
+
     /// Whether the arm may hit an obstacle or itself anywhere along the motion.
     pub fn arm_collides(&self, base: &Frame, obstacles: &[Obstacle]) -> bool {
         let [e0, e1] = self.ends(base);
@@ -562,7 +591,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
         }
         for (a, b) in e0.self_pairs() {
-            let t = self.travel(a) + self.travel(b);
+            let t = self.pair_travel(a, b);
             if !ArmPose::pair_stays_clear(ends, a, ends, b, t) {
                 suspects.pairs[a] |= 1 << b;
             }
@@ -596,7 +625,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 }
                 for (a, &row) in sus.pairs.iter().enumerate() {
                     for b in bits(row) {
-                        let m = (self.travel(a) + self.travel(b)) * w;
+                        let m = self.pair_travel(a, b) * w;
                         if arm.pair_hits(a, &arm, b, m) {
                             left.pairs[a] |= 1 << b;
                         }

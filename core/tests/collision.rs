@@ -302,6 +302,50 @@ fn sweep_margin_covers_every_intermediate_configuration() {
     );
 }
 
+/// Any two capsules of one arm come closer or part along a motion by no more than their pair
+/// travel (what the self-collision sweeps allow them), on the synthetic chain and the Gen3
+/// with a tool; and the bound is 0 for capsules that no joint moves apart.
+fn pair_travel_bounds_how_far_capsules_move_apart<MM: Model<DD>, const DD: usize>(seed: u64) {
+    let mut rng = Rng::new(seed);
+    let mut rigid = 0;
+    for _ in 0..200 {
+        let q0 = rng.configuration(&MM::LOWER, &MM::UPPER);
+        let q1: [f64; DD] = std::array::from_fn(|j| {
+            let v = MM::VELOCITY[j] * 0.5;
+            (q0[j] + rng.uniform(-v, v)).clamp(MM::LOWER[j], MM::UPPER[j])
+        });
+        let sweep = Sweep::<MM, DD>::new(0, &tool(), &q0, &q1, 0.01);
+        let at = |s: f64| {
+            let q = std::array::from_fn(|j| q0[j] + (q1[j] - q0[j]) * s);
+            ArmPose::new::<MM, DD>(0, &Frame::IDENTITY, &tool(), &q)
+        };
+        let start = at(0.0);
+        let n = start.capsules().len();
+        for k in 1..=40 {
+            let s = k as f64 / 40.0;
+            let arm = at(s);
+            for a in 0..n {
+                for b in a + 1..n {
+                    let d = |p: &ArmPose| p.capsules()[a].signed_distance(&p.capsules()[b]);
+                    let bound = sweep.pair_travel(a, b);
+                    assert!(
+                        (d(&arm) - d(&start)).abs() <= bound * s + 1e-9,
+                        "capsules {a} and {b}: {q0:?} -> {q1:?} at {s}"
+                    );
+                    rigid += usize::from(k == 1 && bound == 0.0);
+                }
+            }
+        }
+    }
+    assert!(rigid > 0, "no pair of capsules moves as one body");
+}
+
+#[test]
+fn pair_travel_bounds_how_far_two_capsules_of_an_arm_move_apart() {
+    pair_travel_bounds_how_far_capsules_move_apart::<M, D>(21);
+    pair_travel_bounds_how_far_capsules_move_apart::<omcbsa_core::model::KinovaGen3, 7>(22);
+}
+
 #[test]
 fn a_clear_sweep_is_clear_throughout_and_no_stricter_than_uniform_checks() {
     let mut rng = Rng::new(7);
