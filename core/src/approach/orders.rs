@@ -141,48 +141,57 @@ impl<'s, const D: usize> Bridges<'s, D> {
     }
 
     /// The order of the moving robots with the fewest blocked bridges (each of which needs a
-    /// detour or a search around the others), lowest index first among equals. Asks about
-    /// every bridge against every other robot at either end.
+    /// detour or a search around the others). A* over the sets of robots already moved, from
+    /// none to all: a move costs 1 when its bridge is blocked, and the robots blocked by an
+    /// obstacle or themselves still to move are a lower bound of what is left (each costs 1 in
+    /// every order), so the first time all are moved the order is a fewest-blocked one. Only
+    /// the moves out of the sets it expands are asked about, where filling the table of every
+    /// set asked about every bridge against every other robot at either end. Ties go to the
+    /// set with more robots moved, then the lower set: deterministic.
     pub fn fewest_blocked<M: Models<D>>(&mut self, fleet: &Fleet<'_, M, D>) -> [u8; MAX_ROBOTS] {
         let all = self.moving;
-        // cost[done]: the fewest blocked bridges from `done` to all at their goals (subsets of
-        // `all` only; a superset is larger as a number, so it comes first going down).
-        let mut cost = [u8::MAX; SETS];
-        cost[all as usize] = 0;
-        let mut done = all;
+        let own = (0..fleet.n)
+            .filter(|&r| all & (1 << r) != 0 && self.own_blocked(fleet, r))
+            .fold(0u32, |m, r| m | 1 << r);
+        // g[done]: the fewest blocked moves found to reach `done`; came[done]: the robot that
+        // moved last on that way.
+        let mut g = [u8::MAX; SETS];
+        let mut came = [0u8; SETS];
+        let mut closed = [false; SETS];
+        g[0] = 0;
         loop {
-            done = done.wrapping_sub(1) & all;
+            let key = |done: u32| {
+                let f = u32::from(g[done as usize]) + (own & !done).count_ones();
+                (f, MAX_ROBOTS as u32 - done.count_ones(), done)
+            };
+            // The subsets of `all`, from all down to none.
+            let subsets = core::iter::successors(Some(all), |&d| (d != 0).then(|| (d - 1) & all));
+            let open = subsets.filter(|&d| g[d as usize] != u8::MAX && !closed[d as usize]);
+            let Some(done) = open.min_by_key(|&d| key(d)) else {
+                // Unreachable: every set of `all` is reached from the empty one.
+                break;
+            };
             if done == all {
                 break;
             }
-            cost[done as usize] = self.best_next(fleet, done, &cost).1;
-        }
-        let (mut order, mut len, mut done) = ([0u8; MAX_ROBOTS], 0, 0);
-        while done != all {
-            let r = self.best_next(fleet, done, &cost).0;
-            order[len] = r as u8;
-            (len, done) = (len + 1, done | 1 << r);
-        }
-        order
-    }
-
-    /// The robot to move next from `done` in a fewest-blocked order, and that order's cost.
-    fn best_next<M: Models<D>>(
-        &mut self,
-        fleet: &Fleet<'_, M, D>,
-        done: u32,
-        cost: &[u8; SETS],
-    ) -> (usize, u8) {
-        let mut best = (0, u8::MAX);
-        let left = self.moving & !done;
-        for r in (0..fleet.n).filter(|&r| left & (1 << r) != 0) {
-            let c = cost[(done | 1 << r) as usize]
-                .saturating_add(u8::from(self.blocked(fleet, r, done)));
-            if c < best.1 {
-                best = (r, c);
+            closed[done as usize] = true;
+            for r in (0..fleet.n).filter(|&r| all & !done & (1 << r) != 0) {
+                let next = (done | 1 << r) as usize;
+                let c = g[done as usize].saturating_add(u8::from(self.blocked(fleet, r, done)));
+                if c < g[next] {
+                    (g[next], came[next]) = (c, r as u8);
+                }
             }
         }
-        best
+        // Back from all to none.
+        let mut order = [0u8; MAX_ROBOTS];
+        let (mut len, mut done) = (all.count_ones() as usize, all);
+        while len > 0 {
+            len -= 1;
+            order[len] = came[done as usize];
+            done &= !(1 << came[done as usize]);
+        }
+        order
     }
 }
 
