@@ -16,7 +16,9 @@
 //!   chance of missing it goes to 0 as the sample budget grows.
 //! - When only some arms are sampled (one arm finding its way around the others), the others
 //!   are placed once ([`Fleet::standing`]) and distance counts the sampled arms only.
-//! - Shortcutting: from the start, each waypoint kept is joined to the farthest one it sees,
+//! - Shortcutting: first the waypoints inside straight runs (a tree extending again and again
+//!   towards one node) are dropped, unchecked, for the motion past them is the motions
+//!   checked; then from the start each waypoint kept is joined to the farthest one it sees,
 //!   found by bisection over those after it (a few long checks where trying random pairs and
 //!   then every single waypoint took many).
 //! - Deterministic: the samples come from [`Rng`] with the caller's seed, and the deadline is
@@ -169,6 +171,7 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
                     Extend::Reached(r) => {
                         let (from_start, from_goal) = if grow == 0 { (k, r) } else { (r, k) };
                         let m = trace(&mut trees, from_start, from_goal).map_err(fail)?;
+                        let m = straighten(&mut trees.st.waypoints[..m * n], n);
                         let m = shortcut(fleet, trees.st, n, m, deadline);
                         return Ok(m);
                     }
@@ -294,6 +297,45 @@ fn trace<const D: usize>(
     Ok(m)
 }
 
+/// Drops each of the `m = w.len() / n` waypoints that lies on the straight composite motion
+/// between its neighbours, going on in the same direction (a tree's connect phase makes such
+/// runs, extending again and again towards one node): the motion from the one before to the
+/// one after is the two motions checked, so nothing is checked. Returns the waypoints left.
+fn straighten<const D: usize>(w: &mut [[f64; D]], n: usize) -> usize {
+    let m = w.len() / n;
+    if m < 3 {
+        return m;
+    }
+    // Whether `b` lies on the way from `a` to `c`: `b - a` is `f (c - a)` for one `f` in (0, 1).
+    let between = |a: &[[f64; D]], b: &[[f64; D]], c: &[[f64; D]]| {
+        let (mut f, mut span) = (0.0, 0.0f64);
+        for ((qa, qb), qc) in a.iter().zip(b).zip(c) {
+            for j in 0..D {
+                let d = libm::fabs(qc[j] - qa[j]);
+                if d > span {
+                    (span, f) = (d, (qb[j] - qa[j]) / (qc[j] - qa[j]));
+                }
+            }
+        }
+        span > 0.0
+            && f > 0.0
+            && f < 1.0
+            && a.iter().zip(b).zip(c).all(|((qa, qb), qc)| {
+                (0..D).all(|j| libm::fabs(qa[j] + f * (qc[j] - qa[j]) - qb[j]) <= 1e-9 * span)
+            })
+    };
+    let mut kept = 1;
+    for k in 1..m {
+        let (last, next) = ((kept - 1) * n, (k + 1) * n);
+        if k + 1 < m && between(&w[last..last + n], &w[k * n..next], &w[next..next + n]) {
+            continue;
+        }
+        w.copy_within(k * n..(k + 1) * n, kept * n);
+        kept += 1;
+    }
+    kept
+}
+
 /// Greedy shortcutting: from the start, each waypoint kept is joined to the farthest one it
 /// sees (the straight composite motion between them free), found by bisection over the
 /// waypoints after it, and the ones between are dropped. Each motion kept was checked, or is an
@@ -317,7 +359,9 @@ fn shortcut<M: Models<D>, const D: usize>(
                     .motion_blocked(&w[at..at + n], &w[b * n..(b + 1) * n])
                     .is_none()
         };
-        let b = if a + 2 < m && sees(fleet, w, m - 1) {
+        // From the start the end is not seen: every caller searches because that motion is
+        // blocked.
+        let b = if a > 0 && a + 2 < m && sees(fleet, w, m - 1) {
             m - 1
         } else {
             // `lo` is seen (the path's own edge), `hi` is not.
