@@ -344,6 +344,7 @@ fn pair_travel_bounds_how_far_capsules_move_apart<MM: Model<DD>, const DD: usize
 fn pair_travel_bounds_how_far_two_capsules_of_an_arm_move_apart() {
     pair_travel_bounds_how_far_capsules_move_apart::<M, D>(21);
     pair_travel_bounds_how_far_capsules_move_apart::<omcbsa_core::model::KinovaGen3, 7>(22);
+    pair_travel_bounds_how_far_capsules_move_apart::<omcbsa_core::model::FrankaPanda, 7>(23);
 }
 
 #[test]
