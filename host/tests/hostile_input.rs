@@ -222,7 +222,7 @@ fn duplicate_robot_names_are_refused_naming_the_duplicate() {
         let (code, text) = run(&["plan", s(&p)]);
         assert_eq!(code, 2, "{text}");
         assert!(
-            text.contains(&format!("robots[1].name: ")) && text.contains(why),
+            text.contains("robots[1].name: ") && text.contains(why),
             "{text}"
         );
     }

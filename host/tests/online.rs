@@ -83,10 +83,10 @@ fn an_unreachable_hand_pose_is_named_and_the_plan_kept() {
     // The plan is unchanged: the arms finish it and hold at its end, within the limits.
     for (i, b) in before.iter().enumerate() {
         let now = e.planned(i, 0);
-        assert_eq!(&now[..], &b[b.len() - now.len()..]);
+        assert_eq!(now, &b[b.len() - now.len()..]);
         for w in now.windows(2) {
-            for j in 0..DOF {
-                assert!((w[1][j] - w[0][j]).abs() <= KinovaGen3::VELOCITY[j] * 0.1 + 1e-9);
+            for (j, (a, b)) in w[0].iter().zip(&w[1]).enumerate() {
+                assert!((b - a).abs() <= KinovaGen3::VELOCITY[j] * 0.1 + 1e-9);
             }
         }
     }

@@ -53,7 +53,13 @@ impl Stance {
         let mut q = *start;
         match self {
             Stance::Tucked => return *retract,
-            Stance::Crossed => q[0] += if i % 2 == 0 { FRAC_PI_2 } else { -FRAC_PI_2 },
+            Stance::Crossed => {
+                q[0] += if i.is_multiple_of(2) {
+                    FRAC_PI_2
+                } else {
+                    -FRAC_PI_2
+                }
+            }
             Stance::FarSide => q[0] += PI,
         }
         q

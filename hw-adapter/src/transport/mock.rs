@@ -1,6 +1,6 @@
 //! In-process mock bus: two connected ends, one for the host, one for a simulated device.
 
-use super::{Transport, TransportError};
+use super::{ArmBuses, Transport, TransportError};
 use crate::frame::CanFrame;
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::time::Duration;
@@ -34,7 +34,7 @@ impl MockTransport {
 
     /// One mock bus per arm: the host ends, named after the arms (for an executor), and the
     /// device ends, in the same order (for the test to read or answer).
-    pub fn buses(arms: &[&str]) -> (Vec<(String, Box<dyn Transport>)>, Vec<MockTransport>) {
+    pub fn buses(arms: &[&str]) -> (ArmBuses, Vec<MockTransport>) {
         arms.iter()
             .map(|name| {
                 let (host, device) = Self::pair(name);
