@@ -160,6 +160,33 @@ impl ArmPose {
         q: &[f64; D],
         only: u32,
     ) -> ArmPose {
+        let mut pose = ArmPose::EMPTY;
+        pose.place_only::<M, D>(model, base, tool, q, only);
+        pose
+    }
+
+    /// [`ArmPose::new`] into this pose's storage: the same pose, without building a new one
+    /// (about 2 KB) for each placing in a loop.
+    pub fn place<M: Models<D>, const D: usize>(
+        &mut self,
+        model: u8,
+        base: &Frame,
+        tool: &Tool,
+        q: &[f64; D],
+    ) {
+        self.place_only::<M, D>(model, base, tool, q, u32::MAX);
+    }
+
+    /// [`ArmPose::new_only`] into this pose's storage. Capsules past the arm's count are left
+    /// as they are: nothing reads past `len`.
+    pub fn place_only<M: Models<D>, const D: usize>(
+        &mut self,
+        model: u8,
+        base: &Frame,
+        tool: &Tool,
+        q: &[f64; D],
+        only: u32,
+    ) {
         const { M::CHECKED };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
         let linked = &mut frames[..M::link_names(model).len()];
@@ -170,33 +197,34 @@ impl ArmPose {
         }
         let capsules = M::capsules(model);
         let links = capsules.len();
-        let mut pose = ArmPose {
-            len: links + tool.capsules().len(),
-            links,
-            self_pairs: M::self_pairs(model),
-            tool_self: M::tool_self_capsules(model),
-            ..ArmPose::EMPTY
-        };
+        self.len = links + tool.capsules().len();
+        self.links = links;
+        self.self_pairs = M::self_pairs(model);
+        self.tool_self = M::tool_self_capsules(model);
+        self.on_base = 0;
+        self.aabb = Aabb::EMPTY;
+        self.moving_aabb = Aabb::EMPTY;
         let placed = capsules
             .iter()
             .map(|c| (frames[usize::from(c.link)], c.a, c.b, c.radius))
             .chain((tool.capsules().iter()).map(|c| (flange, c.a, c.b, c.radius)));
         for (i, (frame, a, b, radius)) in placed.enumerate() {
             if only & (1 << i) == 0 {
+                self.capsules[i] = ArmPose::EMPTY.capsules[0];
+                self.boxes[i] = Aabb::EMPTY;
                 continue;
             }
             let capsule = Capsule::new(frame.apply(&a.into()), frame.apply(&b.into()), radius);
             let aabb = capsule.aabb();
-            pose.capsules[i] = capsule;
-            pose.boxes[i] = aabb;
-            pose.aabb = pose.aabb.union(&aabb);
+            self.capsules[i] = capsule;
+            self.boxes[i] = aabb;
+            self.aabb = self.aabb.union(&aabb);
             if i < links && capsules[i].link == 0 {
-                pose.on_base |= 1 << i;
+                self.on_base |= 1 << i;
             } else {
-                pose.moving_aabb = pose.moving_aabb.union(&aabb);
+                self.moving_aabb = self.moving_aabb.union(&aabb);
             }
         }
-        pose
     }
 
     /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
@@ -357,6 +385,11 @@ impl ArmPose {
 /// on the halves where that fails, down to single pieces (inflated by [`Sweep::margin`]); a
 /// pair that clears a check is not looked at again inside it. A motion is reported as
 /// colliding only when a single-piece check fails.
+///
+/// At the ends, a capsule's travel has a second bound, often far smaller: how far it strays
+/// from moving in a straight line between where it is at the two ends ([`Sweep::reaches`]).
+/// An arm moving in its null space, its hand nearly still, moves its joints far but its hand
+/// capsules little, and the first bound alone counts every joint's turn at its full reach.
 #[derive(Debug)]
 pub struct Sweep<M: Models<D>, const D: usize> {
     /// The arm's model, an index into `M`.
@@ -367,6 +400,9 @@ pub struct Sweep<M: Models<D>, const D: usize> {
     /// Per capsule (link capsules, then the tool's), bound on how far its points travel
     /// (from `Model::CAPSULE_REACH` and [`Tool::reach`]).
     travel: [f64; MAX_POSE_CAPSULES],
+    /// Per capsule, bound on how far its axis strays from the straight line between where it
+    /// is at the two ends ([`bow`]); infinite for a model without per-capsule reach.
+    bow: [f64; MAX_POSE_CAPSULES],
     count: usize,
     tool: Tool,
     fleet: PhantomData<M>,
@@ -438,24 +474,15 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         let dq: [f64; D] = core::array::from_fn(|j| q1[j] - q0[j]);
         let moved = |reach: &[f64; D]| (0..D).map(|j| reach[j] * libm::fabs(dq[j])).sum::<f64>();
         let arm_length = moved(M::reach(model));
-        let mut travel = [0.0; MAX_POSE_CAPSULES];
-        let capsules = M::capsules(model);
-        for (i, (t, c)) in travel.iter_mut().zip(capsules).enumerate() {
-            *t = match M::capsule_reach(model).get(i) {
-                Some(reach) => moved(reach),
-                None if c.link == 0 => 0.0,
-                None => arm_length,
+        let (mut travel, mut bows) = ([0.0; MAX_POSE_CAPSULES], [0.0; MAX_POSE_CAPSULES]);
+        let links = M::capsules(model).len();
+        for i in 0..links + tool.capsules().len() {
+            (travel[i], bows[i]) = match capsule_reach::<M, D>(model, tool, i) {
+                Some(reach) => (moved(&reach), bow(&reach, &dq)),
+                None => (arm_length, f64::INFINITY),
             };
         }
-        let links = capsules.len();
-        let mut length = arm_length;
-        for (i, t) in travel[links..links + tool.capsules().len()]
-            .iter_mut()
-            .enumerate()
-        {
-            *t = moved(&tool.reach(M::tool_reach(model), i));
-            length = length.max(*t);
-        }
+        let length = (travel[links..].iter()).fold(arm_length, |l, &t| if t > l { t } else { l });
         let pieces = if max_disp > 0.0 {
             libm::ceil(length / max_disp)
         } else {
@@ -467,12 +494,36 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             dq,
             length,
             travel,
+            bow: bows,
             count: 1,
             tool: *tool,
             fleet: PhantomData,
         }
         // `as` saturates; NaN (from a NaN input) gives 0 and so one piece.
         .with_count(pieces as usize)
+    }
+
+    /// Per capsule of the arm placed at the two ends of this motion, a bound on how far its
+    /// points travel towards anything between the ends, counted from both ends (what a pair
+    /// test at the ends compares the clearances' sum with): the smaller of its travel, and its
+    /// chord (how far its axis ends move from one end to the other) plus twice its
+    /// [`bow`]. Along the motion the capsule is within its bow of the capsule that moves
+    /// straight from one end to the other, whose points move at most the chord in all, so it
+    /// is within `chord * s + bow` of where it is at the start a fraction `s` of the way, and
+    /// within `chord * (1 - s) + bow` of where it is at the end.
+    pub fn reaches(&self, ends: [&ArmPose; 2]) -> [f64; MAX_POSE_CAPSULES] {
+        let mut reach = [0.0; MAX_POSE_CAPSULES];
+        for (i, r) in reach.iter_mut().enumerate().take(ends[0].len) {
+            let (c0, c1) = (&ends[0].capsules[i].segment, &ends[1].capsules[i].segment);
+            let chord = (c1.a - c0.a).norm().max((c1.b - c0.b).norm());
+            let straight = chord + 2.0 * self.bow[i];
+            *r = if straight < self.travel[i] {
+                straight
+            } else {
+                self.travel[i]
+            };
+        }
+        reach
     }
 
     /// The same motion in `count` pieces (clamped to `1..=MAX_SWEEP_CHECKS`), e.g. the larger
@@ -523,22 +574,14 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
     }
 
     /// Bound on how far the points of capsule `i` travel over the motion.
-    fn travel(&self, i: usize) -> f64 {
+    pub fn travel(&self, i: usize) -> f64 {
         self.travel[i]
     }
 
     /// Per joint, a bound on how far capsule `i`'s points travel per radian (or metre) of it:
     /// 0 for the joints that do not carry it. `None` when the model has no per-capsule bound.
     fn capsule_reach(&self, i: usize) -> Option<[f64; D]> {
-        let links = M::capsules(self.model).len();
-        if i >= links {
-            return Some(self.tool.reach(M::tool_reach(self.model), i - links));
-        }
-        match M::capsule_reach(self.model).get(i) {
-            Some(reach) => Some(*reach),
-            None if M::capsules(self.model)[i].link == 0 => Some([0.0; D]),
-            None => None,
-        }
+        capsule_reach::<M, D>(self.model, &self.tool, i)
     }
 
     /// Bound on how far capsules `a` and `b` of this arm move relative to each other: a joint
@@ -570,6 +613,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         ends: [&ArmPose; 2],
     ) -> bool {
         let [e0, e1] = ends;
+        let reach = self.reaches(ends);
         let mut suspects = Suspects::NONE;
         let moving = e0.moving_aabb.union(&e1.moving_aabb);
         for o in obstacles {
@@ -578,7 +622,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 continue;
             }
             for i in (0..e0.len).filter(|&i| !e0.on_base(i)) {
-                let t = self.travel(i);
+                let t = reach[i];
                 if suspects.obstacles & (1 << i) != 0
                     || ob.distance(&e0.boxes[i]) + ob.distance(&e1.boxes[i]) > t
                     || o.distance_to_capsule(&e0.capsules[i])
@@ -591,7 +635,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
         }
         for (a, b) in e0.self_pairs() {
-            let t = self.pair_travel(a, b);
+            let t = self.pair_travel(a, b).min(reach[a] + reach[b]);
             if !ArmPose::pair_stays_clear(ends, a, ends, b, t) {
                 suspects.pairs[a] |= 1 << b;
             }
@@ -599,19 +643,14 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         if !suspects.any() {
             return false;
         }
+        let mut arm = ArmPose::EMPTY;
         bisect(
             0,
             self.count,
             self.count,
             suspects,
-            &|s, w, sus: &Suspects| {
-                let arm = ArmPose::new_only::<M, D>(
-                    self.model,
-                    base,
-                    &self.tool,
-                    &self.at(s),
-                    sus.capsules(),
-                );
+            &mut |s, w, sus: &Suspects| {
+                arm.place_only::<M, D>(self.model, base, &self.tool, &self.at(s), sus.capsules());
                 let mut left = Suspects::NONE;
                 for i in bits(sus.obstacles) {
                     let m = self.travel(i) * w;
@@ -660,16 +699,27 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
     base_b: &Frame,
     b_ends: [&ArmPose; 2],
 ) -> bool {
-    let ([a0, a1], [b0, b1]) = (a_ends, b_ends);
-    let b_box = b0.aabb.union(&b1.aabb);
+    let ([a0, _], [b0, _]) = (a_ends, b_ends);
+    // A capsule whose boxes at the two ends are farther from the other arm's whole boxes
+    // than both can travel towards each other meets none of its capsules: the same bound as
+    // each pair's, taken once per capsule, which leaves out most rows and columns of pairs
+    // of two arms working side by side.
+    let near_other = |ends: [&ArmPose; 2], i: usize, other: [&ArmPose; 2], travel: f64| {
+        ends[0].boxes[i].distance(&other[0].aabb) + ends[1].boxes[i].distance(&other[1].aabb)
+            <= travel
+    };
+    let (ra, rb) = (a.reaches(a_ends), b.reaches(b_ends));
+    let (a_far, b_far) = (farthest(&ra), farthest(&rb));
+    let columns = (0..b0.len)
+        .filter(|&j| near_other(b_ends, j, a_ends, rb[j] + a_far))
+        .fold(0u32, |m, j| m | 1 << j);
     let mut pairs: Pairs = [0; MAX_POSE_CAPSULES];
     for (i, row) in pairs.iter_mut().enumerate().take(a0.len) {
-        let ti = a.travel(i);
-        if !a0.boxes[i].union(&a1.boxes[i]).near(&b_box, ti + b.length) {
+        if columns == 0 || !near_other(a_ends, i, b_ends, ra[i] + b_far) {
             continue;
         }
-        for j in 0..b0.len {
-            if !ArmPose::pair_stays_clear(a_ends, i, b_ends, j, ti + b.travel(j)) {
+        for j in bits(columns) {
+            if !ArmPose::pair_stays_clear(a_ends, i, b_ends, j, ra[i] + rb[j]) {
                 *row |= 1 << j;
             }
         }
@@ -683,19 +733,19 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         a.dq.iter().all(|&d| d == 0.0),
         b.dq.iter().all(|&d| d == 0.0),
     );
-    bisect(0, count, count, pairs, &|s, w, pairs: &Pairs| {
+    let (mut placed_a, mut placed_b) = (ArmPose::EMPTY, ArmPose::EMPTY);
+    bisect(0, count, count, pairs, &mut |s, w, pairs: &Pairs| {
         let (rows, columns) = rows_and_columns(pairs);
-        let (placed_a, placed_b);
         let arm_a = if a_still {
             a0
         } else {
-            placed_a = ArmPose::new_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
+            placed_a.place_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
             &placed_a
         };
         let arm_b = if b_still {
             b0
         } else {
-            placed_b = ArmPose::new_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
+            placed_b.place_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
             &placed_b
         };
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
@@ -711,6 +761,50 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
     })
 }
 
+/// Per joint, a bound on how far capsule `i` (link capsules, then the tool's) of model
+/// `model` carrying `tool` travels per radian (or metre) of it: 0 for the joints that do not
+/// carry it. `None` when the model has no per-capsule bound.
+fn capsule_reach<M: Models<D>, const D: usize>(
+    model: u8,
+    tool: &Tool,
+    i: usize,
+) -> Option<[f64; D]> {
+    let links = M::capsules(model).len();
+    if i >= links {
+        return Some(tool.reach(M::tool_reach(model), i - links));
+    }
+    match M::capsule_reach(model).get(i) {
+        Some(reach) => Some(*reach),
+        None if M::capsules(model)[i].link == 0 => Some([0.0; D]),
+        None => None,
+    }
+}
+
+/// The largest of per-capsule bounds (0 for none).
+fn farthest(bounds: &[f64; MAX_POSE_CAPSULES]) -> f64 {
+    bounds.iter().fold(0.0, |m, &t| if t > m { t } else { m })
+}
+
+/// How far a point strays from the straight line between where it is at the two ends of the
+/// joint-space motion `dq`, for a point that joint `m` moves at most `reach[m]` per radian (or
+/// metre) of it ([`Sweep::capsule_reach`], 0 for joints that do not carry it). The point's
+/// distance from that line is at most an eighth of its largest acceleration along the
+/// motion; its second derivative by joints `j` and `k` of a serial chain is at most the
+/// reach of the later of the two (for revolute joints: a turn of the earlier one turns the
+/// later one's velocity field, or the later one turns the point about its axis; for
+/// prismatic ones a unit vector turns, and their reach is 1), so the acceleration is at most
+/// `sum_jk reach[max(j, k)] |dq_j| |dq_k|`. Quadratic in the motion: small for short ones.
+fn bow<const D: usize>(reach: &[f64; D], dq: &[f64; D]) -> f64 {
+    let mut before = 0.0;
+    let mut acceleration = 0.0;
+    for (r, d) in reach.iter().zip(dq) {
+        let d = libm::fabs(*d);
+        acceleration += r * d * (d + 2.0 * before);
+        before += d;
+    }
+    acceleration / 8.0
+}
+
 /// Whether some suspect still fails on a single piece: checks pieces `first..end` of `count`
 /// as a whole at their middle `s`, with `w` half their width (a fraction of the motion), by
 /// `hit(s, w, suspects)`, which returns the suspects that fail there (`None`: all clear); then
@@ -720,7 +814,7 @@ fn bisect<S: Copy>(
     end: usize,
     count: usize,
     suspects: S,
-    hit: &impl Fn(f64, f64, &S) -> Option<S>,
+    hit: &mut impl FnMut(f64, f64, &S) -> Option<S>,
 ) -> bool {
     let n = count as f64;
     let Some(left) = hit(

@@ -20,6 +20,7 @@ impl Capsule {
         }
     }
 
+    #[inline]
     pub fn aabb(&self) -> Aabb {
         let s = &self.segment;
         let r = Vector3::repeat(self.radius);
@@ -31,8 +32,10 @@ impl Capsule {
 
     /// Signed distance between the surfaces: negative when the capsules overlap (then minus
     /// the depth of the overlap, which is exact for capsules).
+    #[inline]
     pub fn signed_distance(&self, other: &Capsule) -> f64 {
-        libm::sqrt(self.segment.distance2_to_segment(&other.segment)) - self.radius - other.radius
+        // One sum of radii, so that the answer is the same whichever capsule asks.
+        libm::sqrt(self.segment.distance2_to_segment(&other.segment)) - (self.radius + other.radius)
     }
 
     /// Whether the capsules come closer than `margin` or meet.

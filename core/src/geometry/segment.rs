@@ -77,11 +77,19 @@ impl Segment {
         }
     }
 
-    /// Squared distance between two segments.
+    /// Squared distance between two segments: the same, to the last bit, whichever of the
+    /// two asks (the pair is put in one order first), so that a planner asking "does arm A
+    /// meet arm B" and one asking "does B meet A" agree.
     #[inline]
     pub fn distance2_to_segment(&self, other: &Segment) -> f64 {
-        let (s, t) = self.closest_params(other);
-        (self.at(s) - other.at(t)).norm_squared()
+        let key = |g: &Segment| [g.a.x, g.a.y, g.a.z, g.b.x, g.b.y, g.b.z];
+        let (first, second) = if key(other) < key(self) {
+            (other, self)
+        } else {
+            (self, other)
+        };
+        let (s, t) = first.closest_params(second);
+        (first.at(s) - second.at(t)).norm_squared()
     }
 }
 
