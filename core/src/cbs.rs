@@ -445,8 +445,9 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                     match self.low_level_in(i, &node, left, 0, placed, mode, false, None) {
                         Err(Status::NoSolution) => {
                             self.low_level(i, &node, self.all_trajectories(), 0, placed)?
+                                .0
                         }
-                        r => r?,
+                        r => r?.0,
                     }
                 }
             };
@@ -466,7 +467,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
 
     /// Fills in a node's conflicts from its paths.
     fn finish(&self, node: &mut CtNode) {
-        self.pair_conflicts(node, u32::MAX);
+        self.pair_conflicts(node, u32::MAX, u32::MAX);
         node.conflicts = self.count(node);
     }
 
@@ -549,7 +550,8 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// Runs multi-goal Ω-A* for robot `i` against the paths of `node` (collisions counted),
     /// with `npoints` point constraints in `self.points`, against the robots in the bit set
     /// `others` (the root plans robots in turn). Leaves the path in scratch; returns the
-    /// trajectory.
+    /// trajectory and the robots (a bit set of robot indices) the path meets, as Ω-A* counted
+    /// them.
     fn low_level(
         &mut self,
         i: usize,
@@ -557,7 +559,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         allowed: u32,
         npoints: usize,
         others: u32,
-    ) -> Result<u8, Status> {
+    ) -> Result<(u8, u32), Status> {
         self.low_level_in(
             i,
             node,
@@ -583,9 +585,12 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         mode: OthersMode,
         hold: bool,
         until: Option<&Until<'_>>,
-    ) -> Result<u8, Status> {
+    ) -> Result<(u8, u32), Status> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
+        // Which robot each of `others` is.
+        let mut robot_of = [0usize; MAX_ROBOTS];
         for k in (0..self.n).filter(|&k| k != i && others_set & (1 << k) != 0) {
+            robot_of[others.len()] = k;
             let _ = others.push(OtherArm {
                 model: self.pr.robots[k].model,
                 base: self.pr.robots[k].base,
@@ -614,7 +619,12 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         let r = plan::<M, D>(&query, &self.low, self.ws, deadline, self.scratch, &mut s);
         self.stats.expansions += s.expansions as u64;
         match r {
-            Ok(found) => Ok(found.trajectory.unwrap_or(HOLD)),
+            Ok(found) => {
+                let met = (0..others.len())
+                    .filter(|&o| found.met & (1 << o) != 0)
+                    .fold(0u32, |m, o| m | 1 << robot_of[o]);
+                Ok((found.trajectory.unwrap_or(HOLD), met))
+            }
             Err(e) => Err(stop_status(e)),
         }
     }
@@ -654,8 +664,8 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             c = Some((n.robot, n.constraint));
             at = n.parent;
         }
-        let assigned = match self.low_level(robot, parent, allowed, npoints, u32::MAX) {
-            Ok(j) => j,
+        let (assigned, met) = match self.low_level(robot, parent, allowed, npoints, u32::MAX) {
+            Ok(found) => found,
             Err(Status::NoSolution) => return Ok(None),
             // The finer levels' grids can outgrow the workspace: this child is lost, and the
             // level's exhaustion no longer proves anything.
@@ -675,7 +685,10 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         if self.too_many_holders(&child) {
             return Ok(None);
         }
-        self.pair_conflicts(&mut child, 1 << robot);
+        // Ω-A* checked the new path against every other robot, at every step and on every
+        // motion, with the checks that count a pair's conflicts (whose motions are confirmed
+        // by a finer sweep besides, so never more): only the robots it met can have any.
+        self.pair_conflicts(&mut child, 1 << robot, met);
         child.conflicts = self.count(&child);
         Ok(Some(child))
     }
@@ -704,25 +717,25 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
 
     /// Fills in `node.pairs` for every pair with a robot in the bit set `of`: steps where the
     /// two collide plus motions on which they meet, as Ω-A* counts them except that a
-    /// motion's is confirmed by a finer sweep ([`motions_conflict_posed`]). Each arm is placed
-    /// once per step, whatever the number of pairs; the poses of two steps live on the stack
-    /// (`2 * MAX_ROBOTS` [`ArmPose`]s, about 27 KB).
-    fn pair_conflicts(&self, node: &mut CtNode, of: u32) {
+    /// motion's is confirmed by a finer sweep ([`motions_conflict_posed`]); checked only for
+    /// pairs whose other robot is in `with` (the rest are known to be clear: 0). Each arm in a
+    /// checked pair is placed once per step, whatever the number of pairs; the poses of two
+    /// steps live on the stack (`2 * MAX_ROBOTS` [`ArmPose`]s, about 27 KB).
+    fn pair_conflicts(&self, node: &mut CtNode, of: u32, with: u32) {
         let n = self.n;
-        // Every arm is in a counted pair (the callers ask for one robot's pairs or all).
-        let counted = |i: usize, k: usize| (of >> i | of >> k) & 1 != 0;
+        clear_pairs(node, n, of);
+        let counted = |i: usize, k: usize| counted(of, with, i, k);
+        // Only the arms of some counted pair are placed.
+        let placed = of | with;
         let slots = node.slots;
         let path = |i: usize| slot_of(self.paths, slots[i], self.h);
         let place = |poses: &mut [ArmPose; MAX_ROBOTS], t: usize| {
             for (i, (pose, r)) in poses.iter_mut().zip(self.pr.robots.iter()).enumerate() {
-                *pose = ArmPose::new::<M, D>(r.model, &r.base, &r.tool, &path(i)[t]);
+                if placed & (1 << i) != 0 {
+                    pose.place::<M, D>(r.model, &r.base, &r.tool, &path(i)[t]);
+                }
             }
         };
-        for i in 0..n {
-            for k in (i + 1..n).filter(|&k| counted(i, k)) {
-                node.pairs[i][k] = 0;
-            }
-        }
         // The arms at steps t and t + 1: slots t % 2 and (t + 1) % 2.
         let mut poses = [[ArmPose::EMPTY; MAX_ROBOTS]; 2];
         place(&mut poses[0], 0);
@@ -823,6 +836,20 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         for i in 0..self.n {
             out.assignment[i] = (node.assignment[i] != HOLD).then_some(node.assignment[i]);
             out.paths[i * self.h..(i + 1) * self.h].copy_from_slice(self.slot(node.slots[i]));
+        }
+    }
+}
+
+/// Whether the pair `i`, `k` has one robot in the bit set `of` and the other in `with`.
+fn counted(of: u32, with: u32, i: usize, k: usize) -> bool {
+    (of >> i & with >> k | of >> k & with >> i) & 1 != 0
+}
+
+/// Sets the conflict counts of every pair with a robot in the bit set `of` to 0.
+fn clear_pairs(node: &mut CtNode, n: usize, of: u32) {
+    for i in 0..n {
+        for k in (i + 1..n).filter(|&k| counted(of, u32::MAX, i, k)) {
+            node.pairs[i][k] = 0;
         }
     }
 }

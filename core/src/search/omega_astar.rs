@@ -21,7 +21,7 @@ use crate::rng::Rng;
 use crate::tool::Tool;
 
 use super::validity::Validity;
-use super::workspace::{Node, StateKey, Workspace};
+use super::workspace::{Met, Node, StateKey, Workspace};
 use super::{Deadline, OpenEntry};
 
 /// Tunables of Ω-A*. The defaults are the paper's (`ε = 0.2`, `w_h = 10`, `w_c = 0.1`).
@@ -221,6 +221,8 @@ pub struct Found {
     pub trajectory: Option<u8>,
     /// Collisions with the other robots' paths (always 0 in `Avoid` mode).
     pub collisions: u32,
+    /// Bit `k`: the path meets `others[k]` somewhere (a superset when not known exactly).
+    pub met: Met,
 }
 
 /// Why no path was returned.
@@ -345,27 +347,39 @@ pub fn plan<M: Models<D>, const D: usize>(
     }
     if query.hold {
         if let Some(c) = ctx.hold_path(out) {
+            // Holding is checked as a count: which robots it meets is not kept.
             return Ok(Found {
                 trajectory: None,
                 collisions: c,
+                met: if c == 0 { 0 } else { Met::MAX },
             });
         }
     }
     Err(SearchError::NoSolution)
 }
 
+/// Two arms placed, each with the configuration it is placed at (`None`: not yet).
+struct ArmCache<const D: usize>([(Option<[f64; D]>, ArmPose); 2]);
+
+impl<const D: usize> ArmCache<D> {
+    fn new() -> Self {
+        ArmCache([(None, ArmPose::EMPTY), (None, ArmPose::EMPTY)])
+    }
+}
+
 /// An initial state of the search (no parent, motion nothing to check).
-fn start_node<const D: usize>(q: [f64; D], g: f64, c: u16, j: u8) -> Node<D> {
+fn start_node<const D: usize>(q: [f64; D], g: f64, met: Met, j: u8) -> Node<D> {
     Node {
         q,
         g,
         parent: u32::MAX,
         t: 0,
-        c,
+        c: met.count_ones() as u16,
         j,
         closed: false,
         checked: true,
         dead: false,
+        met,
     }
 }
 
@@ -421,9 +435,10 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         stats: &mut SearchStats,
     ) -> Result<Found, SearchError> {
         self.seed_open(ws, stats)?;
-        // The arm at the last parent whose child was checked: greedy search pops the children
-        // of one parent in a row.
-        let mut parent_pose: Option<(u32, ArmPose)> = None;
+        // The arm at the last two configurations whose motion was checked: greedy search pops
+        // the children of one parent in a row, and the child it expands next is most often
+        // the one just checked.
+        let mut arms = ArmCache::new();
         let mut since_check = 0;
         while let Some(entry) = ws.open.pop() {
             since_check += 1;
@@ -441,12 +456,14 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
             if !node.checked {
                 // Lazy edge evaluation: the motion from the parent is checked only for the
                 // states popped, which with w_h = 10 are a small share of those generated.
-                let Some(c) = self.motion_from_parent(ws, &node, &mut parent_pose) else {
+                let Some(met) = self.motion_from_parent(ws, &node, &mut arms) else {
                     let dead = ws.node_mut(entry.node);
                     (dead.closed, dead.dead) = (true, true);
                     continue;
                 };
+                let c = met.count_ones() as u16;
                 node.c = node.c.saturating_add(c);
+                node.met |= met;
                 node.checked = true;
                 *ws.node_mut(entry.node) = node;
                 if c > 0 {
@@ -464,26 +481,35 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         Err(SearchError::NoSolution)
     }
 
-    /// Checks the motion from `node`'s parent to it: the collisions with the other robots on
-    /// the way, or `None` when it is not allowed. `parent_pose` keeps the parent's arm.
+    /// Checks the motion from `node`'s parent to it: the other robots met on the way, or
+    /// `None` when it is not allowed. `arms` keeps the arm at the parent and at
+    /// the node.
     fn motion_from_parent(
         &self,
         ws: &Workspace<'_, D>,
         node: &Node<D>,
-        parent_pose: &mut Option<(u32, ArmPose)>,
-    ) -> Option<u16> {
+        arms: &mut ArmCache<D>,
+    ) -> Option<Met> {
         let parent = ws.node(node.parent);
-        let (base, tool) = (&self.q.robot.base, &self.q.robot.tool);
-        if parent_pose.as_ref().is_none_or(|(i, _)| *i != node.parent) {
-            *parent_pose = Some((
-                node.parent,
-                ArmPose::new::<M, D>(self.q.robot.model, base, tool, &parent.q),
-            ));
-        }
-        let from = &parent_pose.as_ref()?.1;
-        let to = ArmPose::new::<M, D>(self.q.robot.model, base, tool, &node.q);
+        let (model, base, tool) = (self.q.robot.model, &self.q.robot.base, &self.q.robot.tool);
+        let p = match arms.0.iter().position(|(q, _)| *q == Some(parent.q)) {
+            Some(p) => p,
+            None => {
+                arms.0[0].0 = Some(parent.q);
+                arms.0[0].1.place::<M, D>(model, base, tool, &parent.q);
+                0
+            }
+        };
+        let [first, second] = &mut arms.0;
+        let (from, to) = if p == 0 {
+            (&*first, second)
+        } else {
+            (&*second, first)
+        };
+        to.0 = Some(node.q);
+        to.1.place::<M, D>(model, base, tool, &node.q);
         self.valid
-            .motion_posed(&parent.q, &node.q, [from, &to], parent.t as usize)
+            .motion_met(&parent.q, &node.q, [&from.1, &to.1], parent.t as usize)
     }
 
     /// Puts IK solutions of the first pose of every allowed trajectory in OPEN: the one nearest
@@ -500,8 +526,8 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
             }
             if let (Start::AtInitial, Some(q)) = (self.q.robot.start, self.q.robot.initial) {
                 // Online: the arm is where it is; its motion to the chunk starts at step 1.
-                if let Some(c) = self.valid.state(&q, 0) {
-                    self.add(ws, start_node(q, 0.0, c, j as u8), stats)?;
+                if let Some(met) = self.valid.state_met(&q, 0) {
+                    self.add(ws, start_node(q, 0.0, met, j as u8), stats)?;
                 }
                 continue;
             }
@@ -542,11 +568,11 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 let Some(q) = answer else {
                     continue;
                 };
-                let Some(c) = self.valid.state(&q, 0) else {
+                let Some(met) = self.valid.state_met(&q, 0) else {
                     continue;
                 };
                 let g = g0 + self.approach_length(&q);
-                self.add(ws, start_node(q, g, c, j as u8), stats)?;
+                self.add(ws, start_node(q, g, met, j as u8), stats)?;
             }
         }
         Ok(())
@@ -595,7 +621,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
             if !self.valid.step_within_limits(&node.q, q) {
                 continue;
             }
-            let Some(c_state) = self.valid.state(q, t1) else {
+            let Some(met) = self.valid.state_met(q, t1) else {
                 continue;
             };
             let dist2: f64 = (0..D)
@@ -606,11 +632,12 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 g: node.g + libm::sqrt(dist2) + self.axes_cost(q),
                 parent: index,
                 t: t1 as u16,
-                c: node.c.saturating_add(c_state),
+                c: node.c.saturating_add(met.count_ones() as u16),
                 j: node.j,
                 closed: false,
                 checked: false,
                 dead: false,
+                met: node.met | met,
             };
             self.add(ws, child, stats)?;
         }
@@ -670,6 +697,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let found = Found {
             trajectory: Some(last.j),
             collisions: last.c as u32,
+            met: last.met,
         };
         loop {
             let n = ws.node(i);

@@ -10,6 +10,7 @@ use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, Arm
 use crate::problem::{StartExclusions, MAX_ROBOTS};
 use crate::tool::Tool;
 
+use super::workspace::Met;
 use super::{OtherArm, OthersMode, PointConstraint};
 
 /// Everything that constrains one robot's states and motions.
@@ -32,6 +33,8 @@ pub struct Validity<'q, M, const D: usize> {
     /// yet): every successor of one expansion is checked at the same steps, so this saves all
     /// but the first placing.
     others_at: RefCell<[(usize, [ArmPose; MAX_ROBOTS]); 2]>,
+    /// Where [`Validity::state`] places the robot.
+    mine: RefCell<ArmPose>,
     _model: core::marker::PhantomData<M>,
 }
 
@@ -64,6 +67,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             motion_step,
             excluded: StartExclusions::NONE,
             others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
+            mine: RefCell::new(ArmPose::EMPTY),
             _model: core::marker::PhantomData,
         }
     }
@@ -80,7 +84,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
         let (at, poses) = &mut cache[t % 2];
         if *at != t {
             for (p, other) in poses.iter_mut().zip(self.others) {
-                *p = ArmPose::new::<M, D>(other.model, &other.base, &other.tool, &other.path[t]);
+                p.place::<M, D>(other.model, &other.base, &other.tool, &other.path[t]);
             }
             *at = t;
         }
@@ -101,6 +105,11 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
     /// Checks a configuration at step `t`: joint limits, obstacles, self-collision, point
     /// constraints, and the other robots (forbidden or counted). Returns the collision count.
     pub fn state(&self, q: &[f64; D], t: usize) -> Option<u16> {
+        self.state_met(q, t).map(|m| m.count_ones() as u16)
+    }
+
+    /// [`Validity::state`] telling which other robots (bit `k`: `others[k]`) it meets.
+    pub fn state_met(&self, q: &[f64; D], t: usize) -> Option<Met> {
         // Written so that NaN is refused too.
         let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
         if !q
@@ -113,26 +122,28 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
         if t == 0 && self.excluded.excludes(q) {
             return None;
         }
-        let pose = ArmPose::new::<M, D>(self.model, &self.base, &self.tool, q);
+        let mut mine = self.mine.borrow_mut();
+        let pose = &mut *mine;
+        pose.place::<M, D>(self.model, &self.base, &self.tool, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
             return None;
         }
         for pc in self.points {
-            if !pc.segment && pc.t as usize == t && near_point(&pose, &pc.p, pc.margin) {
+            if !pc.segment && pc.t as usize == t && near_point(pose, &pc.p, pc.margin) {
                 return None;
             }
         }
         self.with_others_at(t, |theirs| {
-            let mut c = 0u16;
-            for other in theirs {
+            let mut met: Met = 0;
+            for (k, other) in theirs.iter().enumerate() {
                 if pose.arm_hit(other, 0.0).is_some() {
                     if self.others_mode == OthersMode::Avoid {
                         return None;
                     }
-                    c += 1;
+                    met |= 1 << k;
                 }
             }
-            Some(c)
+            Some(met)
         })
     }
 
@@ -154,6 +165,18 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
         ends: [&ArmPose; 2],
         t: usize,
     ) -> Option<u16> {
+        self.motion_met(a, b, ends, t)
+            .map(|m| m.count_ones() as u16)
+    }
+
+    /// [`Validity::motion_posed`] telling which other robots (bit `k`: `others[k]`) it meets.
+    pub fn motion_met(
+        &self,
+        a: &[f64; D],
+        b: &[f64; D],
+        ends: [&ArmPose; 2],
+        t: usize,
+    ) -> Option<Met> {
         let me = ArmMotion {
             model: self.model,
             base: &self.base,
@@ -179,7 +202,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
         self.place_others(t);
         self.place_others(t + 1);
         let cache = self.others_at.borrow();
-        let mut c = 0u16;
+        let mut met: Met = 0;
         for (o, other) in self.others.iter().enumerate() {
             let theirs = ArmMotion {
                 model: other.model,
@@ -193,10 +216,10 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
                 if self.others_mode == OthersMode::Avoid {
                     return None;
                 }
-                c += 1;
+                met |= 1 << o;
             }
         }
-        Some(c)
+        Some(met)
     }
 
     /// Holding `q` for `h` steps: the collision count with the others, or `None` when not

@@ -30,7 +30,16 @@ pub struct Node<const D: usize> {
     pub checked: bool,
     /// The motion from the parent failed its check: the state is gone and its cell free.
     pub dead: bool,
+    /// Bit `k`: the path so far meets the query's other robot `k` (what `c` counts, by
+    /// robot).
+    pub met: Met,
 }
+
+/// A set of a query's other robots, by their index among them.
+pub type Met = u8;
+
+// Every other robot of a query has a bit.
+const _: () = assert!(crate::problem::MAX_ROBOTS <= Met::BITS as usize + 1);
 
 impl<const D: usize> Default for Node<D> {
     fn default() -> Self {
@@ -44,6 +53,7 @@ impl<const D: usize> Default for Node<D> {
             closed: false,
             checked: false,
             dead: false,
+            met: 0,
         }
     }
 }
