@@ -260,15 +260,22 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         }
         let start = stats.expansions;
         let mut perm = identity(n);
+        // Robots at the first `kept` ranks of `perm` were planned by the last attempt with the
+        // same robots before them, so their paths in `out` stand: the search is deterministic,
+        // and a robot's query depends only on the robots before it (and, for multi-goal, on
+        // the pair table, which is why a change to it keeps nothing).
+        let mut kept = 0;
         loop {
             if self.deadline.expired() {
                 return Err(Status::Timeout);
             }
             let order: [u8; MAX_ROBOTS] =
                 core::array::from_fn(|i| if i < n { base[usize::from(perm[i])] } else { 0 });
-            if self.attempt(&order[..n], choice, out, stats)? {
-                return Ok(Tried::Solved);
-            }
+            let known = self.pairs_known();
+            let failed = match self.attempt(&order[..n], kept, choice, out, stats)? {
+                None => return Ok(Tried::Solved),
+                Some(rank) => rank,
+            };
             if choice.is_none() {
                 // Multi-goal learns what each robot can track alone only once it needs to.
                 self.fill_pairs(stats)?;
@@ -276,23 +283,38 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                     return Ok(Tried::Exhausted);
                 }
             }
-            if !next_permutation(&mut perm[..n]) {
+            let Some(same) = skip_failed(&mut perm[..n], failed) else {
                 return Ok(Tried::Exhausted);
-            }
+            };
+            let stable = known && self.pairs_known();
+            kept = if stable || choice.is_some() { same } else { 0 };
             if stats.expansions - start >= budget {
                 return Ok(Tried::OverBudget);
             }
         }
     }
 
-    /// Plans the robots in `order`; `Ok(false)` when one of them finds no path.
+    /// Whether every robot's feasible trajectories are known (multi-goal's masks no longer
+    /// change within this level) and no search ran out of memory.
+    fn pairs_known(&self) -> bool {
+        let t = self.pr.trajectories.len();
+        !self.incomplete
+            && (0..self.pr.robots.len())
+                .all(|r| (0..t).all(|j| self.pairs.get(r, j) != Pair::Unknown))
+    }
+
+    /// Plans the robots in `order` from rank `kept` on (those before it are in `out` from the
+    /// last attempt); `None` when all are planned and every trajectory is taken, else the rank
+    /// of the robot that found no path (the last rank when trajectories are left untaken: no
+    /// other order with the same robots first differs).
     fn attempt(
         &mut self,
         order: &[u8],
+        kept: usize,
         choice: Option<&Choice>,
         out: &mut Solution<'_, D>,
         stats: &mut Stats,
-    ) -> Result<bool, Status> {
+    ) -> Result<Option<usize>, Status> {
         let (n, h) = (self.pr.robots.len(), self.h);
         let ntraj = self.pr.trajectories.len();
         let all = if ntraj >= 32 {
@@ -301,7 +323,12 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             (1u32 << ntraj) - 1
         };
         let mut taken = 0u32;
-        for (rank, &r) in order.iter().enumerate() {
+        for &r in &order[..kept] {
+            if let Some(j) = out.assignment[usize::from(r)] {
+                taken |= 1 << j;
+            }
+        }
+        for (rank, &r) in order.iter().enumerate().skip(kept) {
             let r = usize::from(r);
             let (allowed, hold) = match choice {
                 None => {
@@ -334,7 +361,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             let found = self.search(r, allowed, hold, &others, stats)?;
             drop(others);
             let Some(trajectory) = found else {
-                return Ok(false);
+                return Ok(Some(rank));
             };
             out.paths[r * h..(r + 1) * h].copy_from_slice(&self.scratch[..h]);
             out.assignment[r] = trajectory;
@@ -342,7 +369,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                 taken |= 1 << j;
             }
         }
-        Ok(taken == all)
+        Ok((taken != all).then_some(n - 1))
     }
 
     /// The trajectories robot `r` can track alone, once known (multi-goal fills the table
@@ -482,6 +509,22 @@ pub(crate) fn next_permutation(a: &mut [u8]) -> bool {
     true
 }
 
+/// Steps `perm` past every order that keeps the robots at ranks `..=failed` where they are
+/// (each of them fails at `failed` again, in the same way: the robots before it plan as they
+/// did) to the next order in lexicographic order; `None` after the last. Returns how many
+/// leading ranks the new order shares with the old one and were planned (at most `failed`).
+pub(crate) fn skip_failed(perm: &mut [u8], failed: usize) -> Option<usize> {
+    let before: heapless::Vec<u8, MAX_ROBOTS> = perm.iter().copied().collect();
+    if failed + 1 < perm.len() {
+        perm[failed + 1..].sort_unstable_by(|a, b| b.cmp(a));
+    }
+    if !next_permutation(perm) {
+        return None;
+    }
+    let same = perm.iter().zip(&before).take_while(|(a, b)| a == b).count();
+    Some(same.min(failed))
+}
+
 /// Next assignment: permutations whose holding robots (`a[t..]`) are in increasing order, so
 /// each distinct assignment comes once.
 pub(crate) fn next_assignment(a: &mut [u8], t: usize) -> bool {
@@ -512,5 +555,51 @@ mod tests {
             n += 1;
         }
         assert_eq!(n, 12);
+    }
+
+    #[test]
+    fn a_failed_prefix_is_never_tried_again_and_the_rest_are_all_tried() {
+        // An order fails at the first rank whose robots so far meet a rule (the last rank if
+        // none): as in the planner, where the robots up to a rank decide whether it fails.
+        let fail_at = |p: &[u8]| {
+            (0..p.len())
+                .find(|&i| {
+                    p[..=i].iter().map(|&r| usize::from(r)).sum::<usize>() * (i + 1) % 4 == 1
+                })
+                .unwrap_or(p.len() - 1)
+        };
+        let n = 5;
+        let mut all = identity(n);
+        let mut expected = 0;
+        let mut seen_prefixes: heapless::Vec<([u8; MAX_ROBOTS], usize), 200> = heapless::Vec::new();
+        loop {
+            let k = fail_at(&all[..n]);
+            let mut prefix = [u8::MAX; MAX_ROBOTS];
+            prefix[..=k].copy_from_slice(&all[..=k]);
+            if !seen_prefixes.iter().any(|(p, _)| *p == prefix) {
+                seen_prefixes.push((prefix, k)).unwrap();
+                expected += 1;
+            }
+            if !next_permutation(&mut all[..n]) {
+                break;
+            }
+        }
+        let mut perm = identity(n);
+        let (mut tried, mut last) = (0, identity(n));
+        loop {
+            tried += 1;
+            let k = fail_at(&perm[..n]);
+            last.copy_from_slice(&perm);
+            match skip_failed(&mut perm[..n], k) {
+                None => break,
+                Some(kept) => {
+                    assert!(kept <= k);
+                    assert_eq!(perm[..kept], last[..kept]);
+                    // Something at or before the failed rank moved.
+                    assert_ne!(perm[..=k], last[..=k]);
+                }
+            }
+        }
+        assert_eq!(tried, expected);
     }
 }
