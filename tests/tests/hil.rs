@@ -5,7 +5,7 @@
 //! joint limit (`omcbsa_hw::record::check_followed`, run by `run_on_mock_arms`); and the plan's
 //! own first and last waypoints are what the arms were sent first and last.
 
-use omcbsa::demo::{box_flip, run_on_mock_arms, ROBOTS};
+use omcbsa::demo::{box_flip, run_on_mock_arms_watched, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::planners::plan_file;
@@ -13,7 +13,18 @@ use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::record::{self, TOLERANCE};
-use omcbsa_hw::{Plan, JOINTS};
+use omcbsa_hw::{Plan, WatchSettings, JOINTS};
+
+/// The watchdog of these runs allows 4 missed cycles, not the default 2: a Python mock
+/// descheduled for two 10 ms periods on a shared 2-core machine stopped a run once; the
+/// watchdog's own bound is tested with the default in hw-adapter (watchdog.rs, tests/faults.rs,
+/// tests/kortex.rs).
+fn watch() -> WatchSettings {
+    WatchSettings {
+        missed_cycles: 4,
+        ..WatchSettings::default()
+    }
+}
 
 /// One set of mocks at a time: two sets of three Python mocks beside two planners starve the
 /// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
@@ -46,8 +57,16 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
 
     let dir = std::env::temp_dir().join(format!("omcbsa-hil-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let report = run_on_mock_arms(&python, MockKind::Can, plan.clone(), &checked, &dir, |_| {})
-        .unwrap_or_else(|e| panic!("{e}"));
+    let report = run_on_mock_arms_watched(
+        &python,
+        MockKind::Can,
+        plan.clone(),
+        &checked,
+        &dir,
+        &watch(),
+        |_| {},
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     println!("{report}");
 
     let settle = exec_config().settle_cycles;
@@ -103,12 +122,13 @@ fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
     let (checked, plan) = planned_demo();
     let dir = std::env::temp_dir().join(format!("omcbsa-hil-kortex-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let report = run_on_mock_arms(
+    let report = run_on_mock_arms_watched(
         &python,
         MockKind::Kortex,
         plan.clone(),
         &checked,
         &dir,
+        &watch(),
         |_| {},
     )
     .unwrap_or_else(|e| panic!("{e}"));
