@@ -689,6 +689,15 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         // motion, with the checks that count a pair's conflicts (whose motions are confirmed
         // by a finer sweep besides, so never more): only the robots it met can have any.
         self.pair_conflicts(&mut child, 1 << robot, met);
+        #[cfg(debug_assertions)]
+        {
+            let mut every = child;
+            self.pair_conflicts(&mut every, 1 << robot, u32::MAX);
+            debug_assert_eq!(
+                every.pairs, child.pairs,
+                "a robot Ω-A* did not meet conflicts"
+            );
+        }
         child.conflicts = self.count(&child);
         Ok(Some(child))
     }
