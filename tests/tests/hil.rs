@@ -13,7 +13,7 @@ use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::record::{self, TOLERANCE};
-use omcbsa_hw::{Plan, WatchSettings, JOINTS};
+use omcbsa_hw::{Plan, Report, WatchSettings, JOINTS};
 
 /// The watchdog of these runs allows 4 missed cycles, not the default 2: a Python mock
 /// descheduled for two 10 ms periods on a shared 2-core machine stopped a run once; the
@@ -49,17 +49,16 @@ fn planned_demo() -> (CheckedSolution, Plan) {
     (checked, plan)
 }
 
-#[test]
-fn planned_three_arm_solution_streams_to_three_mock_arms() {
-    let _one = streaming();
+/// Streams the planned demo to three mock arms of `kind`, recording in a fresh directory:
+/// the plan, that directory and the run's report.
+fn stream_demo(kind: MockKind, tag: &str) -> (Plan, std::path::PathBuf, Report) {
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let (checked, plan) = planned_demo();
-
-    let dir = std::env::temp_dir().join(format!("omcbsa-hil-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("omcbsa-hil-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let report = run_on_mock_arms_watched(
         &python,
-        MockKind::Can,
+        kind,
         plan.clone(),
         &checked,
         &dir,
@@ -68,6 +67,13 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     println!("{report}");
+    (plan, dir, report)
+}
+
+#[test]
+fn planned_three_arm_solution_streams_to_three_mock_arms() {
+    let _one = streaming();
+    let (plan, dir, report) = stream_demo(MockKind::Can, "can");
 
     let settle = exec_config().settle_cycles;
     assert_eq!(report.arms.len(), 3);
@@ -118,21 +124,7 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
 #[test]
 fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
     let _one = streaming();
-    let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
-    let (checked, plan) = planned_demo();
-    let dir = std::env::temp_dir().join(format!("omcbsa-hil-kortex-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let report = run_on_mock_arms_watched(
-        &python,
-        MockKind::Kortex,
-        plan.clone(),
-        &checked,
-        &dir,
-        &watch(),
-        |_| {},
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    println!("{report}");
+    let (plan, dir, report) = stream_demo(MockKind::Kortex, "kortex");
     let settle = omcbsa_hw::mock::exec_config().settle_cycles;
     for (arm, streamed) in plan.arms.iter().zip(&report.arms) {
         assert_eq!(streamed.cycles_sent, report.cycles + settle);
