@@ -578,19 +578,14 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         self.travel[i]
     }
 
-    /// Per joint, a bound on how far capsule `i`'s points travel per radian (or metre) of it:
-    /// 0 for the joints that do not carry it. `None` when the model has no per-capsule bound.
-    fn capsule_reach(&self, i: usize) -> Option<[f64; D]> {
-        capsule_reach::<M, D>(self.model, &self.tool, i)
-    }
-
     /// Bound on how far capsules `a` and `b` of this arm move relative to each other: a joint
     /// that carries both turns them as one body, so only the joints that carry one of them
     /// alone count (a serial chain: those between their links). A joint carries a capsule
     /// when its reach for it is positive; a capsule on the axis of a joint that carries it
     /// counts as not carried, which only makes the bound larger.
     pub fn pair_travel(&self, a: usize, b: usize) -> f64 {
-        let (Some(ra), Some(rb)) = (self.capsule_reach(a), self.capsule_reach(b)) else {
+        let reach = |i| capsule_reach::<M, D>(self.model, &self.tool, i);
+        let (Some(ra), Some(rb)) = (reach(a), reach(b)) else {
             return self.travel(a) + self.travel(b);
         };
         (0..D)
@@ -787,7 +782,7 @@ fn farthest(bounds: &[f64; MAX_POSE_CAPSULES]) -> f64 {
 
 /// How far a point strays from the straight line between where it is at the two ends of the
 /// joint-space motion `dq`, for a point that joint `m` moves at most `reach[m]` per radian (or
-/// metre) of it ([`Sweep::capsule_reach`], 0 for joints that do not carry it). The point's
+/// metre) of it ([`capsule_reach`], 0 for joints that do not carry it). The point's
 /// distance from that line is at most an eighth of its largest acceleration along the
 /// motion; its second derivative by joints `j` and `k` of a serial chain is at most the
 /// reach of the later of the two (for revolute joints: a turn of the earlier one turns the
