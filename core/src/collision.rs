@@ -507,7 +507,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
     /// points travel towards anything between the ends, counted from both ends (what a pair
     /// test at the ends compares the clearances' sum with): the smaller of its travel, and its
     /// chord (how far its axis ends move from one end to the other) plus twice its
-    /// [`bow`]. Along the motion the capsule is within its bow of the capsule that moves
+    /// bow (see the private function `bow` for the bound). Along the motion the capsule is within its bow of the capsule that moves
     /// straight from one end to the other, whose points move at most the chord in all, so it
     /// is within `chord * s + bow` of where it is at the start a fraction `s` of the way, and
     /// within `chord * (1 - s) + bow` of where it is at the end.
