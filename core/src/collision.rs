@@ -506,9 +506,10 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
     /// Per capsule of the arm placed at the two ends of this motion, a bound on how far its
     /// points travel towards anything between the ends, counted from both ends (what a pair
     /// test at the ends compares the clearances' sum with): the smaller of its travel, and its
-    /// chord (how far its axis ends move from one end to the other) plus twice its
-    /// bow (see the private function `bow` for the bound). Along the motion the capsule is within its bow of the capsule that moves
-    /// straight from one end to the other, whose points move at most the chord in all, so it
+    /// chord (how far its axis ends move from one end to the other) plus twice its bow (the
+    /// bound of the private function `bow`). Along the motion the capsule is within its bow
+    /// of the capsule that moves straight from one end to the other, whose points move at
+    /// most the chord in all, so it
     /// is within `chord * s + bow` of where it is at the start a fraction `s` of the way, and
     /// within `chord * (1 - s) + bow` of where it is at the end.
     pub fn reaches(&self, ends: [&ArmPose; 2]) -> [f64; MAX_POSE_CAPSULES] {
