@@ -10,8 +10,9 @@ use core::marker::PhantomData;
 
 use nalgebra::Vector3;
 
-use crate::geometry::{Aabb, Capsule, Obstacle};
+use crate::geometry::{Aabb, Capsule, Contact, Obstacle};
 use crate::model::{Frame, Model, Models};
+use crate::problem::MAX_OBSTACLES;
 use crate::tool::{Tool, MAX_TOOL_CAPSULES};
 
 /// Most collision capsules one arm model may have. A model with more is refused when
@@ -281,25 +282,44 @@ impl ArmPose {
     /// pair) come closer than `margin`: their boxes first, then the capsules.
     #[inline]
     fn pair_hits(&self, i: usize, other: &ArmPose, j: usize, margin: f64) -> bool {
-        self.boxes[i].near(&other.boxes[j], margin)
-            && self.capsules[i].hits(&other.capsules[j], margin)
+        self.pair_contact(i, other, j, margin) != Contact::Clear
+    }
+
+    /// [`ArmPose::pair_hits`], telling a touch from a near miss.
+    #[inline]
+    fn pair_contact(&self, i: usize, other: &ArmPose, j: usize, margin: f64) -> Contact {
+        if self.boxes[i].near(&other.boxes[j], margin) {
+            self.capsules[i].contact(&other.capsules[j], margin)
+        } else {
+            Contact::Clear
+        }
     }
 
     /// Whether capsule `i` of the arm at `ends` and capsule `j` of `other` (the same arm, for
-    /// a self pair) stay apart over a motion on which their points travel `travel` towards
-    /// each other in all: clearance falls by at most that from either end, so clearances at
-    /// the ends adding up to more rule contact out. Boxes first (a lower bound on the
-    /// distance), then the capsules.
-    fn pair_stays_clear(
+    /// a self pair) may meet over a motion on which their points travel `travel` towards each
+    /// other in all: clearance falls by at most that from either end, so clearances at the
+    /// ends adding up to more rule contact out (`Clear`); overlapping at an end is a `Touch`.
+    /// Boxes first (a lower bound on the distance), then the capsules.
+    fn pair_contact_over(
         ends: [&ArmPose; 2],
         i: usize,
         other: [&ArmPose; 2],
         j: usize,
         travel: f64,
-    ) -> bool {
+    ) -> Contact {
         let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
+        if gap(0) + gap(1) > travel {
+            return Contact::Clear;
+        }
         let clearance = |k: usize| ends[k].capsules[i].signed_distance(&other[k].capsules[j]);
-        gap(0) + gap(1) > travel || clearance(0) + clearance(1) > travel
+        let (c0, c1) = (clearance(0), clearance(1));
+        if c0 < 0.0 || c1 < 0.0 {
+            Contact::Touch
+        } else if c0 + c1 > travel {
+            Contact::Clear
+        } else {
+            Contact::Near
+        }
     }
 
     /// The first pair of capsules (this arm's, the other's), base links included, closer
@@ -377,19 +397,21 @@ impl ArmPose {
 /// middle. Each link then stays inside its capsules at that middle configuration inflated by
 /// that much: if that check is clear, so is the whole piece, ends included.
 ///
-/// The checks work pair by pair (a capsule and an obstacle, or two capsules). First at the
-/// two ends of the motion: clearance falls by at most the distance the pair's points travel
-/// towards each other, from either end, so a pair whose clearances at the ends add up to more
-/// than that cannot meet on the way and is dropped with no further placing of the arm. The
-/// pairs left are checked from the top down: once for the whole motion at its middle, then
-/// on the halves where that fails, down to single pieces (inflated by [`Sweep::margin`]); a
-/// pair that clears a check is not looked at again inside it. A motion is reported as
-/// colliding only when a single-piece check fails.
+/// The checks work pair by pair (a capsule and an obstacle, or two capsules), each between
+/// two placings of the arm: clearance falls by at most the distance the pair's points travel
+/// towards each other, from either end, so a pair whose clearances at the two ends add up to
+/// more than that cannot meet in between and is dropped. First over the whole motion, from
+/// its ends; the pairs left are checked on its halves (one more placing, at the middle), then
+/// on the halves' halves where that fails, for those pairs alone, down to half pieces. A
+/// motion is reported as colliding when a pair meets at a placing, or fails over a half
+/// piece: then both are within half that piece's travel at one of its ends, a piece's
+/// middle, so the piece's check at its middle inflated by [`Sweep::margin`] fails too.
 ///
-/// At the ends, a capsule's travel has a second bound, often far smaller: how far it strays
-/// from moving in a straight line between where it is at the two ends ([`Sweep::reaches`]).
-/// An arm moving in its null space, its hand nearly still, moves its joints far but its hand
-/// capsules little, and the first bound alone counts every joint's turn at its full reach.
+/// A capsule's travel has a second bound, often far smaller: how far it strays from moving
+/// in a straight line between where it is at the two ends ([`Sweep::reaches`]), quadratic in
+/// the part of the motion, so it shrinks fast down the halves. An arm moving in its null
+/// space, its hand nearly still, moves its joints far but its hand capsules little, and the
+/// first bound alone counts every joint's turn at its full reach.
 #[derive(Debug)]
 pub struct Sweep<M: Models<D>, const D: usize> {
     /// The arm's model, an index into `M`.
@@ -455,7 +477,8 @@ fn rows_and_columns(pairs: &Pairs) -> (u32, u32) {
 }
 
 /// The indices of the set bits of `m`, lowest first.
-fn bits(mut m: u32) -> impl Iterator<Item = usize> {
+fn bits(m: impl Into<u64>) -> impl Iterator<Item = usize> {
+    let mut m: u64 = m.into();
     core::iter::from_fn(move || {
         (m != 0).then(|| {
             let i = m.trailing_zeros() as usize;
@@ -513,16 +536,21 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
     /// is within `chord * s + bow` of where it is at the start a fraction `s` of the way, and
     /// within `chord * (1 - s) + bow` of where it is at the end.
     pub fn reaches(&self, ends: [&ArmPose; 2]) -> [f64; MAX_POSE_CAPSULES] {
+        let all = (1u64 << ends[0].len) - 1;
+        self.reaches_over(ends, 1.0, all as u32)
+    }
+
+    /// [`Sweep::reaches`] of the part of this motion between `ends`, a fraction `width` of it
+    /// apart, for the capsules in the bit set `of` (0 for the others): its travel is `width`
+    /// times the whole's, its bow `width^2` times (the bow is quadratic in the motion).
+    fn reaches_over(&self, ends: [&ArmPose; 2], width: f64, of: u32) -> [f64; MAX_POSE_CAPSULES] {
         let mut reach = [0.0; MAX_POSE_CAPSULES];
-        for (i, r) in reach.iter_mut().enumerate().take(ends[0].len) {
+        for i in bits(of) {
             let (c0, c1) = (&ends[0].capsules[i].segment, &ends[1].capsules[i].segment);
             let chord = (c1.a - c0.a).norm().max((c1.b - c0.b).norm());
-            let straight = chord + 2.0 * self.bow[i];
-            *r = if straight < self.travel[i] {
-                straight
-            } else {
-                self.travel[i]
-            };
+            let straight = chord + 2.0 * self.bow[i] * width * width;
+            let travel = self.travel[i] * width;
+            reach[i] = if straight < travel { straight } else { travel };
         }
         reach
     }
@@ -609,66 +637,90 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         ends: [&ArmPose; 2],
     ) -> bool {
         let [e0, e1] = ends;
-        let reach = self.reaches(ends);
-        let mut suspects = Suspects::NONE;
+        // The obstacles the moving capsules may reach at all, with their boxes.
         let moving = e0.moving_aabb.union(&e1.moving_aabb);
-        for o in obstacles {
-            let ob = o.aabb();
-            if !ob.near(&moving, self.length) {
-                continue;
-            }
-            for i in (0..e0.len).filter(|&i| !e0.on_base(i)) {
-                let t = reach[i];
-                if suspects.obstacles & (1 << i) != 0
-                    || ob.distance(&e0.boxes[i]) + ob.distance(&e1.boxes[i]) > t
-                    || o.distance_to_capsule(&e0.capsules[i])
-                        + o.distance_to_capsule(&e1.capsules[i])
-                        > t
-                {
-                    continue;
-                }
-                suspects.obstacles |= 1 << i;
-            }
+        let near: heapless::Vec<(&Obstacle, Aabb), MAX_OBSTACLES> = obstacles
+            .iter()
+            .map(|o| (o, o.aabb()))
+            .filter(|(_, ob)| ob.near(&moving, self.length))
+            .collect();
+        let mut all = Suspects::NONE;
+        if !near.is_empty() {
+            all.obstacles = (0..e0.len)
+                .filter(|&i| !e0.on_base(i))
+                .fold(0, |m, i| m | 1 << i);
         }
         for (a, b) in e0.self_pairs() {
-            let t = self.pair_travel(a, b).min(reach[a] + reach[b]);
-            if !ArmPose::pair_stays_clear(ends, a, ends, b, t) {
-                suspects.pairs[a] |= 1 << b;
+            all.pairs[a] |= 1 << b;
+        }
+        let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
+            let ends = [ends[0][0], ends[1][0]];
+            let reach = self.reaches_over(ends, width, sus.capsules());
+            let mut left = Suspects::NONE;
+            for i in bits(sus.obstacles) {
+                let mut contact = near
+                    .iter()
+                    .map(|(o, ob)| obstacle_contact_over(o, ob, ends, i, reach[i]));
+                match contact
+                    .find(|&c| c != Contact::Clear)
+                    .unwrap_or(Contact::Clear)
+                {
+                    Contact::Touch => return Found::Touch,
+                    Contact::Near => left.obstacles |= 1 << i,
+                    Contact::Clear => {}
+                }
             }
-        }
-        if !suspects.any() {
-            return false;
-        }
-        let mut arm = ArmPose::EMPTY;
-        bisect(
-            0,
-            self.count,
-            self.count,
-            suspects,
-            &mut |s, w, sus: &Suspects| {
-                arm.place_only::<M, D>(self.model, base, &self.tool, &self.at(s), sus.capsules());
-                let mut left = Suspects::NONE;
-                for i in bits(sus.obstacles) {
-                    let m = self.travel(i) * w;
-                    let (c, cb) = (&arm.capsules[i], &arm.boxes[i]);
-                    if obstacles
-                        .iter()
-                        .any(|o| o.aabb().near(cb, m) && o.hits_capsule(c, m))
-                    {
-                        left.obstacles |= 1 << i;
+            for (a, &row) in sus.pairs.iter().enumerate() {
+                for b in bits(row) {
+                    let t = (self.pair_travel(a, b) * width).min(reach[a] + reach[b]);
+                    match ArmPose::pair_contact_over(ends, a, ends, b, t) {
+                        Contact::Touch => return Found::Touch,
+                        Contact::Near => left.pairs[a] |= 1 << b,
+                        Contact::Clear => {}
                     }
                 }
-                for (a, &row) in sus.pairs.iter().enumerate() {
-                    for b in bits(row) {
-                        let m = self.pair_travel(a, b) * w;
-                        if arm.pair_hits(a, &arm, b, m) {
-                            left.pairs[a] |= 1 << b;
-                        }
-                    }
-                }
-                left.any().then_some(left)
-            },
-        )
+            }
+            Found::left(left.any(), left)
+        };
+        let place = &mut |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
+            at[0].place_only::<M, D>(self.model, base, &self.tool, &self.at(s), sus.capsules());
+        };
+        match check([[e0], [e1]], 1.0, &all) {
+            Found::Clear => false,
+            Found::Touch => true,
+            Found::Suspects(left) => refine(
+                0,
+                2 * self.count,
+                2 * self.count,
+                [[e0], [e1]],
+                left,
+                place,
+                check,
+            ),
+        }
+    }
+}
+
+/// Whether capsule `i` of the arm at `ends` may meet obstacle `o` (its box `ob`) while its
+/// points travel at most `travel` towards it in all, from either end (as
+/// [`ArmPose::pair_contact_over`]).
+fn obstacle_contact_over(
+    o: &Obstacle,
+    ob: &Aabb,
+    ends: [&ArmPose; 2],
+    i: usize,
+    travel: f64,
+) -> Contact {
+    if ob.distance(&ends[0].boxes[i]) + ob.distance(&ends[1].boxes[i]) > travel {
+        return Contact::Clear;
+    }
+    let d0 = o.distance_to_capsule(&ends[0].capsules[i]);
+    if d0 == 0.0 {
+        Contact::Touch
+    } else if d0 > travel {
+        Contact::Clear
+    } else {
+        o.capsule_contact(&ends[1].capsules[i], travel - d0)
     }
 }
 
@@ -709,52 +761,65 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
     let columns = (0..b0.len)
         .filter(|&j| near_other(b_ends, j, a_ends, rb[j] + a_far))
         .fold(0u32, |m, j| m | 1 << j);
-    let mut pairs: Pairs = [0; MAX_POSE_CAPSULES];
-    for (i, row) in pairs.iter_mut().enumerate().take(a0.len) {
-        if columns == 0 || !near_other(a_ends, i, b_ends, ra[i] + b_far) {
-            continue;
-        }
-        for j in bits(columns) {
-            if !ArmPose::pair_stays_clear(a_ends, i, b_ends, j, ra[i] + rb[j]) {
-                *row |= 1 << j;
-            }
-        }
-    }
-    if pairs.iter().all(|&r| r == 0) {
-        return false;
-    }
-    let count = a.count.max(b.count);
     // An arm that stands still is where its ends have it all along: never placed again.
     let (a_still, b_still) = (
         a.dq.iter().all(|&d| d == 0.0),
         b.dq.iter().all(|&d| d == 0.0),
     );
-    let (mut placed_a, mut placed_b) = (ArmPose::EMPTY, ArmPose::EMPTY);
-    bisect(0, count, count, pairs, &mut |s, w, pairs: &Pairs| {
+    let check = &mut |ends: [[&ArmPose; 2]; 2], width: f64, pairs: &Pairs| {
         let (rows, columns) = rows_and_columns(pairs);
-        let arm_a = if a_still {
-            a0
-        } else {
-            placed_a.place_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
-            &placed_a
-        };
-        let arm_b = if b_still {
-            b0
-        } else {
-            placed_b.place_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
-            &placed_b
-        };
+        let a_at = [
+            if a_still { a0 } else { ends[0][0] },
+            if a_still { a0 } else { ends[1][0] },
+        ];
+        let b_at = [
+            if b_still { b0 } else { ends[0][1] },
+            if b_still { b0 } else { ends[1][1] },
+        ];
+        let (ra, rb) = (
+            a.reaches_over(a_at, width, rows),
+            b.reaches_over(b_at, width, columns),
+        );
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
         for (i, &row) in pairs.iter().enumerate() {
             for j in bits(row) {
-                let m = (a.travel(i) + b.travel(j)) * w;
-                if arm_a.pair_hits(i, arm_b, j, m) {
-                    left[i] |= 1 << j;
+                match ArmPose::pair_contact_over(a_at, i, b_at, j, ra[i] + rb[j]) {
+                    Contact::Touch => return Found::Touch,
+                    Contact::Near => left[i] |= 1 << j,
+                    Contact::Clear => {}
                 }
             }
         }
-        left.iter().any(|&r| r != 0).then_some(left)
-    })
+        Found::left(left.iter().any(|&r| r != 0), left)
+    };
+    let place = &mut |s: f64, pairs: &Pairs, at: &mut [ArmPose; 2]| {
+        let (rows, columns) = rows_and_columns(pairs);
+        if !a_still {
+            at[0].place_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
+        }
+        if !b_still {
+            at[1].place_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
+        }
+    };
+    // The rows and columns the filter above keeps, as the pairs in question.
+    let mut all: Pairs = [0; MAX_POSE_CAPSULES];
+    if columns != 0 {
+        for (i, row) in all.iter_mut().enumerate().take(a0.len) {
+            if near_other(a_ends, i, b_ends, ra[i] + b_far) {
+                *row = columns;
+            }
+        }
+    }
+    let ends = [[a_ends[0], b_ends[0]], [a_ends[1], b_ends[1]]];
+    match check(ends, 1.0, &all) {
+        Found::Clear => false,
+        Found::Touch => true,
+        Found::Suspects(left) => {
+            // Half pieces, as one arm's sweep.
+            let halves = 2 * a.count.max(b.count);
+            refine(0, halves, halves, ends, left, place, check)
+        }
+    }
 }
 
 /// Per joint, a bound on how far capsule `i` (link capsules, then the tool's) of model
@@ -801,28 +866,63 @@ fn bow<const D: usize>(reach: &[f64; D], dq: &[f64; D]) -> f64 {
     acceleration / 8.0
 }
 
-/// Whether some suspect still fails on a single piece: checks pieces `first..end` of `count`
-/// as a whole at their middle `s`, with `w` half their width (a fraction of the motion), by
-/// `hit(s, w, suspects)`, which returns the suspects that fail there (`None`: all clear); then
-/// the halves, for those alone. Recursion depth is at most `log2(MAX_SWEEP_CHECKS) + 1`.
-fn bisect<S: Copy>(
+/// What one check of [`refine`] found over a part of the motion, from its two ends.
+enum Found<S> {
+    /// Every suspect clears the part.
+    Clear,
+    /// These suspects may meet somewhere in the part: its halves tell.
+    Suspects(S),
+    /// A suspect meets at an end: the motion collides (the halves around that placing would
+    /// fail too, so the answer is the one they would give, found without them).
+    Touch,
+}
+
+impl<S> Found<S> {
+    /// `Suspects(left)` when `any`, else `Clear`.
+    fn left(any: bool, left: S) -> Self {
+        if any {
+            Found::Suspects(left)
+        } else {
+            Found::Clear
+        }
+    }
+}
+
+/// Whether some suspect still fails on a single one of parts `first..end` of `count` (of the
+/// motion), where `suspects` fail the check over them as a whole: places the arms (`K` of
+/// them) at the parts' middle boundary by `place(s, suspects, poses)` (for the suspects'
+/// capsules only) and checks each half between its end poses by `check(ends, width, suspects)`, `width`
+/// the half's share of the motion, which tells which suspects may meet inside it and whether
+/// one touches at an end; then the halves' halves, for those alone. A touch ends the search.
+///
+/// Cost: one placing per split. Stack: `K` [`ArmPose`]s (about 2.2 KB each) per level, at
+/// most `log2(2 * MAX_SWEEP_CHECKS)` levels.
+fn refine<S: Copy, const K: usize>(
     first: usize,
     end: usize,
     count: usize,
+    ends: [[&ArmPose; K]; 2],
     suspects: S,
-    hit: &mut impl FnMut(f64, f64, &S) -> Option<S>,
+    place: &mut impl FnMut(f64, &S, &mut [ArmPose; K]),
+    check: &mut impl FnMut([[&ArmPose; K]; 2], f64, &S) -> Found<S>,
 ) -> bool {
-    let n = count as f64;
-    let Some(left) = hit(
-        (first + end) as f64 / (2.0 * n),
-        (end - first) as f64 / (2.0 * n),
-        &suspects,
-    ) else {
-        return false;
-    };
-    if end - first == 1 {
+    if end - first <= 1 {
         return true;
     }
     let mid = (first + end) / 2;
-    bisect(first, mid, count, left, hit) || bisect(mid, end, count, left, hit)
+    let mut at = [ArmPose::EMPTY; K];
+    place(mid as f64 / count as f64, &suspects, &mut at);
+    let at: [&ArmPose; K] = core::array::from_fn(|k| &at[k]);
+    for (lo, hi, ends) in [(first, mid, [ends[0], at]), (mid, end, [at, ends[1]])] {
+        let found = check(ends, (hi - lo) as f64 / count as f64, &suspects);
+        let hit = match found {
+            Found::Clear => false,
+            Found::Touch => true,
+            Found::Suspects(left) => refine(lo, hi, count, ends, left, place, check),
+        };
+        if hit {
+            return true;
+        }
+    }
+    false
 }

@@ -2,7 +2,7 @@
 //! hand-checked special cases (parallel, point-like and touching shapes).
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
-use omcbsa_core::geometry::{Capsule, Obstacle, Segment, Shape};
+use omcbsa_core::geometry::{Capsule, Contact, Obstacle, Segment, Shape};
 use omcbsa_core::model::Frame;
 use omcbsa_core::rng::Rng;
 use parry3d_f64::math::{Pose3, Rot3, Vec3};
@@ -183,6 +183,17 @@ fn capsule_capsule_matches_parry() {
             assert_eq!(c1.hits(&c2, margin), reference < margin, "{c1:?} {c2:?}");
             assert_eq!(c2.hits(&c1, margin), reference < margin, "{c2:?} {c1:?}");
         }
+        // A touch is told from a near miss exactly (capsule distances are exact).
+        if (reference - margin).abs() > CLEAR && reference.abs() > CLEAR {
+            let expected = if reference < 0.0 {
+                Contact::Touch
+            } else if reference < margin {
+                Contact::Near
+            } else {
+                Contact::Clear
+            };
+            assert_eq!(c1.contact(&c2, margin), expected, "{c1:?} {c2:?}");
+        }
         if reference.abs() > GJK_CLEAR {
             let overlap = query::intersection_test(
                 &Pose3::IDENTITY,
@@ -201,7 +212,7 @@ fn capsule_capsule_matches_parry() {
 fn obstacle_capsule_matches_parry() {
     let mut rng = Rng::new(3);
     for kind in 0..4 {
-        let (mut worst, mut touching) = (0.0f64, 0);
+        let (mut worst, mut touching, mut touches) = (0.0f64, 0, 0);
         for _ in 0..TRIALS {
             let (obstacle, shape, pose) = obstacle(&mut rng, kind);
             let c = capsule(&mut rng);
@@ -218,6 +229,14 @@ fn obstacle_capsule_matches_parry() {
                     expected,
                     "{obstacle:?} {c:?}"
                 );
+                // A touch is only claimed where the capsule meets the obstacle (a solid's
+                // distance, found against the margin, may leave a touch as `Near`).
+                let contact = obstacle.capsule_contact(&c, margin);
+                assert_eq!(contact != Contact::Clear, expected, "{obstacle:?} {c:?}");
+                if contact == Contact::Touch {
+                    assert!(axis < c.radius + CLEAR, "{obstacle:?} {c:?}");
+                    touches += 1;
+                }
             }
             if (axis - c.radius).abs() > GJK_CLEAR {
                 let overlap =
@@ -237,6 +256,7 @@ fn obstacle_capsule_matches_parry() {
             touching > TRIALS / 10 && touching < TRIALS * 9 / 10,
             "shape {kind}: {touching}"
         );
+        assert!(touches > TRIALS / 20, "shape {kind}: {touches} touches told");
     }
 }
 

@@ -16,6 +16,18 @@ pub use aabb::Aabb;
 pub use capsule::Capsule;
 pub use segment::Segment;
 
+/// How close two shapes come, against a margin: what a motion check needs to know at one
+/// configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Contact {
+    /// Farther apart than the margin.
+    Clear,
+    /// Within the margin, and not known to meet.
+    Near,
+    /// They meet: found at an actual pair of their points.
+    Touch,
+}
+
 use nalgebra::Vector3;
 
 use crate::model::Frame;
@@ -91,6 +103,13 @@ impl Obstacle {
 
     /// Whether the obstacle and `capsule` come closer than `margin` or meet.
     pub fn hits_capsule(&self, capsule: &Capsule, margin: f64) -> bool {
+        self.capsule_contact(capsule, margin) != Contact::Clear
+    }
+
+    /// How close the obstacle and `capsule` come against `margin`, for the cost of
+    /// [`Obstacle::hits_capsule`]: a distance below the threshold is always one evaluated at
+    /// a point of the capsule's axis, so it tells a touch too.
+    pub fn capsule_contact(&self, capsule: &Capsule, margin: f64) -> Contact {
         let reach = capsule.radius + margin;
         let want = match self.shape {
             // Solids: decide against the threshold without finding the exact distance.
@@ -98,7 +117,7 @@ impl Obstacle {
             Shape::Sphere { .. } | Shape::Capsule { .. } => Want::Exact,
         };
         let (d2, inflate) = self.distance2_to_segment(&capsule.segment, want);
-        within(d2, reach + inflate)
+        contact(d2, capsule.radius + inflate, margin)
     }
 
     /// Squared distance from `seg` to the obstacle's core (its axis for a capsule, its centre
@@ -149,4 +168,16 @@ impl Obstacle {
 #[inline]
 fn within(d2: f64, reach: f64) -> bool {
     d2 < reach * reach || d2 == 0.0
+}
+
+/// [`Contact`] of cores at squared distance `d2` inflated by `reach` in all, against `margin`.
+#[inline]
+fn contact(d2: f64, reach: f64, margin: f64) -> Contact {
+    if !within(d2, reach + margin) {
+        Contact::Clear
+    } else if within(d2, reach) {
+        Contact::Touch
+    } else {
+        Contact::Near
+    }
 }
