@@ -256,7 +256,10 @@ fn obstacle_capsule_matches_parry() {
             touching > TRIALS / 10 && touching < TRIALS * 9 / 10,
             "shape {kind}: {touching}"
         );
-        assert!(touches > TRIALS / 20, "shape {kind}: {touches} touches told");
+        assert!(
+            touches > TRIALS / 20,
+            "shape {kind}: {touches} touches told"
+        );
     }
 }
 

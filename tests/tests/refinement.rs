@@ -17,10 +17,11 @@ use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 use omcbsa_tests::*;
 
-/// A suite problem (random_row_2arms_000 of `omcbsa gen-bench --seed 16 --per-family 20`, which
-/// has a validated witness) on which Ω-CBSA's first level has no plan: its start states miss.
-/// (Found by planning the 2-arm problems of suites with other seeds: with the capsules of the
-/// slack refit, no 2-arm problem of the default suite misses level 0.)
+/// A problem of the refinement family (random_ring_2arms_022 of `omcbsa gen-bench --refine 12`,
+/// which has a validated witness) on which the first level of Ω-CBSA, OM-PP-A* and
+/// OM-PP-A*_single has no plan. (Found by planning the 2-arm problems of that family: since the
+/// sweeps check each part of a motion between two placings, none of the 2-arm problems of
+/// `gen-bench --seed 16 .. 23 --per-family 20` misses level 0 for all three.)
 fn level0_miss() -> omcbsa::format::ProblemFile {
     let text = include_str!("../fixtures/level0_miss_2arms.json");
     load::parse_problem(text).expect("fixture parses")

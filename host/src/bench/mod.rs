@@ -49,7 +49,7 @@ pub const QUICK_TIMEOUT_S: f64 = 1.0;
 pub const RESULTS_FILE: &str = "results.csv";
 pub const SUMMARY_FILE: &str = "summary.md";
 /// Stack of the worker threads: planners keep their fixed-size workspaces on it.
-const WORKER_STACK: usize = 16 << 20;
+pub(crate) const WORKER_STACK: usize = 16 << 20;
 
 /// Runs one planner on one problem: the problem as read and as loaded, and the timeout.
 pub trait Solver: Sync {

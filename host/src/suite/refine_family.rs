@@ -25,6 +25,7 @@ use omcbsa_core::search::refine::LEVEL_CAP;
 use super::emit::{self, Generated};
 use super::witness::Arms;
 use super::{specs, write_suite, Error, Family, GenOptions, GenReport, Tightness};
+use crate::bench::WORKER_STACK;
 use crate::load;
 use crate::models::DOF;
 use crate::planners::{Capacities, Storage};
@@ -75,17 +76,28 @@ pub fn gen_refine(outdir: &Path, opts: &RefineOptions) -> Result<GenReport, Erro
     // Interleave the families, so that any prefix mixes them.
     candidates.sort_by_key(|s| (s.name.rsplit('_').next().map(str::to_owned), s.family as u8));
     candidates.truncate(opts.max_candidates);
+    // Level 0 runs the planner, whose fixed-size workspaces live on the stack: the bench's
+    // worker stacks, not the global pool's.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .stack_size(WORKER_STACK)
+        .build()
+        .map_err(|e| Error::Generation {
+            problem: "refinement family".into(),
+            message: format!("cannot start the worker threads: {e}"),
+        })?;
     let mut kept: Vec<Generated> = Vec::new();
     for batch in candidates.chunks(BATCH) {
-        let found: Vec<Option<Generated>> = batch
-            .par_iter()
-            .map(|spec| match emit::generate(spec) {
-                Ok(g) => Ok(level0_misses(&g)?.then_some(g)),
-                // A candidate with nothing to build from is no candidate.
-                Err(Error::NoMotion { .. }) => Ok(None),
-                Err(e) => Err(e),
-            })
-            .collect::<Result<_, Error>>()?;
+        let found: Vec<Option<Generated>> = pool.install(|| {
+            batch
+                .par_iter()
+                .map(|spec| match emit::generate(spec) {
+                    Ok(g) => Ok(level0_misses(&g)?.then_some(g)),
+                    // A candidate with nothing to build from is no candidate.
+                    Err(Error::NoMotion { .. }) => Ok(None),
+                    Err(e) => Err(e),
+                })
+                .collect::<Result<_, Error>>()
+        })?;
         kept.extend(found.into_iter().flatten());
         if kept.len() >= opts.problems {
             break;
