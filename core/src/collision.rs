@@ -477,8 +477,7 @@ fn rows_and_columns(pairs: &Pairs) -> (u32, u32) {
 }
 
 /// The indices of the set bits of `m`, lowest first.
-fn bits(m: impl Into<u64>) -> impl Iterator<Item = usize> {
-    let mut m: u64 = m.into();
+fn bits(mut m: u32) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
         (m != 0).then(|| {
             let i = m.trailing_zeros() as usize;
