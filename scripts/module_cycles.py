@@ -43,6 +43,26 @@ def modules(src):
     return found
 
 
+def inline_modules(text):
+    """(name, start, end) of every `mod name { .. }` written inline in a file."""
+    found = []
+    for m in re.finditer(r"\bmod\s+([A-Za-z_]\w*)\s*\{", text):
+        depth, i = 0, m.end() - 1
+        while i < len(text):
+            depth += text[i] == "{"
+            depth -= text[i] == "}"
+            if depth == 0:
+                break
+            i += 1
+        found.append((m.group(1), m.end(), i))
+    return found
+
+
+def enclosing(inline, pos):
+    """Names of the inline modules around `pos`, outermost first."""
+    return [name for name, start, end in inline if start <= pos < end]
+
+
 def expand(tree):
     """`a::{b, c::{d, e}}` -> ["a::b", "a::c::d", "a::c::e"]."""
     tree = re.sub(r"\s+", " ", tree).strip()
@@ -74,12 +94,18 @@ class Crate:
         for m, f in self.mods.items():
             with open(f) as fh:
                 text = STRING.sub('""', COMMENT.sub("", fh.read()))
+            inline = inline_modules(text)
+            # (path, the inline modules it is written in), for imports and re-exports.
             uses, pub_uses = [], []
-            for vis, tree in USE.findall(text):
-                (pub_uses if vis else uses).extend(expand(tree))
-            uses += PATH.findall(USE.sub("", text))
+            for u in USE.finditer(text):
+                within = enclosing(inline, u.start())
+                for path in expand(u.group(2)):
+                    (pub_uses if u.group(1) else uses).append((path, within))
+            blanked = USE.sub(lambda u: " " * len(u.group(0)), text)
+            for p in PATH.finditer(blanked):
+                uses.append((p.group(1), enclosing(inline, p.start())))
             self.uses[m] = uses
-            self.pub_uses[m] = pub_uses
+            self.pub_uses[m] = [path for path, within in pub_uses if not within]
 
     def children(self, m):
         return {c[-1] for c in self.mods if len(c) == len(m) + 1 and c[: len(m)] == m}
@@ -127,10 +153,13 @@ class Crate:
     def graph(self):
         edges = {m: set() for m in self.mods if m}
         for m in edges:
-            for path in self.uses[m]:
-                segs = self.absolute(path, m)
+            for path, within in self.uses[m]:
+                here = tuple(m) + tuple(within)
+                segs = self.absolute(path, here)
                 if segs is None:
                     continue
+                if tuple(segs[: len(here)]) == here and within:
+                    continue  # inside the file's own inline modules
                 t = self.resolve(segs)
                 if t and t != m:
                     edges[m].add(t)
