@@ -60,7 +60,7 @@ pub fn fleet(type_name: &str, dof: usize, models: &[(&str, &str)]) -> String {
     let _ = writeln!(w, "impl crate::model::Models<{dof}> for {type_name} {{");
     let _ = writeln!(w, "    const COUNT: usize = {};", models.len());
     let checks: String = (models.iter())
-        .map(|(ty, _)| format!(" crate::collision::check_model::<{ty}, {dof}>();"))
+        .map(|(ty, _)| format!(" crate::model::check_model::<{ty}, {dof}>();"))
         .collect();
     let _ = writeln!(w, "    const CHECKED: () = {{{checks} }};");
     for (query, params, ret) in QUERIES {

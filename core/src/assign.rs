@@ -99,7 +99,6 @@ impl PairTable {
         best
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn dfs(
         &self,
         j: usize,

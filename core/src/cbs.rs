@@ -20,7 +20,9 @@
 use crate::collision::ArmPose;
 use crate::model::Models;
 use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{
+    Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
+};
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::refine::{level_params, EXHAUSTED, FIRST_ROUND, LEVELS, LEVEL_CAP};
@@ -139,22 +141,14 @@ impl<'a, const D: usize> OmegaCbsa<'a, D> {
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
-    fn name(&self) -> &'static str {
-        PlannerKind::OmCbsa.name()
+    const TAKES: Takes = Takes::Fixed;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::OmCbsa
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::Fixed, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         if self.st.scratch.len() < h {
             return Status::OutOfMemory("CBS scratch path");
         }
@@ -183,11 +177,11 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
             ),
             h,
             n: problem.robots.len(),
-            deadline: Until { clock, at: timeout },
-            stats,
+            deadline: req.until,
+            stats: &mut req.stats,
             _m: core::marker::PhantomData,
         };
-        run.solve(clock, out)
+        run.solve(&mut req.out)
     }
 }
 
@@ -232,7 +226,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// waiting until the deadline. The budgets count expansions, not time, so the answer is
     /// deterministic. A tree whose pools run out ends its level (not proven exhausted) and the
     /// other levels go on.
-    fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
+    fn solve(&mut self, out: &mut Solution<'_, D>) -> Status {
         let levels = usize::from(self.params.levels.clamp(1, LEVELS));
         let mut exhausted = [false; LEVELS as usize];
         // Whether the finest level's exhaustion proves nothing (a search ran out of memory).
@@ -252,7 +246,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                     0 => u64::MAX,
                     b => b.saturating_mul(1u64 << shift.min(40)),
                 };
-                let ended = self.tree(clock, out, shift, budget);
+                let ended = self.tree(out, shift, budget);
                 self.used_nodes = 0;
                 self.used_slots = 0;
                 self.open.clear();
@@ -295,14 +289,8 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// (`budget` Ω-A* expansions after the root's) without ending. The root is not counted: a
     /// fine level's root alone can take more than a small budget, and a tree cut off at its
     /// root would be work thrown away.
-    fn tree(
-        &mut self,
-        clock: &dyn Clock,
-        out: &mut Solution<'_, D>,
-        restart: u32,
-        budget: u64,
-    ) -> Option<Status> {
-        let root = match self.root(clock, restart) {
+    fn tree(&mut self, out: &mut Solution<'_, D>, restart: u32, budget: u64) -> Option<Status> {
+        let root = match self.root(restart) {
             Ok(r) => r,
             Err(s) => return Some(s),
         };
@@ -411,14 +399,15 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// failing that, by Ω-A* with its collisions with the earlier robots counted. Only the root
     /// is built this way: every child replans by Ω-A* under its constraints, so the tree's
     /// completeness (docs/ARCHITECTURE.md) does not depend on the root.
-    fn root(&mut self, clock: &dyn Clock, restart: u32) -> Result<CtNode, Status> {
+    fn root(&mut self, restart: u32) -> Result<CtNode, Status> {
         // The cap counts from this root on: the tracking itself is a few milliseconds of
         // bounded work, so in practice the cap never cuts it and the root (hence the answer)
         // does not depend on how busy the machine is.
-        let warm = Until {
-            clock,
-            at: (clock.seconds() + self.params.warm_start_seconds).min(self.deadline.at),
-        };
+        let now = self.deadline.now();
+        let warm = Until::new(
+            self.deadline.clock,
+            (now + self.params.warm_start_seconds).min(self.deadline.at),
+        );
         let mut order: [usize; MAX_ROBOTS] = core::array::from_fn(|i| i);
         if restart > 0 {
             let mut rng = Rng::new(self.low.seed ^ u64::from(restart).rotate_left(40));
@@ -440,16 +429,13 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                 // A trajectory left free first; if the robot can track none of them, any,
                 // holding only if it can track none at all (the tree prunes on holders, so a
                 // holder must be one that cannot track anything under its constraints).
-                None => {
-                    let mode = OthersMode::Count;
-                    match self.low_level_in(i, &node, left, 0, placed, mode, false, None) {
-                        Err(Status::NoSolution) => {
-                            self.low_level(i, &node, self.all_trajectories(), 0, placed)?
-                                .0
-                        }
-                        r => r?.0,
+                None => match self.low_level_in(i, &node, left, 0, placed, false) {
+                    Err(Status::NoSolution) => {
+                        self.low_level(i, &node, self.all_trajectories(), 0, placed)?
+                            .0
                     }
-                }
+                    r => r?.0,
+                },
             };
             if node.assignment[i] != HOLD {
                 taken |= 1 << node.assignment[i];
@@ -496,18 +482,9 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                 path: slot_of(self.paths, node.slots[k], self.h),
             });
         }
-        let valid = Validity::<M, D>::new(
-            robot.model,
-            robot.base,
-            robot.tool,
-            &self.pr.obstacles,
-            &others,
-            OthersMode::Avoid,
-            &[],
-            self.pr.dt,
-            self.low.motion_step,
-        )
-        .excluding(robot.excluded);
+        let valid =
+            Validity::<M, D>::new(&robot, &self.pr.obstacles, self.pr.dt, self.low.motion_step)
+                .with_others(&others, OthersMode::Avoid);
         // With a step cost, the warm start weighs it as the search would.
         let steered = self.low.at_step(self.pr.dt);
         let steps = if steered.w_a > 0.0 {
@@ -560,21 +537,10 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         npoints: usize,
         others: u32,
     ) -> Result<(u8, u32), Status> {
-        self.low_level_in(
-            i,
-            node,
-            allowed,
-            npoints,
-            others,
-            OthersMode::Count,
-            self.can_hold(),
-            None,
-        )
+        self.low_level_in(i, node, allowed, npoints, others, self.can_hold())
     }
 
-    /// [`Run::low_level`] with the other robots counted or avoided, holding allowed or not,
-    /// and an earlier deadline.
-    #[allow(clippy::too_many_arguments)]
+    /// [`Run::low_level`] with holding allowed (`hold`) or not.
     fn low_level_in(
         &mut self,
         i: usize,
@@ -582,9 +548,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         allowed: u32,
         npoints: usize,
         others_set: u32,
-        mode: OthersMode,
         hold: bool,
-        until: Option<&Until<'_>>,
     ) -> Result<(u8, u32), Status> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
         // Which robot each of `others` is.
@@ -605,18 +569,21 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             hold,
             obstacles: &self.pr.obstacles,
             others: &others,
-            others_mode: mode,
+            others_mode: OthersMode::Count,
             points: &self.points[..npoints],
             dt: self.pr.dt,
             starts: self.starts.robot(i),
         };
         let mut s = SearchStats::default();
         self.stats.low_level_calls += 1;
-        let deadline: &dyn Deadline = match until {
-            Some(u) => u,
-            None => &self.deadline,
-        };
-        let r = plan::<M, D>(&query, &self.low, self.ws, deadline, self.scratch, &mut s);
+        let r = plan::<M, D>(
+            &query,
+            &self.low,
+            self.ws,
+            &self.deadline,
+            self.scratch,
+            &mut s,
+        );
         self.stats.expansions += s.expansions as u64;
         match r {
             Ok(found) => {

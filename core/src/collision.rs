@@ -11,95 +11,18 @@ use core::marker::PhantomData;
 use nalgebra::Vector3;
 
 use crate::geometry::{Aabb, Capsule, Contact, Obstacle};
-use crate::model::{Frame, Model, Models};
+use crate::model::{Frame, Models};
 use crate::problem::MAX_OBSTACLES;
 use crate::tool::{Tool, MAX_TOOL_CAPSULES};
 
-/// Most collision capsules one arm model may have. A model with more is refused when
-/// [`ArmPose::new`] is compiled for it (or for a fleet holding it), never truncated:
-///
-/// ```compile_fail
-/// use omcbsa_core::collision::{ArmPose, MAX_ARM_CAPSULES};
-/// use omcbsa_core::model::{Frame, LinkCapsule, Model};
-/// use omcbsa_core::nalgebra::SMatrix;
-///
-/// struct TooMany;
-/// impl Model<1> for TooMany {
-///     const NAME: &'static str = "too_many";
-///     const LINK_NAMES: &'static [&'static str] = &["base"];
-///     const JOINT_NAMES: [&'static str; 1] = ["j"];
-///     const LOWER: [f64; 1] = [-1.0];
-///     const UPPER: [f64; 1] = [1.0];
-///     const VELOCITY: [f64; 1] = [1.0];
-///     const ACCELERATION: [f64; 1] = [1.0];
-///     const CAPSULES: &'static [LinkCapsule] =
-///         &[LinkCapsule { link: 0, a: [0.0; 3], b: [0.0; 3], radius: 0.1 }; MAX_ARM_CAPSULES + 1];
-///     const SELF_PAIRS: &'static [(u8, u8)] = &[];
-///     const REACH: [f64; 1] = [1.0];
-///     fn fk(_: &[f64; 1]) -> Frame {
-///         Frame::IDENTITY
-///     }
-///     fn link_frames(_: &[f64; 1], out: &mut [Frame]) -> Frame {
-///         out[0] = Frame::IDENTITY;
-///         Frame::IDENTITY
-///     }
-///     fn jacobian(_: &[f64; 1]) -> (Frame, SMatrix<f64, 6, 1>) {
-///         (Frame::IDENTITY, SMatrix::zeros())
-///     }
-/// }
-///
-/// ArmPose::new::<TooMany, 1>(0, &Frame::IDENTITY, &omcbsa_core::tool::Tool::NONE, &[0.0]);
-/// ```
-pub const MAX_ARM_CAPSULES: usize = 16;
+pub use crate::model::{MAX_ARM_CAPSULES, MAX_LINK_FRAMES};
 /// Most capsules of one arm with its tool.
 pub const MAX_POSE_CAPSULES: usize = MAX_ARM_CAPSULES + MAX_TOOL_CAPSULES;
-/// Most link frames one arm model may have (a model with more does not compile).
-pub const MAX_LINK_FRAMES: usize = 16;
 /// Most configurations a [`Sweep`] checks; beyond that its margin grows instead.
 pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
 
 // Base-link capsules and capsule pairs are kept as bit sets.
 const _: () = assert!(MAX_POSE_CAPSULES <= u32::BITS as usize);
-
-/// Fails compilation (through [`ArmPose::new`] and [`Models::CHECKED`]) for a model an
-/// `ArmPose` cannot hold, or whose capsule and pair indices point nowhere, so that indexing
-/// with them cannot fail.
-pub(crate) const fn check_model<M: Model<D>, const D: usize>() {
-    assert!(
-        M::CAPSULES.len() <= MAX_ARM_CAPSULES,
-        "model has more than MAX_ARM_CAPSULES"
-    );
-    assert!(
-        M::LINK_NAMES.len() <= MAX_LINK_FRAMES,
-        "model has more than MAX_LINK_FRAMES"
-    );
-    let mut i = 0;
-    while i < M::CAPSULES.len() {
-        assert!(
-            (M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(),
-            "capsule on no link"
-        );
-        i += 1;
-    }
-    let mut i = 0;
-    while i < M::SELF_PAIRS.len() {
-        let (a, b) = M::SELF_PAIRS[i];
-        let n = M::CAPSULES.len();
-        assert!(
-            (a as usize) < n && (b as usize) < n,
-            "self pair names no capsule"
-        );
-        i += 1;
-    }
-    let mut i = 0;
-    while i < M::TOOL_SELF_CAPSULES.len() {
-        assert!(
-            (M::TOOL_SELF_CAPSULES[i] as usize) < M::CAPSULES.len(),
-            "tool self capsule names no capsule"
-        );
-        i += 1;
-    }
-}
 
 /// An arm's collision capsules in the world at one configuration: the model's link capsules,
 /// then its tool's.

@@ -7,6 +7,88 @@
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
+/// Most collision capsules one arm model may have. A model with more is refused when
+/// [`crate::collision::ArmPose::new`] is compiled for it (or for a fleet holding it), never
+/// truncated:
+///
+/// ```compile_fail
+/// use omcbsa_core::collision::ArmPose;
+/// use omcbsa_core::model::MAX_ARM_CAPSULES;
+/// use omcbsa_core::model::{Frame, LinkCapsule, Model};
+/// use omcbsa_core::nalgebra::SMatrix;
+///
+/// struct TooMany;
+/// impl Model<1> for TooMany {
+///     const NAME: &'static str = "too_many";
+///     const LINK_NAMES: &'static [&'static str] = &["base"];
+///     const JOINT_NAMES: [&'static str; 1] = ["j"];
+///     const LOWER: [f64; 1] = [-1.0];
+///     const UPPER: [f64; 1] = [1.0];
+///     const VELOCITY: [f64; 1] = [1.0];
+///     const ACCELERATION: [f64; 1] = [1.0];
+///     const CAPSULES: &'static [LinkCapsule] =
+///         &[LinkCapsule { link: 0, a: [0.0; 3], b: [0.0; 3], radius: 0.1 }; MAX_ARM_CAPSULES + 1];
+///     const SELF_PAIRS: &'static [(u8, u8)] = &[];
+///     const REACH: [f64; 1] = [1.0];
+///     fn fk(_: &[f64; 1]) -> Frame {
+///         Frame::IDENTITY
+///     }
+///     fn link_frames(_: &[f64; 1], out: &mut [Frame]) -> Frame {
+///         out[0] = Frame::IDENTITY;
+///         Frame::IDENTITY
+///     }
+///     fn jacobian(_: &[f64; 1]) -> (Frame, SMatrix<f64, 6, 1>) {
+///         (Frame::IDENTITY, SMatrix::zeros())
+///     }
+/// }
+///
+/// ArmPose::new::<TooMany, 1>(0, &Frame::IDENTITY, &omcbsa_core::tool::Tool::NONE, &[0.0]);
+/// ```
+pub const MAX_ARM_CAPSULES: usize = 16;
+/// Most link frames one arm model may have (a model with more does not compile).
+pub const MAX_LINK_FRAMES: usize = 16;
+
+/// Fails compilation (through [`Models::CHECKED`], which
+/// [`crate::collision::ArmPose::new`] evaluates) for a model an
+/// `ArmPose` cannot hold, or whose capsule and pair indices point nowhere, so that indexing
+/// with them cannot fail.
+pub const fn check_model<M: Model<D>, const D: usize>() {
+    assert!(
+        M::CAPSULES.len() <= MAX_ARM_CAPSULES,
+        "model has more than MAX_ARM_CAPSULES"
+    );
+    assert!(
+        M::LINK_NAMES.len() <= MAX_LINK_FRAMES,
+        "model has more than MAX_LINK_FRAMES"
+    );
+    let mut i = 0;
+    while i < M::CAPSULES.len() {
+        assert!(
+            (M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(),
+            "capsule on no link"
+        );
+        i += 1;
+    }
+    let mut i = 0;
+    while i < M::SELF_PAIRS.len() {
+        let (a, b) = M::SELF_PAIRS[i];
+        let n = M::CAPSULES.len();
+        assert!(
+            (a as usize) < n && (b as usize) < n,
+            "self pair names no capsule"
+        );
+        i += 1;
+    }
+    let mut i = 0;
+    while i < M::TOOL_SELF_CAPSULES.len() {
+        assert!(
+            (M::TOOL_SELF_CAPSULES[i] as usize) < M::CAPSULES.len(),
+            "tool self capsule names no capsule"
+        );
+        i += 1;
+    }
+}
+
 /// A rigid transform kept as a rotation matrix and a translation: composing and applying
 /// these is cheaper than going through quaternions in the hot loops.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -126,7 +208,7 @@ pub trait Models<const D: usize>: 'static {
     /// How many models; indices run `0..COUNT`.
     const COUNT: usize;
     /// Evaluating it fails compilation for a model an [`crate::collision::ArmPose`] cannot
-    /// hold (see `collision::check_model`).
+    /// hold (see [`check_model`]).
     const CHECKED: ();
     fn name(id: u8) -> &'static str;
     fn link_names(id: u8) -> &'static [&'static str];
@@ -156,7 +238,7 @@ pub trait Models<const D: usize>: 'static {
 /// One model: every index is this model.
 impl<M: Model<D>, const D: usize> Models<D> for M {
     const COUNT: usize = 1;
-    const CHECKED: () = crate::collision::check_model::<M, D>();
+    const CHECKED: () = check_model::<M, D>();
     fn name(_: u8) -> &'static str {
         M::NAME
     }

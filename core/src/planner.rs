@@ -1,6 +1,28 @@
 //! The one interface every planner implements (Ω-CBSA, the prioritised planners and the
-//! baselines), in OMPL's vocabulary: a problem definition ([`Problem`]), a planner, a
-//! termination condition ([`Clock`] + timeout) and a solution written to caller storage.
+//! baselines), in OMPL's vocabulary: a problem definition ([`Problem`]), a termination
+//! condition ([`Until`]: a [`Clock`] and the time to stop), a planner, and a [`Request`] that
+//! carries the problem, the deadline, the caller's storage for the answer ([`Solution`]) and
+//! the counters. A planner holds its own parameters and pools; [`Planner::solve`] opens every
+//! request the same way (the checks of [`open`]) before the planner's own [`Planner::plan`].
+//!
+//! ```
+//! use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//! use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+//! use omcbsa_core::problem::{Problem, Robot, Trajectory};
+//!
+//! // One Gen3 holding its hand still where it is at the zero configuration.
+//! let hand = KinovaGen3::fk(&[0.0; 7]);
+//! let mut problem = Problem::<7>::new(0.02);
+//! problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
+//! problem.trajectories.push(Trajectory::from_slice(&[hand; 4]).unwrap()).unwrap();
+//!
+//! let mut paths = [[0.0; 7]; 4];
+//! let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+//! let mut planner = IkTracking { params: IkTrackingParams::default() };
+//! assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
+//! assert_eq!(req.out.assignment[0], Some(0));
+//! ```
 
 use crate::model::Models;
 use crate::problem::{Assigned, Problem, Start, MAX_ROBOTS};
@@ -10,6 +32,7 @@ use crate::search::Deadline;
 /// Time since planning started, in seconds. The core has no clock of its own: the host passes
 /// `std::time::Instant`, a microcontroller its cycle counter.
 pub trait Clock {
+    /// Seconds since the clock's start.
     fn seconds(&self) -> f64;
 }
 
@@ -22,10 +45,34 @@ impl Clock for NoClock {
     }
 }
 
-/// "Stop when `clock` reaches `at`."
+/// The termination condition of a request: "stop when `clock` reaches `at`". Made once by the
+/// caller and copied, never rebuilt, by every search under it.
+#[derive(Clone, Copy)]
 pub struct Until<'c> {
+    /// The clock read.
     pub clock: &'c dyn Clock,
+    /// Seconds on `clock` at which planning stops.
     pub at: f64,
+}
+
+impl<'c> Until<'c> {
+    /// Stop when `clock` reaches `at` seconds.
+    pub fn new(clock: &'c dyn Clock, at: f64) -> Self {
+        Until { clock, at }
+    }
+
+    /// No deadline: planning ends only by success, exhaustion or a full pool.
+    pub fn never(clock: &'c dyn Clock) -> Self {
+        Until {
+            clock,
+            at: f64::INFINITY,
+        }
+    }
+
+    /// Seconds on the clock now.
+    pub fn now(&self) -> f64 {
+        self.clock.seconds()
+    }
 }
 
 impl Deadline for Until<'_> {
@@ -84,10 +131,12 @@ pub struct Solution<'a, const D: usize> {
     /// Trajectory tracked by each robot; `None` for a robot that holds its initial
     /// configuration.
     pub assignment: [Option<u8>; MAX_ROBOTS],
+    /// The robots' paths, robot after robot (the caller's storage).
     pub paths: &'a mut [[f64; D]],
 }
 
 impl<'a, const D: usize> Solution<'a, D> {
+    /// An empty answer written into `paths`.
     pub fn new(paths: &'a mut [[f64; D]]) -> Self {
         Solution {
             assignment: [None; MAX_ROBOTS],
@@ -98,6 +147,43 @@ impl<'a, const D: usize> Solution<'a, D> {
     /// Robot `i`'s path for a horizon of `h` steps.
     pub fn path(&self, i: usize, h: usize) -> &[[f64; D]] {
         &self.paths[i * h..(i + 1) * h]
+    }
+}
+
+/// One planning request: what to plan, until when, where the answer goes, and the counters
+/// the planner adds to. Every planner's [`Planner::solve`] takes one.
+pub struct Request<'r, const D: usize> {
+    /// The problem definition.
+    pub problem: &'r Problem<D>,
+    /// The termination condition.
+    pub until: Until<'r>,
+    /// The answer, in the caller's storage.
+    pub out: Solution<'r, D>,
+    /// Counters; a planner adds to them, so one `Stats` can count several requests.
+    pub stats: Stats,
+}
+
+impl<'r, const D: usize> Request<'r, D> {
+    /// A request with zeroed counters.
+    pub fn new(problem: &'r Problem<D>, until: Until<'r>, out: Solution<'r, D>) -> Self {
+        Request {
+            problem,
+            until,
+            out,
+            stats: Stats::default(),
+        }
+    }
+}
+
+/// The horizon of a request [`open`] checked: only `open` makes one, so a planner's
+/// [`Planner::plan`] cannot run on an unchecked request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Horizon(usize);
+
+impl Horizon {
+    /// Steps of every trajectory.
+    pub fn get(self) -> usize {
+        self.0
     }
 }
 
@@ -115,6 +201,10 @@ pub enum PlannerKind {
 }
 
 impl PlannerKind {
+    /// The planner used where none is named: Ω-CBSA.
+    pub const DEFAULT: PlannerKind = PlannerKind::OmCbsa;
+
+    /// Every planner.
     pub const ALL: [PlannerKind; 7] = [
         PlannerKind::OmCbsa,
         PlannerKind::Pp,
@@ -182,26 +272,38 @@ impl PlannerKind {
     }
 }
 
+impl Default for PlannerKind {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 impl core::fmt::Display for PlannerKind {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(self.name())
     }
 }
 
-/// A multi-robot planner for model `M`.
+/// A multi-robot planner for the models `M`: it holds its parameters and pools; a request
+/// brings the rest.
 pub trait Planner<M: Models<D>, const D: usize> {
-    /// The name used on the command line and in benchmark tables.
-    fn name(&self) -> &'static str;
+    /// The problems it takes, checked by [`Planner::solve`] before it plans.
+    const TAKES: Takes;
 
-    /// Plans `problem` until solved, exhausted, out of memory or `timeout` seconds on `clock`.
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status;
+    /// Which planner this is (its name on the command line and in benchmark tables).
+    fn kind(&self) -> PlannerKind;
+
+    /// Plans a request [`open`] accepted, until solved, exhausted, out of memory or past
+    /// `req.until`.
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status;
+
+    /// Checks `req` as every planner must ([`open`]), then plans it.
+    fn solve(&mut self, req: &mut Request<'_, D>) -> Status {
+        match open::<M, D>(req, Self::TAKES) {
+            Ok(h) => self.plan(req, h),
+            Err(status) => status,
+        }
+    }
 }
 
 /// What a planner takes, for [`open`].
@@ -214,24 +316,22 @@ pub enum Takes {
 }
 
 /// The opening of every planner's `solve`: the problem fits the planners' assumptions (and
-/// the planner's, `takes`), `out` can hold the answer, and no trajectory has a pose out of
-/// every robot's reach (a proof that nothing solves it: `NoSolution`, with the reason in
-/// `stats`). Returns the horizon, or the status to return.
+/// the planner's, `takes`), the request's storage can hold the answer, and no trajectory has a
+/// pose out of every robot's reach (a proof that nothing solves it: `NoSolution`, with the
+/// reason in the request's stats). Returns the horizon, or the status to return.
 pub fn open<M: Models<D>, const D: usize>(
-    problem: &Problem<D>,
-    out: &Solution<'_, D>,
+    req: &mut Request<'_, D>,
     takes: Takes,
-    stats: &mut Stats,
-) -> Result<usize, Status> {
+) -> Result<Horizon, Status> {
     if takes == Takes::FreeOnly {
-        check_free(problem)?;
+        check_free(req.problem)?;
     }
-    let h = check_problem(problem, out)?;
-    if unreachable_trajectory::<M, D>(problem).is_some() {
-        stats.reason = Some(UNREACHABLE);
+    let h = check_problem(req.problem, &req.out)?;
+    if unreachable_trajectory::<M, D>(req.problem).is_some() {
+        req.stats.reason = Some(UNREACHABLE);
         return Err(Status::NoSolution);
     }
-    Ok(h)
+    Ok(Horizon(h))
 }
 
 /// Checks that `problem` fits the planners' assumptions and `out` can hold the answer.

@@ -14,7 +14,9 @@
 
 use crate::assign::{Choice, Pair, PairTable, HOLD};
 use crate::model::Models;
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{
+    Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
+};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
 use crate::search::{
@@ -65,25 +67,17 @@ impl<'a, const D: usize> Prioritized<'a, D> {
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
-    fn name(&self) -> &'static str {
+    const TAKES: Takes = Takes::Fixed;
+
+    fn kind(&self) -> PlannerKind {
         match self.variant {
-            Variant::MultiGoal => PlannerKind::Pp.name(),
-            Variant::SingleGoal => PlannerKind::PpSingle.name(),
+            Variant::MultiGoal => PlannerKind::Pp,
+            Variant::SingleGoal => PlannerKind::PpSingle,
         }
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::Fixed, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         if self.scratch.len() < h {
             return Status::OutOfMemory("prioritised planning scratch path");
         }
@@ -94,7 +88,7 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             pr: problem,
             h,
             starts: StartCache::new(&mut *buf, n, problem.trajectories.len(), &self.params),
-            deadline: Until { clock, at: timeout },
+            deadline: req.until,
             ws: &mut self.ws,
             scratch: &mut *self.scratch,
             params: self.params,
@@ -102,7 +96,7 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             incomplete: false,
             _m: core::marker::PhantomData,
         };
-        let status = run.levels(self.variant, &self.params, out, stats);
+        let status = run.levels(self.variant, &self.params, &mut req.out, &mut req.stats);
         self.starts = buf;
         status
     }

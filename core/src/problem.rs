@@ -57,6 +57,24 @@ pub struct Robot<const D: usize> {
     pub excluded: StartExclusions<D>,
 }
 
+impl<const D: usize> Robot<D> {
+    /// A robot of model `model` (an index into the planner's models) with its base at `base`:
+    /// no tool, the tool centre point at the model's tool frame, no `initial`, start and
+    /// assignment chosen by the planner.
+    pub fn at(model: u8, base: Frame) -> Self {
+        Robot {
+            model,
+            base,
+            tcp: Frame::IDENTITY,
+            initial: None,
+            tool: Tool::NONE,
+            start: Start::Sampled,
+            assigned: Assigned::Free,
+            excluded: StartExclusions::NONE,
+        }
+    }
+}
+
 /// Most start configurations excluded per robot at once.
 pub const MAX_EXCLUDED_STARTS: usize = 4;
 
@@ -162,16 +180,35 @@ impl Assigned {
 pub type Trajectory = Vec<Frame, MAX_STEPS>;
 
 /// A whole problem. All trajectories have the same length H.
+///
+/// About `MAX_ROBOTS * MAX_STEPS * 96` bytes (about 200 kB for 7 joints): keep it in static
+/// or boxed storage on a small stack.
 #[derive(Clone, Debug)]
 pub struct Problem<const D: usize> {
+    /// Time between consecutive poses, s.
     pub dt: f64,
+    /// The arms.
     pub robots: Vec<Robot<D>, MAX_ROBOTS>,
+    /// The hands' trajectories, each of H poses.
     pub trajectories: Vec<Trajectory, MAX_ROBOTS>,
+    /// Fixed obstacles in the world frame.
     pub obstacles: Vec<Obstacle, MAX_OBSTACLES>,
+    /// How closely a tool centre point must follow its trajectory.
     pub tolerance: Tolerance,
 }
 
 impl<const D: usize> Problem<D> {
+    /// An empty problem with poses `dt` seconds apart and the default tolerance.
+    pub fn new(dt: f64) -> Self {
+        Problem {
+            dt,
+            robots: Vec::new(),
+            trajectories: Vec::new(),
+            obstacles: Vec::new(),
+            tolerance: Tolerance::default(),
+        }
+    }
+
     /// The horizon H (number of poses per trajectory).
     pub fn horizon(&self) -> usize {
         self.trajectories.first().map_or(0, |t| t.len())

@@ -117,7 +117,7 @@ mod tests {
     use crate::kinematics::axis_separation;
     use crate::model::{KinovaGen3, Model};
     use crate::problem::{Assigned, StartExclusions};
-    use crate::search::{OthersMode, REFERENCE_DT};
+    use crate::search::REFERENCE_DT;
     use crate::tool::Tool;
 
     /// A hand held still in front of a Gen3 whose shoulder stands nearly straight up (its
@@ -139,17 +139,7 @@ mod tests {
         let hand = <KinovaGen3 as Model<7>>::fk(&q0);
         let traj: Trajectory = (0..40).map(|_| hand).collect();
         let dt = 0.02;
-        let valid = Validity::<KinovaGen3, 7>::new(
-            0,
-            Frame::IDENTITY,
-            Tool::NONE,
-            &[],
-            &[],
-            OthersMode::Avoid,
-            &[],
-            dt,
-            crate::motion::MOTION_STEP,
-        );
+        let valid = Validity::<KinovaGen3, 7>::new(&robot, &[], dt, crate::motion::MOTION_STEP);
         let separation = |q: &[f64; 7]| axis_separation(&<KinovaGen3 as Model<7>>::jacobian(q).1);
         let mut plain = [[0.0; 7]; 40];
         let ik_params = IkParams::default();

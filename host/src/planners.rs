@@ -18,8 +18,8 @@ use omcbsa_core::baselines::{
     IkTracking, IkTrackingParams,
 };
 use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
-use omcbsa_core::embody::{solve_from_initial, Embodied};
-use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
+use omcbsa_core::embody::{run_planner, solve_from_initial, Embodied, Embodiment};
+use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status, Until};
 use omcbsa_core::pp::{Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 use omcbsa_core::search::{
@@ -194,13 +194,7 @@ impl Storage {
             tree_parent: vec![0; caps.approach_nodes],
             waypoints: vec![[0.0; DOF]; caps.approach_waypoints * MAX_ROBOTS],
             approach_out: vec![[0.0; DOF]; MAX_APPROACH * MAX_ROBOTS],
-            last: Embodied {
-                status: Status::Timeout,
-                approach: Default::default(),
-                attempts: 0,
-                last_miss: None,
-                approach_seconds: 0.0,
-            },
+            last: Embodied::ended(Status::Timeout, 0),
             nodes: vec![Node::default(); caps.search_nodes],
             open: vec![OpenEntry::default(); 2 * caps.search_nodes],
             table: vec![Slot::default(); (2 * caps.search_nodes).next_power_of_two()],
@@ -227,7 +221,7 @@ impl Storage {
         }
     }
 
-    /// Runs planner `name` on `problem`, the approach from where the arms stand included
+    /// Runs planner `kind` on `problem`, the approach from where the arms stand included
     /// ([`omcbsa_core::embody`]); this call allocates nothing but the returned [`Outcome`]'s
     /// vectors, after the core call.
     pub fn solve(
@@ -237,20 +231,22 @@ impl Storage {
         timeout_s: f64,
     ) -> Result<Outcome, String> {
         let clock = WallClock::start();
-        let mut stats = Stats::default();
-        let (status, assignment) = self.solve_core(kind, problem, &clock, timeout_s, &mut stats)?;
+        let ran = self.solve_core(kind, problem, Until::new(&clock, timeout_s))?;
         let planning_time_s = clock.seconds();
         let h = problem.horizon();
         let n = problem.robots.len();
-        let solved = status == Status::Solved;
+        let solved = ran.status == Status::Solved;
         let last = self.last;
         let with_approach =
             self.with_approach && solved && problem.robots.iter().all(|r| r.initial.is_some());
         let a = last.approach.len;
         Ok(Outcome {
-            status,
+            status: ran.status,
             planning_time_s,
-            assignment: assignment[..n].iter().map(|a| a.map(usize::from)).collect(),
+            assignment: ran.assignment[..n]
+                .iter()
+                .map(|a| a.map(usize::from))
+                .collect(),
             joint_paths: if solved {
                 (0..n)
                     .map(|i| self.out[i * h..(i + 1) * h].to_vec())
@@ -275,20 +271,19 @@ impl Storage {
                 attempts: last.attempts,
                 last_miss: last.last_miss.filter(|_| !solved),
             },
-            stats,
+            stats: ran.stats,
         })
     }
 
-    /// The core call alone (no allocation happens in it): the status and the assignment; the
-    /// paths are left in this storage, the approach too ([`Storage::last`]).
+    /// The core call alone (no allocation happens in it), until `until`: the status, the
+    /// assignment and the counters; the paths are left in this storage, the approach too
+    /// ([`Storage::last`]).
     pub fn solve_core(
         &mut self,
         kind: PlannerKind,
         problem: &Problem<DOF>,
-        clock: &dyn Clock,
-        timeout_s: f64,
-        stats: &mut Stats,
-    ) -> Result<(Status, [Option<u8>; MAX_ROBOTS]), String> {
+        until: Until<'_>,
+    ) -> Result<Ran, String> {
         let h = problem.horizon();
         if h * MAX_ROBOTS > self.out.len() || h > self.width.len() {
             return Err(format!(
@@ -297,21 +292,22 @@ impl Storage {
             ));
         }
         copy_problem(&mut self.problem, problem);
-        let mut out = Solution::new(&mut self.out);
-        let mut rest = Rest {
+        let n = problem.robots.len();
+        let mut req = Embodiment {
             problem: &mut self.problem,
+            until,
+            out: Solution::new(&mut self.out),
+            stats: Stats::default(),
             approach: ApproachStorage {
                 tree: &mut self.tree,
                 parent: &mut self.tree_parent,
                 waypoints: &mut self.waypoints,
             },
-            approach_out: &mut self.approach_out,
-            params: &self.approach_params,
-            with_approach: self.with_approach,
-            clock,
-            timeout_s,
+            // Robot `i`'s approach from `i * MAX_APPROACH`, as `Storage::solve` reads it.
+            approach_out: &mut self.approach_out[..n * MAX_APPROACH],
+            params: self.approach_params,
         };
-        let omega = OmegaParams::default();
+        let with_approach = self.with_approach;
         let last = match kind {
             PlannerKind::OmCbsa => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
@@ -324,14 +320,15 @@ impl Storage {
                     starts: &mut self.starts,
                 };
                 let mut p = OmegaCbsa::new(self.cbs_params, ws, st);
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             // Ω-A* alone is prioritised planning with one robot.
-            PlannerKind::OmegaAstar if problem.robots.len() != 1 => {
-                rest.refuse(Status::InvalidProblem(
+            PlannerKind::OmegaAstar if n != 1 => Embodied::ended(
+                Status::InvalidProblem(
                     "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
-                ))
-            }
+                ),
+                0,
+            ),
             PlannerKind::Pp | PlannerKind::PpSingle | PlannerKind::OmegaAstar => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let v = if kind == PlannerKind::PpSingle {
@@ -339,14 +336,15 @@ impl Storage {
                 } else {
                     Variant::MultiGoal
                 };
+                let omega = OmegaParams::default();
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::IkTracking => {
                 let mut p = IkTracking {
                     params: IkTrackingParams::default(),
                 };
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::Descartes => {
                 let st = DescartesStorage {
@@ -360,7 +358,7 @@ impl Storage {
                     ..DescartesParams::default()
                 };
                 let mut p = Descartes::new(params, st);
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::CompositeAstar => {
                 let mut p = CompositeAstar::new(
@@ -368,11 +366,16 @@ impl Storage {
                     &mut self.composite,
                     &mut self.open,
                 );
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
         };
+        let ran = Ran {
+            status: last.status,
+            assignment: req.out.assignment,
+            stats: req.stats,
+        };
         self.last = last;
-        Ok((last.status, out.assignment))
+        Ok(ran)
     }
 
     /// How the last [`Storage::solve_core`] ended: the approach (in this storage, robot `i`'s
@@ -399,54 +402,28 @@ fn copy_problem(to: &mut Problem<DOF>, from: &Problem<DOF>) {
     }
 }
 
-/// What every planner's run shares: the problem, the approach's storage and the deadline.
-struct Rest<'a> {
-    problem: &'a mut Problem<DOF>,
-    approach: ApproachStorage<'a, DOF>,
-    approach_out: &'a mut [[f64; DOF]],
-    params: &'a ApproachParams,
-    with_approach: bool,
-    clock: &'a dyn Clock,
-    timeout_s: f64,
+/// How a core call ended (see [`Storage::solve_core`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Ran {
+    /// How planning ended.
+    pub status: Status,
+    /// Per robot, the trajectory it tracks (`None`: it holds), when solved.
+    pub assignment: [Option<u8>; MAX_ROBOTS],
+    /// The planner's counters over all its runs.
+    pub stats: Stats,
 }
 
-impl Rest<'_> {
-    fn run<P: Planner<Fleet, DOF>>(
-        &mut self,
-        planner: &mut P,
-        out: &mut Solution<'_, DOF>,
-        stats: &mut Stats,
-    ) -> Embodied {
-        if !self.with_approach {
-            let status = planner.solve(self.problem, self.clock, self.timeout_s, out, stats);
-            return Embodied {
-                attempts: 1,
-                ..self.refuse(status)
-            };
-        }
-        let n = self.problem.robots.len();
-        solve_from_initial::<Fleet, P, DOF>(
-            planner,
-            self.problem,
-            self.clock,
-            self.timeout_s,
-            out,
-            &mut self.approach,
-            // Robot `i`'s approach from `i * MAX_APPROACH`, as `Storage::solve` reads it.
-            &mut self.approach_out[..n * MAX_APPROACH],
-            self.params,
-            stats,
-        )
-    }
-
-    fn refuse(&self, status: Status) -> Embodied {
-        Embodied {
-            status,
-            approach: Default::default(),
-            attempts: 0,
-            last_miss: None,
-            approach_seconds: 0.0,
-        }
+/// Runs `planner` on `req`, with the approach from where the arms stand when `with_approach`
+/// (else the planner alone, its plan beginning wherever it chose).
+fn embody<P: Planner<Fleet, DOF>>(
+    planner: &mut P,
+    req: &mut Embodiment<'_, DOF>,
+    with_approach: bool,
+) -> Embodied {
+    if with_approach {
+        solve_from_initial::<Fleet, P, DOF>(planner, req)
+    } else {
+        Embodied::ended(run_planner::<Fleet, P, DOF>(planner, req), 1)
     }
 }
 

@@ -508,11 +508,11 @@ impl Solution {
 /// arm takes which hand; with `preferred=True` it is only tried first, and the planner
 /// chooses freely in the time left when it has no plan.
 #[pyfunction]
-#[pyo3(signature = (problem, planner="omcbsa", timeout=5.0, assignment=None, preferred=false))]
+#[pyo3(signature = (problem, planner=None, timeout=5.0, assignment=None, preferred=false))]
 pub fn plan(
     py: Python<'_>,
     problem: &Problem,
-    planner: &str,
+    planner: Option<&str>,
     timeout: f64,
     assignment: Option<Vec<Option<usize>>>,
     preferred: bool,
@@ -524,7 +524,7 @@ pub fn plan(
             format!("must be a positive number of seconds, got {timeout}"),
         ));
     }
-    let kind = planners::parse(planner).map_err(|e| field_error(py, "planner", e))?;
+    let kind = planner_kind(py, planner)?;
     let file = &problem.file;
     let rule = rule(assignment, preferred);
     match py.detach(|| guard("plan", || plan_with_pools(file, kind, timeout, &rule)))? {
@@ -532,6 +532,12 @@ pub fn plan(
         Err(InputOrPlanError::Input(e)) => Err(input_error(py, &e)),
         Err(InputOrPlanError::Plan(e)) => Err(field_error(py, "planner", e)),
     }
+}
+
+/// The planner named `name` (the default planner when `None`), or an error at `planner`.
+pub fn planner_kind(py: Python<'_>, name: Option<&str>) -> PyResult<PlannerKind> {
+    name.map_or(Ok(PlannerKind::DEFAULT), planners::parse)
+        .map_err(|e| field_error(py, "planner", e))
 }
 
 /// The planner's pools, kept from call to call with the horizon they fit: allocating them

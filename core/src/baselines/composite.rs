@@ -9,12 +9,14 @@ use crate::collision::ArmPose;
 use crate::ik::{ik_multi_start, MultiStart};
 use crate::model::{Frame, Models};
 use crate::motion::{motions_collide, ArmMotion};
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{
+    Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
+};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{
-    manifold_moves, Deadline, OmegaParams, OpenEntry, OpenList, OthersMode, Validity, MAX_MOVES,
+    manifold_moves, Deadline, OmegaParams, OpenEntry, OpenList, Validity, MAX_MOVES,
 };
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -81,35 +83,27 @@ impl<'a, const D: usize> CompositeAstar<'a, D> {
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
-    fn name(&self) -> &'static str {
-        PlannerKind::CompositeAstar.name()
+    const TAKES: Takes = Takes::FreeOnly;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::CompositeAstar
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let problem = req.problem;
         let mut search = Search::<M, D> {
             pr: problem,
             p: &self.params,
             nodes: &mut *self.nodes,
             used: 0,
             open: OpenList::new(&mut *self.open),
-            h,
+            h: h.get(),
             n: problem.robots.len(),
-            deadline: Until { clock, at: timeout },
-            stats,
+            deadline: req.until,
+            stats: &mut req.stats,
             _m: core::marker::PhantomData,
         };
-        search.run(out)
+        search.run(&mut req.out)
     }
 }
 
@@ -151,19 +145,8 @@ impl<M: Models<D>, const D: usize> Search<'_, M, D> {
     }
 
     fn validity(&self, r: usize) -> Validity<'_, M, D> {
-        let robot = &self.pr.robots[r];
-        Validity::new(
-            robot.model,
-            robot.base,
-            robot.tool,
-            &self.pr.obstacles,
-            &[],
-            OthersMode::Avoid,
-            &[],
-            self.pr.dt,
-            self.p.low.motion_step,
-        )
-        .excluding(robot.excluded)
+        let (robot, pr) = (&self.pr.robots[r], self.pr);
+        Validity::new(robot, &pr.obstacles, pr.dt, self.p.low.motion_step)
     }
 
     fn target(&self, r: usize, j: usize, t: usize) -> Frame {

@@ -6,9 +6,9 @@
 
 use crate::ik::{ik, IkParams};
 use crate::model::{Frame, Models};
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{Horizon, Planner, PlannerKind, Request, Stats, Status, Takes, Until};
 use crate::pp::Orders;
-use crate::problem::{Problem, Robot, Trajectory, MAX_ROBOTS};
+use crate::problem::{Robot, Trajectory, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{Deadline, OtherArm, OthersMode, Validity};
 
@@ -54,22 +54,14 @@ impl<'a, const D: usize> Descartes<'a, D> {
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
-    fn name(&self) -> &'static str {
-        PlannerKind::Descartes.name()
+    const TAKES: Takes = Takes::FreeOnly;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::Descartes
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         let k = self.params.samples;
         if k == 0 || k > u16::MAX as usize {
             return Status::InvalidProblem("Descartes samples per pose must be 1..=65535");
@@ -82,14 +74,13 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
         {
             return Status::OutOfMemory("Descartes roadmap storage");
         }
-        let deadline = Until { clock, at: timeout };
         let n = problem.robots.len();
         let mut orders = Orders::new(n, problem.trajectories.len(), true);
         loop {
-            if deadline.expired() {
+            if req.until.expired() {
                 return Status::Timeout;
             }
-            if self.attempt::<M>(problem, h, &orders, &deadline, out, stats) {
+            if self.attempt::<M>(req, h, &orders) {
                 return Status::Solved;
             }
             if !orders.advance() {
@@ -100,15 +91,15 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
 }
 
 impl<const D: usize> Descartes<'_, D> {
+    /// Plans every robot in turn in the priority order and assignment `orders` is at.
     fn attempt<M: Models<D>>(
         &mut self,
-        problem: &Problem<D>,
+        req: &mut Request<'_, D>,
         h: usize,
         orders: &Orders,
-        deadline: &Until<'_>,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
     ) -> bool {
+        let (problem, deadline) = (req.problem, &req.until);
+        let (out, stats) = (&mut req.out, &mut req.stats);
         let n = problem.robots.len();
         for (rank, &r) in orders.order[..n].iter().enumerate() {
             let r = r as usize;
@@ -124,17 +115,12 @@ impl<const D: usize> Descartes<'_, D> {
                 });
             }
             let valid = Validity::<M, D>::new(
-                robot.model,
-                robot.base,
-                robot.tool,
+                &robot,
                 &problem.obstacles,
-                &others,
-                OthersMode::Avoid,
-                &[],
                 problem.dt,
                 self.params.motion_step,
             )
-            .excluding(robot.excluded);
+            .with_others(&others, OthersMode::Avoid);
             stats.low_level_calls += 1;
             let traj = orders.trajectory_of(r);
             let end = match traj {

@@ -394,18 +394,9 @@ struct Ctx<'q, 'a, M, const D: usize> {
 
 impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
     fn new(q: &'q Query<'a, D>, p: &'q OmegaParams, h: usize) -> Self {
-        let valid = Validity::new(
-            q.robot.model,
-            q.robot.base,
-            q.robot.tool,
-            q.obstacles,
-            q.others,
-            q.others_mode,
-            q.points,
-            q.dt,
-            p.motion_step,
-        )
-        .excluding(q.robot.excluded);
+        let valid = Validity::new(&q.robot, q.obstacles, q.dt, p.motion_step)
+            .with_others(q.others, q.others_mode)
+            .with_points(q.points);
         Ctx {
             q,
             p,

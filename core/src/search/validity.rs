@@ -7,7 +7,7 @@ use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
-use crate::problem::{StartExclusions, MAX_ROBOTS};
+use crate::problem::{Robot, StartExclusions, MAX_ROBOTS};
 use crate::tool::Tool;
 
 use super::workspace::Met;
@@ -27,7 +27,7 @@ pub struct Validity<'q, M, const D: usize> {
     pub step_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
     pub motion_step: f64,
-    /// Configurations refused at step 0 ([`Validity::excluding`]).
+    /// Configurations refused at step 0 (the robot's [`Robot::excluded`]).
     pub excluded: StartExclusions<D>,
     /// The other robots' link capsules at the two steps asked for last (`usize::MAX`: none
     /// yet): every successor of one expansion is checked at the same steps, so this saves all
@@ -39,43 +39,44 @@ pub struct Validity<'q, M, const D: usize> {
 }
 
 impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        model: u8,
-        base: Frame,
-        tool: Tool,
-        obstacles: &'q [Obstacle],
-        others: &'q [OtherArm<'q, D>],
-        others_mode: OthersMode,
-        points: &'q [PointConstraint],
-        dt: f64,
-        motion_step: f64,
-    ) -> Self {
+    /// The checker of `robot` (its model, base, tool and excluded starts) among `obstacles`,
+    /// its steps `dt` apart and its motions checked every `motion_step`
+    /// ([`super::OmegaParams::motion_step`]); no other robots and no point constraints until
+    /// [`Validity::with_others`] and [`Validity::with_points`] add them.
+    pub fn new(robot: &Robot<D>, obstacles: &'q [Obstacle], dt: f64, motion_step: f64) -> Self {
         let mut step_limit = [0.0; D];
-        for (s, v) in step_limit.iter_mut().zip(M::velocity(model).iter()) {
+        for (s, v) in step_limit.iter_mut().zip(M::velocity(robot.model).iter()) {
             *s = v * dt;
         }
         Validity {
-            model,
-            base,
-            tool,
+            model: robot.model,
+            base: robot.base,
+            tool: robot.tool,
             obstacles,
-            others,
-            others_mode,
-            points,
+            others: &[],
+            others_mode: OthersMode::Avoid,
+            points: &[],
             step_limit,
             motion_step,
-            excluded: StartExclusions::NONE,
+            excluded: robot.excluded,
             others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
             mine: RefCell::new(ArmPose::EMPTY),
             _model: core::marker::PhantomData,
         }
     }
 
-    /// The same checker refusing `excluded`'s configurations at step 0 (a robot's
-    /// [`crate::problem::Robot::excluded`]).
-    pub fn excluding(self, excluded: StartExclusions<D>) -> Self {
-        Validity { excluded, ..self }
+    /// The same checker with the other robots' paths, avoided or counted (`mode`).
+    pub fn with_others(self, others: &'q [OtherArm<'q, D>], mode: OthersMode) -> Self {
+        Validity {
+            others,
+            others_mode: mode,
+            ..self
+        }
+    }
+
+    /// The same checker with point constraints.
+    pub fn with_points(self, points: &'q [PointConstraint]) -> Self {
+        Validity { points, ..self }
     }
 
     /// Places the other robots at step `t` in the cache (slot `t % 2`) unless already there.

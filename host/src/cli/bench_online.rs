@@ -12,6 +12,7 @@ use omcbsa::online::bench::{
 };
 use omcbsa::online::bimanual::{family, MAX_ARMS};
 use omcbsa::online::OnlineOptions;
+use omcbsa::planners::{self, PlannerKind};
 use omcbsa_core::problem::MAX_STEPS;
 
 use super::{bad_input, negative};
@@ -59,8 +60,8 @@ pub struct Args {
     #[arg(long, default_value_t = omcbsa::online::AXIS_WEIGHT)]
     axis_weight: f64,
     /// omcbsa or pp.
-    #[arg(long, default_value = "omcbsa")]
-    planner: String,
+    #[arg(long, default_value_t = PlannerKind::DEFAULT, value_parser = planners::parse)]
+    planner: PlannerKind,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -80,7 +81,7 @@ pub fn run(args: &Args) -> ExitCode {
         return bad_input(format!("--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"));
     }
     let options = OnlineOptions {
-        planner: args.planner.clone(),
+        planner: args.planner,
         reassign: args.reassign,
         axis_weight: args.axis_weight,
         ..OnlineOptions::default()

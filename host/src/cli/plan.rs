@@ -21,7 +21,7 @@ pub struct Args {
     output: Option<PathBuf>,
     /// omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar, or omega-astar (one
     /// robot only).
-    #[arg(long, default_value = "omcbsa", value_parser = planners::parse,
+    #[arg(long, default_value_t = PlannerKind::DEFAULT, value_parser = planners::parse,
           long_help = format!("The planner:\n{}", planners::descriptions()))]
     planner: PlannerKind,
     /// Planning time limit, seconds.

@@ -67,7 +67,7 @@ pub fn bench_online(
             let text = load::read_text(&dir.join(&entry.file)).map_err(|e| e.to_string())?;
             let file = load::parse_problem(&text).map_err(|e| e.to_string())?;
             let problem = load::problem::<Fleet, DOF>(&file).map_err(|e| e.to_string())?;
-            let outcome = whole.solve(crate::planners::parse(&options.planner)?, &problem, 5.0)?;
+            let outcome = whole.solve(options.planner, &problem, 5.0)?;
             if outcome.status != omcbsa_core::planner::Status::Solved {
                 continue;
             }

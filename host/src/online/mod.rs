@@ -44,7 +44,7 @@ use crate::error::{Errors, InputError};
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
 use crate::models::Fleet;
-use crate::planners::{self, Capacities, PlannerKind, Storage, DOF};
+use crate::planners::{Capacities, PlannerKind, Storage, DOF};
 use crate::pose;
 
 /// Where the arms are and what is around them: everything of a problem but the hands' poses.
@@ -73,8 +73,8 @@ impl Setup {
 /// How chunks are planned.
 #[derive(Clone, Debug)]
 pub struct OnlineOptions {
-    /// `omcbsa` (Ω-CBSA) or `pp` (OM-PP-A*).
-    pub planner: String,
+    /// Ω-CBSA or OM-PP-A* (the planners that keep an assignment and start where the arms are).
+    pub planner: PlannerKind,
     /// Planning time allowed per chunk, s (the core's deadline).
     pub chunk_timeout_s: f64,
     /// Longest chunk (poses per hand) the storage is made for.
@@ -110,7 +110,7 @@ pub const AXIS_WEIGHT: f64 = 4.0;
 impl Default for OnlineOptions {
     fn default() -> Self {
         OnlineOptions {
-            planner: "omcbsa".to_string(),
+            planner: PlannerKind::DEFAULT,
             chunk_timeout_s: 1.0,
             max_chunk_len: 64,
             max_approach_len: 1024,
@@ -209,13 +209,15 @@ impl Embodier {
     /// planner will use.
     pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
         let mut errors = Errors::default();
-        if !matches!(
-            planners::parse(&options.planner),
-            Ok(PlannerKind::OmCbsa | PlannerKind::Pp)
-        ) {
+        if !matches!(options.planner, PlannerKind::OmCbsa | PlannerKind::Pp) {
             errors.push(
                 "planner",
-                format!("{:?} cannot plan online: use omcbsa or pp", options.planner),
+                format!(
+                    "{} cannot plan online: use {} or {}",
+                    options.planner,
+                    PlannerKind::OmCbsa,
+                    PlannerKind::Pp
+                ),
             );
         }
         if !(options.chunk_timeout_s.is_finite() && options.chunk_timeout_s > 0.0) {
@@ -664,8 +666,7 @@ impl Embodier {
         rule: &AssignmentRule,
     ) -> Result<crate::planners::Outcome, OnlineError> {
         let timeout = self.options.chunk_timeout_s;
-        let kind = planners::parse(&self.options.planner)
-            .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
+        let kind = self.options.planner;
         let outcome = match rule {
             AssignmentRule::Free => self.storage.solve(kind, problem, timeout),
             // Kept in the problem, where the diagnosis below sees it too.

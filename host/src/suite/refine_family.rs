@@ -19,7 +19,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use omcbsa_core::collision::ArmPose;
-use omcbsa_core::planner::{NoClock, PlannerKind, Stats, Status};
+use omcbsa_core::planner::{NoClock, PlannerKind, Status, Until};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
 use super::emit::{self, Generated};
@@ -139,18 +139,11 @@ fn level0_misses(g: &Generated) -> Result<bool, Error> {
     }
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
     storage.cbs_params.levels = 1;
-    let mut stats = Stats::default();
-    let (status, _) = storage
-        .solve_core(
-            PlannerKind::OmCbsa,
-            &problem,
-            &NoClock,
-            f64::INFINITY,
-            &mut stats,
-        )
+    let ran = storage
+        .solve_core(PlannerKind::OmCbsa, &problem, Until::never(&NoClock))
         .map_err(|message| Error::Generation {
             problem: g.entry.name.clone(),
             message,
         })?;
-    Ok(status == Status::NoSolution && stats.reason == Some(LEVEL_CAP))
+    Ok(ran.status == Status::NoSolution && ran.stats.reason == Some(LEVEL_CAP))
 }

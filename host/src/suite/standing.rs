@@ -14,7 +14,7 @@
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use omcbsa_core::approach::{
-    check_starts, plan_approach, ApproachError, ApproachParams, ApproachStorage,
+    check_starts, plan_approach, ApproachError, ApproachParams, ApproachQuery, ApproachStorage,
 };
 use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::model::{Frame, Models};
@@ -145,19 +145,17 @@ pub fn witness_approach(
         } else {
             0
         },
+        rrt_samples: if rrt { WITNESS_SAMPLES } else { 0 },
         ..ApproachParams::default()
     };
-    let samples = if rrt { WITNESS_SAMPLES } else { 0 };
-    let a = plan_approach::<Arms, DOF>(
+    let q = ApproachQuery {
         problem,
-        &flat,
-        h,
-        &params,
-        samples,
-        &mut storage,
-        &NoDeadline,
-        &mut out,
-    )?;
+        plan: &flat,
+        horizon: h,
+        params,
+        deadline: &NoDeadline,
+    };
+    let a = plan_approach::<Arms, DOF>(&q, &mut storage, &mut out)?;
     Ok((0..n)
         .map(|i| out[i * cap..i * cap + a.len].to_vec())
         .collect())
