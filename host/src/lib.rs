@@ -15,6 +15,7 @@ pub mod ik;
 pub mod load;
 pub mod models;
 pub mod online;
+pub mod plan;
 pub mod planners;
 pub mod pose;
 pub mod suite;

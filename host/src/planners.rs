@@ -3,15 +3,11 @@
 
 use std::time::Instant;
 
-use crate::approach::{check_initial, describe_miss, MAX_APPROACH};
-use crate::assignment::AssignmentRule;
-use crate::error::InputError;
+use crate::approach::{describe_miss, MAX_APPROACH};
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
 };
-use crate::load;
 use crate::models::Fleet;
-use crate::validate::validate;
 use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
     CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
@@ -285,10 +281,10 @@ impl Storage {
         until: Until<'_>,
     ) -> Result<Ran, String> {
         let h = problem.horizon();
-        if h * MAX_ROBOTS > self.out.len() || h > self.width.len() {
+        if h > self.max_horizon() {
             return Err(format!(
                 "horizon {h} is longer than this storage was made for ({})",
-                self.width.len()
+                self.max_horizon()
             ));
         }
         copy_problem(&mut self.problem, problem);
@@ -314,7 +310,9 @@ impl Storage {
                 let st = CbsStorage {
                     nodes: &mut self.ct_nodes,
                     open: &mut self.ct_open,
-                    paths: &mut self.paths,
+                    // The same number of paths whatever horizon the storage was made for, so
+                    // that every caller (plan, bench, Python) gets the same search.
+                    paths: &mut self.paths[..self.caps.path_slots * h],
                     scratch: &mut self.scratch,
                     points: &mut self.points,
                     starts: &mut self.starts,
@@ -378,10 +376,34 @@ impl Storage {
         Ok(ran)
     }
 
+    /// The longest horizon these pools plan.
+    pub fn max_horizon(&self) -> usize {
+        self.width.len()
+    }
+
     /// How the last [`Storage::solve_core`] ended: the approach (in this storage, robot `i`'s
     /// from index `i * MAX_APPROACH`), the planner runs, the last approach missed.
     pub fn last(&self) -> &Embodied {
         &self.last
+    }
+}
+
+/// Pools kept from call to call, made anew (the old ones dropped first) when a problem with a
+/// longer horizon comes: allocating them (tens of MB) costs more than planning a small
+/// problem. Every caller that plans problem after problem (the benchmark's workers, Python's
+/// `plan`) keeps one; with [`Storage::solve_core`]'s sizing rule the answer does not depend
+/// on the horizon the pools were made for.
+#[derive(Default)]
+pub struct Pools(Option<Storage>);
+
+impl Pools {
+    /// Storage with the default capacities for horizons of at least `h`.
+    pub fn for_horizon(&mut self, h: usize) -> &mut Storage {
+        if self.0.as_ref().is_some_and(|s| s.max_horizon() < h) {
+            self.0 = None;
+        }
+        self.0
+            .get_or_insert_with(|| Storage::new(Capacities::default(), h))
     }
 }
 
@@ -513,94 +535,4 @@ impl Outcome {
             stats,
         }
     }
-}
-
-/// Plans a problem file with planner `kind` and returns its solution file. A plan the planner
-/// calls solved is validated first; if it fails validation it is reported as not solved, with
-/// the violation in `message`, never as solved.
-pub fn plan_file(
-    file: &ProblemFile,
-    kind: PlannerKind,
-    timeout_s: f64,
-) -> Result<SolutionFile, InputOrPlanError> {
-    let problem = load_problem(file)?;
-    let mut storage = Storage::new(Capacities::default(), problem.horizon());
-    plan_loaded(&mut storage, file, &problem, kind, timeout_s)
-}
-
-/// The checked core problem of a problem file.
-pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
-    let problem = load::problem::<Fleet, DOF>(file).map_err(InputOrPlanError::Input)?;
-    check_initial::<Fleet, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
-    Ok(problem)
-}
-
-/// [`plan_file`] on a loaded problem with storage the caller keeps from run to run (made for
-/// horizons of at least `problem`'s).
-pub fn plan_loaded(
-    storage: &mut Storage,
-    file: &ProblemFile,
-    problem: &Problem<DOF>,
-    kind: PlannerKind,
-    timeout_s: f64,
-) -> Result<SolutionFile, InputOrPlanError> {
-    plan_assigned(
-        storage,
-        file,
-        problem,
-        kind,
-        timeout_s,
-        &AssignmentRule::Free,
-    )
-}
-
-/// [`plan_loaded`] under an assignment rule, checked here (errors at `assignment`).
-pub fn plan_assigned(
-    storage: &mut Storage,
-    file: &ProblemFile,
-    problem: &Problem<DOF>,
-    kind: PlannerKind,
-    timeout_s: f64,
-    rule: &AssignmentRule,
-) -> Result<SolutionFile, InputOrPlanError> {
-    rule.check(
-        "assignment",
-        problem.robots.len(),
-        problem.trajectories.len(),
-    )
-    .map_err(InputOrPlanError::Input)?;
-    let outcome = match rule {
-        AssignmentRule::Free => storage.solve(kind, problem, timeout_s),
-        _ => crate::assignment::solve(
-            storage,
-            kind,
-            &mut Box::new(problem.clone()),
-            rule,
-            timeout_s,
-        ),
-    }
-    .map_err(InputOrPlanError::Plan)?;
-    let mut solution = outcome.to_solution_file(file, kind.name());
-    if solution.status == FileStatus::Solved {
-        let report = validate::<Fleet, DOF>(file, problem, &solution);
-        if !report.is_valid() {
-            solution.status = FileStatus::NoSolution;
-            solution.message = format!(
-                "planner bug: its plan failed validation: {}",
-                report.summary()
-            );
-            solution.joint_paths = None;
-        }
-    }
-    Ok(solution)
-}
-
-/// Why [`plan_file`] gave no solution file.
-#[derive(Debug)]
-pub enum InputOrPlanError {
-    /// The problem file breaks the spec.
-    Input(InputError),
-    /// The request cannot run (storage too small for the horizon, a workspace that cannot be
-    /// made).
-    Plan(String),
 }

@@ -8,7 +8,8 @@ use omcbsa::format::{
 };
 use omcbsa::load;
 use omcbsa::models::{Fleet, ModelKind, DOF};
-use omcbsa::planners::{plan_file, PlannerKind};
+use omcbsa::plan::plan_file;
+use omcbsa::planners::PlannerKind;
 use omcbsa::pose;
 use omcbsa::validate::validate;
 use omcbsa_core::model::{KinovaGen3, Models};

@@ -4,7 +4,8 @@
 
 use omcbsa::format::{ProblemFile, SolutionFile};
 use omcbsa::load;
-use omcbsa::planners::{plan_file, DOF};
+use omcbsa::plan::plan_file;
+use omcbsa::planners::DOF;
 use omcbsa::validate::validate;
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::nalgebra::{Rotation3, Vector3};

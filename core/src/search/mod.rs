@@ -1,17 +1,21 @@
 //! Ω-A*: A* on the pose-constraint manifolds of one robot (single- and multi-goal), in a
 //! caller-provided [`Workspace`].
 
+mod constraints;
 mod omega_astar;
 pub(crate) mod open;
+mod params;
 pub mod refine;
 mod validity;
 mod workspace;
 
+pub use constraints::{OtherArm, OthersMode, PointConstraint};
 pub use omega_astar::{
-    axes_cost, manifold_moves, plan, Found, OmegaParams, OtherArm, OthersMode, PointConstraint,
-    Query, SearchError, SearchStats, StartCache, StartIk, MAX_MOVES, REFERENCE_DT,
+    axes_cost, manifold_moves, plan, Found, Query, SearchError, SearchStats, StartCache, StartIk,
+    MAX_MOVES,
 };
 pub use open::{OpenEntry, OpenList};
+pub use params::{OmegaParams, REFERENCE_DT};
 pub use validity::Validity;
 pub use workspace::{Node, Slot, Workspace, WorkspaceBuffers, WorkspaceError};
 

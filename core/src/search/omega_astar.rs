@@ -13,129 +13,17 @@ use core::cell::Cell;
 
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
-use crate::ik::{ik, IkParams};
+use crate::ik::ik;
 use crate::kinematics::{axis_separation, null_space_basis};
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
-use crate::tool::Tool;
 
+use super::constraints::{OtherArm, OthersMode, PointConstraint};
+use super::params::OmegaParams;
 use super::validity::Validity;
 use super::workspace::{Met, Node, StateKey, Workspace};
 use super::{Deadline, OpenEntry};
-
-/// Tunables of Ω-A*. The defaults are the paper's (`ε = 0.2`, `w_h = 10`, `w_c = 0.1`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct OmegaParams {
-    /// Null-space step.
-    pub epsilon: f64,
-    /// Weight of the heuristic (steps left).
-    pub w_h: f64,
-    /// Weight of the collision count.
-    pub w_c: f64,
-    /// Weight of the cost of coming near two collinear joint axes: each step adds `w_a`
-    /// times how far [`axis_separation`] is below `axis_margin`. 0 (the paper's) leaves it
-    /// out; online planning, which cannot see the hand's motion beyond a chunk, uses it so
-    /// that the null space keeps the arm away from configurations it could not leave fast
-    /// enough.
-    pub w_a: f64,
-    /// Separation (see [`axis_separation`]) below which `w_a` counts.
-    pub axis_margin: f64,
-    /// Most valid IK solutions of the first pose put in OPEN per trajectory.
-    pub start_solutions: usize,
-    /// Most random IK seeds tried per trajectory to find them.
-    pub start_attempts: u32,
-    /// Grid size (rad) of the duplicate detection on `q`: two states of one step and
-    /// trajectory in the same cell are one state. The paper leaves it open; on the benchmark
-    /// suite 0.6 rad (three null-space steps) kept Ω-CBSA's success rate and cut its mean time
-    /// 3x against 0.1 rad, whose finer lattice makes the searches that must fail (children
-    /// with no path under their constraints) far longer; 0.8 began to lose problems.
-    pub resolution: f64,
-    /// Largest displacement (m) of any point of the arm between two checked configurations
-    /// of a motion; the checks inflate the links by half of it, so they are conservative.
-    pub motion_step: f64,
-    pub ik: IkParams,
-    /// Seed of the random IK seeds.
-    pub seed: u64,
-}
-
-/// The step (s) the null-space step and the duplicate grid are tuned for: the benchmark
-/// suite's.
-pub const REFERENCE_DT: f64 = 0.2;
-
-impl OmegaParams {
-    /// These settings for steps of `dt` s. Below [`REFERENCE_DT`], the null-space step and the
-    /// duplicate grid shrink in proportion, so that the search moves along the null space at
-    /// the same speed (rad/s) whatever the rate: at 50 Hz, 0.2 rad would be seven times what a
-    /// Gen3 joint may move in a step, every null-space move would break the velocity limit,
-    /// and only the IK projection would be left (IK tracking). Longer steps keep the settings.
-    pub fn at_step(&self, dt: f64) -> OmegaParams {
-        let s = dt / REFERENCE_DT;
-        // Negated so that NaN keeps the settings (the planners refuse such a dt anyway).
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(s > 0.0 && s < 1.0) {
-            return *self;
-        }
-        OmegaParams {
-            epsilon: self.epsilon * s,
-            resolution: self.resolution * s,
-            ..*self
-        }
-    }
-}
-
-impl Default for OmegaParams {
-    fn default() -> Self {
-        OmegaParams {
-            epsilon: 0.2,
-            w_h: 10.0,
-            w_c: 0.1,
-            w_a: 0.0,
-            axis_margin: 0.5,
-            start_solutions: 16,
-            start_attempts: 96,
-            resolution: 0.6,
-            motion_step: crate::motion::MOTION_STEP,
-            ik: IkParams::default(),
-            seed: 0x5eed,
-        }
-    }
-}
-
-/// Another robot's path: a moving obstacle.
-#[derive(Clone, Copy, Debug)]
-pub struct OtherArm<'a, const D: usize> {
-    /// Its model, an index into the planner's [`crate::model::Models`].
-    pub model: u8,
-    pub base: Frame,
-    pub tool: Tool,
-    /// One configuration per step.
-    pub path: &'a [[f64; D]],
-}
-
-/// How the other robots' paths count.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OthersMode {
-    /// Collisions are allowed and counted in `c` (Ω-CBSA's low level).
-    Count,
-    /// Collisions are forbidden (prioritised planning).
-    Avoid,
-}
-
-/// "This robot may not come within `margin` of `p` at step `t`" (`segment == false`), or at
-/// the instant `t + s` of its motion from step `t` to `t + 1` (`segment == true`; the robot
-/// is then at `q_t + s (q_{t+1} - q_t)`). Constraints at one instant, not over a whole
-/// motion, so that the two children of a conflict are mutually disjunctive (see
-/// [`crate::motion::motions_contact`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointConstraint {
-    pub t: u16,
-    pub segment: bool,
-    /// Fraction of the step (`segment` constraints only).
-    pub s: f64,
-    pub p: [f64; 3],
-    pub margin: f64,
-}
 
 /// What IK gave for one start seed, remembered across the searches of one planning run (see
 /// [`Query::starts`]).

@@ -13,7 +13,7 @@
 //! 5 mm inflation turns passes a few millimetres apart into conflicts that no branching
 //! removes. Level 0 keeps the coarse sweep, which is a quarter cheaper on the suite.
 
-use super::OmegaParams;
+use super::params::OmegaParams;
 
 /// The reason planners report when every level was exhausted.
 pub const EXHAUSTED: &str = "every refinement level was searched without a plan";

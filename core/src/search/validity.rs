@@ -10,8 +10,8 @@ use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, Arm
 use crate::problem::{Robot, StartExclusions, MAX_ROBOTS};
 use crate::tool::Tool;
 
+use super::constraints::{OtherArm, OthersMode, PointConstraint};
 use super::workspace::Met;
-use super::{OtherArm, OthersMode, PointConstraint};
 
 /// Everything that constrains one robot's states and motions.
 pub struct Validity<'q, M, const D: usize> {

@@ -12,6 +12,7 @@
 //! The planners are reached through [`Solver`], so the runner is tested with fake planners and
 //! anyone can bench their own planner on the suite.
 
+mod error;
 mod index;
 mod plots;
 mod quality;
@@ -31,16 +32,17 @@ use rayon::prelude::*;
 use omcbsa_core::problem::Problem;
 
 use crate::format::{ProblemFile, SolutionFile, Status};
-use crate::planners::{Capacities, Storage};
+use crate::plan::{plan_loaded, InputOrPlanError};
 use crate::suite::{self, SuiteEntry};
 use crate::{load, validate};
 
+pub use error::Error;
 pub use quality::{path_quality, PathQuality};
 pub use results::Row;
 pub use summary::{Cell, Spread, Summary};
 
 use crate::models::{Fleet, DOF};
-use crate::planners::{self, PlannerKind};
+use crate::planners::{self, PlannerKind, Pools};
 /// `--quick` runs every this-many-th problem of the suite...
 pub const QUICK_STRIDE: usize = 15;
 /// ... with at most this timeout, so that all six planners finish in under two minutes.
@@ -137,39 +139,6 @@ pub struct BenchReport {
     pub index: PathBuf,
 }
 
-#[derive(Debug)]
-pub enum Error {
-    Suite(suite::Error),
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    Csv {
-        path: PathBuf,
-        message: String,
-    },
-    Options(String),
-}
-
-impl std::fmt::Display for Error {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Error::Suite(e) => e.fmt(f),
-            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            Error::Csv { path, message } => write!(f, "{}: {message}", path.display()),
-            Error::Options(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for Error {}
-
-impl From<suite::Error> for Error {
-    fn from(e: suite::Error) -> Self {
-        Error::Suite(e)
-    }
-}
-
 /// Benchmarks the planners of `omcbsa plan` and the baselines ([`PlannerKind`]) on a suite.
 pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, Error> {
     for p in &opts.planners {
@@ -180,37 +149,39 @@ pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, E
         suite_dir,
         opts,
         &move |name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64| {
-            solve_with_planners(name, file, problem, timeout_s, approach)
+            plan_one(name, file, problem, timeout_s, approach)
         },
     )
 }
 
 thread_local! {
     /// Each worker's planner pools, made at its first run and reused: they are large.
-    static STORAGE: RefCell<Option<Storage>> = const { RefCell::new(None) };
+    static POOLS: RefCell<Pools> = RefCell::new(Pools::default());
 }
 
-/// Runs one of the built-in planners with this thread's pools.
-fn solve_with_planners(
+/// One run of `omcbsa bench`: planner `name` on one problem, in this thread's pools, through
+/// the path `omcbsa plan` takes ([`crate::plan::plan_loaded`]: validated before it is
+/// reported), with or without the approach from where the arms stand.
+pub fn plan_one(
     name: &str,
     file: &ProblemFile,
     problem: &Problem<7>,
     timeout_s: f64,
     approach: bool,
 ) -> Result<SolutionFile, String> {
-    STORAGE.with(|cell| {
-        let mut slot = cell.borrow_mut();
-        let storage =
-            slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
+    POOLS.with(|cell| {
+        let mut pools = cell.borrow_mut();
+        let storage = pools.for_horizon(problem.horizon());
         storage.with_approach = approach;
-        storage
-            .solve(planners::parse(name)?, problem, timeout_s)
-            .map(|outcome| outcome.to_solution_file(file, name))
+        // The path `omcbsa plan` takes, validation included.
+        plan_loaded(storage, file, problem, planners::parse(name)?, timeout_s).map_err(
+            |e| match e {
+                InputOrPlanError::Input(e) => e.to_string(),
+                InputOrPlanError::Plan(e) => e,
+            },
+        )
     })
 }
-
-/// Longest horizon the worker pools are sized for (the suite's longest is 40 steps).
-const MAX_BENCH_HORIZON: usize = 64;
 
 /// [`run_bench`] with any planners behind `solver`.
 pub fn run_bench_with(

@@ -5,7 +5,8 @@ use std::process::ExitCode;
 
 use omcbsa::format::Status;
 use omcbsa::load;
-use omcbsa::planners::{self, plan_file, InputOrPlanError, PlannerKind};
+use omcbsa::plan::{plan_file, InputOrPlanError};
+use omcbsa::planners::{self, PlannerKind};
 
 use super::{bad_input, negative, note, positive_seconds, print, InputLimit};
 
