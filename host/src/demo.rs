@@ -18,10 +18,10 @@ use std::path::Path;
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
-use omcbsa_hw::executor::Progress;
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::mock::exec_config;
+use omcbsa_hw::Progress;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report, WatchSettings};
 use serde_json::Map;
 

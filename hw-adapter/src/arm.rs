@@ -1,4 +1,4 @@
-//! One arm on its own bus: seven CiA 402 drives, joint k at node k+1. Start-up ([`setup`]: SDO
+//! One arm on its own bus: seven CiA 402 drives, joint k at node k+1. Start-up (`setup`: SDO
 //! configuration and read-back, NMT start, enable), one control cycle (RPDO per joint, then
 //! SYNC), feedback bookkeeping (TPDO, heartbeat, EMCY), and the stop sequences.
 
@@ -6,18 +6,14 @@ mod setup;
 
 pub use setup::SetupOverride;
 
-/// Per joint, the range (bus counts) an arm's commands stay in.
-pub type Span = [(i32, i32); JOINTS];
-
 use crate::canopen::{self, Emcy, Message, NmtCommand, SdoReply};
 use crate::cia402::{self, counts_to_rad};
-use crate::executor::{ExecConfig, Fault};
 use crate::frame::CanFrame;
-use crate::interpolate::Command;
+use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::plan::JOINTS;
+use crate::run::{Command, CycleFault, ExecConfig, Fault, Span, JOINTS};
 use crate::transport::{Transport, TransportError};
-use crate::watchdog::{CycleAccount, CycleFault, MAX_MISSED_CYCLES};
+use crate::watchdog::CycleAccount;
 use std::time::{Duration, Instant};
 
 /// CANopen node id of joint `j` (0-based).
@@ -36,14 +32,6 @@ struct NodeState {
     /// measured (feedback that arrives late is no following error).
     answered_target: Option<i32>,
     emcy: Option<Emcy>,
-}
-
-/// A breach of the accounting as a fault of the node (source j is joint j).
-pub(crate) fn answer_fault(fault: CycleFault) -> Fault {
-    Fault::Answer {
-        node: node_id(fault.source()),
-        fault,
-    }
 }
 
 /// The frames of one control cycle: an RPDO1 per joint (target, controlword), then SYNC; with a
@@ -67,7 +55,9 @@ pub fn cycle_frames(cmd: &Command, controlword: u16) -> Vec<(CanFrame, String)> 
     frames
 }
 
+/// One arm of seven CiA 402 drives on its own bus, as the executor drives it (see the module).
 pub struct ArmBus {
+    /// The arm's name.
     pub name: String,
     transport: Box<dyn Transport>,
     /// Origin of the log's time stamps.
@@ -83,9 +73,13 @@ pub struct ArmBus {
     /// The first answer the accounting found late.
     late: Option<CycleFault>,
     sdo_reply: Option<(u8, SdoReply)>,
+    /// Tests only: one start-up SDO write changed on purpose.
+    setup_override: Option<SetupOverride>,
 }
 
 impl ArmBus {
+    /// The link for arm `name` on `transport`, for a run with `cfg`; frames go to `log`,
+    /// stamped from `clock`. Sends nothing yet.
     pub fn new(
         name: String,
         transport: Box<dyn Transport>,
@@ -101,14 +95,21 @@ impl ArmBus {
             log,
             frames_sent: 0,
             nodes: [NodeState::default(); JOINTS],
-            // The executor refuses settings out of range before any bus is set up.
-            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
-                .expect("m clamped into its range"),
+            account: CycleAccount::watching(JOINTS, &cfg.watch),
             late: None,
             sdo_reply: None,
+            setup_override: None,
         }
     }
 
+    /// Tests only: one start-up SDO write changed on purpose ([`SetupOverride`]).
+    pub(crate) fn with_setup_override(mut self, o: SetupOverride) -> Self {
+        self.setup_override = Some(o);
+        self
+    }
+
+    /// Sends one frame (waiting at most [`ExecConfig::send_timeout`] for room) and logs it
+    /// with its meaning `what`; a SYNC opens a cycle in the accounting.
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
         if frame.id() == canopen::SYNC_ID {
@@ -184,7 +185,7 @@ impl ArmBus {
         target: &Command,
     ) -> Result<f64, Fault> {
         if let Some(fault) = self.late {
-            return Err(answer_fault(fault));
+            return Err(Fault::answer(fault));
         }
         let consumer_time = cfg.watch.heartbeat_consumer_time();
         let mut worst: f64 = 0.0;
@@ -260,7 +261,7 @@ impl ArmBus {
     /// cycle is due (a node that has not answered SYNC k by then, with k + m the next, is a
     /// fault).
     pub fn check_cycle(&self) -> Result<(), Fault> {
-        self.account.check_send().map_err(answer_fault)
+        self.account.check_send().map_err(Fault::answer)
     }
 
     /// The first cycle this arm's answers do not yet allow to be sent.
@@ -268,6 +269,7 @@ impl ArmBus {
         self.account.clear_until()
     }
 
+    /// Sends one control cycle: an RPDO1 per joint with `controlword`, then SYNC.
     pub fn send_cycle(&mut self, cmd: &Command, controlword: u16) -> Result<(), TransportError> {
         for (f, what) in cycle_frames(cmd, controlword) {
             self.send(&f, what)?;
@@ -317,7 +319,7 @@ impl ArmBus {
     }
 }
 
-impl crate::link::ArmLink for ArmBus {
+impl ArmLink for ArmBus {
     fn name(&self) -> &str {
         &self.name
     }

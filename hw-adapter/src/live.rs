@@ -4,16 +4,13 @@
 //! the arms move) are the same loop; a run ends once it is told to finish and the queue is
 //! done, after the settle cycles.
 
-use crate::arm::Span;
-use crate::executor::{
-    ArmReport, ArmStop, ExecConfig, ExecError, Fault, FaultReport, Progress, ProgressFn, Report,
-    STOP_BOUND_PERIODS,
-};
-use crate::interpolate::Command;
-use crate::link::{ArmLink, ArmPort};
+use crate::link::ArmLink;
 use crate::log::LogSink;
-use crate::plan::JOINTS;
 use crate::priority;
+use crate::run::{
+    ArmReport, ArmStop, Command, ExecConfig, ExecError, Fault, FaultReport, Progress, Report, Span,
+    JOINTS, STOP_BOUND_PERIODS,
+};
 use crate::stream::{Generator, PushError};
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -24,6 +21,9 @@ use std::time::{Duration, Instant};
 /// How often a waiting arm thread looks at the shared fault flag and at its own bus.
 const FAULT_POLL: Duration = Duration::from_micros(100);
 
+/// The progress callback of a run.
+pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
+
 /// Events kept for [`StreamHandle::events`]; older ones are dropped beyond this.
 pub const MAX_EVENTS: usize = 1024;
 
@@ -32,9 +32,19 @@ pub const MAX_EVENTS: usize = 1024;
 pub enum Event {
     /// The queue ran dry: the arms came to rest at the last queued waypoint `step` and hold
     /// there (from control cycle `cycle`) until a push extends the queue.
-    QueueDry { cycle: u64, step: usize },
+    QueueDry {
+        /// The first cycle of the hold.
+        cycle: u64,
+        /// The waypoint held.
+        step: usize,
+    },
     /// A push extended the queue and the arms move on from the held `step`.
-    Resumed { cycle: u64, step: usize },
+    Resumed {
+        /// The first cycle of the motion.
+        cycle: u64,
+        /// The waypoint they held.
+        step: usize,
+    },
 }
 
 /// Where the stream is.
@@ -169,31 +179,31 @@ pub struct StreamHandle {
     info: RunInfo,
 }
 
-/// Starts one thread per bus: start-up of every arm together, then streaming.
+/// Starts one thread per link (link i streams the generator's arm i; `log` is the command
+/// log the links write to, finished with the run): start-up of every arm together, then
+/// streaming.
 pub(crate) fn start(
-    names: Vec<String>,
     generator: Generator,
-    buses: Vec<ArmPort>,
-    config: ExecConfig,
+    links: Vec<Box<dyn ArmLink>>,
+    (config, log): (ExecConfig, Option<LogSink>),
     progress: Option<ProgressFn>,
     finishing: bool,
     info: RunInfo,
-) -> Result<StreamHandle, ExecError> {
-    let log = open_log(&config)?;
-    let clock = Instant::now();
+) -> StreamHandle {
+    let names: Vec<String> = links.iter().map(|l| l.name().to_string()).collect();
     // Start-up checks each arm against the command it holds before the first cycle.
     let first: Vec<Command> = generator.held().collect();
     let arms = generator.arms();
     let shared = Arc::new(Shared {
-        barrier: Barrier::new(buses.len()),
+        barrier: Barrier::new(links.len()),
         startup_failed: AtomicBool::new(false),
         start: Mutex::new(None),
         faulted: AtomicBool::new(false),
         realtime_refused: Mutex::new(None),
         finishing: AtomicBool::new(finishing),
-        sent: buses.iter().map(|_| AtomicUsize::new(0)).collect(),
-        clear: buses.iter().map(|_| AtomicU64::new(0)).collect(),
-        names: names.clone(),
+        sent: links.iter().map(|_| AtomicUsize::new(0)).collect(),
+        clear: links.iter().map(|_| AtomicU64::new(0)).collect(),
+        names,
         fault: Mutex::new(None),
         cycle: Mutex::new(Cycle {
             generator,
@@ -205,52 +215,38 @@ pub(crate) fn start(
         }),
     });
     let progress: Option<Arc<ProgressFn>> = progress.map(Arc::new);
-    let threads = (buses
-        .into_iter()
-        .zip(names)
+    let threads = (links.into_iter())
         .zip(first)
         .zip(info.spans.clone())
         .zip(info.speeds.clone())
-        .enumerate())
-    .map(|(me, ((((bus, name), first), span), speed))| {
-        let mut bus = bus.into_link(name, clock, &config, log.clone());
-        let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
-        let total = info.total_cycles;
-        std::thread::spawn(move || {
-            if let Some(Err(why)) = config.realtime_priority.map(priority::make_realtime) {
-                lock(&shared.realtime_refused).get_or_insert(why);
-            }
-            let progress = progress.as_deref().map(|p| p.as_ref());
-            stream_arm(
-                me,
-                bus.as_mut(),
-                (first, span, speed),
-                &shared,
-                &config,
-                progress,
-                total,
-            )
+        .enumerate()
+        .map(|(me, (((mut bus, first), span), speed))| {
+            let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
+            let total = info.total_cycles;
+            std::thread::spawn(move || {
+                if let Some(Err(why)) = config.realtime_priority.map(priority::make_realtime) {
+                    lock(&shared.realtime_refused).get_or_insert(why);
+                }
+                let progress = progress.as_deref().map(|p| p.as_ref());
+                stream_arm(
+                    me,
+                    bus.as_mut(),
+                    (first, span, speed),
+                    &shared,
+                    &config,
+                    progress,
+                    total,
+                )
+            })
         })
-    })
-    .collect();
-    Ok(StreamHandle {
+        .collect();
+    StreamHandle {
         shared,
         threads,
         config,
         log,
         info,
-    })
-}
-
-pub(crate) fn open_log(config: &ExecConfig) -> Result<Option<LogSink>, ExecError> {
-    (config.log_path.as_ref())
-        .map(|path| {
-            LogSink::create(path).map_err(|error| ExecError::Log {
-                path: path.clone(),
-                error,
-            })
-        })
-        .transpose()
+    }
 }
 
 impl StreamHandle {
@@ -277,6 +273,7 @@ impl StreamHandle {
         Ok(c.generator.cycle())
     }
 
+    /// Where the stream is now.
     pub fn progress(&self) -> StreamProgress {
         let c = lock(&self.shared.cycle);
         StreamProgress {
@@ -525,7 +522,7 @@ fn finish_run(
             }
         }
     }
-    let logged = finish_log(log);
+    let logged = crate::log::finish(log);
     if !startup_errors.is_empty() {
         return Err(ExecError::Startup(startup_errors));
     }
@@ -560,14 +557,4 @@ fn finish_run(
         holds: c.holds,
         realtime: lock(&shared.realtime_refused).clone().map_or(Ok(()), Err),
     })
-}
-
-pub(crate) fn finish_log(log: Option<LogSink>) -> Result<(), ExecError> {
-    match log {
-        Some(log) => log.finish().map_err(|error| ExecError::Log {
-            path: log.path().to_path_buf(),
-            error,
-        }),
-        None => Ok(()),
-    }
 }

@@ -8,9 +8,10 @@
 mod common;
 
 use common::*;
-use omcbsa_hw::interpolate::{min_time_scale, Command};
+use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::stream::Generator;
+use omcbsa_hw::Command;
 use omcbsa_hw::{Event, ExecConfig, Executor, PushError, StreamHandle, WatchSettings, JOINTS};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};

@@ -329,7 +329,7 @@ fn replay<'a>(
     step_time: f64,
     config: &'a omcbsa_hw::ExecConfig,
     limits: &'a [ArmLimits],
-) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::interpolate::Command>> + 'a, String> {
+) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::Command>> + 'a, String> {
     let max_queued = (config.online_horizon.as_secs_f64() / step_time)
         .floor()
         .max(1.0);

@@ -18,14 +18,11 @@ use super::channel::Channel;
 use super::header::uid;
 use super::proto::{self, base, base_cyclic, common};
 use super::Connection;
-use crate::arm::{answer_fault, Span};
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
-use crate::executor::{ExecConfig, Fault};
-use crate::interpolate::Command;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::plan::JOINTS;
-use crate::watchdog::{CycleAccount, MAX_MISSED_CYCLES};
+use crate::run::{Command, ExecConfig, Fault, Span, JOINTS};
+use crate::watchdog::CycleAccount;
 use prost::Message;
 use std::f64::consts::{PI, TAU};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -59,11 +56,23 @@ pub fn cycle_of(sent: u64, last: u16, frame: u32) -> Option<u64> {
 }
 
 /// Degrees from the wire, in radians on the turn nearest `near` (rad).
+///
+/// ```
+/// use omcbsa_hw::kortex::arm::{from_wire, wire_degrees};
+/// use omcbsa_hw::cia402::rad_to_counts;
+///
+/// // -1 rad goes out as 302.7 degrees, and comes back on the turn of the target.
+/// let deg = wire_degrees(rad_to_counts(-1.0).unwrap());
+/// assert!((deg - 302.704_2).abs() < 1e-3);
+/// assert!((from_wire(deg, -1.0) + 1.0).abs() < 1e-6);
+/// assert!((from_wire(deg, 5.0) - (std::f64::consts::TAU - 1.0)).abs() < 1e-6);
+/// ```
 pub fn from_wire(deg: f32, near: f64) -> f64 {
     let d = (f64::from(deg).to_radians() - near).rem_euclid(TAU);
     near + if d > PI { d - TAU } else { d }
 }
 
+/// A Gen3 on Kortex as the executor drives it (see the module).
 pub struct KortexArm {
     name: String,
     conn: Connection,
@@ -85,6 +94,8 @@ pub struct KortexArm {
 }
 
 impl KortexArm {
+    /// The link for arm `name` over `conn`, for a run with `cfg`; frames go to `log`, stamped
+    /// from `clock`. Sends nothing yet.
     pub fn new(
         name: String,
         conn: Connection,
@@ -100,9 +111,7 @@ impl KortexArm {
             frames_sent: 0,
             rpc_timeout: cfg.sdo_timeout.max(Duration::from_millis(500)),
             frame_id: 0,
-            // The executor refuses settings out of range before any arm is set up.
-            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
-                .expect("m clamped into its range"),
+            account: CycleAccount::watching(JOINTS, &cfg.watch),
             answered: None,
             fault: None,
             measured: None,
@@ -275,7 +284,7 @@ impl KortexArm {
             targets = self
                 .account
                 .answer(j, c)
-                .map_err(answer_fault)?
+                .map_err(Fault::answer)?
                 .map(|(_, t)| *t);
         }
         if let Some(t) = targets {
@@ -414,7 +423,7 @@ impl ArmLink for KortexArm {
     }
 
     fn check_cycle(&self) -> Result<(), Fault> {
-        self.account.check_send().map_err(answer_fault)
+        self.account.check_send().map_err(Fault::answer)
     }
 
     fn clear_until(&self) -> u64 {

@@ -17,6 +17,7 @@ enum Io {
     Udp(UdpSocket),
 }
 
+/// One link to an arm, TCP or UDP, non-blocking.
 pub struct Channel {
     io: Io,
     /// The arm's address, for messages.
@@ -31,6 +32,7 @@ pub struct Channel {
 }
 
 impl Channel {
+    /// Connects to the arm's TCP port (at most 2 s).
     pub fn tcp(addr: SocketAddr) -> Result<Self, String> {
         let stream = TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT)
             .map_err(|e| format!("cannot connect to {addr} (TCP): {e}"))?;
@@ -47,6 +49,7 @@ impl Channel {
         ))
     }
 
+    /// A UDP socket connected to the arm's UDP port.
     pub fn udp(addr: SocketAddr) -> Result<Self, String> {
         let local: SocketAddr = if addr.is_ipv4() {
             ([0, 0, 0, 0], 0).into()
@@ -71,6 +74,7 @@ impl Channel {
         }
     }
 
+    /// "TCP" or "UDP", for messages.
     pub fn kind(&self) -> &'static str {
         match self.io {
             Io::Tcp { .. } => "TCP",

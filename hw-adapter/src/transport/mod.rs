@@ -9,20 +9,41 @@ pub mod socketcan;
 use crate::frame::CanFrame;
 use std::time::Duration;
 
+/// What went wrong on a bus; each names the bus.
 #[derive(Debug, thiserror::Error)]
 pub enum TransportError {
+    /// The bus could not be opened (or its spec is wrong).
     #[error("cannot open CAN bus {bus}: {reason}")]
-    Open { bus: String, reason: String },
+    Open {
+        /// The bus.
+        bus: String,
+        /// Why.
+        reason: String,
+    },
+    /// No room on the bus for a frame within the time allowed.
     #[error("CAN bus {bus}: sending {frame} timed out after {timeout:?}")]
     SendTimeout {
+        /// The bus.
         bus: String,
+        /// The frame not sent.
         frame: CanFrame,
+        /// How long it waited.
         timeout: Duration,
     },
+    /// Reading or writing the bus failed.
     #[error("CAN bus {bus}: {reason}")]
-    Io { bus: String, reason: String },
+    Io {
+        /// The bus.
+        bus: String,
+        /// Why.
+        reason: String,
+    },
+    /// The other end is gone.
     #[error("CAN bus {bus} is closed")]
-    Closed { bus: String },
+    Closed {
+        /// The bus.
+        bus: String,
+    },
 }
 
 /// A CAN bus. `Send` so that each arm's bus can be driven by its own thread.

@@ -1,0 +1,129 @@
+//! In-process simulated arms at the frame level, for tests, examples and doc-tests: the same
+//! links the executor drives real arms with, on the far end of an in-process CAN bus
+//! ([`can`]: seven CiA 402 drives), answering from their own threads.
+//!
+//! Unlike the Python mocks (hw-adapter/mock, the protocol check, run at 10 ms), they keep up at
+//! the default rates, so the watchdog's bound can be measured there.
+//! Each can inject one fault ([`Injected`]) and records, on the machine's monotonic clock, the
+//! fault's first sign and when the arm's stop reached it ([`SimRecord`]).
+
+pub mod can;
+
+use crate::run::{Command, JOINTS};
+use std::time::{Duration, Instant};
+
+/// A fault a simulated arm injects, from its `at`-th cycle on (cycles counted from 1: SYNCs,
+/// from the first).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Injected {
+    /// The arm answers nothing more: no TPDO, no heartbeat.
+    Silence,
+    /// Every answer from then on is held back this long.
+    Late(Duration),
+    /// Node 3 sends EMCY 0x2310 (over-current) and faults.
+    Emcy,
+    /// Node 3's statusword reports a fault (no EMCY).
+    FaultBit,
+    /// Node 3 goes to NMT stopped (announced by its heartbeat at once; no more TPDOs).
+    NmtStop,
+}
+
+/// What a simulated arm saw, stamped on the machine's monotonic clock.
+#[derive(Clone, Debug, Default)]
+pub struct SimRecord {
+    /// Every motion command it took, in order: the targets applied at each SYNC with
+    /// operation enabled, until its stop.
+    pub commands: Vec<Command>,
+    /// When each cycle's SYNC arrived, from the first motion command on.
+    pub cycle_times: Vec<Instant>,
+    /// The injected fault's first sign: the first cycle left unanswered or answered late, the
+    /// EMCY, the first faulty feedback, the heartbeat announcing the stop.
+    pub first_sign: Option<Instant>,
+    /// When the arm's stop reached it: the SYNC after its first quick-stop RPDO.
+    pub stopped: Option<Instant>,
+    /// Motion commands that arrived after the stop.
+    pub commands_after_stop: usize,
+}
+
+impl SimRecord {
+    /// The stop's delay after the fault's first sign, in periods of `period` (`None` without
+    /// either).
+    pub fn periods_to_stop(&self, period: Duration) -> Option<f64> {
+        let (sign, stop) = (self.first_sign?, self.stopped?);
+        Some(stop.saturating_duration_since(sign).as_secs_f64() / period.as_secs_f64())
+    }
+
+    /// The deviations of the intervals between consecutive cycles from `period`, sorted, in
+    /// seconds.
+    pub fn jitter(&self, period: Duration) -> Vec<f64> {
+        let mut j: Vec<f64> = (self.cycle_times.windows(2))
+            .map(|w| (w[1].duration_since(w[0]).as_secs_f64() - period.as_secs_f64()).abs())
+            .collect();
+        j.sort_by(f64::total_cmp);
+        j
+    }
+}
+
+/// Position model of a simulated joint: first order toward its target with time constant
+/// `tau` (zero: it is where it was told at once), advanced in time.
+#[derive(Clone, Copy, Debug)]
+struct Joint {
+    position: f64,
+    target: f64,
+    tau: Duration,
+}
+
+impl Joint {
+    fn new(position: f64, tau: Duration) -> Self {
+        Self {
+            position,
+            target: position,
+            tau,
+        }
+    }
+
+    /// Moves `dt` on.
+    fn advance(&mut self, dt: Duration) {
+        if self.tau.is_zero() {
+            self.position = self.target;
+        } else {
+            let k = 1.0 - (-dt.as_secs_f64() / self.tau.as_secs_f64()).exp();
+            self.position += (self.target - self.position) * k;
+        }
+    }
+}
+
+/// Joints of one arm, advanced together on the clock.
+#[derive(Clone, Debug)]
+struct Joints {
+    joints: [Joint; JOINTS],
+    at: Instant,
+}
+
+impl Joints {
+    fn new(initial: [f64; JOINTS], tau: Duration) -> Self {
+        Self {
+            joints: initial.map(|q| Joint::new(q, tau)),
+            at: Instant::now(),
+        }
+    }
+
+    /// Positions now, rad.
+    fn positions(&mut self) -> [f64; JOINTS] {
+        let now = Instant::now();
+        let dt = now.saturating_duration_since(self.at);
+        self.at = now;
+        for j in &mut self.joints {
+            j.advance(dt);
+        }
+        self.joints.map(|j| j.position)
+    }
+
+    /// New targets from now on, rad.
+    fn command(&mut self, targets: [f64; JOINTS]) {
+        self.positions();
+        for (j, t) in self.joints.iter_mut().zip(targets) {
+            j.target = t;
+        }
+    }
+}
