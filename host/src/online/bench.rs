@@ -211,7 +211,6 @@ pub fn run_episode(
                     run.error
                         .get_or_insert(format!("step {start}: {} poses dropped", r.dropped));
                 }
-                record.chunk(start as u64, &hands, r.dropped);
                 match run.first {
                     None => run.first = Some(r.planning_time_s),
                     Some(_) => run.later.push(r.planning_time_s),

@@ -23,6 +23,7 @@
 
 pub mod bench;
 pub mod bimanual;
+mod chunk;
 pub(crate) mod diagnose;
 mod embody;
 mod error;
@@ -30,17 +31,20 @@ pub mod policy;
 pub mod record;
 mod recover;
 pub mod run;
+mod scaling;
+mod timeline;
 
 pub use error::OnlineError;
+pub use timeline::Target;
+
+use timeline::Timeline;
 
 use omcbsa_core::approach::ApproachParams;
-use omcbsa_core::ik::{ik, ik_multi_start, MultiStart};
-use omcbsa_core::planner::{Stats, Status};
-use omcbsa_core::problem::{Assigned, Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
-use omcbsa_core::rng::Rng;
+use omcbsa_core::planner::Stats;
+use omcbsa_core::problem::{Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
 
-use crate::assignment::{self, nearest, AssignmentRule};
-use crate::error::{Errors, InputError};
+use crate::assignment::{nearest, AssignmentRule};
+use crate::error::Errors;
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
 use crate::models::Fleet;
@@ -99,6 +103,11 @@ pub struct OnlineOptions {
     /// chunk then needs a joint faster than its limit (bimanual transfer 013 at 50 Hz,
     /// 16-step chunks sent just in time). The cost makes the null space keep them apart.
     pub axis_weight: f64,
+    /// When a chunk cannot be followed at the policy's rate, slow its timing (the hands'
+    /// path and the order of the poses kept) by the least factor that makes it feasible,
+    /// rather than stop: the arms lag behind the policy by the time added (reported per chunk
+    /// and in total). Off, such a chunk is recovered by a catch-up that drops poses.
+    pub time_scaling: bool,
 }
 
 /// [`OnlineOptions::axis_weight`] by default. `bench-online --family bimanual` at 50 Hz, 2
@@ -122,6 +131,7 @@ impl Default for OnlineOptions {
             assignment: AssignmentRule::Free,
             reassign: false,
             axis_weight: AXIS_WEIGHT,
+            time_scaling: true,
         }
     }
 }
@@ -144,7 +154,16 @@ pub struct ChunkReport {
     pub end: usize,
     /// Wall time of the planner call, s.
     pub planning_time_s: f64,
+    /// The planner's counters (of the last run that planned the chunk).
     pub stats: Stats,
+    /// How much slower than the policy's rate the chunk was timed: timeline steps over poses
+    /// (1 unless time-scaled).
+    pub time_factor: f64,
+    /// Seconds the arms fell behind the policy with this chunk (time scaling, a hold before a
+    /// catch-up), 0 when they kept up.
+    pub lag_s: f64,
+    /// Seconds the arms are behind the policy in all, at the chunk's last pose.
+    pub total_lag_s: f64,
 }
 
 /// How a chunk was planned that could not be from where the last chunk left the arms.
@@ -152,17 +171,23 @@ pub struct ChunkReport {
 pub enum Recovery {
     /// The part of the plan not yet sent was planned again with the chunk.
     ReplannedUnsent,
-    /// The arms hold at the plan's end and an approach reaches the chunk.
-    AfterHold,
+    /// The chunk's timing was slowed so that the arms can follow it
+    /// ([`OnlineOptions::time_scaling`]).
+    TimeScaled,
+    /// The arms hold where the plan is still unsent and an approach reaches the hands where
+    /// they will be, dropping the poses it cannot reach in time; tracking resumes there.
+    CaughtUp,
     /// A new assignment, from where the arms stand ([`OnlineOptions::reassign`]).
     Reassigned,
 }
 
 impl Recovery {
+    /// The recovery's name in reports and tables.
     pub fn name(self) -> &'static str {
         match self {
             Recovery::ReplannedUnsent => "replanned_unsent",
-            Recovery::AfterHold => "after_hold",
+            Recovery::TimeScaled => "time_scaled",
+            Recovery::CaughtUp => "caught_up",
             Recovery::Reassigned => "reassigned",
         }
     }
@@ -175,10 +200,6 @@ impl Recovery {
 /// ms with 0.6, 9.2 ms with 0.3 (README, "Online embodiment").
 const CHUNK_RESOLUTION: f64 = 0.3;
 
-/// Plans of a chunk after a hold (see `Embodier::chunk_after_hold`), each dropping the poses
-/// the approach before could not reach in time.
-const MAX_HOLD_TRIES: usize = 3;
-
 /// Plans policy chunks as they arrive (see the module documentation).
 pub struct Embodier {
     robots: heapless::Vec<Robot<DOF>, MAX_ROBOTS>,
@@ -188,11 +209,11 @@ pub struct Embodier {
     setup: Setup,
     options: OnlineOptions,
     storage: Storage,
-    /// Per robot, its configurations from timeline index `window_start` on.
-    window: Vec<Vec<[f64; DOF]>>,
-    window_start: usize,
-    /// Timeline index of policy step 0 (set by the first chunk).
-    offset: Option<i64>,
+    /// Every robot's plan from the last configuration sent on, and what each index tracks.
+    timeline: Timeline,
+    /// Timeline index and policy step of the first chunk's first pose: where the arms would
+    /// be on every later step if they never fell behind.
+    origin: Option<(usize, u64)>,
     approach_len: usize,
     /// Per robot, the hand it holds, `None` when it holds still (set by the first chunk).
     assignment: Option<Vec<Option<usize>>>,
@@ -202,6 +223,9 @@ pub struct Embodier {
     /// arms (the latest chunk's where chunks overlap): what a re-plan tracks.
     policy: Vec<Vec<omcbsa_core::model::Frame>>,
     policy_start: u64,
+    /// The last chunk pushed was not planned: the arms finish the plan and hold, and the next
+    /// chunk may catch up with the hands.
+    missed: bool,
 }
 
 impl Embodier {
@@ -259,7 +283,7 @@ impl Embodier {
         crate::approach::check_initial::<Fleet, DOF>(&file, &problem)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
-        let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
+        let mut storage = Storage::new(options.capacities, scaling::horizon(&options));
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
         // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;
@@ -271,14 +295,14 @@ impl Embodier {
             setup: setup.clone(),
             options,
             storage,
-            window: Vec::new(),
-            window_start: 0,
-            offset: None,
+            timeline: Timeline::default(),
+            origin: None,
             approach_len: 0,
             assignment: None,
             committed: 0,
             policy: Vec::new(),
             policy_start: 0,
+            missed: false,
         })
     }
 
@@ -298,30 +322,62 @@ impl Embodier {
         self.approach_len
     }
 
-    /// The timeline index of policy step `step`, once the first chunk fixed it.
+    /// The timeline index of policy step `step`, once the first chunk placed the steps (a
+    /// step not planned yet: as many indices after the last one planned as steps).
     pub fn timeline_index(&self, step: u64) -> Option<usize> {
-        let i = self.offset? + step as i64;
-        usize::try_from(i).ok()
+        self.origin?;
+        self.timeline.index_of(step)
     }
 
     /// Timeline index one past the plan's last configuration (0 before the first chunk).
     pub fn end(&self) -> usize {
-        self.window_start + self.window.first().map_or(0, Vec::len)
+        self.timeline.end()
     }
 
     /// Robot `robot`'s configuration at timeline index `index`, if still kept; past the
     /// plan's end, the last one (the arm holds there).
     pub fn configuration(&self, robot: usize, index: usize) -> Option<[f64; DOF]> {
-        let path = self.window.get(robot)?;
-        let k = index.checked_sub(self.window_start)?;
-        path.get(k.min(path.len().checked_sub(1)?)).copied()
+        self.timeline.configuration(robot, index)
     }
 
     /// Robot `robot`'s planned configurations from timeline index `from` to the plan's end.
     pub fn planned(&self, robot: usize, from: usize) -> &[[f64; DOF]] {
-        let path = self.window.get(robot).map_or(&[][..], Vec::as_slice);
-        let k = from.saturating_sub(self.window_start).min(path.len());
-        &path[k..]
+        self.timeline.planned(robot, from)
+    }
+
+    /// What the hands track at timeline index `index` (a policy pose, a point between two of
+    /// a time-scaled chunk, or nothing), while it is kept.
+    pub fn target(&self, index: usize) -> Target {
+        self.timeline.target(index)
+    }
+
+    /// Every hand's pose to track at timeline index `index` (in the world frame), `None` where
+    /// the hands are free (the approach, a hold) or the poses are no longer kept.
+    pub fn target_poses(&self, index: usize) -> Option<Vec<omcbsa_core::model::Frame>> {
+        let Target::Pose { step, frac } = self.timeline.target(index) else {
+            return None;
+        };
+        let k = usize::try_from(step.checked_sub(self.policy_start)?).ok()?;
+        self.policy
+            .iter()
+            .map(|poses| {
+                let a = poses.get(k)?;
+                Some(if frac > 0.0 {
+                    timeline::between(a, poses.get(k + 1)?, frac)
+                } else {
+                    *a
+                })
+            })
+            .collect()
+    }
+
+    /// Seconds the arms are behind the policy at policy step `step` (time scaling, holds).
+    pub fn lag_s(&self, step: u64) -> f64 {
+        let (Some((i0, s0)), Some(i)) = (self.origin, self.timeline_index(step)) else {
+            return 0.0;
+        };
+        let on_time = i0 as i64 + step as i64 - s0 as i64;
+        (i as i64 - on_time).max(0) as f64 * self.setup.dt
     }
 
     /// The arms were sent the plan up to (not including) timeline index `index`: a chunk may no
@@ -329,17 +385,7 @@ impl Embodier {
     /// next chunk starts from).
     pub fn commit_until(&mut self, index: usize) {
         self.committed = self.committed.max(index);
-        let keep_from = self
-            .committed
-            .saturating_sub(1)
-            .min(self.end().saturating_sub(1));
-        let drop = keep_from.saturating_sub(self.window_start);
-        if drop > 0 {
-            self.window.iter_mut().for_each(|p| {
-                p.drain(..drop);
-            });
-            self.window_start += drop;
-        }
+        self.timeline.forget_before(self.committed);
         self.forget_sent_poses();
     }
 
@@ -354,7 +400,7 @@ impl Embodier {
         hands: &[Vec<Pose>],
     ) -> Result<ChunkReport, OnlineError> {
         let frames = self.check_chunk(hands)?;
-        match self.offset {
+        match self.origin {
             None => self.first_chunk(start_step, &frames),
             Some(_) => self.next_chunk(start_step, &frames),
         }
@@ -446,18 +492,23 @@ impl Embodier {
                 self.options.max_approach_len
             )));
         }
-        self.window = (0..n)
-            .map(|i| {
-                let mut w = Vec::with_capacity(1 + a + h);
-                w.push(self.robots[i].initial.unwrap_or(outcome.joint_paths[i][0]));
-                w.extend_from_slice(&approach[i]);
-                w.extend_from_slice(&outcome.joint_paths[i]);
-                w
-            })
+        let initial: Vec<[f64; DOF]> = (0..n)
+            .map(|i| self.robots[i].initial.unwrap_or(outcome.joint_paths[i][0]))
             .collect();
-        self.window_start = 0;
+        let paths: Vec<Vec<[f64; DOF]>> = (0..n)
+            .map(|i| [&approach[i][..], &outcome.joint_paths[i][..]].concat())
+            .collect();
+        let targets: Vec<Target> = std::iter::repeat_n(Target::Free, a)
+            .chain((0..h as u64).map(|k| Target::Pose {
+                step: start_step + k,
+                frac: 0.0,
+            }))
+            .collect();
+        self.timeline = Timeline::new(&initial);
+        let paths: Vec<&[[f64; DOF]]> = paths.iter().map(Vec::as_slice).collect();
+        self.timeline.replace_from(1, &paths, &targets);
         self.approach_len = a;
-        self.offset = Some((a + 1) as i64 - start_step as i64);
+        self.origin = Some((a + 1, start_step));
         self.assignment = Some(outcome.assignment.clone());
         self.remember(start_step, hands);
         Ok(ChunkReport {
@@ -468,6 +519,9 @@ impl Embodier {
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
             stats: outcome.stats,
+            time_factor: 1.0,
+            lag_s: 0.0,
+            total_lag_s: 0.0,
         })
     }
 
@@ -476,16 +530,16 @@ impl Embodier {
         start_step: u64,
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
-        let index = self.offset.unwrap_or(0) + start_step as i64;
+        let index = self.timeline_index(start_step).unwrap_or(0);
         // The chunk's first step must not be sent yet; the one before it (its start) may be.
-        if index < self.committed as i64 || index <= self.window_start as i64 {
+        if index < self.committed || index <= self.timeline.start() {
             return Err(OnlineError::DeadlineMissed {
                 start_step,
-                committed_step: self.committed as i64 - 1 - self.offset.unwrap_or(0),
+                committed_step: self.sent_step(),
             });
         }
-        let index = index as usize;
         let clock = std::time::Instant::now();
+        let lag_before = self.lag_s(start_step);
         // Lookahead: the poses an earlier chunk sent past this one's end are planned too.
         let longer = self.with_sent_tail(start_step, hands);
         let first = match &longer {
@@ -496,10 +550,12 @@ impl Embodier {
         };
         let mut planned = first.clone();
         // A dead end where the last chunk left the arms: re-plan from where they are now.
-        let ways: [(Recovery, bool); 3] = [
+        let ways: [(Recovery, bool); 4] = [
             (Recovery::ReplannedUnsent, true),
-            // The arms hold, too far from the chunk for one step: an approach may reach it.
-            (Recovery::AfterHold, index > self.end()),
+            (Recovery::TimeScaled, self.options.time_scaling),
+            // The arms hold (the plan ran out, or the last chunk was not planned): an approach
+            // catches up with the hands, at the cost of this chunk's first poses.
+            (Recovery::CaughtUp, self.missed || index >= self.end()),
             (Recovery::Reassigned, self.options.reassign),
         ];
         for (way, allowed) in ways {
@@ -508,7 +564,8 @@ impl Embodier {
             }
             planned = match way {
                 Recovery::ReplannedUnsent => self.replan_unsent(start_step, index, hands),
-                Recovery::AfterHold => self.chunk_after_hold(start_step, index, hands),
+                Recovery::TimeScaled => self.time_scaled(start_step, index, hands),
+                Recovery::CaughtUp => self.catch_up(start_step, index, hands),
                 Recovery::Reassigned => self.reassign(start_step, index, hands),
             }
             .map(|r| ChunkReport {
@@ -517,250 +574,23 @@ impl Embodier {
             });
         }
         // The error of the plain try names where the chunk is blocked.
+        self.missed = planned.is_err();
         let mut report = planned.or(first)?;
         self.remember(start_step, hands);
+        let last = start_step + hands.first().map_or(0, |t| t.len() as u64).max(1) - 1;
+        report.total_lag_s = self.lag_s(last);
+        report.lag_s = (report.total_lag_s - lag_before).max(0.0);
         report.planning_time_s = clock.elapsed().as_secs_f64();
         Ok(report)
     }
 
-    /// Plans a chunk from the configurations the arms have one step before it (holding at
-    /// the plan's end when it starts later).
-    fn continue_from(
-        &mut self,
-        start_step: u64,
-        index: usize,
-        hands: &[Trajectory],
-    ) -> Result<ChunkReport, OnlineError> {
-        let pins: Vec<[f64; DOF]> = (0..self.robots.len())
-            .map(|i| self.configuration(i, index - 1).unwrap_or([0.0; DOF]))
-            .collect();
-        // Step 0 is where the arms are; its pose is not tracked (it repeats the first).
-        let trajectories = hands.iter().map(|t| {
-            let mut with_pin = Trajectory::new();
-            let _ = with_pin.push(t[0]);
-            t.iter().for_each(|f| {
-                let _ = with_pin.push(*f);
-            });
-            with_pin
-        });
-        let mut problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
-        let outcome = self.solve(&mut problem, start_step)?;
-        let keep = index - self.window_start;
-        for (w, path) in self.window.iter_mut().zip(&outcome.joint_paths) {
-            // A chunk after the plan's end: the arms hold until it starts.
-            let last = *w.last().unwrap_or(&path[0]);
-            w.resize(keep, last);
-            w.extend_from_slice(&path[1..]);
-        }
-        Ok(ChunkReport {
-            start_step,
-            dropped: 0,
-            recovery: None,
-            index,
-            end: self.end(),
-            planning_time_s: outcome.planning_time_s,
-            stats: outcome.stats,
-        })
-    }
-
-    /// A chunk that starts after the plan's end (the policy was late and the arms hold at the
-    /// plan's last configuration) that cannot be reached in one step from the hold: planned
-    /// from where the arms hold with an approach, as the first chunk is (issue 22). The approach must end by
-    /// the chunk's first step; the chunk's first poses that it cannot reach in time are
-    /// dropped, as a late chunk's are, and the rest planned again.
-    fn chunk_after_hold(
-        &mut self,
-        start_step: u64,
-        index: usize,
-        hands: &[Trajectory],
-    ) -> Result<ChunkReport, OnlineError> {
-        let n = self.robots.len();
-        let end = self.end();
-        let hold: Vec<[f64; DOF]> = (0..n)
-            .map(|i| self.configuration(i, end - 1).unwrap_or([0.0; DOF]))
-            .collect();
-        let h = hands.first().map_or(0, |t| t.len());
-        let (mut skip, mut planning_time_s) = (0, 0.0);
-        // A few tries: each drops the poses the last approach could not reach in time.
-        for _ in 0..MAX_HOLD_TRIES {
-            if skip >= h {
-                break;
-            }
-            let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
-            let mut problem = self.problem(rest, Start::Sampled, Some(&hold));
-            let outcome = self.solve(&mut problem, start_step + skip as u64)?;
-            planning_time_s += outcome.planning_time_s;
-            let approach = outcome.approach.clone().unwrap_or_default();
-            let a = approach.first().map_or(0, Vec::len);
-            let first = index + skip;
-            if end + a > first {
-                // The approach is longer than the hold: drop what it cannot reach in time.
-                skip += end + a - first;
-                continue;
-            }
-            let keep = first - a - self.window_start;
-            for (i, w) in self.window.iter_mut().enumerate() {
-                w.resize(keep, hold[i]);
-                w.extend_from_slice(&approach[i]);
-                w.extend_from_slice(&outcome.joint_paths[i]);
-            }
-            // Unchanged unless it was planned free (`reassign`).
-            self.assignment = Some(outcome.assignment.clone());
-            return Ok(ChunkReport {
-                start_step: start_step + skip as u64,
-                dropped: skip,
-                recovery: None,
-                index: first,
-                end: self.end(),
-                planning_time_s,
-                stats: outcome.stats,
-            });
-        }
-        Err(OnlineError::NotPlanned {
-            start_step,
-            status: "the approach from where the arms hold takes longer than the chunk lasts"
-                .to_string(),
-        })
-    }
-
-    /// The core problem of a chunk: robots start as `start` (from `pins` when given) with the
-    /// assignment kept once chosen.
-    fn problem(
-        &self,
-        trajectories: impl Iterator<Item = Trajectory>,
-        start: Start,
-        pins: Option<&[[f64; DOF]]>,
-    ) -> Box<Problem<DOF>> {
-        // Boxed: a problem is hundreds of kilobytes, and a caller's thread may have a small
-        // stack.
-        let mut problem = Box::new(self.template.clone());
-        problem.trajectories = trajectories.collect();
-        problem.robots = (self.robots.iter().enumerate())
-            .map(|(i, r)| Robot {
-                initial: pins.map_or(r.initial, |p| Some(p[i])),
-                start,
-                assigned: match &self.assignment {
-                    None => Assigned::Free,
-                    Some(a) => a[i].map_or(Assigned::Hold, |j| Assigned::Track(j as u8)),
-                },
-                ..*r
-            })
-            .collect();
-        problem
-    }
-
-    fn solve(
-        &mut self,
-        problem: &mut Problem<DOF>,
-        start_step: u64,
-    ) -> Result<crate::planners::Outcome, OnlineError> {
-        self.solve_under(problem, start_step, &AssignmentRule::Free)
-    }
-
-    /// [`Embodier::solve`] with the robots' assignment set by `rule` (a checked one); `Free`
-    /// keeps the problem's.
-    fn solve_under(
-        &mut self,
-        problem: &mut Problem<DOF>,
-        start_step: u64,
-        rule: &AssignmentRule,
-    ) -> Result<crate::planners::Outcome, OnlineError> {
-        let timeout = self.options.chunk_timeout_s;
-        let kind = self.options.planner;
-        let outcome = match rule {
-            AssignmentRule::Free => self.storage.solve(kind, problem, timeout),
-            // Kept in the problem, where the diagnosis below sees it too.
-            AssignmentRule::Fixed(list) => {
-                AssignmentRule::apply(Some(list), problem);
-                self.storage.solve(kind, problem, timeout)
-            }
-            AssignmentRule::Preferred(_) => {
-                assignment::solve(&mut self.storage, kind, problem, rule, timeout)
-            }
-        }
-        .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
-        if outcome.status == Status::Solved {
-            return Ok(outcome);
-        }
-        if let Some(e) = self.unreachable(problem, start_step) {
-            return Err(e);
-        }
-        let first = usize::from(problem.robots.first().map(|r| r.start) == Some(Start::AtInitial));
-        let assigned = (problem.robots.iter()).all(|r| r.assigned != Assigned::Free);
-        if assigned {
-            if let Some(b) = diagnose::first_blocking::<Fleet, DOF>(problem, first, &self.setup) {
-                return Err(OnlineError::Blocked {
-                    start_step,
-                    robot: self.names[b.robot].clone(),
-                    robot_index: b.robot,
-                    hand: b.hand,
-                    step: start_step + (b.step - first) as u64,
-                    what: b.what,
-                });
-            }
-        }
-        let status = match outcome.status {
-            Status::Solved => unreachable!("handled above"),
-            Status::NoSolution => "no plan exists in the search space".to_string(),
-            Status::Timeout => format!(
-                "not planned within the chunk timeout of {} s",
-                self.options.chunk_timeout_s
-            ),
-            Status::OutOfMemory(pool) => format!("{pool} is full"),
-            Status::InvalidProblem(why) => why.to_string(),
-        };
-        Err(OnlineError::NotPlanned { start_step, status })
-    }
-
-    /// The first hand pose (earliest step) that no arm allowed to take the hand can reach:
-    /// IK from the previous step's answer, else from random seeds.
-    fn unreachable(&self, problem: &Problem<DOF>, start_step: u64) -> Option<OnlineError> {
-        let pinned = problem.robots.first()?.start == Start::AtInitial;
-        let first = usize::from(pinned);
-        let h = problem.horizon();
-        let mut last: Vec<Vec<Option<[f64; DOF]>>> =
-            vec![vec![None; self.robots.len()]; problem.trajectories.len()];
-        let ik_params = Default::default();
-        let multi = MultiStart {
-            attempts: 32,
-            ..MultiStart::default()
-        };
-        for k in first..h {
-            for (j, traj) in problem.trajectories.iter().enumerate() {
-                let fixed = problem
-                    .robots
-                    .iter()
-                    .position(|r| r.assigned == Assigned::Track(j as u8));
-                let mut reached = false;
-                for (i, r) in problem.robots.iter().enumerate() {
-                    if fixed.is_some_and(|f| f != i) {
-                        continue;
-                    }
-                    let target = r.base.inverse().compose(&traj[k]).compose(&r.tcp.inverse());
-                    let seed = last[j][i].or(r.initial);
-                    let mut q =
-                        seed.and_then(|s| ik::<Fleet, DOF>(r.model, &target, &s, &ik_params).ok());
-                    if q.is_none() {
-                        let mut rng = Rng::new(0x0e1b ^ (k as u64) << 8 ^ j as u64);
-                        let mut out = [[0.0; DOF]; 1];
-                        if let Ok(1) = ik_multi_start::<Fleet, DOF>(
-                            r.model, &target, &ik_params, &multi, &mut rng, &mut out,
-                        ) {
-                            q = Some(out[0]);
-                        }
-                    }
-                    last[j][i] = q;
-                    reached |= q.is_some();
-                }
-                if !reached {
-                    return Some(OnlineError::Unreachable {
-                        hand: j,
-                        step: start_step + (k - first) as u64,
-                        robot: fixed,
-                    });
-                }
-            }
-        }
-        None
+    /// The last policy step sent to the arms (for messages).
+    fn sent_step(&self) -> i64 {
+        let sent = self.committed.saturating_sub(1);
+        (0..=sent)
+            .rev()
+            .take_while(|&i| i >= self.timeline.start())
+            .find_map(|i| self.timeline.target(i).exact_step())
+            .map_or(-1, |s| s as i64)
     }
 }

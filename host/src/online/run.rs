@@ -102,7 +102,6 @@ pub fn run_on_mock_arms(
     let report = e
         .push_chunk(first.start_step, &first.hands)
         .map_err(|e| format!("chunk 0: {e}"))?;
-    rec.chunk(first.start_step, &first.hands, 0);
     let mut latencies = vec![report.planning_time_s];
     let n = e.robot_names().len();
     let kinds = (setup.robots.iter())
@@ -209,7 +208,6 @@ pub fn run_on_mock_arms(
         };
         match result {
             Ok(report) => {
-                rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
                 latencies.push(report.planning_time_s);
                 push(&handle, &e, report.index.min(old_end), &mut pushes)?;
                 progress(&format!(
