@@ -444,7 +444,8 @@ pub fn joint_values<M: Models<D>, const D: usize>(
     ok.then_some(q)
 }
 
-fn obstacle(i: usize, spec: &ObstacleSpec, errors: &mut Errors) -> Option<Obstacle> {
+/// Checks obstacle `i` of a file (the fields its shape needs, sizes, pose) and converts it.
+pub fn obstacle(i: usize, spec: &ObstacleSpec, errors: &mut Errors) -> Option<Obstacle> {
     let path = format!("obstacles[{i}]");
     let shape_name = spec.shape.as_str();
     let needs: &[&str] = match spec.shape {
