@@ -1,4 +1,5 @@
-//! Pose errors (the rotation log map) and the null space of a model's Jacobian.
+//! Pose errors (the rotation log map), the null space of a model's Jacobian, and how fast the
+//! joints must turn for the tool to move with a given twist.
 //!
 //! Both work in the model's base frame, with the Jacobian's row order: position first,
 //! rotation second.
@@ -148,6 +149,62 @@ pub fn axis_separation<const D: usize>(jacobian: &SMatrix<f64, 6, D>) -> f64 {
         }
     }
     least
+}
+
+/// The tool's twist moving from `a` to `b` in `dt` seconds, as [`pose_error`] over `dt`:
+/// rows 0-2 metres per second, rows 3-5 radians per second, in the frame both poses are in.
+pub fn twist(a: &Frame, b: &Frame, dt: f64) -> Vector6<f64> {
+    pose_error(a, b) / dt
+}
+
+/// How close to their speed limits the joints must turn for the tool to move with `twist`
+/// (as [`twist`] gives it, in the base frame) at the configuration whose Jacobian is `jac`:
+/// the fastest joint's share of its limit `vmax[j]`, with the arm's motion along its null
+/// space chosen to make that share least (exactly, for one null-space direction: 7 joints for
+/// 6 task dimensions; with more, only the first direction is used). Above 1, no joint motion
+/// follows the twist within the limits; `f64::INFINITY` at a singular Jacobian. About 1 µs.
+pub fn speed_ratio<const D: usize>(
+    jac: &SMatrix<f64, 6, D>,
+    twist: &Vector6<f64>,
+    vmax: &[f64; D],
+) -> f64 {
+    // The least-norm joint velocity, J^T (J J^T)^-1 v.
+    let Some(chol) = (jac * jac.transpose()).cholesky() else {
+        return f64::INFINITY;
+    };
+    let p: SVector<f64, D> = jac.transpose() * chol.solve(twist);
+    let n: SVector<f64, D> = null_space_basis::<D>(jac)
+        .first()
+        .copied()
+        .unwrap_or_else(SVector::zeros);
+    // max_j |p_j + n_j z| / vmax_j is convex and piecewise linear in z: its least value is
+    // where two of the terms meet (or one is 0), so the candidates are those points.
+    let share = |z: f64| {
+        (0..D)
+            .map(|j| libm::fabs(p[j] + n[j] * z) / vmax[j])
+            .fold(0.0, f64::max)
+    };
+    let mut best = share(0.0);
+    for i in 0..D {
+        if n[i] != 0.0 {
+            best = best.min(share(-p[i] / n[i]));
+        }
+        for k in i + 1..D {
+            let (a, b) = (n[i] / vmax[i], n[k] / vmax[k]);
+            let (c, d) = (p[i] / vmax[i], p[k] / vmax[k]);
+            // a z + c = +-(b z + d)
+            for (den, num) in [(a - b, d - c), (a + b, -(c + d))] {
+                if den != 0.0 {
+                    best = best.min(share(num / den));
+                }
+            }
+        }
+    }
+    if best.is_finite() {
+        best
+    } else {
+        f64::INFINITY
+    }
 }
 
 #[cfg(test)]

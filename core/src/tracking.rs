@@ -7,10 +7,12 @@ use core::cell::Cell;
 
 use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
+use crate::kinematics::twist;
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
-use crate::search::{axes_cost, OmegaParams};
+use crate::search::{step_cost, OmegaParams};
+use nalgebra::Vector6;
 
 /// How [`track`] takes each step.
 #[derive(Clone, Copy, Debug)]
@@ -21,7 +23,7 @@ pub enum Steps<'p> {
     /// rate of at most Ω-A*'s null-space step `epsilon` (these settings, already at the
     /// problem's step) that changes by at most `epsilon /` [`NULL_RATE_STEPS`] a step: each
     /// step keeps, slows or speeds up the rate, whichever gives the least joint motion plus
-    /// [`axes_cost`]. The search's costs without its backtracking, and without the jumps of
+    /// [`step_cost`]. The search's costs without its backtracking, and without the jumps of
     /// its `± epsilon` moves, which a streamed path could not follow within the joints'
     /// accelerations.
     Steered(&'p OmegaParams),
@@ -49,7 +51,8 @@ pub fn track<M: Models<D>, const D: usize>(
     // Steered: the null-space rate (rad a step) and direction of the last step.
     let rate = Cell::new(0.0);
     let last_dir = Cell::new([0.0; D]);
-    let next = |target: &Frame, q: &[f64; D]| {
+    // `motion`: the hand's twist at the step taken (see `step_cost`).
+    let next = |target: &Frame, motion: &Vector6<f64>, q: &[f64; D]| {
         let proj = ik::<M, D>(robot.model, target, q, ik_params).ok()?;
         let Steps::Steered(p) = steps else {
             return Some(proj).filter(|next| valid.step_within_limits(q, next));
@@ -73,7 +76,7 @@ pub fn track<M: Models<D>, const D: usize>(
         };
         let cost = |m: &[f64; D]| {
             let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
-            libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, p)
+            libm::sqrt(d2) + step_cost::<M, D>(robot.model, m, motion, p)
         };
         let best = [a - d, a, a + d]
             .into_iter()
@@ -101,8 +104,15 @@ pub fn track<M: Models<D>, const D: usize>(
     };
     let mut c = valid.state(&q, 0)? as u32;
     out[0] = q;
+    let (steered, dt) = (matches!(steps, Steps::Steered(p) if p.w_v > 0.0), valid.dt);
     for t in 1..traj.len() {
-        let next = next(&target(&traj[t]), &q)?;
+        let motion = match (steered, traj.get(t + 1)) {
+            (false, _) => Vector6::zeros(),
+            (true, Some(after)) => twist(&target(&traj[t]), &target(after), dt),
+            // The last step's motion goes on past the end.
+            (true, None) => twist(&target(&traj[t - 1]), &target(&traj[t]), dt),
+        };
+        let next = next(&target(&traj[t]), &motion, &q)?;
         c += valid.state(&next, t)? as u32;
         c += valid.motion(&q, &next, t - 1)? as u32;
         q = next;

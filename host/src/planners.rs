@@ -18,9 +18,7 @@ use omcbsa_core::embody::{run_planner, solve_from_initial, Embodied, Embodiment}
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status, Until};
 use omcbsa_core::pp::{Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
-use omcbsa_core::search::{
-    Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
-};
+use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk, Workspace};
 
 pub use omcbsa_core::planner::PlannerKind;
 
@@ -334,7 +332,8 @@ impl Storage {
                 } else {
                     Variant::MultiGoal
                 };
-                let omega = OmegaParams::default();
+                // Ω-A*'s settings are Ω-CBSA's low level's, so both plan alike online.
+                let omega = self.cbs_params.low;
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
                 embody(&mut p, &mut req, with_approach)
             }

@@ -11,7 +11,7 @@ mod workspace;
 
 pub use constraints::{OtherArm, OthersMode, PointConstraint};
 pub use omega_astar::{
-    axes_cost, manifold_moves, plan, Found, Query, SearchError, SearchStats, StartCache, StartIk,
+    manifold_moves, plan, step_cost, Found, Query, SearchError, SearchStats, StartCache, StartIk,
     MAX_MOVES,
 };
 pub use open::{OpenEntry, OpenList};

@@ -14,7 +14,9 @@ use core::cell::Cell;
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::ik::ik;
-use crate::kinematics::{axis_separation, null_space_basis};
+use crate::kinematics::{axis_separation, null_space_basis, speed_ratio, twist};
+use nalgebra::Vector6;
+
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
@@ -168,13 +170,30 @@ pub fn manifold_moves<M: Models<D>, const D: usize>(
     n
 }
 
-/// The step cost of `q` nearing two collinear joint axes (see [`OmegaParams::w_a`]).
-pub fn axes_cost<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], p: &OmegaParams) -> f64 {
-    if p.w_a <= 0.0 {
+/// The cost a step to `q` adds besides its length: `q` nearing two collinear joint axes
+/// ([`OmegaParams::w_a`]) and the joints' speed headroom for the hand's `twist` there (base
+/// frame; [`OmegaParams::w_v`]). 0 when both weights are.
+pub fn step_cost<M: Models<D>, const D: usize>(
+    model: u8,
+    q: &[f64; D],
+    twist: &Vector6<f64>,
+    p: &OmegaParams,
+) -> f64 {
+    if p.w_a <= 0.0 && p.w_v <= 0.0 {
         return 0.0;
     }
     let (_, jac) = M::jacobian(model, q);
-    p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0)
+    let mut cost = 0.0;
+    if p.w_a > 0.0 {
+        cost += p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0);
+    }
+    if p.w_v > 0.0 {
+        let ratio = speed_ratio::<D>(&jac, twist, M::velocity(model));
+        // A step the joints cannot take at all is refused elsewhere; here it only costs
+        // most.
+        cost += p.w_v * (ratio.min(2.0) - p.speed_margin).max(0.0);
+    }
+    cost
 }
 
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
@@ -496,6 +515,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let mut moves = [[0.0; D]; MAX_MOVES];
         let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
+        let motion = self.twist_at(node.j as usize, t1);
         for q in &moves[..n] {
             if !self.valid.step_within_limits(&node.q, q) {
                 continue;
@@ -508,7 +528,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 .sum();
             let child = Node {
                 q: *q,
-                g: node.g + libm::sqrt(dist2) + self.axes_cost(q),
+                g: node.g + libm::sqrt(dist2) + self.step_cost(q, &motion),
                 parent: index,
                 t: t1 as u16,
                 c: node.c.saturating_add(met.count_ones() as u16),
@@ -523,8 +543,20 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         Ok(())
     }
 
-    fn axes_cost(&self, q: &[f64; D]) -> f64 {
-        axes_cost::<M, D>(self.q.robot.model, q, self.p)
+    fn step_cost(&self, q: &[f64; D], motion: &Vector6<f64>) -> f64 {
+        step_cost::<M, D>(self.q.robot.model, q, motion, self.p)
+    }
+
+    /// The hand's twist at step `t` of trajectory `j` (towards step `t + 1`; the last step's
+    /// motion continues past the end), in the base frame. Zero unless the speed headroom is
+    /// weighed.
+    fn twist_at(&self, j: usize, t: usize) -> Vector6<f64> {
+        let h = self.q.trajectories[j].len();
+        if self.p.w_v <= 0.0 || h < 2 {
+            return Vector6::zeros();
+        }
+        let t = t.min(h - 2);
+        twist(&self.target(j, t), &self.target(j, t + 1), self.q.dt)
     }
 
     /// Inserts a generated state, or improves the stored one in its cell (or takes the cell

@@ -20,6 +20,14 @@ pub struct OmegaParams {
     pub w_a: f64,
     /// Separation (see [`axis_separation`]) below which `w_a` counts.
     pub axis_margin: f64,
+    /// Weight of the cost of the joints' speed headroom: each step adds `w_v` times how far
+    /// [`speed_ratio`](crate::kinematics::speed_ratio) of the hand's motion at that step (the
+    /// last step's motion continued past the trajectory's end) is above `speed_margin`. 0
+    /// (the paper's) leaves it out; online planning, which cannot see past a chunk, uses it
+    /// so that the arm takes configurations from which the hand's motion can go on faster.
+    pub w_v: f64,
+    /// Share of the joints' speed limits above which `w_v` counts.
+    pub speed_margin: f64,
     /// Most valid IK solutions of the first pose put in OPEN per trajectory.
     pub start_solutions: usize,
     /// Most random IK seeds tried per trajectory to find them.
@@ -71,6 +79,8 @@ impl Default for OmegaParams {
             w_c: 0.1,
             w_a: 0.0,
             axis_margin: 0.5,
+            w_v: 0.0,
+            speed_margin: 0.5,
             start_solutions: 16,
             start_attempts: 96,
             resolution: 0.6,

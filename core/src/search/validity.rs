@@ -23,6 +23,8 @@ pub struct Validity<'q, M, const D: usize> {
     pub others: &'q [OtherArm<'q, D>],
     pub others_mode: OthersMode,
     pub points: &'q [PointConstraint],
+    /// Time between consecutive steps, s.
+    pub dt: f64,
     /// Largest joint change between consecutive steps (velocity limit times dt).
     pub step_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
@@ -56,6 +58,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             others: &[],
             others_mode: OthersMode::Avoid,
             points: &[],
+            dt,
             step_limit,
             motion_step,
             excluded: robot.excluded,

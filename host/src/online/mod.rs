@@ -103,6 +103,11 @@ pub struct OnlineOptions {
     /// chunk then needs a joint faster than its limit (bimanual transfer 013 at 50 Hz,
     /// 16-step chunks sent just in time). The cost makes the null space keep them apart.
     pub axis_weight: f64,
+    /// Weight of the joints' speed headroom in the chunks' plans
+    /// ([`omcbsa_core::search::OmegaParams::w_v`]): a step costs more the nearer the hand's
+    /// motion there (continued past the chunk's end) brings a joint to its speed limit, so
+    /// that a chunk leaves the arm where the hands' next motion can still be followed.
+    pub headroom_weight: f64,
     /// When a chunk cannot be followed at the policy's rate, slow its timing (the hands'
     /// path and the order of the poses kept) by the least factor that makes it feasible,
     /// rather than stop: the arms lag behind the policy by the time added (reported per chunk
@@ -115,6 +120,9 @@ pub struct OnlineOptions {
 /// transfer 013 (the dead end this cost is for), 16 steers so hard that two others lose a
 /// wrist joint's speed. 4 is in the middle (log scale).
 pub const AXIS_WEIGHT: f64 = 4.0;
+
+/// [`OnlineOptions::headroom_weight`] by default.
+pub const HEADROOM_WEIGHT: f64 = 0.0;
 
 impl Default for OnlineOptions {
     fn default() -> Self {
@@ -131,6 +139,7 @@ impl Default for OnlineOptions {
             assignment: AssignmentRule::Free,
             reassign: false,
             axis_weight: AXIS_WEIGHT,
+            headroom_weight: HEADROOM_WEIGHT,
             time_scaling: true,
         }
     }
@@ -250,6 +259,9 @@ impl Embodier {
         if !(options.axis_weight.is_finite() && options.axis_weight >= 0.0) {
             errors.push("axis_weight", "must be a finite number, 0 or more");
         }
+        if !(options.headroom_weight.is_finite() && options.headroom_weight >= 0.0) {
+            errors.push("headroom_weight", "must be a finite number, 0 or more");
+        }
         if options.max_chunk_len == 0 || options.max_chunk_len >= MAX_STEPS {
             errors.push(
                 "max_chunk_len",
@@ -287,6 +299,7 @@ impl Embodier {
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
         // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;
+        storage.cbs_params.low.w_v = options.headroom_weight;
         storage.approach_params = options.approach;
         Ok(Embodier {
             robots,
