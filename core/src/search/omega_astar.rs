@@ -196,6 +196,34 @@ pub fn step_cost<M: Models<D>, const D: usize>(
     cost
 }
 
+/// The cost of ending at `q` ([`OmegaParams::w_r`]): the joints' reserve for the six
+/// reference twists of the tool. 0 when `w_r` is.
+pub fn reserve_cost<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], p: &OmegaParams) -> f64 {
+    if p.w_r <= 0.0 {
+        return 0.0;
+    }
+    let (tool, jac) = M::jacobian(model, q);
+    let (linear, angular) = p.reserve_speed;
+    let mut cost = 0.0;
+    for axis in 0..3 {
+        // The tool's axis in the base frame.
+        let a = tool.rot.column(axis);
+        for (lin, ang) in [(linear, 0.0), (0.0, angular)] {
+            let twist = Vector6::new(
+                a.x * lin,
+                a.y * lin,
+                a.z * lin,
+                a.x * ang,
+                a.y * ang,
+                a.z * ang,
+            );
+            let ratio = speed_ratio::<D>(&jac, &twist, M::velocity(model));
+            cost += (ratio.min(2.0) - p.speed_margin).max(0.0);
+        }
+    }
+    p.w_r * cost
+}
+
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
 pub fn plan<M: Models<D>, const D: usize>(
     query: &Query<'_, D>,
@@ -516,6 +544,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
         let motion = self.twist_at(node.j as usize, t1);
+        let last = t1 + 1 == self.h;
         for q in &moves[..n] {
             if !self.valid.step_within_limits(&node.q, q) {
                 continue;
@@ -528,7 +557,10 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 .sum();
             let child = Node {
                 q: *q,
-                g: node.g + libm::sqrt(dist2) + self.step_cost(q, &motion),
+                g: node.g
+                    + libm::sqrt(dist2)
+                    + self.step_cost(q, &motion)
+                    + if last { self.reserve(q) } else { 0.0 },
                 parent: index,
                 t: t1 as u16,
                 c: node.c.saturating_add(met.count_ones() as u16),
@@ -541,6 +573,10 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
             self.add(ws, child, stats)?;
         }
         Ok(())
+    }
+
+    fn reserve(&self, q: &[f64; D]) -> f64 {
+        reserve_cost::<M, D>(self.q.robot.model, q, self.p)
     }
 
     fn step_cost(&self, q: &[f64; D], motion: &Vector6<f64>) -> f64 {

@@ -26,8 +26,19 @@ pub struct OmegaParams {
     /// (the paper's) leaves it out; online planning, which cannot see past a chunk, uses it
     /// so that the arm takes configurations from which the hand's motion can go on faster.
     pub w_v: f64,
-    /// Share of the joints' speed limits above which `w_v` counts.
+    /// Share of the joints' speed limits above which `w_v` and `w_r` count.
     pub speed_margin: f64,
+    /// Weight of the joints' reserve at the trajectory's last step, for a motion the search
+    /// cannot see: the last state costs `w_r` times how far [`speed_ratio`] of each of six
+    /// reference twists (translating along, and turning about, each of the tool's axes at
+    /// `reserve_speed`) is above `speed_margin`, summed. 0 (the paper's) leaves it out; online
+    /// planning uses it so that a chunk ends where the hands can start any motion.
+    ///
+    /// [`speed_ratio`]: crate::kinematics::speed_ratio
+    pub w_r: f64,
+    /// The reference twists' speeds: metres per second along, radians per second about, each
+    /// of the tool's axes.
+    pub reserve_speed: (f64, f64),
     /// Most valid IK solutions of the first pose put in OPEN per trajectory.
     pub start_solutions: usize,
     /// Most random IK seeds tried per trajectory to find them.
@@ -81,6 +92,8 @@ impl Default for OmegaParams {
             axis_margin: 0.5,
             w_v: 0.0,
             speed_margin: 0.5,
+            w_r: 0.0,
+            reserve_speed: (0.25, 1.0),
             start_solutions: 16,
             start_attempts: 96,
             resolution: 0.6,

@@ -108,6 +108,10 @@ pub struct OnlineOptions {
     /// motion there (continued past the chunk's end) brings a joint to its speed limit, so
     /// that a chunk leaves the arm where the hands' next motion can still be followed.
     pub headroom_weight: f64,
+    /// Weight of the joints' reserve at a chunk's last pose, for any motion of the hands
+    /// ([`omcbsa_core::search::OmegaParams::w_r`]): a chunk ends where the hands can start
+    /// the next chunk's motion, whichever it is.
+    pub reserve_weight: f64,
     /// When a chunk cannot be followed at the policy's rate, slow its timing (the hands'
     /// path and the order of the poses kept) by the least factor that makes it feasible,
     /// rather than stop: the arms lag behind the policy by the time added (reported per chunk
@@ -123,6 +127,9 @@ pub const AXIS_WEIGHT: f64 = 4.0;
 
 /// [`OnlineOptions::headroom_weight`] by default.
 pub const HEADROOM_WEIGHT: f64 = 0.0;
+
+/// [`OnlineOptions::reserve_weight`] by default.
+pub const RESERVE_WEIGHT: f64 = 0.0;
 
 impl Default for OnlineOptions {
     fn default() -> Self {
@@ -140,6 +147,7 @@ impl Default for OnlineOptions {
             reassign: false,
             axis_weight: AXIS_WEIGHT,
             headroom_weight: HEADROOM_WEIGHT,
+            reserve_weight: RESERVE_WEIGHT,
             time_scaling: true,
         }
     }
@@ -259,8 +267,13 @@ impl Embodier {
         if !(options.axis_weight.is_finite() && options.axis_weight >= 0.0) {
             errors.push("axis_weight", "must be a finite number, 0 or more");
         }
-        if !(options.headroom_weight.is_finite() && options.headroom_weight >= 0.0) {
-            errors.push("headroom_weight", "must be a finite number, 0 or more");
+        for (field, w) in [
+            ("headroom_weight", options.headroom_weight),
+            ("reserve_weight", options.reserve_weight),
+        ] {
+            if !(w.is_finite() && w >= 0.0) {
+                errors.push(field, "must be a finite number, 0 or more");
+            }
         }
         if options.max_chunk_len == 0 || options.max_chunk_len >= MAX_STEPS {
             errors.push(
@@ -300,6 +313,7 @@ impl Embodier {
         // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;
         storage.cbs_params.low.w_v = options.headroom_weight;
+        storage.cbs_params.low.w_r = options.reserve_weight;
         storage.approach_params = options.approach;
         Ok(Embodier {
             robots,
