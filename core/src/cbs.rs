@@ -487,7 +487,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                 .with_others(&others, OthersMode::Avoid);
         // With a step cost, the warm start weighs it as the search would.
         let steered = self.low.at_step(self.pr.dt);
-        let steps = if steered.w_a > 0.0 || steered.w_v > 0.0 {
+        let steps = if steered.w_a > 0.0 || steered.w_v > 0.0 || steered.w_r > 0.0 {
             Steps::Steered(&steered)
         } else {
             Steps::Nearest(&self.low.ik)

@@ -162,48 +162,74 @@ pub fn twist(a: &Frame, b: &Frame, dt: f64) -> Vector6<f64> {
 /// the fastest joint's share of its limit `vmax[j]`, with the arm's motion along its null
 /// space chosen to make that share least (exactly, for one null-space direction: 7 joints for
 /// 6 task dimensions; with more, only the first direction is used). Above 1, no joint motion
-/// follows the twist within the limits; `f64::INFINITY` at a singular Jacobian. About 1 µs.
+/// follows the twist within the limits; `f64::INFINITY` at a singular Jacobian. About 1 µs;
+/// [`SpeedMap`] answers several twists at one configuration for less.
 pub fn speed_ratio<const D: usize>(
     jac: &SMatrix<f64, 6, D>,
     twist: &Vector6<f64>,
     vmax: &[f64; D],
 ) -> f64 {
-    // The least-norm joint velocity, J^T (J J^T)^-1 v.
-    let Some(chol) = (jac * jac.transpose()).cholesky() else {
-        return f64::INFINITY;
-    };
-    let p: SVector<f64, D> = jac.transpose() * chol.solve(twist);
-    let n: SVector<f64, D> = null_space_basis::<D>(jac)
-        .first()
-        .copied()
-        .unwrap_or_else(SVector::zeros);
-    // max_j |p_j + n_j z| / vmax_j is convex and piecewise linear in z: its least value is
-    // where two of the terms meet (or one is 0), so the candidates are those points.
-    let share = |z: f64| {
-        (0..D)
-            .map(|j| libm::fabs(p[j] + n[j] * z) / vmax[j])
-            .fold(0.0, f64::max)
-    };
-    let mut best = share(0.0);
-    for i in 0..D {
-        if n[i] != 0.0 {
-            best = best.min(share(-p[i] / n[i]));
-        }
-        for k in i + 1..D {
-            let (a, b) = (n[i] / vmax[i], n[k] / vmax[k]);
-            let (c, d) = (p[i] / vmax[i], p[k] / vmax[k]);
-            // a z + c = +-(b z + d)
-            for (den, num) in [(a - b, d - c), (a + b, -(c + d))] {
-                if den != 0.0 {
-                    best = best.min(share(num / den));
+    SpeedMap::new(jac, vmax).map_or(f64::INFINITY, |m| m.ratio(twist))
+}
+
+/// One configuration's map from tool twists to joint speeds ([`speed_ratio`] for several
+/// twists): the least-norm solution's factor and the null-space direction, made once.
+pub struct SpeedMap<const D: usize> {
+    jt: SMatrix<f64, D, 6>,
+    chol: nalgebra::Cholesky<f64, nalgebra::U6>,
+    /// The null-space direction, over the limits (zero without one).
+    n: SVector<f64, D>,
+    inv_v: SVector<f64, D>,
+}
+
+impl<const D: usize> SpeedMap<D> {
+    /// The map at the configuration whose Jacobian is `jac`, for joint speed limits `vmax`;
+    /// `None` at a singular Jacobian.
+    pub fn new(jac: &SMatrix<f64, 6, D>, vmax: &[f64; D]) -> Option<Self> {
+        let chol = (jac * jac.transpose()).cholesky()?;
+        let inv_v = SVector::<f64, D>::from_fn(|j, _| 1.0 / vmax[j]);
+        let n = null_space_basis::<D>(jac)
+            .first()
+            .map_or_else(SVector::zeros, |n| n.component_mul(&inv_v));
+        Some(SpeedMap {
+            jt: jac.transpose(),
+            chol,
+            n,
+            inv_v,
+        })
+    }
+
+    /// [`speed_ratio`] of `twist` here.
+    pub fn ratio(&self, twist: &Vector6<f64>) -> f64 {
+        // The least-norm joint velocity J^T (J J^T)^-1 v, as shares of the limits.
+        let p: SVector<f64, D> = (self.jt * self.chol.solve(twist)).component_mul(&self.inv_v);
+        let n = &self.n;
+        // max_j |p_j + n_j z| is convex and piecewise linear in z: its least value is where two
+        // of the terms meet (or one is 0), so the candidates are those points.
+        let share = |z: f64| {
+            (0..D)
+                .map(|j| libm::fabs(p[j] + n[j] * z))
+                .fold(0.0, f64::max)
+        };
+        let mut best = share(0.0);
+        for i in 0..D {
+            if n[i] != 0.0 {
+                best = best.min(share(-p[i] / n[i]));
+            }
+            for k in i + 1..D {
+                // n_i z + p_i = +-(n_k z + p_k)
+                for (den, num) in [(n[i] - n[k], p[k] - p[i]), (n[i] + n[k], -(p[i] + p[k]))] {
+                    if den != 0.0 {
+                        best = best.min(share(num / den));
+                    }
                 }
             }
         }
-    }
-    if best.is_finite() {
-        best
-    } else {
-        f64::INFINITY
+        if best.is_finite() {
+            best
+        } else {
+            f64::INFINITY
+        }
     }
 }
 

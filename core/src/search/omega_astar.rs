@@ -14,7 +14,7 @@ use core::cell::Cell;
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
 use crate::ik::ik;
-use crate::kinematics::{axis_separation, null_space_basis, speed_ratio, twist};
+use crate::kinematics::{axis_separation, null_space_basis, twist, SpeedMap};
 use nalgebra::Vector6;
 
 use crate::model::{Frame, Models};
@@ -171,57 +171,46 @@ pub fn manifold_moves<M: Models<D>, const D: usize>(
 }
 
 /// The cost a step to `q` adds besides its length: `q` nearing two collinear joint axes
-/// ([`OmegaParams::w_a`]) and the joints' speed headroom for the hand's `twist` there (base
-/// frame; [`OmegaParams::w_v`]). 0 when both weights are.
+/// ([`OmegaParams::w_a`]), the joints' speed headroom for the hand's `twist` there (base
+/// frame; [`OmegaParams::w_v`]) and their reserve for any motion of the tool
+/// ([`OmegaParams::w_r`]). 0 when every weight is.
 pub fn step_cost<M: Models<D>, const D: usize>(
     model: u8,
     q: &[f64; D],
     twist: &Vector6<f64>,
     p: &OmegaParams,
 ) -> f64 {
-    if p.w_a <= 0.0 && p.w_v <= 0.0 {
+    if p.w_a <= 0.0 && p.w_v <= 0.0 && p.w_r <= 0.0 {
         return 0.0;
     }
-    let (_, jac) = M::jacobian(model, q);
+    let (tool, jac) = M::jacobian(model, q);
     let mut cost = 0.0;
     if p.w_a > 0.0 {
         cost += p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0);
     }
+    if p.w_v <= 0.0 && p.w_r <= 0.0 {
+        return cost;
+    }
+    // A step the joints cannot take at all is refused elsewhere; here it only costs most.
+    let over = |ratio: f64| (ratio.min(2.0) - p.speed_margin).max(0.0);
+    let Some(map) = SpeedMap::new(&jac, M::velocity(model)) else {
+        return cost + over(f64::INFINITY) * (p.w_v + 6.0 * p.w_r);
+    };
     if p.w_v > 0.0 {
-        let ratio = speed_ratio::<D>(&jac, twist, M::velocity(model));
-        // A step the joints cannot take at all is refused elsewhere; here it only costs
-        // most.
-        cost += p.w_v * (ratio.min(2.0) - p.speed_margin).max(0.0);
+        cost += p.w_v * over(map.ratio(twist));
     }
-    cost
-}
-
-/// The cost of ending at `q` ([`OmegaParams::w_r`]): the joints' reserve for the six
-/// reference twists of the tool. 0 when `w_r` is.
-pub fn reserve_cost<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], p: &OmegaParams) -> f64 {
-    if p.w_r <= 0.0 {
-        return 0.0;
-    }
-    let (tool, jac) = M::jacobian(model, q);
-    let (linear, angular) = p.reserve_speed;
-    let mut cost = 0.0;
-    for axis in 0..3 {
-        // The tool's axis in the base frame.
-        let a = tool.rot.column(axis);
-        for (lin, ang) in [(linear, 0.0), (0.0, angular)] {
-            let twist = Vector6::new(
-                a.x * lin,
-                a.y * lin,
-                a.z * lin,
-                a.x * ang,
-                a.y * ang,
-                a.z * ang,
-            );
-            let ratio = speed_ratio::<D>(&jac, &twist, M::velocity(model));
-            cost += (ratio.min(2.0) - p.speed_margin).max(0.0);
+    if p.w_r > 0.0 {
+        // Translating along, and turning about, each of the tool's axes.
+        let (linear, angular) = p.reserve_speed;
+        for axis in 0..3 {
+            let a = tool.rot.column(axis);
+            for (l, w) in [(linear, 0.0), (0.0, angular)] {
+                let reference = Vector6::new(a.x * l, a.y * l, a.z * l, a.x * w, a.y * w, a.z * w);
+                cost += p.w_r * over(map.ratio(&reference));
+            }
         }
     }
-    p.w_r * cost
+    cost
 }
 
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
@@ -544,7 +533,6 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
         let motion = self.twist_at(node.j as usize, t1);
-        let last = t1 + 1 == self.h;
         for q in &moves[..n] {
             if !self.valid.step_within_limits(&node.q, q) {
                 continue;
@@ -557,10 +545,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 .sum();
             let child = Node {
                 q: *q,
-                g: node.g
-                    + libm::sqrt(dist2)
-                    + self.step_cost(q, &motion)
-                    + if last { self.reserve(q) } else { 0.0 },
+                g: node.g + libm::sqrt(dist2) + self.step_cost(q, &motion),
                 parent: index,
                 t: t1 as u16,
                 c: node.c.saturating_add(met.count_ones() as u16),
@@ -573,10 +558,6 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
             self.add(ws, child, stats)?;
         }
         Ok(())
-    }
-
-    fn reserve(&self, q: &[f64; D]) -> f64 {
-        reserve_cost::<M, D>(self.q.robot.model, q, self.p)
     }
 
     fn step_cost(&self, q: &[f64; D], motion: &Vector6<f64>) -> f64 {

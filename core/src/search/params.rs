@@ -28,11 +28,12 @@ pub struct OmegaParams {
     pub w_v: f64,
     /// Share of the joints' speed limits above which `w_v` and `w_r` count.
     pub speed_margin: f64,
-    /// Weight of the joints' reserve at the trajectory's last step, for a motion the search
-    /// cannot see: the last state costs `w_r` times how far [`speed_ratio`] of each of six
-    /// reference twists (translating along, and turning about, each of the tool's axes at
-    /// `reserve_speed`) is above `speed_margin`, summed. 0 (the paper's) leaves it out; online
-    /// planning uses it so that a chunk ends where the hands can start any motion.
+    /// Weight of the joints' reserve for a motion the search cannot see: each step costs
+    /// `w_r` times how far [`speed_ratio`] of each of six reference twists (translating
+    /// along, and turning about, each of the tool's axes at `reserve_speed`) is above
+    /// `speed_margin`, summed. 0 (the paper's) leaves it out; online planning uses it so that
+    /// where the hands wait or move slowly, the arm turns in its null space to where it can
+    /// follow whatever motion comes next (a wrist turn needs two wrist joints sharing it).
     ///
     /// [`speed_ratio`]: crate::kinematics::speed_ratio
     pub w_r: f64,
@@ -93,7 +94,7 @@ impl Default for OmegaParams {
             w_v: 0.0,
             speed_margin: 0.5,
             w_r: 0.0,
-            reserve_speed: (0.25, 1.0),
+            reserve_speed: (0.5, 2.0),
             start_solutions: 16,
             start_attempts: 96,
             resolution: 0.6,
