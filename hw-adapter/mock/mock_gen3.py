@@ -24,7 +24,9 @@ Fault injection, counted in Refresh commands received in low-level servoing (1 i
 --silent-at N (no answer to anything from the Nth on), --late-at N with --late-ms D (every answer
 from the Nth on sent D ms late), --fault-at N (actuator 3 reports a fault in the Nth answer on),
 --drop-session-at N (both sessions forgotten: the Nth Refresh and every later request answered
-with INVALID_SESSION).
+with INVALID_SESSION). A slow network path: --udp-delay-ms D handles every UDP request after a
+delay drawn from [0, D] ms (--seed), in arrival order, so that a TCP request sent after it can
+be handled first.
 
 Every request and event is recorded and written, as JSON lines, to --record at exit, with
 time.monotonic() stamps (one clock for every process on the machine). The mock exits when its
@@ -32,11 +34,13 @@ client closes the TCP connection, on SIGTERM, or after --max-seconds.
 """
 
 import argparse
+import collections
 import gc
 import heapq
 import json
 import math
 import os
+import random
 import select
 import signal
 import socket
@@ -337,6 +341,9 @@ def main():
     p.add_argument("--late-ms", type=float, default=0.0)
     p.add_argument("--fault-at", type=int, default=0)
     p.add_argument("--drop-session-at", type=int, default=0)
+    p.add_argument("--udp-delay-ms", type=float, default=0.0,
+                   help="handle each UDP request after a delay drawn from [0, D] ms, in order")
+    p.add_argument("--seed", type=int, default=0, help="of the UDP delays")
     args = p.parse_args()
     args.initial = [float(x) for x in args.initial.split(",")]
     if len(args.initial) != JOINTS:
@@ -376,9 +383,22 @@ def main():
         elif conn is not None:
             conn.sendall(MAGIC + struct.pack(">I", len(data)) + data)
 
+    rng = random.Random(args.seed)
+    udp_in = collections.deque()  # (due, bytes, peer): UDP requests on a slow path
+
+    def handle_udp(data, peer):
+        f = Frame_pb2.Frame.FromString(data)
+        answer("udp", peer, arm.handle("udp", f.header, f.payload))
+
+    def handle_due_udp(until):
+        while udp_in and udp_in[0][0] <= until:
+            _, data, peer = udp_in.popleft()
+            handle_udp(data, peer)
+
     try:
         while not stop and time.monotonic() < deadline:
             now = time.monotonic()
+            handle_due_udp(now)
             while arm.pending and arm.pending[0][0] <= now:
                 _, _, link, peer, data = heapq.heappop(arm.pending)
                 send(link, peer, data)
@@ -386,6 +406,8 @@ def main():
             timeout = 0.05
             if arm.pending:
                 timeout = max(0.0, min(timeout, arm.pending[0][0] - now))
+            if udp_in:
+                timeout = max(0.0, min(timeout, udp_in[0][0] - now))
             socks = [listener, udp] + ([conn] if conn is not None else [])
             try:
                 ready, _, _ = select.select(socks, [], [], timeout)
@@ -404,8 +426,11 @@ def main():
                         data, peer = udp.recvfrom(65536)
                     except BlockingIOError:
                         break
-                    f = Frame_pb2.Frame.FromString(data)
-                    answer("udp", peer, arm.handle("udp", f.header, f.payload))
+                    if args.udp_delay_ms > 0:
+                        due = time.monotonic() + rng.uniform(0.0, args.udp_delay_ms) / 1000.0
+                        udp_in.append((max(due, udp_in[-1][0]) if udp_in else due, data, peer))
+                    else:
+                        handle_udp(data, peer)
             if conn is not None and conn in ready:
                 chunk = conn.recv(65536)
                 if not chunk:
@@ -413,6 +438,10 @@ def main():
                     conn.close()
                     conn = None
                     if had_client:
+                        # Requests still on the slow path arrive all the same.
+                        if udp_in:
+                            time.sleep(max(0.0, udp_in[-1][0] - time.monotonic()))
+                            handle_due_udp(udp_in[-1][0])
                         break
                     continue
                 rx += chunk

@@ -47,12 +47,18 @@ pub trait ArmLink: Send {
     fn clear_until(&self) -> u64;
     /// Sends one control cycle's command.
     fn send_cycle(&mut self, cmd: &Command) -> Result<(), String>;
-    /// Stops the arm at once after a fault (here or on another arm), holding `hold`. Tries every
-    /// step even if one fails; returns the first failure (a stop frame not sent, or not
-    /// answered).
+    /// Stops the arm at once after a fault (here or on another arm), holding `hold`: sends the
+    /// stop frames without waiting for answers ([`ArmLink::leave`] does). Tries every frame even
+    /// if one fails; returns the first that could not be sent.
     fn quick_stop(&mut self, hold: &Command) -> Result<(), String>;
-    /// Normal end, holding `hold`.
+    /// Normal end, holding `hold`: sends the frames that end the motion (none may be needed).
     fn finish(&mut self, hold: &Command) -> Result<(), String>;
     /// After a failed start-up elsewhere: leaves the arm as it was, without moving it.
     fn abort(&mut self) -> Result<(), String>;
+    /// After [`ArmLink::quick_stop`], [`ArmLink::finish`] or [`ArmLink::abort`]: waits, for a
+    /// bounded time, for the arm to answer what was sent, then leaves it (Kortex: the last
+    /// cyclic command answered, the servoing mode back to single-level, the sessions closed).
+    /// `Ok`: every frame of the stop that got no answer (each also in the command log);
+    /// `Err`: one that could not be sent or that the arm refused.
+    fn leave(&mut self) -> Result<Vec<String>, String>;
 }

@@ -394,18 +394,34 @@ fn stream_arm(
                 .as_ref()
                 .map_or_else(Instant::now, |f| f.3),
         };
-        let error = bus.quick_stop(&prev1).err();
+        let sent = bus.quick_stop(&prev1);
+        // The bound is on the stop frames going out; the answers are waited for after.
+        let latency = detected.elapsed();
+        let (error, unanswered) = match (sent, bus.leave()) {
+            (Err(e), left) => (Some(e), left.unwrap_or_default()),
+            (Ok(()), Ok(unanswered)) => (None, unanswered),
+            (Ok(()), Err(e)) => (Some(e), Vec::new()),
+        };
         let stop = ArmStop {
             arm: bus.name().to_string(),
             cycles_sent: k,
-            latency: detected.elapsed(),
+            latency,
             error,
+            unanswered,
         };
         return ArmEnd::Stopped(stop, bus.frames_sent());
     }
     shared.sent[me].store(usize::MAX, Ordering::SeqCst);
     shared.clear[me].store(u64::MAX, Ordering::SeqCst);
-    match bus.finish(&prev1) {
+    // An arm that leaves a frame of its normal stop unanswered has not been seen to stop.
+    let ended = bus.finish(&prev1).and_then(|()| match bus.leave()? {
+        unanswered if unanswered.is_empty() => Ok(()),
+        unanswered => Err(format!(
+            "the arm did not answer its stop: {}",
+            unanswered.join("; ")
+        )),
+    });
+    match ended {
         Ok(()) => ArmEnd::Completed {
             cycles: k,
             frames: bus.frames_sent(),
@@ -419,6 +435,7 @@ fn stream_arm(
                 cycles_sent: k,
                 latency: detected.elapsed(),
                 error: Some(e),
+                unanswered: Vec::new(),
             };
             ArmEnd::Stopped(stop, bus.frames_sent())
         }
@@ -438,10 +455,14 @@ fn startup_phase_end(
     shared.barrier.wait();
     match result {
         Err(e) => Some(ArmEnd::StartupFailed(e)),
-        Ok(()) if shared.startup_failed.load(Ordering::SeqCst) => Some(match bus.abort() {
-            Ok(()) => ArmEnd::Aborted,
-            Err(e) => ArmEnd::StartupFailed(format!("while aborting: {e}")),
-        }),
+        Ok(()) if shared.startup_failed.load(Ordering::SeqCst) => {
+            // What the arm leaves unanswered is in the command log; the start-up's failure is
+            // the run's error.
+            Some(match bus.abort().and_then(|()| bus.leave()) {
+                Ok(_) => ArmEnd::Aborted,
+                Err(e) => ArmEnd::StartupFailed(format!("while aborting: {e}")),
+            })
+        }
         Ok(()) => None,
     }
 }
@@ -534,6 +555,7 @@ fn finish_run(
                 cycles_sent: a.cycles_sent,
                 latency: Duration::ZERO,
                 error: None,
+                unanswered: Vec::new(),
             });
         }
         return Err(ExecError::Fault(Box::new(FaultReport {

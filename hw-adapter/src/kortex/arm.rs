@@ -8,11 +8,14 @@
 //!    the cycle its command_id names ([`cycle_of`]) by the per-cycle accounting ([`crate::watchdog`]: an
 //!    answer missing when cycle k + m is due, or more than m periods stale, is a fault);
 //!    KeepAlive on a link idle for more than [`KEEP_ALIVE_AFTER`];
-//! 4. leaving: SetServoingMode(SINGLE_LEVEL_SERVOING), then CloseSession on both links; after
-//!    a fault, ApplyEmergencyStop first.
+//! 4. leaving (`stop`): after a fault, ApplyEmergencyStop at once; then, once the last
+//!    Refresh is answered (or its wait is over), SetServoingMode(SINGLE_LEVEL_SERVOING), then
+//!    CloseSession on both links; every frame of it left unanswered is logged.
 //!
 //! The command log names each frame's rpc and message id; the CreateSession payload, which
 //! holds the credentials, is never logged.
+
+mod stop;
 
 use super::channel::Channel;
 use super::header::uid;
@@ -91,6 +94,8 @@ pub struct KortexArm {
     /// Measured at start-up: where the seed command holds every actuator.
     measured: Option<[f32; JOINTS]>,
     low_level: bool,
+    /// What the stop waits for (`stop`).
+    stop: stop::Awaited,
 }
 
 impl KortexArm {
@@ -116,6 +121,7 @@ impl KortexArm {
             fault: None,
             measured: None,
             low_level: false,
+            stop: stop::Awaited::new(cfg),
         }
     }
 
@@ -292,28 +298,6 @@ impl KortexArm {
         }
         Ok(())
     }
-
-    /// SetServoingMode(SINGLE_LEVEL_SERVOING) if in low-level servoing, then CloseSession on
-    /// both links; tries every step, returns the first failure.
-    fn leave(&mut self) -> Result<(), String> {
-        let mut first = None;
-        if self.low_level {
-            if let Err(e) = self.set_servoing(base::ServoingMode::SingleLevelServoing) {
-                first.get_or_insert(e);
-            }
-        }
-        for udp in [true, false] {
-            let link: &Channel = if udp { &self.conn.udp } else { &self.conn.tcp };
-            if link.session != 0 {
-                if let Err(e) = self.send(udp, uid::CLOSE_SESSION, &[], "leaving") {
-                    first.get_or_insert(e);
-                }
-            }
-        }
-        self.conn.tcp.session = 0;
-        self.conn.udp.session = 0;
-        first.map_or(Ok(()), Err)
-    }
 }
 
 impl ArmLink for KortexArm {
@@ -381,6 +365,7 @@ impl ArmLink for KortexArm {
             }
         }
         while let Some(f) = self.conn.udp.recv()? {
+            self.stop.answer_seen(f.header.message_id);
             let answer = super::codec::response_payload(f)
                 .map_err(|e| Fault::ArmRefused(e.to_string()))
                 .and_then(|p| Self::feedback(&p));
@@ -439,23 +424,30 @@ impl ArmLink for KortexArm {
         } else {
             String::new()
         };
-        self.send(true, uid::REFRESH, &payload, &what)?;
+        let id = self.send(true, uid::REFRESH, &payload, &what)?;
+        self.stop.last_refresh = Some((id, self.frame_id, false));
         self.account.sent_cycle(*cmd);
         Ok(())
     }
 
     fn quick_stop(&mut self, _hold: &Command) -> Result<(), String> {
-        let stop = self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop");
-        let left = self.leave();
-        stop.and(left).map(|_| ())
+        let id = self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop")?;
+        self.stop.estop = Some(id);
+        Ok(())
     }
 
+    /// Nothing to send: [`ArmLink::leave`] ends low-level servoing once the last command is
+    /// answered.
     fn finish(&mut self, _hold: &Command) -> Result<(), String> {
-        self.leave()
+        Ok(())
     }
 
     fn abort(&mut self) -> Result<(), String> {
-        self.leave()
+        Ok(())
+    }
+
+    fn leave(&mut self) -> Result<Vec<String>, String> {
+        KortexArm::leave(self)
     }
 }
 

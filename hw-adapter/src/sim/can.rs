@@ -21,7 +21,7 @@
 //! # Ok::<(), omcbsa_hw::TransportError>(())
 //! ```
 
-use super::{Injected, Joints, SimRecord};
+use super::{Joints, SimRecord};
 use crate::canopen;
 use crate::cia402::{self, counts_to_rad, rad_to_counts};
 use crate::frame::CanFrame;
@@ -33,6 +33,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// A fault the simulated drives inject from their `at`-th SYNC on (counted from 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Injected {
+    /// Every drive answers nothing more: no TPDO, no heartbeat.
+    Silence,
+    /// Every frame the drives send from then on is held back this long.
+    Late(Duration),
+    /// Node 3 sends EMCY 0x2310 (over-current) and faults.
+    Emcy,
+    /// Node 3's statusword reports a fault (no EMCY).
+    FaultBit,
+    /// Node 3 goes to NMT stopped (announced by its heartbeat at once; no more TPDOs).
+    NmtStop,
+}
 
 /// The node a drive fault is injected on.
 pub const FAULTY_NODE: u8 = 3;
@@ -95,7 +110,10 @@ impl CanSim {
         let (host, device) = MockTransport::pair("sim");
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
-        let thread = std::thread::spawn(move || Drives::new(device, opts).run(&flag));
+        let thread = std::thread::spawn(move || {
+            super::realtime();
+            Drives::new(device, opts).run(&flag)
+        });
         (
             Self {
                 stop,
