@@ -9,8 +9,10 @@ here from Kinova's wire format.
 Listens on 127.0.0.1 on a free TCP and a free UDP port (or --tcp-port / --udp-port) and prints
 `PORTS <tcp> <udp>` as its first line. Serves one client: a session per link (CreateSession with
 --user / --password), KeepAlive, CloseSession, ClearFaults, SetServoingMode, ApplyEmergencyStop,
-RefreshFeedback and Refresh. Seven actuators track their position commands (first order, time
-constant --tau-ms, one step of --period-ms per command).
+RefreshFeedback and Refresh. Seven actuators follow their last position command with a
+first-order lag in time (time constant --tau-ms): they keep moving between commands, and a
+feedback reports where they are when it is sent; an arm in fault, in emergency stop, out of
+low-level servoing or stopped for inactivity holds where it is.
 
 Refuses what a real arm refuses, with an error frame, and for a cyclic command with an actuator
 fault (fault bank A bit 0 of the actuator concerned, in every later Feedback, until ClearFaults):
@@ -117,9 +119,11 @@ class Gen3:
     def __init__(self, args):
         self.args = args
         self.period = args.period_ms / 1000.0
-        self.alpha = 1.0 - math.exp(-args.period_ms / args.tau_ms)
+        self.tau = args.tau_ms / 1000.0
         self.position = [math.degrees(q) % 360.0 for q in args.initial]
-        self.command = list(self.position)
+        self.command = list(self.position)  # the last position command taken
+        self.goal = list(self.position)  # where the actuators head
+        self.moved_at = time.monotonic()
         self.faults = [0] * JOINTS
         self.mode = SINGLE_LEVEL
         self.estopped = False
@@ -198,11 +202,14 @@ class Gen3:
                 body = b""
             elif uid == APPLY_EMERGENCY_STOP:
                 self.estopped = True
+                self.hold()
                 self.record("estop", link=link, uid=uid)
                 body = b""
             elif uid == SET_SERVOING_MODE:
                 info = Base_pb2.ServoingModeInformation.FromString(payload)
                 self.mode = info.servoing_mode
+                if self.mode != LOW_LEVEL:
+                    self.hold()
                 self.last_frame_id = None
                 self.record("servoing", mode=self.mode)
                 body = b""
@@ -233,7 +240,21 @@ class Gen3:
                     session_inactivity_ms=info.session_inactivity_timeout)
         return b""
 
+    def advance(self):
+        """Moves every actuator toward its goal for the time passed since the last call."""
+        now = time.monotonic()
+        k = 1.0 - math.exp(-(now - self.moved_at) / self.tau) if self.tau > 0 else 1.0
+        self.moved_at = now
+        for j in range(JOINTS):
+            self.position[j] += k * wrap180(self.goal[j] - self.position[j])
+
+    def hold(self):
+        """The actuators stop where they are."""
+        self.advance()
+        self.goal = list(self.position)
+
     def feedback(self, frame_id):
+        self.advance()
         fb = BaseCyclic_pb2.Feedback(frame_id=frame_id)
         for j in range(JOINTS):
             a = fb.actuators.add()
@@ -258,6 +279,8 @@ class Gen3:
         def refuse(code, sub, why, actuators=()):
             for j in actuators:
                 self.faults[j] |= 1
+            if any(self.faults):
+                self.hold()
             self.record_refresh(payload, answer="refused", why=why)
             raise Refusal(code, sub, why)
 
@@ -292,12 +315,14 @@ class Gen3:
                            % (j + 1, speed), [j])
         if any(self.faults):
             # In fault the arm holds; the answer still reports where it is and its faults.
+            self.hold()
             self.record_refresh(payload, answer="fault")
         else:
             self.last_frame_id = c.frame_id
+            self.advance()
             for j in range(JOINTS):
                 self.command[j] = pos[j]
-                self.position[j] += self.alpha * wrap180(pos[j] - self.position[j])
+                self.goal[j] = pos[j]
             self.record_refresh(payload, answer="late" if self.late else "ok")
         return self.feedback(c.frame_id).SerializeToString()
 
@@ -308,6 +333,7 @@ class Gen3:
             limit = self.inactivity[link]
             if self.sessions[link] and limit and now - self.last_rx[link] > limit:
                 self.motion_stopped = "no frame on %s for %.3f s" % (link, now - self.last_rx[link])
+                self.hold()
                 self.record("inactivity_stop", link=link)
 
     def write_record(self):
@@ -332,8 +358,9 @@ def main():
     p.add_argument("--user", default="admin")
     p.add_argument("--password", default="admin")
     p.add_argument("--period-ms", type=float, default=1.0,
-                   help="the client's control period: one actuator step per command")
-    p.add_argument("--tau-ms", type=float, default=5.0)
+                   help="the client's control period, for the velocity check of each command")
+    p.add_argument("--tau-ms", type=float, default=5.0,
+                   help="time constant of the actuators' first-order lag behind their command")
     p.add_argument("--record")
     p.add_argument("--max-seconds", type=float, default=600.0)
     p.add_argument("--silent-at", type=int, default=0)

@@ -12,7 +12,7 @@ use crate::cia402::{self, counts_to_rad};
 use crate::frame::CanFrame;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, CycleFault, ExecConfig, Fault, Span, JOINTS};
+use crate::run::{Command, CycleFault, ExecConfig, Fault, Measured, Span, JOINTS};
 use crate::transport::{Transport, TransportError};
 use crate::watchdog::CycleAccount;
 use std::time::{Duration, Instant};
@@ -320,6 +320,18 @@ impl ArmLink for ArmBus {
 
     fn poll(&mut self) -> Result<(), String> {
         ArmBus::poll(self).map_err(|e| e.to_string())
+    }
+
+    fn measured(&self) -> Option<Measured> {
+        let mut positions = [0.0; JOINTS];
+        for (p, n) in positions.iter_mut().zip(&self.nodes) {
+            *p = counts_to_rad(n.tpdo?.0);
+        }
+        let answered = (0..JOINTS).filter_map(|j| self.account.owed(j)).min();
+        Some(Measured {
+            positions,
+            cycle: answered.and_then(|o| o.checked_sub(1)),
+        })
     }
 
     fn check_feedback(

@@ -311,6 +311,7 @@ fn dry_run(
                     .collect(),
                 max_lateness: Duration::ZERO,
                 holds: 0,
+                halted: false,
                 realtime: Ok(()),
             });
         }

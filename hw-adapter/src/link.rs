@@ -2,7 +2,7 @@
 //! the loop (`live`) drives. Its implementations are an arm of CiA 402 drives on a CAN bus
 //! (`arm::ArmBus`) and a Kinova Gen3 over Ethernet (`kortex::KortexArm`); `port` opens them.
 
-use crate::run::{Command, ExecConfig, Fault, Span, JOINTS};
+use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -32,6 +32,8 @@ pub trait ArmLink: Send {
     fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String>;
     /// Handles everything received so far.
     fn poll(&mut self) -> Result<(), String>;
+    /// The latest feedback: where the joints were measured, and the cycle it answers.
+    fn measured(&self) -> Option<Measured>;
     /// The first fault visible in the feedback, given the last command sent (`target`); also
     /// returns the largest following error seen, rad.
     fn check_feedback(

@@ -263,7 +263,10 @@ fn arm_that_stops_answering_stops_every_arm() {
     // Its drives answer neither the quick stop's SYNC nor NMT stop: the stop says so.
     let right = report.stops.iter().find(|s| s.arm == "right").unwrap();
     let unanswered = right.unanswered.join("\n");
-    assert!(unanswered.contains("no TPDO1 from node 1, 2, 3, 4, 5, 6, 7"), "{unanswered}");
+    assert!(
+        unanswered.contains("no TPDO1 from node 1, 2, 3, 4, 5, 6, 7"),
+        "{unanswered}"
+    );
     assert!(unanswered.contains("reporting \"stopped\""), "{unanswered}");
 }
 

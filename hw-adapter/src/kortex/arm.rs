@@ -24,7 +24,7 @@ use super::Connection;
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, ExecConfig, Fault, Span, JOINTS};
+use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS};
 use crate::watchdog::CycleAccount;
 use prost::Message;
 use std::f64::consts::{PI, TAU};
@@ -377,6 +377,23 @@ impl ArmLink for KortexArm {
             }
         }
         self.keep_alive()
+    }
+
+    fn measured(&self) -> Option<Measured> {
+        let answered = (0..JOINTS).filter_map(|j| self.account.owed(j)).min();
+        let cycle = answered.and_then(|o| o.checked_sub(1));
+        match (&self.answered, self.measured) {
+            (Some((pos, targets)), _) => Some(Measured {
+                positions: std::array::from_fn(|j| from_wire(pos[j], counts_to_rad(targets[j]))),
+                cycle,
+            }),
+            // Before any cycle: where start-up measured it (degrees on the turn nearest 0).
+            (None, Some(deg)) => Some(Measured {
+                positions: deg.map(|d| from_wire(d, 0.0)),
+                cycle: None,
+            }),
+            (None, None) => None,
+        }
     }
 
     fn check_feedback(
