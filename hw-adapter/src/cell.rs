@@ -134,6 +134,16 @@ enum Mock {
     Kortex(MockGen3),
 }
 
+impl Mock {
+    /// Waits for it to exit (it does once its connection is closed): its name and record.
+    fn finish(self) -> Result<(String, Vec<Value>), String> {
+        match self {
+            Mock::Can(m) => Ok((m.name.clone(), m.finish()?)),
+            Mock::Kortex(m) => Ok((m.name.clone(), m.finish()?)),
+        }
+    }
+}
+
 /// Several arms streaming together: see the module.
 pub struct Cell {
     handle: Option<StreamHandle>,
@@ -336,36 +346,29 @@ impl Cell {
 
     /// Lets the queue run out, holds for the settle cycles, disables the drives; the report and
     /// the mocks' records.
-    pub fn finish(mut self) -> Result<CellEnd, CellError> {
-        self.check()?;
-        let handle = self
-            .handle
-            .take()
-            .ok_or_else(|| CellError::Ended("no stream".into()))?;
-        self.end(handle.finish())
+    pub fn finish(self) -> Result<CellEnd, CellError> {
+        self.end(StreamHandle::finish)
     }
 
     /// Stops every arm now (a quick stop, no fault); the report and the mocks' records.
-    pub fn stop(mut self) -> Result<CellEnd, CellError> {
-        self.check()?;
-        let handle = self
-            .handle
-            .take()
-            .ok_or_else(|| CellError::Ended("no stream".into()))?;
-        self.end(handle.stop())
+    pub fn stop(self) -> Result<CellEnd, CellError> {
+        self.end(StreamHandle::stop)
     }
 
-    fn end(&mut self, result: Result<Report, ExecError>) -> Result<CellEnd, CellError> {
+    /// Ends the stream with `how`, then waits for the mocks to exit: their records.
+    fn end(
+        mut self,
+        how: fn(StreamHandle) -> Result<Report, ExecError>,
+    ) -> Result<CellEnd, CellError> {
+        self.check()?;
+        let handle = (self.handle.take()).ok_or_else(|| CellError::Ended("no stream".into()))?;
         self.ended = Some("the cell has ended".into());
-        let report = result.map_err(|e| match e {
+        let report = how(handle).map_err(|e| match e {
             ExecError::Fault(r) => CellError::Fault(r),
             e => CellError::Start(e),
         })?;
         let records = (self.mocks.drain(..))
-            .map(|m| match m {
-                Mock::Can(m) => Ok((m.name.clone(), m.finish()?)),
-                Mock::Kortex(m) => Ok((m.name.clone(), m.finish()?)),
-            })
+            .map(Mock::finish)
             .collect::<Result<_, String>>()
             .map_err(|e| {
                 CellError::Ended(format!(
@@ -381,10 +384,7 @@ impl Drop for Cell {
     fn drop(&mut self) {
         drop(self.handle.take());
         for m in self.mocks.drain(..) {
-            let _ = match m {
-                Mock::Can(m) => m.finish(),
-                Mock::Kortex(m) => m.finish(),
-            };
+            let _ = m.finish();
         }
     }
 }

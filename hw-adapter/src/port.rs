@@ -146,10 +146,13 @@ impl ArmUrl {
             "mock-kortex" => &MOCK_KORTEX_FLAGS,
             "mock-can" => &MOCK_CAN_FLAGS,
             _ => {
-                return Err(format!(
-                    "unknown arm URL {url:?}: expected kortex://HOST, socketcan://IFACE, \
-                     slcan:///dev/ttyX, mock-kortex or mock-can"
-                ))
+                let forms = "kortex://HOST, socketcan://IFACE, slcan:///dev/ttyX, mock-kortex \
+                             or mock-can";
+                // Not a URL: the bus spec's own error names the command line's forms.
+                return Err(match bus(url.to_string()) {
+                    Err(e) if !url.contains("://") => format!("{e}; or an arm URL: {forms}"),
+                    _ => format!("unknown arm URL {url:?}: expected {forms}"),
+                });
             }
         };
         let mut flags = Vec::new();
@@ -265,7 +268,8 @@ mod tests {
             ("slcan://", "the serial device path is empty"),
             ("mock-kortex?fault-at=soon", "is not a number"),
             ("mock-kortex?emcy-at-sync=1", "has no flag \"emcy-at-sync\""),
-            ("can0", "unknown arm URL"),
+            ("tcp://host", "unknown arm URL"),
+            ("can0", "expected `slcan:/dev/ttyXXX` or `socketcan:IFACE`"),
         ] {
             let e = ArmUrl::parse(bad).unwrap_err();
             assert!(e.contains(why), "{bad}: {e}");

@@ -85,6 +85,7 @@ fn check(link: Link, injected: MatrixFault) {
             break out;
         }
         println!("stopped before the fault, run again: {:?}", out.result);
+        std::thread::sleep(std::time::Duration::from_millis(200));
     };
     let text = std::fs::read_to_string(&log).unwrap_or_default();
     let _ = std::fs::remove_file(&log);

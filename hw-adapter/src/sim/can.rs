@@ -21,7 +21,7 @@
 //! # Ok::<(), omcbsa_hw::TransportError>(())
 //! ```
 
-use super::{Joints, SimRecord};
+use super::{Answers, Joints, SimRecord};
 use crate::canopen;
 use crate::cia402::{self, counts_to_rad, rad_to_counts};
 use crate::frame::CanFrame;
@@ -206,8 +206,7 @@ struct Drives {
     joints: Joints,
     fault: Option<(u64, Injected)>,
     syncs: u64,
-    silent: bool,
-    delay: Duration,
+    answers: Answers,
     /// Frames held back by [`Injected::Late`], with when they are due.
     delayed: VecDeque<(Instant, CanFrame)>,
     record: SimRecord,
@@ -233,8 +232,7 @@ impl Drives {
             joints: Joints::new(opts.initial, opts.tau),
             fault: opts.fault,
             syncs: 0,
-            silent: false,
-            delay: Duration::ZERO,
+            answers: Answers::default(),
             delayed: VecDeque::new(),
             record: SimRecord::default(),
         }
@@ -265,11 +263,11 @@ impl Drives {
     /// Sends `frame` as the drives' state allows: not at all when silent, later when late.
     fn out(&mut self, frame: CanFrame) -> Instant {
         let now = Instant::now();
-        if self.silent {
+        if self.answers.silent {
             return now;
         }
-        if !self.delay.is_zero() {
-            self.delayed.push_back((now + self.delay, frame));
+        if !self.answers.delay.is_zero() {
+            self.delayed.push_back((now + self.answers.delay, frame));
             return now;
         }
         // A host that has closed the bus hears nothing more: not the drives' concern.
@@ -418,14 +416,8 @@ impl Drives {
         self.syncs += 1;
         let injected = self.fault.filter(|&(at, _)| at == self.syncs).map(|f| f.1);
         match injected {
-            Some(Injected::Silence) => {
-                self.silent = true;
-                self.record.first_sign = Some(now);
-            }
-            Some(Injected::Late(d)) => {
-                self.delay = d;
-                self.record.first_sign = Some(now);
-            }
+            Some(Injected::Silence) => self.answers.disturb(None, now, &mut self.record),
+            Some(Injected::Late(d)) => self.answers.disturb(Some(d), now, &mut self.record),
             _ => {}
         }
         let mut targets = self.joints.positions();

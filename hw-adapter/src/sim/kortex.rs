@@ -16,7 +16,7 @@
 //! # Ok::<(), String>(())
 //! ```
 
-use super::{Joints, SimRecord};
+use super::{Answers, Joints, SimRecord};
 use crate::cia402::rad_to_counts;
 use crate::kortex::arm::{from_wire, wire_degrees};
 use crate::kortex::codec::{self, error_frame, Frame, TcpDecoder};
@@ -114,9 +114,12 @@ impl KortexSim {
         udp.set_read_timeout(Some(IDLE)).map_err(io)?;
         let arm = Arc::new(Mutex::new(Arm::new(&opts)));
         let stop = Arc::new(AtomicBool::new(false));
+        let fence = (UdpSocket::bind("127.0.0.1:0"))
+            .and_then(|f| f.connect(("127.0.0.1", spec.udp_port)).map(|()| f))
+            .map_err(io)?;
         let tcp_thread = {
             let (arm, stop) = (arm.clone(), stop.clone());
-            std::thread::spawn(move || serve_tcp(&listener, &arm, &stop))
+            std::thread::spawn(move || serve_tcp(&listener, &fence, &arm, &stop))
         };
         let udp_thread = {
             let (arm, stop) = (arm.clone(), stop.clone());
@@ -169,12 +172,14 @@ struct Arm {
     next_session: u16,
     /// Refresh commands taken in low-level servoing.
     refreshes: u64,
-    silent: bool,
-    /// Added to every UDP answer.
-    delay: Duration,
+    /// Silence, or a delay added to every UDP answer.
+    answers: Answers,
     refusing: bool,
     faults: [u32; JOINTS],
     last_frame_id: Option<u32>,
+    /// The emergency stop's fence has come through the UDP queue: every Refresh from here on
+    /// was sent after the stop (see [`FENCE`]).
+    fenced: bool,
     record: SimRecord,
 }
 
@@ -188,11 +193,11 @@ impl Arm {
             sessions: [0; 2],
             next_session: 1,
             refreshes: 0,
-            silent: false,
-            delay: Duration::ZERO,
+            answers: Answers::default(),
             refusing: false,
             faults: [0; JOINTS],
             last_frame_id: None,
+            fenced: false,
             record: SimRecord::default(),
         }
     }
@@ -214,14 +219,8 @@ impl Arm {
                 .filter(|&(at, _)| at == self.refreshes)
                 .map(|f| f.1)
             {
-                Some(Injected::Silence) => {
-                    self.silent = true;
-                    self.record.first_sign = Some(now);
-                }
-                Some(Injected::Late(d)) => {
-                    self.delay = d;
-                    self.record.first_sign = Some(now);
-                }
+                Some(Injected::Silence) => self.answers.disturb(None, now, &mut self.record),
+                Some(Injected::Late(d)) => self.answers.disturb(Some(d), now, &mut self.record),
                 Some(Injected::FaultBit) => {
                     self.faults[FAULTY_ACTUATOR - 1] |= 1;
                     sign = true;
@@ -239,7 +238,7 @@ impl Arm {
         }
         if rpc == uid::REFRESH {
             self.record.sequence.push("refresh");
-            if self.record.stopped.is_some() {
+            if self.fenced {
                 self.record.commands_after_stop += 1;
             } else if low && self.refreshes > 1 {
                 // Every cycle after the seed, answered or not.
@@ -250,7 +249,7 @@ impl Arm {
         if rpc == uid::APPLY_EMERGENCY_STOP {
             self.record.stopped.get_or_insert(now);
         }
-        if self.silent {
+        if self.answers.silent {
             return (None, false);
         }
         let refuse = |code, sub, text: &str| Some(error_frame(&h, code, sub, text));
@@ -341,7 +340,7 @@ impl Arm {
             std::array::from_fn(|j| from_wire(c.actuators[j].position, here[j]));
         self.joints.command(targets);
         // The seed (the first command) holds where the arm is: no motion command.
-        if self.last_frame_id.is_some() && self.record.stopped.is_none() {
+        if self.last_frame_id.is_some() && !self.fenced {
             let counts: Command = targets.map(|q| rad_to_counts(q).unwrap_or(0));
             self.record.commands.push(counts);
         }
@@ -365,7 +364,13 @@ impl Arm {
     }
 }
 
-fn serve_tcp(listener: &TcpListener, arm: &Mutex<Arm>, stop: &AtomicBool) {
+/// The datagram the TCP thread sends through the UDP socket's queue once it has handled
+/// ApplyEmergencyStop. A Refresh sent before the stop is queued before it, whenever the two
+/// threads get to run: the UDP thread counts the Refresh commands after the fence as sent
+/// after the stop, not those that merely crossed it on the other link.
+const FENCE: &[u8] = b"omcbsa-sim-estop-fence";
+
+fn serve_tcp(listener: &TcpListener, fence: &UdpSocket, arm: &Mutex<Arm>, stop: &AtomicBool) {
     super::realtime();
     let mut stream: Option<TcpStream> = None;
     let mut rx = TcpDecoder::default();
@@ -396,7 +401,11 @@ fn serve_tcp(listener: &TcpListener, arm: &Mutex<Arm>, stop: &AtomicBool) {
         }
         while let Ok(Some(f)) = rx.next_frame() {
             let now = Instant::now();
+            let estop = f.header.function_uid == uid::APPLY_EMERGENCY_STOP;
             let (answer, sign) = lock(arm).handle(TCP, f, now);
+            if estop {
+                let _ = fence.send(FENCE);
+            }
             if let Some(bytes) = answer {
                 let _ = s.write_all(&codec::tcp_framed(&bytes));
                 if sign {
@@ -427,13 +436,17 @@ fn serve_udp(socket: &UdpSocket, arm: &Mutex<Arm>, stop: &AtomicBool) {
             Ok(r) => r,
             Err(_) => continue,
         };
+        if &buf[..n] == FENCE {
+            lock(arm).fenced = true;
+            continue;
+        }
         let Ok(f) = codec::decode_frame(&buf[..n]) else {
             continue;
         };
         let now = Instant::now();
         let mut a = lock(arm);
         let (answer, sign) = a.handle(UDP, f, now);
-        let delay = a.delay;
+        let delay = a.answers.delay;
         drop(a);
         let Some(bytes) = answer else { continue };
         if delay.is_zero() {

@@ -37,7 +37,9 @@ pub struct SimRecord {
     /// When the arm's stop reached it (CAN: the SYNC after its first quick-stop RPDO; Kortex:
     /// ApplyEmergencyStop).
     pub stopped: Option<Instant>,
-    /// Motion commands that arrived after the stop.
+    /// Motion commands sent after the stop (Kortex: arrived after it on the UDP link, behind
+    /// a marker its TCP side queues there when the stop arrives; a Refresh sent just before the
+    /// stop may cross it on the other link, and is not counted).
     pub commands_after_stop: usize,
     /// Kortex: the servoing and cyclic requests in the order handled, `"low"` and `"single"`
     /// for SetServoingMode, `"refresh"` for each Refresh (for the shutdown's order).
@@ -124,6 +126,25 @@ impl Joints {
         for (j, t) in self.joints.iter_mut().zip(targets) {
             j.target = t;
         }
+    }
+}
+
+/// How an arm's answers go out: not at all once it is silent, or held back by a delay.
+#[derive(Clone, Copy, Debug, Default)]
+struct Answers {
+    silent: bool,
+    delay: Duration,
+}
+
+impl Answers {
+    /// From `now` on, no answers (`late`: `None`) or every answer `late`; `now` is the fault's
+    /// first sign (its cycle is the first left unanswered, or answered late).
+    fn disturb(&mut self, late: Option<Duration>, now: Instant, record: &mut SimRecord) {
+        match late {
+            None => self.silent = true,
+            Some(d) => self.delay = d,
+        }
+        record.first_sign = Some(now);
     }
 }
 
