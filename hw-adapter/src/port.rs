@@ -199,7 +199,7 @@ impl ArmUrl {
                 transport::open(&self.bus_spec()).map_err(|e| e.to_string())?,
             )),
             ArmUrl::MockKortex(_) | ArmUrl::MockCan(_) => Err(format!(
-                "{self} is a mock arm: a cell starts it (`crate::cell::Cell`)"
+                "{self} is a mock arm, started with its run by a cell (`omcbsa_hw::cell::Cell`), not opened"
             )),
         }
     }
@@ -280,6 +280,6 @@ mod tests {
                 username: "u".into(),
                 password: "p".into(),
             });
-        assert!(e.err().unwrap().contains("a cell starts it"));
+        assert!(e.err().unwrap().contains("started with its run by a cell"));
     }
 }
