@@ -56,6 +56,15 @@ pub fn cycle_frames(cmd: &Command, controlword: u16) -> Vec<(CanFrame, String)> 
     frames
 }
 
+/// The stop frames sent so far, awaiting the drives' answers.
+#[derive(Clone, Copy, Debug, Default)]
+struct StopSent {
+    /// The stop's SYNC: its cycle in the accounting and what it applied.
+    sync: Option<(u64, &'static str)>,
+    /// When NMT stop was sent.
+    nmt_stop: Option<Instant>,
+}
+
 /// One arm of seven CiA 402 drives on its own bus, as the executor drives it (see the module).
 pub struct ArmBus {
     /// The arm's name.
@@ -77,7 +86,7 @@ pub struct ArmBus {
     /// Tests only: one start-up SDO write changed on purpose.
     setup_override: Option<SetupOverride>,
     /// The stop frames sent, awaiting the drives' answers (`stop`).
-    stop: stop::Sent,
+    stop: StopSent,
     /// The longest wait for the drives' answers to the stop frames.
     stop_wait: Duration,
 }
@@ -104,7 +113,7 @@ impl ArmBus {
             late: None,
             sdo_reply: None,
             setup_override: None,
-            stop: stop::Sent::default(),
+            stop: StopSent::default(),
             stop_wait: cfg
                 .watch
                 .heartbeat_consumer_time()

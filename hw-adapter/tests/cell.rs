@@ -73,6 +73,8 @@ fn options(arms: &[CellArm], dir: &std::path::Path) -> CellOptions {
     // mocks on a shared 2-core machine are descheduled for tens of milliseconds at times (as
     // tests/online.rs).
     o.config.watch.missed_cycles = 25;
+    o.config.watch.heartbeat_factor = 3.0;
+    o.config.feedback_timeout = Duration::from_millis(250);
     // Likewise their SDO answers at start-up, four mocks starting at once.
     o.config.sdo_timeout = Duration::from_millis(500);
     o.records = Some(dir.to_path_buf());

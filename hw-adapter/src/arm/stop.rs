@@ -14,15 +14,6 @@ use crate::cia402;
 use crate::run::{Command, JOINTS};
 use std::time::{Duration, Instant};
 
-/// The stop frames sent so far.
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct Sent {
-    /// The stop's SYNC: its cycle in the accounting and what it applied.
-    sync: Option<(u64, &'static str)>,
-    /// When NMT stop was sent.
-    nmt_stop: Option<Instant>,
-}
-
 impl ArmBus {
     /// Quick stop of every drive (controlword, applied at the SYNC), then NMT stop of every node.
     /// Tries every frame even if one fails; returns the first failure to send.

@@ -24,7 +24,7 @@ use super::Connection;
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS};
+use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS, MAX_MISSED_CYCLES};
 use crate::watchdog::CycleAccount;
 use prost::Message;
 use std::f64::consts::{PI, TAU};
@@ -75,6 +75,37 @@ pub fn from_wire(deg: f32, near: f64) -> f64 {
     near + if d > PI { d - TAU } else { d }
 }
 
+/// The answers the stop waits for.
+#[derive(Clone, Copy, Debug)]
+struct StopAwaited {
+    /// The last Refresh sent: its message id, its frame_id, and whether an answer to it (an
+    /// error frame counts: the Refresh reached the arm) has come.
+    last_refresh: Option<(u16, u16, bool)>,
+    /// The message id of ApplyEmergencyStop, once sent.
+    estop: Option<u16>,
+    /// The longest wait for the last Refresh's answer: m + 1 periods, or the feedback time-out
+    /// if longer (an answer later than that is a fault anyway).
+    drain: Duration,
+}
+
+impl StopAwaited {
+    fn new(cfg: &ExecConfig) -> Self {
+        let m = cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES);
+        Self {
+            last_refresh: None,
+            estop: None,
+            drain: cfg.feedback_timeout.max(cfg.period * (m + 1)),
+        }
+    }
+
+    /// A UDP response with `message_id` was received.
+    fn answer_seen(&mut self, message_id: u16) {
+        if let Some((id, _, answered)) = &mut self.last_refresh {
+            *answered |= *id == message_id;
+        }
+    }
+}
+
 /// A Gen3 on Kortex as the executor drives it (see the module).
 pub struct KortexArm {
     name: String,
@@ -95,7 +126,7 @@ pub struct KortexArm {
     measured: Option<[f32; JOINTS]>,
     low_level: bool,
     /// What the stop waits for (`stop`).
-    stop: stop::Awaited,
+    stop: StopAwaited,
 }
 
 impl KortexArm {
@@ -121,7 +152,7 @@ impl KortexArm {
             fault: None,
             measured: None,
             low_level: false,
-            stop: stop::Awaited::new(cfg),
+            stop: StopAwaited::new(cfg),
         }
     }
 

@@ -1,31 +1,18 @@
-//! One arm's thread: start-up together with the other arms, then one cycle per period in
-//! lockstep with them, the feedback watched in between, and the stop (normal end, fault, or a
-//! stop asked for).
+//! The arms' threads: started together ([`start`]), each arm's start-up together with the
+//! others, then one cycle per period in lockstep with them, the feedback watched in between,
+//! and the stop (normal end, fault, or a stop asked for).
 
-use super::{lock, Shared, FAULT_POLL};
+use super::{lock, ArmEnd, ArmNow, Cycle, ProgressFn, RunInfo, Shared, FAULT_POLL};
 use crate::link::ArmLink;
+use crate::log::LogSink;
+use crate::priority;
 use crate::run::{ArmState, ArmStop, Command, ExecConfig, Fault, Progress, Span, JOINTS};
-use std::sync::atomic::Ordering;
+use crate::stream::Generator;
+use crate::StreamHandle;
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Barrier, Mutex};
 use std::time::{Duration, Instant};
-
-/// How an arm's thread ended.
-pub(super) enum ArmEnd {
-    StartupFailed(String),
-    /// Start-up went fine but another arm's did not.
-    Aborted,
-    Completed {
-        cycles: usize,
-        frames: usize,
-        max_following_error: f64,
-        max_lateness: Duration,
-    },
-    /// Quick-stopped after a fault, or on request.
-    Stopped {
-        stop: ArmStop,
-        frames: usize,
-        max_following_error: f64,
-    },
-}
 
 /// One arm's whole run, on its own thread, from the command it holds first, the range its
 /// commands stay in and its joints' peak speeds.
@@ -251,4 +238,80 @@ fn wait_turn(
                 .max(Duration::from_micros(20)),
         );
     }
+}
+
+/// Starts one thread per link (link i streams the generator's arm i; `log` is the command
+/// log the links write to, finished with the run): start-up of every arm together, then
+/// streaming.
+pub(crate) fn start(
+    generator: Generator,
+    links: Vec<Box<dyn ArmLink>>,
+    (config, log): (ExecConfig, Option<LogSink>),
+    progress: Option<ProgressFn>,
+    finishing: bool,
+    info: RunInfo,
+) -> StreamHandle {
+    let names: Vec<String> = links.iter().map(|l| l.name().to_string()).collect();
+    // Start-up checks each arm against the command it holds before the first cycle.
+    let first: Vec<Command> = generator.held().collect();
+    let arms = generator.arms();
+    let shared = Arc::new(Shared {
+        barrier: Barrier::new(links.len()),
+        startup_failed: AtomicBool::new(false),
+        start: Mutex::new(None),
+        faulted: AtomicBool::new(false),
+        halt: AtomicBool::new(false),
+        realtime_refused: Mutex::new(None),
+        finishing: AtomicBool::new(finishing),
+        sent: links.iter().map(|_| AtomicUsize::new(0)).collect(),
+        clear: links.iter().map(|_| AtomicU64::new(0)).collect(),
+        names,
+        fault: Mutex::new(None),
+        cycle: Mutex::new(Cycle {
+            generator,
+            out: vec![[0; JOINTS]; arms],
+            end: None,
+            was_holding: true,
+            events: VecDeque::new(),
+            holds: 0,
+        }),
+        arms: (first.iter())
+            .map(|&commanded| {
+                Mutex::new(ArmNow {
+                    state: ArmState::Starting,
+                    commanded,
+                    sent: 0,
+                    measured: None,
+                    following_error: 0.0,
+                })
+            })
+            .collect(),
+    });
+    let progress: Option<Arc<ProgressFn>> = progress.map(Arc::new);
+    let threads = (links.into_iter())
+        .zip(first)
+        .zip(info.spans.clone())
+        .zip(info.speeds.clone())
+        .enumerate()
+        .map(|(me, (((mut bus, first), span), speed))| {
+            let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
+            let total = info.total_cycles;
+            std::thread::spawn(move || {
+                if let Some(Err(why)) = config.realtime_priority.map(priority::make_realtime) {
+                    lock(&shared.realtime_refused).get_or_insert(why);
+                }
+                let progress = progress.as_deref().map(|p| p.as_ref());
+                stream_arm(
+                    me,
+                    bus.as_mut(),
+                    (first, span, speed),
+                    &shared,
+                    &config,
+                    progress,
+                    total,
+                )
+            })
+        })
+        .collect();
+    StreamHandle::new(shared, threads, config, log, info)
 }

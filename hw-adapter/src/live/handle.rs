@@ -1,8 +1,7 @@
 //! [`StreamHandle`]: what the caller holds while the arms move: push segments, watch the stream
 //! and each arm, finish it or stop it. Dropping it stops every arm.
 
-use super::arm::ArmEnd;
-use super::{lock, Event, RunInfo, Shared, StreamProgress};
+use super::{lock, ArmEnd, Event, RunInfo, Shared, StreamProgress};
 use crate::cia402::counts_to_rad;
 use crate::log::LogSink;
 use crate::run::{

@@ -4,22 +4,20 @@
 //! the arms move) are the same loop; a run ends once it is told to finish and the queue is
 //! done, after the settle cycles, or once it is stopped (a fault, or on request).
 //!
-//! - `arm`: one arm's thread: start-up, the cycles, the stop.
+//! - `arm`: the arms' threads: started together, each one's start-up, cycles and stop.
 //! - `handle`: [`StreamHandle`], what the caller holds while the arms move.
 
 mod arm;
 mod handle;
 
+pub(crate) use arm::start;
 pub use handle::StreamHandle;
 
-use crate::link::ArmLink;
-use crate::log::LogSink;
-use crate::priority;
-use crate::run::{ArmState, Command, ExecConfig, Fault, Measured, Progress, Span, JOINTS};
+use crate::run::{ArmState, ArmStop, Command, Fault, Measured, Progress, Span, JOINTS};
 use crate::stream::Generator;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Barrier, Mutex, MutexGuard};
+use std::sync::{Barrier, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// How often a waiting arm thread looks at the shared fault flag and at its own bus.
@@ -111,7 +109,7 @@ struct Shared {
     /// Cycles each arm has sent (`usize::MAX` once it has finished).
     sent: Vec<AtomicUsize>,
     /// Per arm, the first cycle its per-cycle accounting does not yet allow
-    /// ([`ArmLink::clear_until`]; `u64::MAX` once it has finished): no arm sends a cycle that
+    /// ([`crate::link::ArmLink::clear_until`]; `u64::MAX` once it has finished): no arm sends a cycle that
     /// another arm's drives have not earned, so that a fault stops every arm at the same cycle.
     clear: Vec<AtomicU64>,
     /// The first fault: arm, fault, cycle, when detected.
@@ -174,6 +172,25 @@ impl Shared {
     }
 }
 
+/// How an arm's thread ended.
+enum ArmEnd {
+    StartupFailed(String),
+    /// Start-up went fine but another arm's did not.
+    Aborted,
+    Completed {
+        cycles: usize,
+        frames: usize,
+        max_following_error: f64,
+        max_lateness: Duration,
+    },
+    /// Quick-stopped after a fault, or on request.
+    Stopped {
+        stop: ArmStop,
+        frames: usize,
+        max_following_error: f64,
+    },
+}
+
 /// What the run's report needs that the threads do not know.
 pub(crate) struct RunInfo {
     pub time_scale: f64,
@@ -185,80 +202,4 @@ pub(crate) struct RunInfo {
     /// Per arm and joint, the peak commanded speed, rad/s (the drives' following-error
     /// windows).
     pub speeds: Vec<[f64; JOINTS]>,
-}
-
-/// Starts one thread per link (link i streams the generator's arm i; `log` is the command
-/// log the links write to, finished with the run): start-up of every arm together, then
-/// streaming.
-pub(crate) fn start(
-    generator: Generator,
-    links: Vec<Box<dyn ArmLink>>,
-    (config, log): (ExecConfig, Option<LogSink>),
-    progress: Option<ProgressFn>,
-    finishing: bool,
-    info: RunInfo,
-) -> StreamHandle {
-    let names: Vec<String> = links.iter().map(|l| l.name().to_string()).collect();
-    // Start-up checks each arm against the command it holds before the first cycle.
-    let first: Vec<Command> = generator.held().collect();
-    let arms = generator.arms();
-    let shared = Arc::new(Shared {
-        barrier: Barrier::new(links.len()),
-        startup_failed: AtomicBool::new(false),
-        start: Mutex::new(None),
-        faulted: AtomicBool::new(false),
-        halt: AtomicBool::new(false),
-        realtime_refused: Mutex::new(None),
-        finishing: AtomicBool::new(finishing),
-        sent: links.iter().map(|_| AtomicUsize::new(0)).collect(),
-        clear: links.iter().map(|_| AtomicU64::new(0)).collect(),
-        names,
-        fault: Mutex::new(None),
-        cycle: Mutex::new(Cycle {
-            generator,
-            out: vec![[0; JOINTS]; arms],
-            end: None,
-            was_holding: true,
-            events: VecDeque::new(),
-            holds: 0,
-        }),
-        arms: (first.iter())
-            .map(|&commanded| {
-                Mutex::new(ArmNow {
-                    state: ArmState::Starting,
-                    commanded,
-                    sent: 0,
-                    measured: None,
-                    following_error: 0.0,
-                })
-            })
-            .collect(),
-    });
-    let progress: Option<Arc<ProgressFn>> = progress.map(Arc::new);
-    let threads = (links.into_iter())
-        .zip(first)
-        .zip(info.spans.clone())
-        .zip(info.speeds.clone())
-        .enumerate()
-        .map(|(me, (((mut bus, first), span), speed))| {
-            let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
-            let total = info.total_cycles;
-            std::thread::spawn(move || {
-                if let Some(Err(why)) = config.realtime_priority.map(priority::make_realtime) {
-                    lock(&shared.realtime_refused).get_or_insert(why);
-                }
-                let progress = progress.as_deref().map(|p| p.as_ref());
-                arm::stream_arm(
-                    me,
-                    bus.as_mut(),
-                    (first, span, speed),
-                    &shared,
-                    &config,
-                    progress,
-                    total,
-                )
-            })
-        })
-        .collect();
-    StreamHandle::new(shared, threads, config, log, info)
 }

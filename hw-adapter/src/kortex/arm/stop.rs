@@ -11,40 +11,8 @@
 use super::KortexArm;
 use crate::kortex::header::uid;
 use crate::kortex::proto::base;
-use crate::run::{ExecConfig, MAX_MISSED_CYCLES};
 use prost::Message;
-use std::time::{Duration, Instant};
-
-/// The answers the stop waits for.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Awaited {
-    /// The last Refresh sent: its message id, its frame_id, and whether an answer to it (an
-    /// error frame counts: the Refresh reached the arm) has come.
-    pub last_refresh: Option<(u16, u16, bool)>,
-    /// The message id of ApplyEmergencyStop, once sent.
-    pub estop: Option<u16>,
-    /// The longest wait for the last Refresh's answer: m + 1 periods, or the feedback time-out
-    /// if longer (an answer later than that is a fault anyway).
-    drain: Duration,
-}
-
-impl Awaited {
-    pub fn new(cfg: &ExecConfig) -> Self {
-        let m = cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES);
-        Self {
-            last_refresh: None,
-            estop: None,
-            drain: cfg.feedback_timeout.max(cfg.period * (m + 1)),
-        }
-    }
-
-    /// A UDP response with `message_id` was received.
-    pub fn answer_seen(&mut self, message_id: u16) {
-        if let Some((id, _, answered)) = &mut self.last_refresh {
-            *answered |= *id == message_id;
-        }
-    }
-}
+use std::time::Instant;
 
 impl KortexArm {
     /// See the module: `Ok` with the frames left unanswered, or the first frame the arm refused
