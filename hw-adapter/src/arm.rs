@@ -3,15 +3,16 @@
 //! SYNC), feedback bookkeeping (TPDO, heartbeat, EMCY), and the stop sequences.
 
 mod setup;
+mod stop;
 
 pub use setup::SetupOverride;
 
-use crate::canopen::{self, Emcy, Message, NmtCommand, SdoReply};
+use crate::canopen::{self, Emcy, Message, SdoReply};
 use crate::cia402::{self, counts_to_rad};
 use crate::frame::CanFrame;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, CycleFault, ExecConfig, Fault, Span, JOINTS};
+use crate::run::{Command, CycleFault, ExecConfig, Fault, Measured, Span, JOINTS};
 use crate::transport::{Transport, TransportError};
 use crate::watchdog::CycleAccount;
 use std::time::{Duration, Instant};
@@ -55,6 +56,15 @@ pub fn cycle_frames(cmd: &Command, controlword: u16) -> Vec<(CanFrame, String)> 
     frames
 }
 
+/// The stop frames sent so far, awaiting the drives' answers.
+#[derive(Clone, Copy, Debug, Default)]
+struct StopSent {
+    /// The stop's SYNC: its cycle in the accounting and what it applied.
+    sync: Option<(u64, &'static str)>,
+    /// When NMT stop was sent.
+    nmt_stop: Option<Instant>,
+}
+
 /// One arm of seven CiA 402 drives on its own bus, as the executor drives it (see the module).
 pub struct ArmBus {
     /// The arm's name.
@@ -75,6 +85,10 @@ pub struct ArmBus {
     sdo_reply: Option<(u8, SdoReply)>,
     /// Tests only: one start-up SDO write changed on purpose.
     setup_override: Option<SetupOverride>,
+    /// The stop frames sent, awaiting the drives' answers (`stop`).
+    stop: StopSent,
+    /// The longest wait for the drives' answers to the stop frames.
+    stop_wait: Duration,
 }
 
 impl ArmBus {
@@ -99,6 +113,11 @@ impl ArmBus {
             late: None,
             sdo_reply: None,
             setup_override: None,
+            stop: StopSent::default(),
+            stop_wait: cfg
+                .watch
+                .heartbeat_consumer_time()
+                .max(cfg.feedback_timeout),
         }
     }
 
@@ -116,15 +135,20 @@ impl ArmBus {
             self.account.sent_cycle((Instant::now(), None));
         }
         self.frames_sent += 1;
+        self.note(&frame.to_string(), &what);
+        Ok(())
+    }
+
+    /// Writes a line about `frame` (candump style) to the command log, if there is one.
+    fn note(&self, frame: &str, what: &str) {
         if let Some(log) = &self.log {
             log.write(&LogEntry {
                 t: self.clock.elapsed().as_secs_f64(),
                 arm: &self.name,
                 frame: frame.to_string(),
-                what: &what,
+                what,
             });
         }
-        Ok(())
     }
 
     /// Starts counting SYNC answers afresh: from here, every SYNC sent is owed a TPDO1 by every
@@ -279,44 +303,6 @@ impl ArmBus {
         }
         Ok(())
     }
-
-    /// Quick stop of every drive (controlword, applied at the SYNC), then NMT stop of every node.
-    /// Tries every frame even if one fails; returns the first failure.
-    pub fn quick_stop(&mut self, hold: &Command) -> Result<(), String> {
-        self.stop_with(hold, cia402::CW_QUICK_STOP, "quick stop")
-    }
-
-    /// Normal end: disable operation (the drives hold in "switched on"), then NMT stop.
-    pub fn finish(&mut self, hold: &Command) -> Result<(), String> {
-        self.stop_with(hold, cia402::CW_DISABLE_OPERATION, "disable operation")
-    }
-
-    fn stop_with(&mut self, hold: &Command, controlword: u16, why: &str) -> Result<(), String> {
-        let mut first_err = None;
-        let mut frames = cycle_frames(hold, controlword);
-        for (_, what) in frames.iter_mut() {
-            what.push_str(&format!(" ({why})"));
-        }
-        frames.push((
-            canopen::nmt(NmtCommand::Stop, 0),
-            "NMT stop all nodes".into(),
-        ));
-        for (f, what) in frames {
-            if let Err(e) = self.send(&f, what) {
-                first_err.get_or_insert(e.to_string());
-            }
-        }
-        first_err.map_or(Ok(()), Err)
-    }
-
-    /// After a failed start-up elsewhere: stop this arm's nodes without moving.
-    pub fn abort(&mut self) -> Result<(), String> {
-        self.send(
-            &canopen::nmt(NmtCommand::Stop, 0),
-            "NMT stop all nodes (start-up aborted)".into(),
-        )
-        .map_err(|e| e.to_string())
-    }
 }
 
 impl ArmLink for ArmBus {
@@ -343,6 +329,18 @@ impl ArmLink for ArmBus {
 
     fn poll(&mut self) -> Result<(), String> {
         ArmBus::poll(self).map_err(|e| e.to_string())
+    }
+
+    fn measured(&self) -> Option<Measured> {
+        let mut positions = [0.0; JOINTS];
+        for (p, n) in positions.iter_mut().zip(&self.nodes) {
+            *p = counts_to_rad(n.tpdo?.0);
+        }
+        let answered = (0..JOINTS).filter_map(|j| self.account.owed(j)).min();
+        Some(Measured {
+            positions,
+            cycle: answered.and_then(|o| o.checked_sub(1)),
+        })
     }
 
     fn check_feedback(
@@ -376,5 +374,9 @@ impl ArmLink for ArmBus {
 
     fn abort(&mut self) -> Result<(), String> {
         ArmBus::abort(self)
+    }
+
+    fn leave(&mut self) -> Result<Vec<String>, String> {
+        Ok(self.confirm_stop())
     }
 }

@@ -5,8 +5,7 @@
 //! then one of them faults in a second run and both are stopped:
 //!
 //! ```
-//! use omcbsa_hw::sim::can::{CanSim, CanSimOptions, FAULTY_NODE};
-//! use omcbsa_hw::sim::Injected;
+//! use omcbsa_hw::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
 //! use omcbsa_hw::{ArmPlan, ExecConfig, ExecError, Executor, Fault, Plan, PlanValidator};
 //! use omcbsa_hw::{WatchSettings, JOINTS};
 //! use std::time::Duration;
@@ -312,6 +311,7 @@ fn dry_run(
                     .collect(),
                 max_lateness: Duration::ZERO,
                 holds: 0,
+                halted: false,
                 realtime: Ok(()),
             });
         }

@@ -13,11 +13,14 @@
 //!   implementations: [`arm`] (CiA 402 drives on a CAN bus: [`transport`], [`canopen`],
 //!   [`cia402`]) and [`kortex`] (messages, framing, sessions, the Gen3).
 //! - [`live`]: the loop, one thread per arm in lockstep; [`port`]: what a caller hands in per
-//!   arm and the link made of it; [`executor`]: [`Executor`], which composes them: validation
-//!   gate, start-up, streaming, fault handling, log.
+//!   arm ([`port::ArmUrl`]: where an arm is) and the link made of it; [`executor`]:
+//!   [`Executor`], which composes them: validation gate, start-up, streaming, fault handling,
+//!   log.
+//! - [`cell`]: arms streamed together while a policy runs: start, push chunks, status, stop.
 //! - Test side: [`mock`] and [`mock_gen3`] start the Python mock arms, [`fleet`] either kind
-//!   alike, [`record`] and [`buslog`] check what they received; [`testing`] holds joint limits
-//!   for tests and examples run without the host.
+//!   alike, [`record`] and [`buslog`] check what they received; [`sim`]: simulated arms in
+//!   process, at the default rates; [`testing`] holds joint limits for tests and examples run
+//!   without the host.
 //! - [`priority`]: real-time scheduling of the arm threads; [`log`]: the command log.
 //!
 //! A dry run computes and checks every command of a plan without any arm:
@@ -53,6 +56,7 @@
 pub mod arm;
 pub mod buslog;
 pub mod canopen;
+pub mod cell;
 pub mod cia402;
 pub mod executor;
 pub mod fleet;
@@ -82,8 +86,8 @@ pub use live::{Event, StreamHandle, StreamProgress};
 pub use plan::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator};
 pub use port::{ArmPort, ArmPorts};
 pub use run::{
-    ArmReport, ArmStop, Command, CycleFault, ExecConfig, ExecError, Fault, FaultReport, Progress,
-    Report, Span, WatchSettings, JOINTS, STOP_BOUND_PERIODS,
+    ArmReport, ArmState, ArmStatus, ArmStop, Command, CycleFault, ExecConfig, ExecError, Fault,
+    FaultReport, Measured, Progress, Report, Span, WatchSettings, JOINTS, STOP_BOUND_PERIODS,
 };
 pub use stream::PushError;
 pub use transport::{Transport, TransportError};

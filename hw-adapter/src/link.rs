@@ -2,7 +2,7 @@
 //! the loop (`live`) drives. Its implementations are an arm of CiA 402 drives on a CAN bus
 //! (`arm::ArmBus`) and a Kinova Gen3 over Ethernet (`kortex::KortexArm`); `port` opens them.
 
-use crate::run::{Command, ExecConfig, Fault, Span, JOINTS};
+use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -32,6 +32,8 @@ pub trait ArmLink: Send {
     fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String>;
     /// Handles everything received so far.
     fn poll(&mut self) -> Result<(), String>;
+    /// The latest feedback: where the joints were measured, and the cycle it answers.
+    fn measured(&self) -> Option<Measured>;
     /// The first fault visible in the feedback, given the last command sent (`target`); also
     /// returns the largest following error seen, rad.
     fn check_feedback(
@@ -47,12 +49,18 @@ pub trait ArmLink: Send {
     fn clear_until(&self) -> u64;
     /// Sends one control cycle's command.
     fn send_cycle(&mut self, cmd: &Command) -> Result<(), String>;
-    /// Stops the arm at once after a fault (here or on another arm), holding `hold`. Tries every
-    /// step even if one fails; returns the first failure (a stop frame not sent, or not
-    /// answered).
+    /// Stops the arm at once after a fault (here or on another arm), holding `hold`: sends the
+    /// stop frames without waiting for answers ([`ArmLink::leave`] does). Tries every frame even
+    /// if one fails; returns the first that could not be sent.
     fn quick_stop(&mut self, hold: &Command) -> Result<(), String>;
-    /// Normal end, holding `hold`.
+    /// Normal end, holding `hold`: sends the frames that end the motion (none may be needed).
     fn finish(&mut self, hold: &Command) -> Result<(), String>;
     /// After a failed start-up elsewhere: leaves the arm as it was, without moving it.
     fn abort(&mut self) -> Result<(), String>;
+    /// After [`ArmLink::quick_stop`], [`ArmLink::finish`] or [`ArmLink::abort`]: waits, for a
+    /// bounded time, for the arm to answer what was sent, then leaves it (Kortex: the last
+    /// cyclic command answered, the servoing mode back to single-level, the sessions closed).
+    /// `Ok`: every frame of the stop that got no answer (each also in the command log);
+    /// `Err`: one that could not be sent or that the arm refused.
+    fn leave(&mut self) -> Result<Vec<String>, String>;
 }

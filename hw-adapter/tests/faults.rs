@@ -258,7 +258,16 @@ fn nmt_stop_of_a_drive_stops_every_arm() {
 
 #[test]
 fn arm_that_stops_answering_stops_every_arm() {
-    check(silence());
+    let (report, seen) = run_with_fault(&silence());
+    assert_all_stopped(&report, &seen);
+    // Its drives answer neither the quick stop's SYNC nor NMT stop: the stop says so.
+    let right = report.stops.iter().find(|s| s.arm == "right").unwrap();
+    let unanswered = right.unanswered.join("\n");
+    assert!(
+        unanswered.contains("no TPDO1 from node 1, 2, 3, 4, 5, 6, 7"),
+        "{unanswered}"
+    );
+    assert!(unanswered.contains("reporting \"stopped\""), "{unanswered}");
 }
 
 #[test]

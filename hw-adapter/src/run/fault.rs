@@ -253,9 +253,12 @@ pub struct ArmStop {
     pub cycles_sent: usize,
     /// From the fault's detection to this arm's last stop frame.
     pub latency: Duration,
-    /// The first stop frame that could not be sent, or got no answer (the arm may not have
-    /// stopped: check it).
+    /// The first stop frame that could not be sent, or that the arm refused (the arm may not
+    /// have stopped: check it).
     pub error: Option<String>,
+    /// The stop frames the arm left unanswered (an arm that has stopped answering cannot
+    /// confirm its stop: check it).
+    pub unanswered: Vec<String>,
 }
 
 /// A fault and how every arm was stopped for it.
@@ -289,6 +292,9 @@ impl fmt::Display for FaultReport {
             )?;
             if let Some(e) = &s.error {
                 write!(f, ", stop frame failed: {e}")?;
+            }
+            for u in &s.unanswered {
+                write!(f, "\n    unanswered: {u}")?;
             }
         }
         Ok(())

@@ -1,17 +1,19 @@
 //! The vocabulary of a run: the units every arm is driven in ([`JOINTS`], [`Command`],
 //! [`Span`]), the settings ([`ExecConfig`], [`WatchSettings`]), what can go wrong ([`Fault`],
 //! [`CycleFault`], [`FaultReport`], [`ExecError`]) and what a run reports ([`Report`],
-//! [`Progress`]).
+//! [`Progress`], and while it runs [`ArmStatus`]).
 //!
 //! This module imports nothing else of the crate: the links (CAN, Kortex), the loop that drives
 //! them and the executor that composes both all speak it, and none of them is needed to read it.
 
 mod fault;
 mod report;
+mod status;
 pub mod watch;
 
 pub use fault::{ArmStop, CycleFault, ExecError, Fault, FaultReport, EMCY_FOLLOWING_ERROR};
 pub use report::{ArmReport, Progress, Report};
+pub use status::{ArmState, ArmStatus, Measured};
 pub use watch::{WatchSettings, DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
 
 use std::path::PathBuf;

@@ -33,6 +33,8 @@ pub struct Report {
     pub max_lateness: Duration,
     /// Online execution: times the queue ran dry and the arms held.
     pub holds: usize,
+    /// Stopped on request before its end (every arm quick-stopped, no fault).
+    pub halted: bool,
     /// The arm threads' scheduling: `Ok` under the asked-for real-time priority (or none
     /// asked), else why it was refused.
     pub realtime: Result<(), String>,
@@ -63,6 +65,9 @@ impl fmt::Display for Report {
                 "\n  {}: {} cycles, max following error {:.2e} rad",
                 a.name, a.cycles_sent, a.max_following_error
             )?;
+        }
+        if self.halted {
+            write!(f, "\nstopped on request: every arm quick-stopped")?;
         }
         if self.holds > 0 {
             write!(

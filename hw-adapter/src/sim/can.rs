@@ -21,7 +21,7 @@
 //! # Ok::<(), omcbsa_hw::TransportError>(())
 //! ```
 
-use super::{Injected, Joints, SimRecord};
+use super::{Answers, Joints, SimRecord};
 use crate::canopen;
 use crate::cia402::{self, counts_to_rad, rad_to_counts};
 use crate::frame::CanFrame;
@@ -33,6 +33,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// A fault the simulated drives inject from their `at`-th SYNC on (counted from 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Injected {
+    /// Every drive answers nothing more: no TPDO, no heartbeat.
+    Silence,
+    /// Every frame the drives send from then on is held back this long.
+    Late(Duration),
+    /// Node 3 sends EMCY 0x2310 (over-current) and faults.
+    Emcy,
+    /// Node 3's statusword reports a fault (no EMCY).
+    FaultBit,
+    /// Node 3 goes to NMT stopped (announced by its heartbeat at once; no more TPDOs).
+    NmtStop,
+}
 
 /// The node a drive fault is injected on.
 pub const FAULTY_NODE: u8 = 3;
@@ -95,7 +110,10 @@ impl CanSim {
         let (host, device) = MockTransport::pair("sim");
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
-        let thread = std::thread::spawn(move || Drives::new(device, opts).run(&flag));
+        let thread = std::thread::spawn(move || {
+            super::realtime();
+            Drives::new(device, opts).run(&flag)
+        });
         (
             Self {
                 stop,
@@ -188,8 +206,7 @@ struct Drives {
     joints: Joints,
     fault: Option<(u64, Injected)>,
     syncs: u64,
-    silent: bool,
-    delay: Duration,
+    answers: Answers,
     /// Frames held back by [`Injected::Late`], with when they are due.
     delayed: VecDeque<(Instant, CanFrame)>,
     record: SimRecord,
@@ -215,8 +232,7 @@ impl Drives {
             joints: Joints::new(opts.initial, opts.tau),
             fault: opts.fault,
             syncs: 0,
-            silent: false,
-            delay: Duration::ZERO,
+            answers: Answers::default(),
             delayed: VecDeque::new(),
             record: SimRecord::default(),
         }
@@ -247,11 +263,11 @@ impl Drives {
     /// Sends `frame` as the drives' state allows: not at all when silent, later when late.
     fn out(&mut self, frame: CanFrame) -> Instant {
         let now = Instant::now();
-        if self.silent {
+        if self.answers.silent {
             return now;
         }
-        if !self.delay.is_zero() {
-            self.delayed.push_back((now + self.delay, frame));
+        if !self.answers.delay.is_zero() {
+            self.delayed.push_back((now + self.answers.delay, frame));
             return now;
         }
         // A host that has closed the bus hears nothing more: not the drives' concern.
@@ -400,14 +416,8 @@ impl Drives {
         self.syncs += 1;
         let injected = self.fault.filter(|&(at, _)| at == self.syncs).map(|f| f.1);
         match injected {
-            Some(Injected::Silence) => {
-                self.silent = true;
-                self.record.first_sign = Some(now);
-            }
-            Some(Injected::Late(d)) => {
-                self.delay = d;
-                self.record.first_sign = Some(now);
-            }
+            Some(Injected::Silence) => self.answers.disturb(None, now, &mut self.record),
+            Some(Injected::Late(d)) => self.answers.disturb(Some(d), now, &mut self.record),
             _ => {}
         }
         let mut targets = self.joints.positions();

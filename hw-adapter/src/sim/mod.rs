@@ -1,48 +1,49 @@
 //! In-process simulated arms at the frame level, for tests, examples and doc-tests: the same
 //! links the executor drives real arms with, on the far end of an in-process CAN bus
-//! ([`can`]: seven CiA 402 drives), answering from their own threads.
+//! ([`can`]: seven CiA 402 drives) or of loopback sockets ([`kortex`]: a Gen3 on Kortex),
+//! answering from their own threads (under real-time scheduling where the system grants it, as
+//! a real arm's own processor would answer).
 //!
 //! Unlike the Python mocks (hw-adapter/mock, the protocol check, run at 10 ms), they keep up at
-//! the default rates, so the watchdog's bound can be measured there.
-//! Each can inject one fault ([`Injected`]) and records, on the machine's monotonic clock, the
-//! fault's first sign and when the arm's stop reached it ([`SimRecord`]).
+//! the default rates (2 ms CAN, 1 ms Kortex), so the watchdog's bound can be measured there.
+//! Each can inject one fault (`can::Injected`, `kortex::Injected`) and records, on the
+//! machine's monotonic clock, the fault's first sign and when the arm's stop reached it
+//! ([`SimRecord`]). Memory grows with the run: every command taken is kept.
 
 pub mod can;
+pub mod kortex;
+pub mod matrix;
 
 use crate::run::{Command, JOINTS};
 use std::time::{Duration, Instant};
 
-/// A fault a simulated arm injects, from its `at`-th cycle on (cycles counted from 1: SYNCs,
-/// from the first).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Injected {
-    /// The arm answers nothing more: no TPDO, no heartbeat.
-    Silence,
-    /// Every answer from then on is held back this long.
-    Late(Duration),
-    /// Node 3 sends EMCY 0x2310 (over-current) and faults.
-    Emcy,
-    /// Node 3's statusword reports a fault (no EMCY).
-    FaultBit,
-    /// Node 3 goes to NMT stopped (announced by its heartbeat at once; no more TPDOs).
-    NmtStop,
-}
+/// The real-time priority the simulators' threads ask for (below the executor's default, 50,
+/// so that they never hold up the loop they answer). Refused, they run at normal priority.
+const SIM_PRIORITY: u8 = 40;
 
 /// What a simulated arm saw, stamped on the machine's monotonic clock.
 #[derive(Clone, Debug, Default)]
 pub struct SimRecord {
-    /// Every motion command it took, in order: the targets applied at each SYNC with
-    /// operation enabled, until its stop.
+    /// Every motion command it took, in order (CAN: the targets applied at each SYNC with
+    /// operation enabled; Kortex: every Refresh after the seed), until its stop.
     pub commands: Vec<Command>,
-    /// When each cycle's SYNC arrived, from the first motion command on.
+    /// When each cycle's frame (CAN: SYNC; Kortex: Refresh) arrived, answered or not, from
+    /// the first motion command to the stop: entry c is cycle c of the executor's count.
     pub cycle_times: Vec<Instant>,
     /// The injected fault's first sign: the first cycle left unanswered or answered late, the
-    /// EMCY, the first faulty feedback, the heartbeat announcing the stop.
+    /// EMCY, the first faulty feedback, the heartbeat announcing the stop, the first error
+    /// frame.
     pub first_sign: Option<Instant>,
-    /// When the arm's stop reached it: the SYNC after its first quick-stop RPDO.
+    /// When the arm's stop reached it (CAN: the SYNC after its first quick-stop RPDO; Kortex:
+    /// ApplyEmergencyStop).
     pub stopped: Option<Instant>,
-    /// Motion commands that arrived after the stop.
+    /// Motion commands sent after the stop (Kortex: arrived after it on the UDP link, behind
+    /// a marker its TCP side queues there when the stop arrives; a Refresh sent just before the
+    /// stop may cross it on the other link, and is not counted).
     pub commands_after_stop: usize,
+    /// Kortex: the servoing and cyclic requests in the order handled, `"low"` and `"single"`
+    /// for SetServoingMode, `"refresh"` for each Refresh (for the shutdown's order).
+    pub sequence: Vec<&'static str>,
 }
 
 impl SimRecord {
@@ -126,4 +127,28 @@ impl Joints {
             j.target = t;
         }
     }
+}
+
+/// How an arm's answers go out: not at all once it is silent, or held back by a delay.
+#[derive(Clone, Copy, Debug, Default)]
+struct Answers {
+    silent: bool,
+    delay: Duration,
+}
+
+impl Answers {
+    /// From `now` on, no answers (`late`: `None`) or every answer `late`; `now` is the fault's
+    /// first sign (its cycle is the first left unanswered, or answered late).
+    fn disturb(&mut self, late: Option<Duration>, now: Instant, record: &mut SimRecord) {
+        match late {
+            None => self.silent = true,
+            Some(d) => self.delay = d,
+        }
+        record.first_sign = Some(now);
+    }
+}
+
+/// Asks for real-time scheduling for the calling simulator thread (best effort).
+fn realtime() {
+    let _ = crate::priority::make_realtime(SIM_PRIORITY);
 }
