@@ -30,6 +30,7 @@ Run in the venv of setup.sh (MuJoCo 2.3.7 and dm-control 1.0.14, ACT's versions)
 
 import argparse
 import functools
+import gzip
 import json
 import math
 import os
@@ -344,19 +345,30 @@ def record_episode(task_name, seed):
     }, welds
 
 
+def one_per_line(obj, key, item_lines):
+    """`obj` as JSON, its fields one per line; the items of the list under `key` as
+    `item_lines` gives them."""
+    fields = [f"  {json.dumps(k)}: {json.dumps(v)}" for k, v in obj.items() if k != key]
+    items = ",\n".join(item_lines(obj[key]))
+    return "{\n" + ",\n".join(fields + [f'  {json.dumps(key)}: [\n{items}\n  ]']) + "\n}\n"
+
+
+def compact(x):
+    return json.dumps(x, separators=(",", ":"))
+
+
+def hand_lines(hands):
+    for hand in hands:
+        poses = ",\n".join(f"      {compact(p)}" for p in hand["poses"])
+        yield f'    {{"name": {json.dumps(hand["name"])}, "poses": [\n{poses}\n    ]}}'
+
+
 def write_episode(path, episode):
-    """JSON with one pose per line."""
-    head = {k: v for k, v in episode.items() if k != "hands"}
-    lines = ["{"]
-    lines += [f"  {json.dumps(k)}: {json.dumps(v)}," for k, v in head.items()]
-    lines.append('  "hands": [')
-    for j, hand in enumerate(episode["hands"]):
-        lines.append(f'    {{"name": {json.dumps(hand["name"])}, "poses": [')
-        poses = [json.dumps(p, separators=(",", ":")) for p in hand["poses"]]
-        lines.append(",\n".join(f"      {p}" for p in poses))
-        lines.append("    ]}" + ("," if j + 1 < len(episode["hands"]) else ""))
-    lines += ["  ]", "}"]
-    path.write_text("\n".join(lines) + "\n")
+    """Gzipped JSON, one pose per line (no time stamp in the gzip header: the same episode
+    gives the same bytes)."""
+    text = one_per_line(episode, "hands", hand_lines)
+    with open(path, "wb") as raw, gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0) as f:
+        f.write(text.encode())
 
 
 def recorder_commit():
@@ -372,7 +384,7 @@ def recorder_commit():
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument("--out", type=Path, required=True, help="output directory (new or empty)")
     parser.add_argument("--first-seed", type=int, default=100)
     parser.add_argument("--episodes", type=int, default=50, help="episodes per task")
     parser.add_argument("--tasks", default="transfer,insertion")
@@ -384,13 +396,15 @@ def main():
     commit, dirty = recorder_commit()
     if dirty:
         print("warning: scripts/aloha differs from HEAD: the index names HEAD, marked dirty", file=sys.stderr)
+    if args.out.exists() and any(args.out.iterdir()):
+        parser.error(f"{args.out} is not empty: the index would not list what is there")
     args.out.mkdir(parents=True, exist_ok=True)
     entries = []
     welds = None
     for task_name in tasks:
         for seed in range(args.first_seed, args.first_seed + args.episodes):
             episode, welds = record_episode(task_name, seed)
-            name = f"{task_name}_{seed}.json"
+            name = f"{task_name}_{seed}.json.gz"
             write_episode(args.out / name, episode)
             entries.append(
                 {
@@ -427,7 +441,8 @@ def main():
         ],
         "episodes": entries,
     }
-    (args.out / "index.json").write_text(json.dumps(index, indent=2) + "\n")
+    lines = one_per_line(index, "episodes", lambda es: (f"    {compact(e)}" for e in es))
+    (args.out / "index.json").write_text(lines)
     done = sum(e["success"] for e in entries)
     print(f"{len(entries)} episodes, {done} successful, in {args.out}", file=sys.stderr)
 
