@@ -384,7 +384,7 @@ def recorder_commit():
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, required=True, help="output directory (new or empty)")
+    parser.add_argument("--out", type=Path, required=True, help="output directory (its index and episode files are replaced)")
     parser.add_argument("--first-seed", type=int, default=100)
     parser.add_argument("--episodes", type=int, default=50, help="episodes per task")
     parser.add_argument("--tasks", default="transfer,insertion")
@@ -396,9 +396,10 @@ def main():
     commit, dirty = recorder_commit()
     if dirty:
         print("warning: scripts/aloha differs from HEAD: the index names HEAD, marked dirty", file=sys.stderr)
-    if args.out.exists() and any(args.out.iterdir()):
-        parser.error(f"{args.out} is not empty: the index would not list what is there")
     args.out.mkdir(parents=True, exist_ok=True)
+    # The index lists exactly the episodes in the directory: earlier ones go.
+    for old in [*args.out.glob("*.json.gz"), *args.out.glob("index.json")]:
+        old.unlink()
     entries = []
     welds = None
     for task_name in tasks:
