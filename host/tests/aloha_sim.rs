@@ -48,9 +48,11 @@ fn one_episode_copy(dir: &Path) -> String {
     kept.extend(lines[last + 1..].iter().map(|l| l.to_string()));
     std::fs::write(dir.join("index.json"), kept.join("\n")).unwrap();
     let mut text = String::new();
-    flate2::read::GzDecoder::new(std::fs::File::open(committed().join("transfer_100.json.gz")).unwrap())
-        .read_to_string(&mut text)
-        .unwrap();
+    flate2::read::GzDecoder::new(
+        std::fs::File::open(committed().join("transfer_100.json.gz")).unwrap(),
+    )
+    .read_to_string(&mut text)
+    .unwrap();
     text
 }
 
@@ -70,11 +72,20 @@ fn a_broken_file_is_an_error_naming_the_file_and_the_field() {
     let file = dir.path().join("transfer_100.json.gz");
     write_gz(&file, &text);
     assert_eq!(read_family(dir.path()).unwrap().episodes.len(), 1);
-    let poses_line = |k: usize| text.lines().filter(|l| l.contains("quat_xyzw")).nth(k).unwrap();
+    let poses_line = |k: usize| {
+        text.lines()
+            .filter(|l| l.contains("quat_xyzw"))
+            .nth(k)
+            .unwrap()
+    };
     let cases: [(String, &str); 5] = [
         // A quaternion that is not a unit one.
         (
-            text.replacen(poses_line(3), r#"      {"position":[0.1,0.2,0.3],"quat_xyzw":[0.0,0.0,0.5,1.0]},"#, 1),
+            text.replacen(
+                poses_line(3),
+                r#"      {"position":[0.1,0.2,0.3],"quat_xyzw":[0.0,0.0,0.5,1.0]},"#,
+                1,
+            ),
             "transfer_100.json.gz: hands[0].poses[3].quat_xyzw: norm",
         ),
         // A pose missing: fewer poses than the index's steps.
@@ -84,7 +95,11 @@ fn a_broken_file_is_an_error_naming_the_file_and_the_field() {
         ),
         // A number where an array belongs.
         (
-            text.replacen(poses_line(7), r#"      {"position":0.1,"quat_xyzw":[0.0,0.0,0.0,1.0]},"#, 1),
+            text.replacen(
+                poses_line(7),
+                r#"      {"position":0.1,"quat_xyzw":[0.0,0.0,0.0,1.0]},"#,
+                1,
+            ),
             "transfer_100.json.gz: hands[0].poses[7].position: invalid type",
         ),
         // A seed that is not the index's.

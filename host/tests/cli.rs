@@ -323,8 +323,20 @@ fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
         ],
         &["bench-online", "/nonexistent", "--hz", "50"],
         &["bench-online"],
-        &["bench-online", "--family", "bimanual", "--dir", "data/aloha_sim"],
-        &["bench-online", "--family", "aloha-sim", "--dir", "/nonexistent"],
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--dir",
+            "data/aloha_sim",
+        ],
+        &[
+            "bench-online",
+            "--family",
+            "aloha-sim",
+            "--dir",
+            "/nonexistent",
+        ],
         &["bench-online", "--family", "aloha-sim", "--layouts", "ring"],
         &["bench-online", "--family", "aloha-sim", "--hz", "30"],
     ] {

@@ -223,7 +223,9 @@ fn summary(online: &EpisodeRow, reference: &EpisodeRow, with_reference: bool) {
 /// and fleet.
 fn aloha_sim(args: &Args, options: &OnlineOptions, chunking: Chunking) -> ExitCode {
     if args.hz.is_some() {
-        return bad_input(format!("--hz: the {ALOHA} family keeps the rate it was recorded at"));
+        return bad_input(format!(
+            "--hz: the {ALOHA} family keeps the rate it was recorded at"
+        ));
     }
     let parse = |names: &[String], all: &[&str]| -> Vec<String> {
         match names {
@@ -249,9 +251,14 @@ fn aloha_sim(args: &Args, options: &OnlineOptions, chunking: Chunking) -> ExitCo
         a => a.to_vec(),
     };
     if let Some(n) = arms.iter().find(|&&n| !(2..=MAX_ARMS).contains(&n)) {
-        return bad_input(format!("--arms {n}: the {ALOHA} family has 2 to {MAX_ARMS} arms"));
+        return bad_input(format!(
+            "--arms {n}: the {ALOHA} family has 2 to {MAX_ARMS} arms"
+        ));
     }
-    let dir = args.dir.clone().unwrap_or_else(|| aloha::DEFAULT_DIR.into());
+    let dir = args
+        .dir
+        .clone()
+        .unwrap_or_else(|| aloha::DEFAULT_DIR.into());
     let family = match aloha::read_family(&dir) {
         Ok(f) => f,
         Err(e) => return bad_input(e),
@@ -295,7 +302,11 @@ fn aloha_sim(args: &Args, options: &OnlineOptions, chunking: Chunking) -> ExitCo
                     }
                 }
             }
-            let title = format!("\n{ALOHA}, layout {}, fleet {}:\n", layout.name(), fleet.name());
+            let title = format!(
+                "\n{ALOHA}, layout {}, fleet {}:\n",
+                layout.name(),
+                fleet.name()
+            );
             if let Err(code) = print(format_args!("{title}\n{}", episode_table(&rows))) {
                 return code;
             }

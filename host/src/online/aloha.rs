@@ -38,6 +38,7 @@ use crate::models::ModelKind;
 use crate::pose::{from_frame, to_frame};
 use crate::suite::frames::{aligned, v3};
 use crate::suite::witness::retract;
+use crate::suite::MIXED_MODELS;
 
 pub const INDEX_FORMAT: &str = "omcbsa-aloha-sim/1";
 pub const EPISODE_FORMAT: &str = "omcbsa-aloha-episode/1";
@@ -186,16 +187,15 @@ fn read_text(path: &Path) -> Result<String, String> {
 /// checked; the error names the file and the field.
 pub fn read_family(dir: &Path) -> Result<Family, String> {
     let index_path = dir.join(INDEX_FILE);
-    let index: Index = load::parse(&read_text(&index_path)?, INDEX_FORMAT)
-        .map_err(|e| in_file(&index_path, e))?;
+    let index: Index =
+        load::parse(&read_text(&index_path)?, INDEX_FORMAT).map_err(|e| in_file(&index_path, e))?;
     let tool = check_index(&index).map_err(|e| in_file(&index_path, e))?;
     let mut episodes = Vec::with_capacity(index.episodes.len());
     for (i, entry) in index.episodes.iter().enumerate() {
-        let path = episode_path(dir, entry).map_err(|e| {
-            in_file(&index_path, e.within(&format!("episodes[{i}].file")).into())
-        })?;
-        let file: EpisodeFile = load::parse(&read_text(&path)?, EPISODE_FORMAT)
-            .map_err(|e| in_file(&path, e))?;
+        let path = episode_path(dir, entry)
+            .map_err(|e| in_file(&index_path, e.within(&format!("episodes[{i}].file")).into()))?;
+        let file: EpisodeFile =
+            load::parse(&read_text(&path)?, EPISODE_FORMAT).map_err(|e| in_file(&path, e))?;
         let hands = check_episode(&index, entry, &file).map_err(|e| in_file(&path, e))?;
         episodes.push(Recorded {
             entry: entry.clone(),
@@ -473,12 +473,10 @@ impl Layout {
 pub enum FleetKind {
     /// Every arm a Kinova Gen3.
     Gen3,
-    /// Gen3s and Franka Pandas alternating (the first arm a Gen3).
+    /// The models of the suite's mixed family ([`MIXED_MODELS`]: Gen3s and Franka Pandas)
+    /// alternating, the first arm a Gen3.
     Mixed,
 }
-
-/// The Panda's model name ([`FleetKind::Mixed`]).
-const PANDA: &str = "franka_panda";
 
 impl FleetKind {
     pub const ALL: [FleetKind; 2] = [FleetKind::Gen3, FleetKind::Mixed];
@@ -498,9 +496,11 @@ impl FleetKind {
     }
 
     fn model(self, arm: usize) -> ModelKind {
-        match (self, arm % 2) {
-            (FleetKind::Mixed, 1) => ModelKind::from_name(PANDA).unwrap_or_default(),
-            _ => ModelKind::default(),
+        match self {
+            FleetKind::Gen3 => ModelKind::default(),
+            FleetKind::Mixed => {
+                ModelKind::from_name(MIXED_MODELS[arm % MIXED_MODELS.len()]).unwrap_or_default()
+            }
         }
     }
 }
@@ -532,8 +532,9 @@ impl Cell {
         let robots = (self.layout.bases(self.arms).into_iter().enumerate())
             .map(|(i, (base, name))| {
                 let model = self.fleet.model(i);
-                // The Gen3 carries the bimanual family's gripper; the Panda's hand is part of
-                // its model, its tool frame the hand's TCP.
+                // The default model (the Gen3, its tool frame the flange) carries the bimanual
+                // family's gripper; the Panda's hand is part of its model, its tool frame the
+                // hand's TCP.
                 let gen3 = model == ModelKind::default();
                 RobotSpec {
                     name,

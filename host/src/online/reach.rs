@@ -52,7 +52,12 @@ pub fn out_of_reach(episode: &Episode) -> Result<Option<OutOfReach>, String> {
                 for (i, q) in last.iter_mut().enumerate() {
                     let mut out = [[0.0; DOF]; 1];
                     let found = ik_multi_start::<Fleet, DOF>(
-                        arms[i].0, &targets[i], &params, &multi, &mut rng, &mut out,
+                        arms[i].0,
+                        &targets[i],
+                        &params,
+                        &multi,
+                        &mut rng,
+                        &mut out,
                     );
                     *q = matches!(found, Ok(1)).then_some(out[0]);
                 }
