@@ -12,7 +12,7 @@ use omcbsa::online::aloha::{self, Cell, FleetKind, Layout};
 use omcbsa::online::bench::{
     bench_episodes, bench_online, episode_table, table, Chunking, EpisodeRow,
 };
-use omcbsa::online::bimanual::{family, MAX_ARMS};
+use omcbsa::online::bimanual::{family, Episode, MAX_ARMS};
 use omcbsa::online::OnlineOptions;
 use omcbsa::planners::{self, PlannerKind};
 use omcbsa_core::problem::MAX_STEPS;
@@ -185,30 +185,33 @@ fn bimanual(args: &Args, arms: &[usize], options: &OnlineOptions, chunking: Chun
     let mut rows = Vec::new();
     for &n in arms {
         let episodes = family(&[n], args.episodes.unwrap_or(10), args.hz.unwrap_or(50.0));
-        match bench_episodes(
-            episodes.into_iter(),
-            n,
-            options,
-            chunking,
-            !args.no_reference,
-            &mut |l| note(l),
-        ) {
-            Ok((online, reference)) => {
-                summary(&online, &reference, !args.no_reference);
-                rows.push(online);
-                rows.extend((!args.no_reference).then_some(reference));
-            }
-            Err(e) => {
-                note(format_args!("error: {e}"));
-                return negative();
-            }
+        if let Err(code) = add_rows(&mut rows, episodes.into_iter(), n, args, options, chunking) {
+            return code;
         }
     }
     print!("{}", episode_table(&rows));
     ExitCode::SUCCESS
 }
 
-fn summary(online: &EpisodeRow, reference: &EpisodeRow, with_reference: bool) {
+/// Runs `episodes` of `n` arms ([`bench_episodes`]), says how many were embodied, and adds
+/// the rows (the reference's too, unless `--no-reference`).
+fn add_rows(
+    rows: &mut Vec<EpisodeRow>,
+    episodes: impl Iterator<Item = Episode>,
+    n: usize,
+    args: &Args,
+    options: &OnlineOptions,
+    chunking: Chunking,
+) -> Result<(), ExitCode> {
+    let with_reference = !args.no_reference;
+    let (online, reference) =
+        bench_episodes(episodes, n, options, chunking, with_reference, &mut |l| {
+            note(l)
+        })
+        .map_err(|e| {
+            note(format_args!("error: {e}"));
+            negative()
+        })?;
     let whole = match with_reference {
         true => format!(", {} in whole windows", reference.embodied),
         false => String::new(),
@@ -217,6 +220,9 @@ fn summary(online: &EpisodeRow, reference: &EpisodeRow, with_reference: bool) {
         "{} arms: {} episodes ({} out of reach), {} embodied online{whole}",
         online.arms, online.episodes, online.out_of_reach, online.embodied
     ));
+    rows.push(online);
+    rows.extend(with_reference.then_some(reference));
+    Ok(())
 }
 
 /// The recorded family in every layout, fleet and arm count asked, one table per layout
@@ -282,24 +288,9 @@ fn aloha_sim(args: &Args, options: &OnlineOptions, chunking: Chunking) -> ExitCo
                     arms: n,
                 };
                 let episodes = chosen.iter().map(|&i| family.episode(i, &cell));
-                match bench_episodes(
-                    episodes,
-                    n,
-                    options,
-                    chunking,
-                    !args.no_reference,
-                    &mut |l| note(l),
-                ) {
-                    Ok((online, reference)) => {
-                        note(format_args!("{} {}:", layout.name(), fleet.name()));
-                        summary(&online, &reference, !args.no_reference);
-                        rows.push(online);
-                        rows.extend((!args.no_reference).then_some(reference));
-                    }
-                    Err(e) => {
-                        note(format_args!("error: {e}"));
-                        return negative();
-                    }
+                note(format_args!("{} {}:", layout.name(), fleet.name()));
+                if let Err(code) = add_rows(&mut rows, episodes, n, args, options, chunking) {
+                    return code;
                 }
             }
             let title = format!(

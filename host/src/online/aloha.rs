@@ -224,6 +224,11 @@ fn episode_path(dir: &Path, entry: &Entry) -> Result<PathBuf, crate::error::Fiel
     Ok(dir.join(&entry.file))
 }
 
+/// `|x|` at most [`AXIS_TOLERANCE`] (not NaN).
+fn within_tolerance(x: f64) -> bool {
+    x.abs() <= AXIS_TOLERANCE
+}
+
 /// The index's values; per hand, the rotation from its recorded frame to our tool frame.
 fn check_index(index: &Index) -> Result<Vec<Matrix3<f64>>, InputError> {
     let mut errors = Errors::default();
@@ -259,14 +264,14 @@ fn check_index(index: &Index) -> Result<Vec<Matrix3<f64>>, InputError> {
         let finger = Vector3::from(hand.finger_axis);
         let closing = Vector3::from(hand.closing_axis);
         for (name, axis) in [("finger_axis", finger), ("closing_axis", closing)] {
-            if !((axis.norm() - 1.0).abs() <= AXIS_TOLERANCE) {
+            if !within_tolerance(axis.norm() - 1.0) {
                 errors.push(
                     format!("hands[{j}].{name}"),
                     format!("length {}: must be a unit vector", axis.norm()),
                 );
             }
         }
-        if !(finger.dot(&closing).abs() <= AXIS_TOLERANCE) {
+        if !within_tolerance(finger.dot(&closing)) {
             errors.push(
                 format!("hands[{j}].closing_axis"),
                 "must be square to finger_axis",

@@ -358,7 +358,7 @@ pub fn bench_episodes(
                 ep.name, far.hand, far.step
             ));
         }
-        let mut rows = vec![(&mut online, &*options, chunking, "")];
+        let mut rows = vec![(&mut online, options, chunking, "")];
         if reference {
             rows.push((&mut reference_row, &whole_options, whole, " (reference)"));
         }
