@@ -99,7 +99,7 @@ pub fn parse_solution(text: &str) -> Result<SolutionFile, InputError> {
 /// `format` first means a file of another format is reported as such, not as a list of
 /// unexpected fields. Neither pass builds a generic JSON tree: a tree costs up to 16 times
 /// the text's size, the typed value about as much as the text.
-fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError> {
+pub(crate) fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError> {
     /// Only `format`, borrowed unparsed; every other field is skipped.
     #[derive(serde::Deserialize)]
     #[serde(rename = "JSON object")]

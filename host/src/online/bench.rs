@@ -254,6 +254,9 @@ pub struct EpisodeRow {
     pub chunks: usize,
     pub planned: usize,
     pub recovered: usize,
+    /// Episodes with a hand pose that no arm reaches ([`super::reach::out_of_reach`]; run
+    /// all the same, and not embodied).
+    pub out_of_reach: usize,
     pub later: Vec<f64>,
     pub first: Vec<f64>,
 }
@@ -273,8 +276,8 @@ impl EpisodeRow {
 /// The rows as a markdown table (`None` chunking: the reference, whole windows).
 pub fn episode_table(rows: &[EpisodeRow]) -> String {
     let mut s = String::from(
-        "| arms | chunks (len / stride) | episodes | embodied | chunks | planned | recovered | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
-         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| arms | chunks (len / stride) | episodes | out of reach | embodied | chunks | planned | recovered | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
+         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in rows {
         let mut later = r.later.clone();
@@ -287,10 +290,11 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
                 format!("{} / {} (lead {})", c.len, c.stride, c.lead)
             });
         s += &format!(
-            "| {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
             r.arms,
             chunking,
             r.episodes,
+            r.out_of_reach,
             100.0 * r.embodied as f64 / r.episodes.max(1) as f64,
             r.chunks,
             100.0 * r.planned as f64 / r.chunks.max(1) as f64,
@@ -302,4 +306,69 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
         );
     }
     s
+}
+
+/// The chunking and options of the reference: each episode planned whole, in windows of
+/// `MAX_STEPS - 1` poses, 5 s per window (as `omcbsa plan` would be given).
+pub fn whole_windows(options: &OnlineOptions) -> (OnlineOptions, Chunking) {
+    let len = omcbsa_core::problem::MAX_STEPS - 1;
+    let options = OnlineOptions {
+        max_chunk_len: len,
+        chunk_timeout_s: 5.0,
+        capacities: Capacities::default(),
+        ..options.clone()
+    };
+    let chunking = Chunking {
+        len,
+        stride: len,
+        lead: 0,
+    };
+    (options, chunking)
+}
+
+/// Runs `episodes` (of `arms` arms) through the Embodier with `chunking`, and each also in
+/// whole windows when `reference` ([`whole_windows`]): the online row and the reference's.
+/// `note` gets, per episode, the first error of a run that did not embody it and whether a
+/// pose is out of every arm's reach.
+pub fn bench_episodes(
+    episodes: impl Iterator<Item = super::bimanual::Episode>,
+    arms: usize,
+    options: &OnlineOptions,
+    chunking: Chunking,
+    reference: bool,
+    note: &mut dyn FnMut(&str),
+) -> Result<(EpisodeRow, EpisodeRow), String> {
+    let (whole_options, whole) = whole_windows(options);
+    let mut online = EpisodeRow {
+        arms,
+        chunking: Some(chunking),
+        ..EpisodeRow::default()
+    };
+    let mut reference_row = EpisodeRow {
+        arms,
+        ..EpisodeRow::default()
+    };
+    for ep in episodes {
+        let context = |e: String| format!("{}: {e}", ep.name);
+        let far = super::reach::out_of_reach(&ep).map_err(context)?;
+        if let Some(far) = far {
+            note(&format!(
+                "{}: hand {} is out of every arm's reach at step {}",
+                ep.name, far.hand, far.step
+            ));
+        }
+        let mut rows = vec![(&mut online, options, chunking, "")];
+        if reference {
+            rows.push((&mut reference_row, &whole_options, whole, " (reference)"));
+        }
+        for (row, options, chunking, label) in rows {
+            let run = run_episode(&ep, options, chunking).map_err(context)?;
+            if let Some(err) = run.error.as_ref().filter(|_| !run.embodied) {
+                note(&format!("{}{label}: {err}", ep.name));
+            }
+            row.add(&run);
+            row.out_of_reach += usize::from(far.is_some());
+        }
+    }
+    Ok((online, reference_row))
 }

@@ -197,7 +197,8 @@ fn bases(arms: usize) -> Vec<Frame> {
     .collect()
 }
 
-fn tcp() -> Frame {
+/// Where the Gen3's fingertips are in its tool frame (the flange).
+pub(super) fn tcp() -> Frame {
     Frame {
         rot: Rotation3::identity().into_inner(),
         pos: v3(0.0, 0.0, TCP_LENGTH),
@@ -345,7 +346,8 @@ fn witnessed(setup: &Setup, hands: &[Vec<Pose>], rng: &mut Rng) -> bool {
     })
 }
 
-fn table() -> crate::format::ObstacleSpec {
+/// The table the arms stand around, its top at z = 0.
+pub(super) fn table() -> crate::format::ObstacleSpec {
     obstacle_spec(&obstacle_box(
         "table",
         v3(0.0, 0.0, -0.02),

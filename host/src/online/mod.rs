@@ -21,6 +21,7 @@
 //! - Memory stays bounded however long the run: the plan before the last step sent to the
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
+pub mod aloha;
 pub mod bench;
 pub mod bimanual;
 mod chunk;
@@ -28,6 +29,7 @@ pub(crate) mod diagnose;
 mod embody;
 mod error;
 pub mod policy;
+pub mod reach;
 pub mod record;
 mod recover;
 pub mod run;

@@ -41,7 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use omcbsa_core::rng::Rng;
 
-pub use family::Family;
+pub use family::{Family, MIXED_MODELS};
 pub use layout::LayoutKind;
 pub use refine_family::{gen_refine, RefineOptions};
 pub use standing::Stance;
