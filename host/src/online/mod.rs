@@ -133,6 +133,19 @@ pub const HEADROOM_WEIGHT: f64 = 0.0;
 /// [`OnlineOptions::reserve_weight`] by default.
 pub const RESERVE_WEIGHT: f64 = 0.0;
 
+impl OnlineOptions {
+    /// The horizon the planner needs: a chunk and the step before it, and room for time
+    /// scaling to add as many steps again.
+    fn horizon(&self) -> usize {
+        let chunk = self.max_chunk_len + 1;
+        if self.time_scaling {
+            (2 * chunk).min(MAX_STEPS)
+        } else {
+            chunk
+        }
+    }
+}
+
 impl Default for OnlineOptions {
     fn default() -> Self {
         OnlineOptions {
@@ -310,7 +323,7 @@ impl Embodier {
         crate::approach::check_initial::<Fleet, DOF>(&file, &problem)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
-        let mut storage = Storage::new(options.capacities, scaling::horizon(&options));
+        let mut storage = Storage::new(options.capacities, options.horizon());
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
         // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;

@@ -13,9 +13,9 @@
 //! tightens ([`BUDGETS`]) until it plans: slowed only where it is fast, no slower than that.
 
 use omcbsa_core::model::Models;
-use omcbsa_core::problem::{Trajectory, MAX_STEPS};
+use omcbsa_core::problem::Trajectory;
 
-use super::{ChunkReport, Embodier, OnlineError, OnlineOptions};
+use super::{ChunkReport, Embodier, OnlineError};
 use crate::models::Fleet;
 
 /// How many times longer than the policy's steps the relaxed plan's are: the most a segment
@@ -24,17 +24,6 @@ pub(super) const RELAX: f64 = 4.0;
 
 /// Shares of the joints' speed limits each slowed segment is timed for, tried in turn.
 const BUDGETS: [f64; 5] = [0.95, 0.8, 0.65, 0.5, 0.35];
-
-/// The horizon an Embodier's planner needs: a chunk and the step before it, and room for time
-/// scaling to add as many steps again.
-pub(super) fn horizon(options: &OnlineOptions) -> usize {
-    let chunk = options.max_chunk_len + 1;
-    if options.time_scaling {
-        (2 * chunk).min(MAX_STEPS)
-    } else {
-        chunk
-    }
-}
 
 impl Embodier {
     /// Plans a chunk that cannot be followed at the policy's rate from where the arms are,
