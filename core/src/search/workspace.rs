@@ -71,7 +71,7 @@ pub struct Slot {
 pub enum WorkspaceError {
     /// The node buffer is empty or holds more than `u32::MAX - 1` nodes.
     NodeCapacity,
-    /// The table's length must be a power of two at least the node count.
+    /// The table's length must be a power of two larger than the node count.
     TableCapacity,
 }
 
@@ -95,7 +95,9 @@ impl<'a, const D: usize> Workspace<'a, D> {
         if nodes.is_empty() || nodes.len() >= u32::MAX as usize {
             return Err(WorkspaceError::NodeCapacity);
         }
-        if !table.len().is_power_of_two() || table.len() < nodes.len() {
+        // Larger than the node pool: a lookup stops at an empty slot, so a full table would
+        // loop for ever once every node is stored.
+        if !table.len().is_power_of_two() || table.len() <= nodes.len() {
             return Err(WorkspaceError::TableCapacity);
         }
         // The buffers may come from an earlier workspace whose slots carry epochs this one
