@@ -2,7 +2,7 @@
 //! predicates the planners share: Ω-A* (when it generates a state), Ω-CBSA (when it looks for
 //! conflicts) and the baselines all go through these functions, so the low level and the high
 //! level agree exactly on what collides. Motions are checked conservatively with
-//! [`Sweep`](crate::collision::Sweep): a motion reported free is free (no link comes within
+//! [`Sweep`]: a motion reported free is free (no link comes within
 //! the sweep's margin of anything along it), while one that only passes within a few
 //! millimetres of something may be reported as colliding. Nothing here allocates; a check
 //! places the arm (about 2 KB of stack) at the ends and at the splits it needs.

@@ -43,7 +43,6 @@
 //! }
 //! assert!(problem.robots.push(Robot::at(0, Frame::IDENTITY)).is_err());
 //! ```
-//! ```
 
 use heapless::Vec;
 
