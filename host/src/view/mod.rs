@@ -55,8 +55,11 @@ use meshes::{ViewModel, VIEW_MODELS};
 pub enum ViewError {
     /// The problem file breaks the spec.
     Input(InputError),
+    /// A file could not be written.
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the system said.
         source: std::io::Error,
     },
     /// The scene could not be written as JSON.
