@@ -1,6 +1,6 @@
 //! # omcbsa (host)
 //!
-//! The std side of omcbsa: the problem and solution file formats ([`format`]), reading and
+//! The std side of omcbsa: the problem and solution file formats ([`format`](mod@format)), reading and
 //! checking them into the core's fixed-capacity problem ([`load`]), planning them with any
 //! planner by name in storage allocated here ([`plan`], [`planners`]), checking a solution
 //! against its problem ([`validate`]), and planning a policy's chunks as they arrive

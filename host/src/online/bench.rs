@@ -142,7 +142,7 @@ pub fn table(rows: &[ArmsRow]) -> String {
     s
 }
 
-/// How the policy's chunks reach the [`Embodier`] in [`bench_episodes`].
+/// How the policy's chunks reach the [`Embodier`] in [`run_episode`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Chunking {
     /// Poses per hand in a chunk.

@@ -36,7 +36,7 @@ use omcbsa_core::problem::{Assigned, MAX_STEPS};
 
 /// The benchmark's control rate, Hz, for which the keyframes' steps are written.
 const BASE_HZ: f64 = 50.0;
-/// Steps of an episode at [`BASE_HZ`].
+/// Steps of an episode at `BASE_HZ` (50 Hz).
 pub const EPISODE_STEPS: usize = 420;
 /// The two facing arms stand this far from the table's centre.
 const FACING_X: f64 = 0.6;

@@ -166,7 +166,7 @@ pub struct ChunkReport {
     /// The chunk's first poses that no arm tracks (reached by an approach instead).
     pub dropped: usize,
     /// How the chunk was planned when it could not be from where the last chunk left the
-    /// arms (see [`recover`]): `None` when it could.
+    /// arms: `None` when it could.
     pub recovery: Option<Recovery>,
     /// Timeline index of the chunk's first pose: the plan from here on is new.
     pub index: usize,

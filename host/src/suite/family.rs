@@ -31,7 +31,7 @@ pub enum Family {
     /// hand collides (see `standing`): the approach is the hard part.
     Approach,
     /// The random family's motions on a mixed fleet: the arms alternate between the models of
-    /// [`MIXED_MODELS`] (2 + 2 and 3 + 3).
+    /// `MIXED_MODELS` (2 + 2 and 3 + 3).
     Mixed,
 }
 

@@ -12,7 +12,7 @@
 //! order, so the listed order is not the assignment.
 //!
 //! Resampling: a task whose witness search fails is resampled, up to [`TASK_SAMPLES`] samples
-//! ([`RANDOM_SAMPLES`] for the random family, [`MIXED_SAMPLES`] for the mixed one). A sample
+//! (`RANDOM_SAMPLES` for the random family, `MIXED_SAMPLES` for the mixed one). A sample
 //! with a witness that the IK-tracking baseline still solves (within a fixed budget of work,
 //! see `myopic`) is also resampled, up to [`HARD_SAMPLES`] samples with a witness; then the first of them is kept. These are the
 //! only two grounds: no other planner is run, so the suite is not biased for or against any

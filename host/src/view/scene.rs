@@ -29,7 +29,7 @@ pub struct Scene<'a> {
     pub lead: usize,
     /// Absent when only the problem is shown.
     pub solution: Option<SolutionInfo<'a>>,
-    /// The models the robots use (every compiled one), indexed by [`RobotView::model`].
+    /// The models the robots use (every compiled one), indexed by `RobotView::model`.
     pub models: Vec<ModelView>,
     /// Each robot: its name, model, base and timeline.
     pub robots: Vec<RobotView<'a>>,
