@@ -42,6 +42,19 @@ fn arguments(params: &str) -> String {
 
 /// Source of the unit struct `type_name` implementing `Models<dof>` over `models` (type
 /// names, in index order; at least one). An index past the last reads as the last model.
+///
+/// ```
+/// use omcbsa_codegen::generate_fleet;
+///
+/// let models = [("KinovaGen3", "kinova_gen3"), ("FrankaPanda", "franka_panda")];
+/// let source = generate_fleet("Fleet7", 7, &models);
+/// assert!(source.contains("pub struct Fleet7;"));
+/// assert!(source.contains("impl crate::model::Models<7> for Fleet7"));
+/// assert!(source.contains("const COUNT: usize = 2;"));
+/// // Each query dispatches on the model index.
+/// assert!(source.contains("0 => <KinovaGen3 as crate::model::Models<7>>::fk(0, q),"));
+/// assert!(source.contains("_ => <FrankaPanda as crate::model::Models<7>>::fk(0, q),"));
+/// ```
 pub fn fleet(type_name: &str, dof: usize, models: &[(&str, &str)]) -> String {
     let mut out = String::new();
     let w = &mut out;

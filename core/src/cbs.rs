@@ -41,6 +41,7 @@ const HOLD: u8 = u8::MAX;
 /// Tunables of Ω-CBSA.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CbsParams {
+    /// The low level's (Ω-A*'s) settings at refinement level 0.
     pub low: OmegaParams,
     /// Time cap of each root's warm start by repeated IK tracking, seconds (0 turns it off).
     pub warm_start_seconds: f64,
@@ -112,9 +113,16 @@ impl Default for CtNode {
     }
 }
 
-/// Caller storage of the high level.
+/// Caller storage of the high level. A pool that runs out ends the constraint tree it was
+/// building (its refinement level is then not proven exhausted); when every level has ended so
+/// the answer is [`Status::OutOfMemory`] naming the pool. Sizes: `nodes` and `open` a few
+/// hundred bytes and 16 bytes a constraint-tree node, `paths` `H` configurations a pooled path
+/// (each node keeps one new path), `scratch` `H` configurations, `points` the longest branch's
+/// constraints on one robot, `starts` any length (more remembers more IK answers).
 pub struct CbsStorage<'a, const D: usize> {
+    /// The constraint-tree nodes.
     pub nodes: &'a mut [CtNode],
+    /// The constraint tree's OPEN list (as many entries as `nodes`).
     pub open: &'a mut [OpenEntry],
     /// Path pool: slot `k` is `paths[k * H..(k + 1) * H]`.
     pub paths: &'a mut [[f64; D]],
@@ -127,14 +135,85 @@ pub struct CbsStorage<'a, const D: usize> {
     pub starts: &'a mut [StartIk<D>],
 }
 
-/// The Ω-CBSA planner.
+/// The Ω-CBSA planner: its settings, Ω-A*'s [`Workspace`] and the constraint tree's
+/// [`CbsStorage`], all borrowed from the caller and reused request after request. Run it
+/// through [`Planner::solve`].
+///
+/// Two Gen3s 2 m apart, each with a hand to follow in front of it; the first trajectory is
+/// the second arm's. The pools are sized for this small problem (3 steps):
+///
+/// ```
+/// use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+/// use omcbsa_core::problem::{Problem, Robot};
+/// use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk, Workspace};
+///
+/// const H: usize = 3;
+/// let left = Frame::IDENTITY;
+/// let right = Frame { pos: Vector3::new(0.0, 2.0, 0.0), ..Frame::IDENTITY };
+/// let mut problem = Problem::<7>::new(0.1);
+/// problem.robots.push(Robot::at(0, left)).unwrap();
+/// problem.robots.push(Robot::at(0, right)).unwrap();
+/// // A hand in front of each arm, moving 1 cm a step along x.
+/// let hand = KinovaGen3::fk(&[0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0]);
+/// for base in [right, left] {
+///     let pose = |t: usize| {
+///         let mut x = base.compose(&hand);
+///         x.pos.x += 0.01 * t as f64;
+///         x
+///     };
+///     problem.trajectories.push((0..H).map(pose).collect()).unwrap();
+/// }
+///
+/// // Ω-A*'s storage: nodes, OPEN entries, and a duplicate table (a power of two, at least
+/// // the node count).
+/// let mut nodes = [Node::<7>::default(); 256];
+/// let mut open = [OpenEntry::default(); 512];
+/// let mut table = [Slot::default(); 512];
+/// let ws = Workspace::new(&mut nodes, &mut open, &mut table).unwrap();
+/// // The constraint tree's: nodes and their OPEN list, a pool of paths of H steps, one path
+/// // of scratch, point constraints, and start-seed IK answers.
+/// let mut ct = [CtNode::default(); 16];
+/// let mut ct_open = [OpenEntry::default(); 16];
+/// let mut pool = [[0.0; 7]; 16 * H];
+/// let mut scratch = [[0.0; 7]; H];
+/// let none = PointConstraint { t: 0, segment: false, s: 0.0, p: [0.0; 3], margin: 0.0 };
+/// let mut points = [none; 16];
+/// let mut starts = [StartIk::default(); 64];
+/// let st = CbsStorage {
+///     nodes: &mut ct,
+///     open: &mut ct_open,
+///     paths: &mut pool,
+///     scratch: &mut scratch,
+///     points: &mut points,
+///     starts: &mut starts,
+/// };
+/// let mut planner = OmegaCbsa::new(CbsParams::default(), ws, st);
+///
+/// // The answer: both robots' paths, robot after robot.
+/// let mut paths = [[0.0; 7]; 2 * H];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
+/// assert_eq!(req.out.assignment[..2], [Some(1), Some(0)]);
+/// for (i, robot) in problem.robots.iter().enumerate() {
+///     let traj = &problem.trajectories[usize::from(req.out.assignment[i].unwrap())];
+///     for (q, pose) in req.out.path(i, H).iter().zip(traj) {
+///         let reached = robot.base.compose(&KinovaGen3::fk(q));
+///         assert!((reached.pos - pose.pos).norm() <= problem.tolerance.position);
+///     }
+/// }
+/// ```
 pub struct OmegaCbsa<'a, const D: usize> {
+    /// The settings; they may be changed between requests.
     pub params: CbsParams,
     ws: Workspace<'a, D>,
     st: CbsStorage<'a, D>,
 }
 
 impl<'a, const D: usize> OmegaCbsa<'a, D> {
+    /// A planner over the caller's storage: `ws` for Ω-A*, `st` for the constraint tree.
     pub fn new(params: CbsParams, ws: Workspace<'a, D>, st: CbsStorage<'a, D>) -> Self {
         OmegaCbsa { params, ws, st }
     }

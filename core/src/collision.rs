@@ -5,6 +5,46 @@
 //! Every check tests bounding boxes first (the whole arm's, then each capsule's) and runs the
 //! exact capsule query only on what is left. Checks return the first thing hit (an obstacle
 //! or capsule index), so a validator can say where; planners use `.is_some()`.
+//!
+//! Memory: an [`ArmPose`] is a fixed-size value (about 2 KB: [`MAX_POSE_CAPSULES`] capsules
+//! and their boxes); a model with more capsules or link frames than that does not compile
+//! (see [`crate::model::MAX_ARM_CAPSULES`]). Nothing allocates.
+//!
+//! Two Gen3s, the second 0.6 m in front of the first: upright they are clear; the first
+//! reaching forward runs into the second.
+//!
+//! ```
+//! use omcbsa_core::collision::ArmPose;
+//! use omcbsa_core::geometry::{Obstacle, Shape};
+//! use omcbsa_core::model::{Frame, KinovaGen3};
+//! use omcbsa_core::nalgebra::Vector3;
+//! use omcbsa_core::tool::Tool;
+//!
+//! let (upright, forward) = ([0.0; 7], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+//! let base_b = Frame { pos: Vector3::new(0.6, 0.0, 0.0), ..Frame::IDENTITY };
+//! let a = ArmPose::new::<KinovaGen3, 7>(0, &Frame::IDENTITY, &Tool::NONE, &upright);
+//! let b = ArmPose::new::<KinovaGen3, 7>(0, &base_b, &Tool::NONE, &upright);
+//! assert_eq!(a.arm_hit(&b, 0.0), None);
+//! // Their volumes are 0.6 m apart less the links' radii.
+//! assert!(a.clearance(&b) > 0.4 && a.clearance(&b) < 0.6);
+//!
+//! let reaching = ArmPose::new::<KinovaGen3, 7>(0, &Frame::IDENTITY, &Tool::NONE, &forward);
+//! let (i, j) = reaching.arm_hit(&b, 0.0).expect("the arms overlap");
+//! assert!(reaching.capsules()[i].hits(&b.capsules()[j], 0.0));
+//! // A point inside both arms: what Ω-CBSA branches on.
+//! let p = reaching.witness(&b, 0.0).unwrap();
+//! assert!(reaching.contains_point(&p) && b.contains_point(&p));
+//!
+//! // Against obstacles: the index of the first one hit; the arm's own links.
+//! let ball = Obstacle {
+//!     shape: Shape::Sphere { radius: 0.1 },
+//!     pose: Frame { pos: Vector3::new(0.0, 0.0, 0.8), ..Frame::IDENTITY },
+//! };
+//! let far = Obstacle { pose: Frame { pos: Vector3::new(2.0, 0.0, 0.8), ..ball.pose }, ..ball };
+//! assert_eq!(a.obstacle_hit(&[far, ball], 0.0), Some(1));
+//! assert_eq!(a.obstacle_hit(&[far], 0.0), None);
+//! assert_eq!(a.self_hit(0.0), None);
+//! ```
 
 use core::marker::PhantomData;
 
@@ -335,6 +375,40 @@ impl ArmPose {
 /// the part of the motion, so it shrinks fast down the halves. An arm moving in its null
 /// space, its hand nearly still, moves its joints far but its hand capsules little, and the
 /// first bound alone counts every joint's turn at its full reach.
+///
+/// Cost: two placings of the arm for a motion far from everything, one more per split; the
+/// bisection's stack is bounded (about `log2(2 * MAX_SWEEP_CHECKS)` levels of a few arm
+/// poses). A Gen3 turning about its first joint past a ball it clears at both ends:
+///
+/// ```
+/// use omcbsa_core::collision::{sweeps_collide, ArmPose, Sweep};
+/// use omcbsa_core::geometry::{Obstacle, Shape};
+/// use omcbsa_core::model::{Frame, KinovaGen3};
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::tool::Tool;
+///
+/// let from = [-0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+/// let to = [0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+/// let sweep = Sweep::<KinovaGen3, 7>::new(0, &Tool::NONE, &from, &to, 0.01);
+/// // No point moves more than 1 cm within a piece, so the margin is at most 5 mm.
+/// assert!(sweep.margin() <= 0.005);
+/// // Joint 1 turns 1 rad, and no point of the arm is farther than 1.06 m from its axis.
+/// assert!(sweep.length() > 1.0 && sweep.length() < 1.06);
+///
+/// let base = Frame::IDENTITY;
+/// let ball = Obstacle {
+///     shape: Shape::Sphere { radius: 0.05 },
+///     pose: Frame { pos: Vector3::new(0.45, -0.02, 0.57), ..Frame::IDENTITY },
+/// };
+/// let [start, end] = sweep.ends(&base);
+/// assert!(start.obstacle_hit(&[ball], 0.0).is_none() && end.obstacle_hit(&[ball], 0.0).is_none());
+/// assert!(sweep.arm_collides(&base, &[ball]));
+///
+/// // Two arms moving at once: the second, 0.6 m ahead, stands still upright.
+/// let base_b = Frame { pos: Vector3::new(0.6, -0.02, 0.0), ..Frame::IDENTITY };
+/// let still = Sweep::<KinovaGen3, 7>::new(0, &Tool::NONE, &[0.0; 7], &[0.0; 7], 0.01);
+/// assert!(sweeps_collide(&sweep, &base, &still, &base_b));
+/// ```
 #[derive(Debug)]
 pub struct Sweep<M: Models<D>, const D: usize> {
     /// The arm's model, an index into `M`.

@@ -15,6 +15,58 @@
 //! the sample budget reaches its cap (`OutOfMemory("approach sample budget")`).
 //!
 //! Deterministic: the planner and the approach are, and the deadline only ends the loop.
+//!
+//! Memory: the request's buffers only ([`Embodiment`]); the start exclusions live in the
+//! problem's robots ([`crate::problem::StartExclusions`], a few per robot) and are restored
+//! before returning.
+//!
+//! A Gen3 standing upright, its hand to follow in front of it:
+//!
+//! ```
+//! use omcbsa_core::approach::{ApproachParams, ApproachStorage, Method};
+//! use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
+//! use omcbsa_core::embody::{solve_from_initial, Embodiment};
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//! use omcbsa_core::planner::{NoClock, Solution, Stats, Status, Until};
+//! use omcbsa_core::problem::{Problem, Robot, Trajectory};
+//!
+//! const H: usize = 3;
+//! let mut problem = Problem::<7>::new(0.1);
+//! let mut gen3 = Robot::at(0, Frame::IDENTITY);
+//! gen3.initial = Some([0.0; 7]);
+//! problem.robots.push(gen3).unwrap();
+//! let hand = KinovaGen3::fk(&[0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0]);
+//! problem.trajectories.push(Trajectory::from_slice(&[hand; H]).unwrap()).unwrap();
+//!
+//! let (mut tree, mut parent, mut waypoints) = ([[0.0; 7]; 64], [0u32; 64], [[0.0; 7]; 16]);
+//! let (mut paths, mut approach) = ([[0.0; 7]; H], [[0.0; 7]; 64]);
+//! let mut req = Embodiment {
+//!     problem: &mut problem,
+//!     until: Until::never(&NoClock),
+//!     out: Solution::new(&mut paths),
+//!     stats: Stats::default(),
+//!     approach: ApproachStorage {
+//!         tree: &mut tree,
+//!         parent: &mut parent,
+//!         waypoints: &mut waypoints,
+//!     },
+//!     approach_out: &mut approach,
+//!     params: ApproachParams::default(),
+//! };
+//! let mut planner = IkTracking { params: IkTrackingParams::default() };
+//! let done = solve_from_initial::<KinovaGen3, _, 7>(&mut planner, &mut req);
+//! assert_eq!(done.status, Status::Solved);
+//! assert_eq!((done.attempts, done.approach.method), (1, Method::Together));
+//! // The timeline: `initial`, the approach, then the plan, every step within the speeds.
+//! let a = done.approach.len;
+//! let mut last = [0.0; 7];
+//! for q in approach[..a].iter().chain(&paths) {
+//!     for j in 0..7 {
+//!         assert!((q[j] - last[j]).abs() <= KinovaGen3::VELOCITY[j] * 0.1 + 1e-12);
+//!     }
+//!     last = *q;
+//! }
+//! ```
 
 use crate::approach::{
     blocked_alone, check_starts, plan_approach, Approach, ApproachError, ApproachParams,

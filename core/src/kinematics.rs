@@ -2,7 +2,28 @@
 //! joints must turn for the tool to move with a given twist.
 //!
 //! Both work in the model's base frame, with the Jacobian's row order: position first,
-//! rotation second.
+//! rotation second. Neither allocates; the null-space basis costs one 6 x D elimination.
+//!
+//! A 7-joint arm away from singularities has a one-dimensional null space: moving along it
+//! turns the joints without moving the hand (to first order), which is what Ω-A* explores.
+//!
+//! ```
+//! use omcbsa_core::kinematics::{null_space_basis, pose_error};
+//! use omcbsa_core::model::{KinovaGen3, Model};
+//!
+//! let q = [0.1, 0.5, -0.2, 1.2, 0.0, 0.8, 0.3];
+//! let (hand, jacobian) = KinovaGen3::jacobian(&q);
+//! let basis = null_space_basis(&jacobian);
+//! assert_eq!(basis.len(), 1);
+//! let n = basis[0];
+//! assert!((n.norm() - 1.0).abs() < 1e-12);
+//! assert!((jacobian * n).norm() < 1e-9);
+//!
+//! // A small step along it leaves the hand where it was, to second order.
+//! let moved: [f64; 7] = core::array::from_fn(|i| q[i] + 1e-3 * n[i]);
+//! let err = pose_error(&KinovaGen3::fk(&moved), &hand);
+//! assert!(err.norm() < 1e-5);
+//! ```
 
 use heapless::Vec;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
@@ -13,6 +34,21 @@ use crate::model::Frame;
 /// difference `target - current`, rows 3-5 the rotation vector `log(target.rot *
 /// current.rot^T)` (axis times angle, angle in `[0, pi]`). A Jacobian step `J dq = e` moves
 /// `current` towards `target`.
+///
+/// ```
+/// use omcbsa_core::kinematics::pose_error;
+/// use omcbsa_core::model::Frame;
+/// use omcbsa_core::nalgebra::{Rotation3, Vector3};
+///
+/// let target = Frame {
+///     rot: Rotation3::from_axis_angle(&Vector3::z_axis(), 0.5).into_inner(),
+///     pos: Vector3::new(0.1, 0.0, 0.0),
+/// };
+/// let e = pose_error(&Frame::IDENTITY, &target);
+/// assert!((e[0] - 0.1).abs() < 1e-15);
+/// // Rows 3-5: the rotation vector, 0.5 rad about z.
+/// assert!((e[5] - 0.5).abs() < 1e-15 && e[3].abs() < 1e-15 && e[4].abs() < 1e-15);
+/// ```
 pub fn pose_error(current: &Frame, target: &Frame) -> Vector6<f64> {
     let dp = target.pos - current.pos;
     let w = log_rotation(&(target.rot * current.rot.transpose()));

@@ -4,6 +4,27 @@
 //! URDF and emits one zero-sized type per model implementing [`Model`]. Nothing parses a URDF at
 //! run time. Everything a model knows is a `const` or an unrolled function, so evaluating it
 //! costs a fixed number of flops and no memory.
+//!
+//! The compiled models are [`KinovaGen3`] and [`FrankaPanda`] (7 joints) and
+//! [`SyntheticChain`] (5 joints, for tests); [`Fleet7`] and [`Fleet5`] dispatch over the
+//! models of one DoF by index ([`Models`]). Lengths are in metres, angles in radians.
+//!
+//! Forward kinematics of the Gen3, and the same query through the fleet by model index:
+//!
+//! ```
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//!
+//! let q = [0.1, 0.5, -0.2, 1.2, 0.0, 0.8, 0.3];
+//! let hand: Frame = KinovaGen3::fk(&q);
+//! // The tool frame is the last link frame, and the Jacobian comes with the same pose.
+//! let mut links = [Frame::IDENTITY; 9];
+//! assert_eq!(KinovaGen3::LINK_NAMES.len(), 9);
+//! let tool = KinovaGen3::link_frames(&q, &mut links);
+//! let (at, _jacobian) = KinovaGen3::jacobian(&q);
+//! assert!((tool.pos - hand.pos).norm() < 1e-12 && (at.pos - hand.pos).norm() < 1e-12);
+//! // The Gen3 reaches about 1.2 m from its base.
+//! assert!(hand.pos.norm() < 1.3);
+//! ```
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
@@ -91,13 +112,36 @@ pub const fn check_model<M: Model<D>, const D: usize>() {
 
 /// A rigid transform kept as a rotation matrix and a translation: composing and applying
 /// these is cheaper than going through quaternions in the hot loops.
+///
+/// A frame maps points given in the child frame to the parent frame: `p_parent = rot * p +
+/// pos`. Nothing checks that `rot` is a rotation; the file loader and
+/// [`crate::ik::ik`] do, at the boundary.
+///
+/// ```
+/// use omcbsa_core::model::Frame;
+/// use omcbsa_core::nalgebra::{Matrix3, Vector3};
+///
+/// // A quarter turn about z, then 1 m along x.
+/// let turn = Frame {
+///     rot: Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+///     pos: Vector3::new(1.0, 0.0, 0.0),
+/// };
+/// let p = turn.apply(&Vector3::new(1.0, 0.0, 0.0));
+/// assert!((p - Vector3::new(1.0, 1.0, 0.0)).norm() < 1e-15);
+/// // A frame composed with its inverse is the identity.
+/// let id = turn.compose(&turn.inverse());
+/// assert!((id.rot - Matrix3::identity()).norm() < 1e-15 && id.pos.norm() < 1e-15);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
+    /// Rotation matrix: the child frame's axes as columns, in the parent frame.
     pub rot: Matrix3<f64>,
+    /// The child frame's origin in the parent frame, metres.
     pub pos: Vector3<f64>,
 }
 
 impl Frame {
+    /// No rotation, no translation.
     pub const IDENTITY: Frame = Frame {
         rot: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
         pos: Vector3::new(0.0, 0.0, 0.0),
@@ -118,6 +162,8 @@ impl Frame {
         self.rot * p + self.pos
     }
 
+    /// The inverse transform (maps parent coordinates to the child frame); uses the
+    /// transpose, so `rot` must be a rotation.
     #[inline]
     pub fn inverse(&self) -> Frame {
         let rt = self.rot.transpose();
@@ -134,8 +180,11 @@ impl Frame {
 pub struct LinkCapsule {
     /// Index into [`Model::LINK_NAMES`].
     pub link: u8,
+    /// One end of the capsule's axis, in the link frame, metres.
     pub a: [f64; 3],
+    /// The other end of the axis (equal to `a` for a sphere), metres.
     pub b: [f64; 3],
+    /// Radius, metres.
     pub radius: f64,
 }
 
@@ -189,7 +238,9 @@ pub trait Model<const D: usize>: 'static {
     fn fk(q: &[f64; D]) -> Frame;
 
     /// Writes every link frame (base frame first, `LINK_NAMES.len()` of them) into `out` and
-    /// returns the tool frame. `out` must hold at least `LINK_NAMES.len()` frames.
+    /// returns the tool frame. `out` must hold at least `LINK_NAMES.len()` frames
+    /// ([`MAX_LINK_FRAMES`] holds any model's): frames that do not fit are not written, and a
+    /// debug build asserts.
     fn link_frames(q: &[f64; D], out: &mut [Frame]) -> Frame;
 
     /// Tool pose and the geometric Jacobian at the tool frame's origin, in the base frame:
@@ -204,27 +255,55 @@ pub trait Model<const D: usize>: 'static {
 ///
 /// An index out of range reads as the fleet's last model, so that nothing here can fail;
 /// the host's loader only gives indices below [`Models::COUNT`].
+///
+/// ```
+/// use omcbsa_core::model::{Fleet7, KinovaGen3, Models};
+///
+/// let q = [0.1, 0.5, -0.2, 1.2, 0.0, 0.8, 0.3];
+/// let gen3 = Fleet7::find("kinova_gen3").unwrap();
+/// assert_eq!(Fleet7::fk(gen3, &q), <KinovaGen3 as Models<7>>::fk(0, &q));
+/// assert_eq!(Fleet7::find("franka_panda"), Some(1));
+/// assert_eq!(Fleet7::find("ur5"), None);
+/// // One model is a fleet of one.
+/// assert_eq!(<KinovaGen3 as Models<7>>::COUNT, 1);
+/// ```
 pub trait Models<const D: usize>: 'static {
     /// How many models; indices run `0..COUNT`.
     const COUNT: usize;
     /// Evaluating it fails compilation for a model an [`crate::collision::ArmPose`] cannot
     /// hold (see [`check_model`]).
     const CHECKED: ();
+    /// [`Model::NAME`] of model `id`.
     fn name(id: u8) -> &'static str;
+    /// [`Model::LINK_NAMES`] of model `id`.
     fn link_names(id: u8) -> &'static [&'static str];
+    /// [`Model::JOINT_NAMES`] of model `id`.
     fn joint_names(id: u8) -> &'static [&'static str; D];
+    /// [`Model::LOWER`] of model `id`.
     fn lower(id: u8) -> &'static [f64; D];
+    /// [`Model::UPPER`] of model `id`.
     fn upper(id: u8) -> &'static [f64; D];
+    /// [`Model::VELOCITY`] of model `id`.
     fn velocity(id: u8) -> &'static [f64; D];
+    /// [`Model::ACCELERATION`] of model `id`.
     fn acceleration(id: u8) -> &'static [f64; D];
+    /// [`Model::CAPSULES`] of model `id`.
     fn capsules(id: u8) -> &'static [LinkCapsule];
+    /// [`Model::SELF_PAIRS`] of model `id`.
     fn self_pairs(id: u8) -> &'static [(u8, u8)];
+    /// [`Model::REACH`] of model `id`.
     fn reach(id: u8) -> &'static [f64; D];
+    /// [`Model::CAPSULE_REACH`] of model `id`.
     fn capsule_reach(id: u8) -> &'static [[f64; D]];
+    /// [`Model::TOOL_SELF_CAPSULES`] of model `id`.
     fn tool_self_capsules(id: u8) -> &'static [u8];
+    /// [`Model::TOOL_REACH`] of model `id`.
     fn tool_reach(id: u8) -> &'static [f64; D];
+    /// [`Model::fk`] of model `id`.
     fn fk(id: u8, q: &[f64; D]) -> Frame;
+    /// [`Model::link_frames`] of model `id`.
     fn link_frames(id: u8, q: &[f64; D], out: &mut [Frame]) -> Frame;
+    /// [`Model::jacobian`] of model `id`.
     fn jacobian(id: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
 
     /// The index of the model called `name` ([`Model::NAME`]).

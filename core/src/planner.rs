@@ -47,6 +47,24 @@ impl Clock for NoClock {
 
 /// The termination condition of a request: "stop when `clock` reaches `at`". Made once by the
 /// caller and copied, never rebuilt, by every search under it.
+///
+/// ```
+/// use omcbsa_core::planner::{Clock, Until};
+/// use omcbsa_core::search::Deadline;
+///
+/// /// A clock stopped at a given time (a microcontroller would read its cycle counter).
+/// struct Stopped(f64);
+/// impl Clock for Stopped {
+///     fn seconds(&self) -> f64 {
+///         self.0
+///     }
+/// }
+///
+/// let clock = Stopped(2.0);
+/// assert!(Until::new(&clock, 1.5).expired());
+/// assert!(!Until::new(&clock, 3.0).expired());
+/// assert!(!Until::never(&clock).expired());
+/// ```
 #[derive(Clone, Copy)]
 pub struct Until<'c> {
     /// The clock read.
@@ -84,9 +102,13 @@ impl Deadline for Until<'_> {
 /// How planning ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Status {
+    /// A plan was written to the request's [`Solution`]: every robot within its joint limits
+    /// and speeds, tracking its trajectory within the tolerance, and collision-free.
     Solved,
-    /// The search space was exhausted.
+    /// The search space was exhausted (or a trajectory is out of every robot's reach):
+    /// [`Stats::reason`] says which.
     NoSolution,
+    /// The request's [`Until`] passed first.
     Timeout,
     /// A bounded pool was exhausted; the message names it.
     OutOfMemory(&'static str),
@@ -191,12 +213,19 @@ impl Horizon {
 /// use: the one list of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PlannerKind {
+    /// Ω-CBSA ([`crate::cbs::OmegaCbsa`]).
     OmCbsa,
+    /// OM-PP-A* ([`crate::pp::Prioritized`], [`crate::pp::Variant::MultiGoal`]).
     Pp,
+    /// OM-PP-A*_single ([`crate::pp::Prioritized`], [`crate::pp::Variant::SingleGoal`]).
     PpSingle,
+    /// IK tracking ([`crate::baselines::IkTracking`]).
     IkTracking,
+    /// PP-Descartes ([`crate::baselines::Descartes`]).
     Descartes,
+    /// Composite A* ([`crate::baselines::CompositeAstar`]).
     CompositeAstar,
+    /// Ω-A* alone ([`crate::search::plan`]; one robot).
     OmegaAstar,
 }
 
@@ -227,6 +256,19 @@ impl PlannerKind {
         bench
     };
 
+    /// The planner's name (`omcbsa`, `pp`, `pp-single`, ...), as [`PlannerKind::parse`]
+    /// reads it.
+    ///
+    /// ```
+    /// use omcbsa_core::planner::PlannerKind;
+    ///
+    /// assert_eq!(PlannerKind::DEFAULT.name(), "omcbsa");
+    /// assert_eq!(PlannerKind::parse("pp-single"), Some(PlannerKind::PpSingle));
+    /// assert_eq!(PlannerKind::parse("rrt"), None);
+    /// for p in PlannerKind::ALL {
+    ///     assert_eq!(PlannerKind::parse(p.name()), Some(p));
+    /// }
+    /// ```
     pub const fn name(self) -> &'static str {
         match self {
             PlannerKind::OmCbsa => "omcbsa",
@@ -262,6 +304,7 @@ impl PlannerKind {
         }
     }
 
+    /// The planner called `name` ([`PlannerKind::name`]), `None` for any other text.
     pub fn parse(name: &str) -> Option<PlannerKind> {
         Self::ALL.into_iter().find(|p| p.name() == name)
     }
@@ -319,6 +362,36 @@ pub enum Takes {
 /// the planner's, `takes`), the request's storage can hold the answer, and no trajectory has a
 /// pose out of every robot's reach (a proof that nothing solves it: `NoSolution`, with the
 /// reason in the request's stats). Returns the horizon, or the status to return.
+///
+/// Bad input is a status that says what is wrong, never a panic:
+///
+/// ```
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::planner::{open, NoClock, Request, Solution, Status, Takes, Until};
+/// use omcbsa_core::problem::{Problem, Robot, Trajectory};
+///
+/// let hand = KinovaGen3::fk(&[0.0; 7]);
+/// let mut problem = Problem::<7>::new(0.1);
+/// problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
+/// problem.trajectories.push(Trajectory::from_slice(&[hand; 3]).unwrap()).unwrap();
+///
+/// // Room for 3 configurations: enough for one robot over 3 steps.
+/// let mut paths = [[0.0; 7]; 3];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(open::<KinovaGen3, 7>(&mut req, Takes::Fixed).map(|h| h.get()), Ok(3));
+///
+/// // Too little storage for the answer.
+/// let mut short = [[0.0; 7]; 2];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut short));
+/// let refused = open::<KinovaGen3, 7>(&mut req, Takes::Fixed);
+/// assert_eq!(refused, Err(Status::OutOfMemory("solution path buffer")));
+///
+/// // A time step that is not positive.
+/// problem.dt = f64::NAN;
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// let refused = open::<KinovaGen3, 7>(&mut req, Takes::Fixed);
+/// assert_eq!(refused, Err(Status::InvalidProblem("dt must be positive")));
+/// ```
 pub fn open<M: Models<D>, const D: usize>(
     req: &mut Request<'_, D>,
     takes: Takes,

@@ -1,7 +1,33 @@
 //! IK tracking: follow a trajectory by projecting each pose from the previous configuration,
 //! `q_t = IK(x_t, q_{t-1})`, or steered along the null space by Ω-A*'s step cost
-//! ([`Steps`]). Myopic but fast;
+//! ([`Steps`]). Myopic but fast (one IK projection a step, three when steered);
 //! Ω-CBSA warm-starts its root with it and the IK-tracking baseline is made of it.
+//!
+//! ```
+//! use omcbsa_core::ik::IkParams;
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//! use omcbsa_core::motion::MOTION_STEP;
+//! use omcbsa_core::nalgebra::Vector3;
+//! use omcbsa_core::problem::{Robot, Trajectory};
+//! use omcbsa_core::search::Validity;
+//! use omcbsa_core::tracking::{track, Steps};
+//!
+//! let robot = Robot::at(0, Frame::IDENTITY);
+//! let q0 = [0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0];
+//! let hand = KinovaGen3::fk(&q0);
+//! // Three poses 0.1 s apart, the hand sliding 1 cm a step along y.
+//! let slide = |t: usize| Frame { pos: hand.pos + Vector3::y() * (0.01 * t as f64), ..hand };
+//! let traj: Trajectory = (0..3).map(slide).collect();
+//! // No obstacles, no other robots: only joint limits, speeds and self-collision count.
+//! let valid = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP);
+//! let ik = IkParams::default();
+//! let mut path = [[0.0; 7]; 3];
+//! let collisions = track(&robot, &traj, &q0, &valid, Steps::Nearest(&ik), &mut path);
+//! assert_eq!(collisions, Some(0));
+//! for (q, pose) in path.iter().zip(&traj) {
+//!     assert!((KinovaGen3::fk(q).pos - pose.pos).norm() <= ik.position_tolerance);
+//! }
+//! ```
 
 use core::cell::Cell;
 
@@ -35,7 +61,8 @@ pub const NULL_RATE_STEPS: f64 = 8.0;
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
 /// state and motion with `valid`, each step taken as `steps` says. Writes `out[..H]` and
 /// returns the collision count with the other robots (always 0 when `valid` avoids them), or
-/// `None` when tracking breaks down.
+/// `None` when tracking breaks down (IK fails, a step breaks a joint's speed limit, or a
+/// state or motion is invalid). `out` must hold H configurations; a shorter one panics.
 pub fn track<M: Models<D>, const D: usize>(
     robot: &Robot<D>,
     traj: &Trajectory,

@@ -1,6 +1,43 @@
 //! Planning a problem file: load and check it, plan with a planner by name (under an
 //! assignment rule if one is given), and validate what the planner calls solved before it is
 //! reported. A plan that fails validation is never reported as solved.
+//!
+//! [`plan_file`] allocates its storage for the one call; [`plan_loaded`] plans in a
+//! [`Storage`] the caller keeps from run to run (the crate's documentation has an example of
+//! [`plan_file`]):
+//!
+//! ```
+//! use omcbsa::format::Status;
+//! use omcbsa::load;
+//! use omcbsa::plan::plan_loaded;
+//! use omcbsa::planners::{Capacities, PlannerKind, Storage};
+//!
+//! let text = r#"{
+//!   "format": "omcbsa.problem.v1", "name": "lift", "dt": 0.1,
+//!   "robots": [{"name": "arm", "model": "kinova_gen3",
+//!               "base": {"position": [0, 0, 0], "quat_xyzw": [0, 0, 0, 1]},
+//!               "initial": [0, 0.26, 3.14, -2.27, 0, 0.96, 1.57]}],
+//!   "trajectories": [{"name": "hand", "poses": [
+//!     {"position": [0.5, 0, 0.40], "quat_xyzw": [1, 0, 0, 0]},
+//!     {"position": [0.5, 0, 0.41], "quat_xyzw": [1, 0, 0, 0]},
+//!     {"position": [0.5, 0, 0.42], "quat_xyzw": [1, 0, 0, 0]}]}]
+//! }"#;
+//! let file = load::parse_problem(text).unwrap();
+//! let problem = omcbsa::plan::load_problem(&file).unwrap();
+//! // Pools for horizons up to 3 steps, smaller than the defaults.
+//! let caps = Capacities {
+//!     search_nodes: 1 << 12,
+//!     composite_nodes: 1 << 8,
+//!     ..Capacities::default()
+//! };
+//! let mut storage = Storage::new(caps, 3);
+//! for kind in [PlannerKind::OmCbsa, PlannerKind::Pp] {
+//!     let solution = plan_loaded(&mut storage, &file, &problem, kind, 5.0).unwrap();
+//!     assert_eq!(solution.status, Status::Solved, "{kind}: {}", solution.message);
+//!     // The arm stands at `initial`: the solution says how it gets to the plan's start.
+//!     assert!(solution.approach.is_some());
+//! }
+//! ```
 
 use omcbsa_core::problem::Problem;
 
@@ -15,7 +52,37 @@ use crate::validate::validate;
 
 /// Plans a problem file with planner `kind` and returns its solution file. A plan the planner
 /// calls solved is validated first; if it fails validation it is reported as not solved, with
-/// the violation in `message`, never as solved.
+/// the violation in `message`, never as solved. A file that breaks the format is an
+/// [`InputOrPlanError::Input`] naming the field; a problem that loads but has no plan is a
+/// solution file whose status says why (`no_solution`, `timeout`, ...).
+///
+/// ```
+/// use omcbsa::format::Status;
+/// use omcbsa::load::parse_problem;
+/// use omcbsa::plan::{plan_file, InputOrPlanError};
+/// use omcbsa::planners::PlannerKind;
+///
+/// // A hand 3 m away from the only arm: a proof that nothing can plan it, before searching.
+/// let far = r#"{
+///   "format": "omcbsa.problem.v1", "name": "far", "dt": 0.1,
+///   "robots": [{"name": "arm", "model": "kinova_gen3",
+///               "base": {"position": [0, 0, 0], "quat_xyzw": [0, 0, 0, 1]}}],
+///   "trajectories": [{"name": "hand", "poses": [
+///     {"position": [3, 0, 0.4], "quat_xyzw": [1, 0, 0, 0]}]}]
+/// }"#;
+/// let solution = plan_file(&parse_problem(far).unwrap(), PlannerKind::DEFAULT, 5.0).unwrap();
+/// assert_eq!(solution.status, Status::NoSolution);
+/// assert!(solution.message.contains("out of every robot's reach"), "{}", solution.message);
+///
+/// // A quaternion that is not a unit one: bad input, at its field.
+/// let bad = parse_problem(&far.replace("[1, 0, 0, 0]", "[1, 0, 0, 1]")).unwrap();
+/// match plan_file(&bad, PlannerKind::DEFAULT, 5.0) {
+///     Err(InputOrPlanError::Input(e)) => {
+///         assert!(e.has("trajectories[0].poses[0].quat_xyzw", "norm"), "{e}")
+///     }
+///     other => panic!("{other:?}"),
+/// }
+/// ```
 pub fn plan_file(
     file: &ProblemFile,
     kind: PlannerKind,

@@ -55,11 +55,17 @@ pub use crate::models::DOF;
 /// `H * 56` per pooled path; composite A* about 490 per node.
 #[derive(Clone, Copy, Debug)]
 pub struct Capacities {
+    /// Ω-A*'s search nodes (112 bytes each with the OPEN list and table).
     pub search_nodes: usize,
+    /// Ω-CBSA's constraint-tree nodes (about 220 bytes each).
     pub ct_nodes: usize,
+    /// Ω-CBSA's pooled paths (`H * 56` bytes each).
     pub path_slots: usize,
+    /// Point constraints on the robot being replanned (Ω-CBSA).
     pub constraints: usize,
+    /// Composite A*'s nodes (about 490 bytes each).
     pub composite_nodes: usize,
+    /// PP-Descartes' IK samples per pose.
     pub descartes_samples: usize,
     /// RRT-Connect nodes of the approach (both trees; `robots * 56 + 4` bytes each).
     pub approach_nodes: usize,
@@ -90,7 +96,9 @@ pub const START_CACHE_ENTRIES: usize = 1 << 16;
 /// What a planning run produced.
 #[derive(Clone, Debug)]
 pub struct Outcome {
+    /// How planning ended.
     pub status: Status,
+    /// Wall time of the run, approach included, s.
     pub planning_time_s: f64,
     /// Per robot: the trajectory tracked, `None` when holding (meaningful when solved).
     pub assignment: Vec<Option<usize>>,
@@ -99,13 +107,16 @@ pub struct Outcome {
     /// Per robot: the approach from `initial` to `joint_paths[i][0]` (only when solved and
     /// every robot has `initial`; then the same length for every robot, possibly 0).
     pub approach: Option<Vec<Vec<[f64; DOF]>>>,
+    /// How the approach was found.
     pub approach_info: ApproachInfo,
+    /// The planner's counters over all its runs.
     pub stats: Stats,
 }
 
 /// How the approach of a run was found.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ApproachInfo {
+    /// Which approach planner found it.
     pub method: Method,
     /// Configurations per robot.
     pub steps: usize,
@@ -123,6 +134,7 @@ pub struct ApproachInfo {
 pub struct WallClock(Instant);
 
 impl WallClock {
+    /// A clock reading 0 now.
     pub fn start() -> Self {
         WallClock(Instant::now())
     }
@@ -134,7 +146,10 @@ impl Clock for WallClock {
     }
 }
 
-/// All pools of all planners, allocated once and reused run after run.
+/// All pools of all planners, allocated once and reused run after run: about 50 MB with the
+/// default [`Capacities`], plus `path_slots * max_h * 56` bytes of pooled paths (used by
+/// [`crate::plan::plan_loaded`]). A pool that runs out ends the run with
+/// [`Status::OutOfMemory`] naming it.
 pub struct Storage {
     /// Ω-CBSA's settings (the paper's by default).
     pub cbs_params: CbsParams,

@@ -25,6 +25,9 @@
 //! Memory: [`ApproachStorage`] is the caller's. A tree node costs `robots * D * 8 + 4` bytes;
 //! a full tree ends that search as a spent sample budget does (the budget is the lesser of the
 //! two).
+//!
+//! [`plan_approach`] has a runnable example; [`crate::embody`] runs the approach after a
+//! planner, trying other starts until one can be reached.
 
 mod fleet;
 mod orders;
@@ -104,6 +107,64 @@ impl<const D: usize> Ends<D> {
 /// first configuration: straight together, one at a time, one at a time with RRT-Connect per
 /// arm, then RRT-Connect on the composite space, with `q.params.rrt_samples` samples. Writes
 /// robot `i`'s approach to `out[i * cap..i * cap + A]` with `cap = out.len() / robots`.
+///
+/// A buffer too short for the approach is [`ApproachError::TooLong`] (nothing truncated), a
+/// full [`ApproachStorage`] [`ApproachError::OutOfMemory`], a start that collides
+/// [`ApproachError::Start`]. A Gen3 standing upright, whose plan begins bent forward:
+///
+/// ```
+/// use omcbsa_core::approach::{plan_approach, ApproachError, ApproachParams, ApproachQuery};
+/// use omcbsa_core::approach::{ApproachStorage, Method};
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::problem::{Problem, Robot};
+/// use omcbsa_core::search::NoDeadline;
+///
+/// let mut problem = Problem::<7>::new(0.1);
+/// let mut gen3 = Robot::at(0, Frame::IDENTITY);
+/// gen3.initial = Some([0.0; 7]);
+/// problem.robots.push(gen3).unwrap();
+/// // The plan (2 steps) the approach leads to.
+/// let bent = [0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0];
+/// let plan = [bent, bent];
+/// let query = ApproachQuery {
+///     problem: &problem,
+///     plan: &plan,
+///     horizon: 2,
+///     params: ApproachParams::default(),
+///     deadline: &NoDeadline,
+/// };
+/// // RRT-Connect's trees (robots configurations a node), their parents, and waypoints
+/// // (robots configurations each, at least robots + 1 of them).
+/// let mut tree = [[0.0; 7]; 64];
+/// let mut parent = [0u32; 64];
+/// let mut waypoints = [[0.0; 7]; 16];
+/// let mut storage = ApproachStorage {
+///     tree: &mut tree,
+///     parent: &mut parent,
+///     waypoints: &mut waypoints,
+/// };
+///
+/// let mut out = [[0.0; 7]; 64];
+/// let approach = plan_approach::<KinovaGen3, 7>(&query, &mut storage, &mut out).unwrap();
+/// assert_eq!(approach.method, Method::Together);
+/// // From `initial` through the approach to the plan, within 90 % of every joint's speed
+/// // limit (`ApproachParams::speed`).
+/// let a = approach.len;
+/// let mut last = [0.0; 7];
+/// for q in out[..a].iter().chain([&bent]) {
+///     for j in 0..7 {
+///         assert!((q[j] - last[j]).abs() <= 0.9 * KinovaGen3::VELOCITY[j] * problem.dt + 1e-12);
+///     }
+///     last = *q;
+/// }
+///
+/// // Too short a buffer is refused, not truncated.
+/// let mut short = [[0.0; 7]; 4];
+/// match plan_approach::<KinovaGen3, 7>(&query, &mut storage, &mut short) {
+///     Err(ApproachError::TooLong { needed, capacity: 4 }) => assert_eq!(needed, a),
+///     other => panic!("{other:?}"),
+/// }
+/// ```
 pub fn plan_approach<M: Models<D>, const D: usize>(
     q: &ApproachQuery<'_, D>,
     storage: &mut ApproachStorage<'_, D>,

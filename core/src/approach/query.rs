@@ -85,6 +85,8 @@ pub enum Method {
 }
 
 impl Method {
+    /// The name solution files and reports use (`none`, `together`, `ordered`,
+    /// `ordered-rrt`, `rrt-connect`).
     pub fn name(self) -> &'static str {
         match self {
             Method::None => "none",
@@ -101,6 +103,7 @@ impl Method {
 pub struct Approach {
     /// Configurations per robot (`A`).
     pub len: usize,
+    /// Which planner found it.
     pub method: Method,
 }
 
@@ -110,10 +113,20 @@ pub enum ApproachError {
     /// A robot's `initial` is outside its limits or collides.
     Start(Blocked),
     /// The approach needs `needed` configurations per robot; the buffer holds `capacity`.
-    TooLong { needed: usize, capacity: usize },
+    TooLong {
+        /// Configurations per robot the approach needs.
+        needed: usize,
+        /// Configurations per robot the buffer holds.
+        capacity: usize,
+    },
     /// No planner found an approach within its budget. The first motion the arms moving
     /// together failed on: robot `robot`'s, against robot `other` or obstacles / itself.
-    Blocked { robot: usize, other: Option<usize> },
+    Blocked {
+        /// The robot whose motion failed.
+        robot: usize,
+        /// The robot it met; `None`: an obstacle or itself.
+        other: Option<usize>,
+    },
     /// The deadline passed.
     Timeout,
     /// A buffer of [`ApproachStorage`] is full; the message names it.

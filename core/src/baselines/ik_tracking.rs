@@ -12,13 +12,16 @@ use crate::rng::Rng;
 use crate::search::{Deadline, OtherArm, OthersMode, Validity};
 use crate::tracking::{track, Steps};
 
+/// Tunables of the IK-tracking baseline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IkTrackingParams {
     /// First-pose seeds tried per robot (the first is `initial` when given).
     pub seeds: u32,
+    /// The IK projection's settings.
     pub ik: IkParams,
     /// See [`crate::search::OmegaParams::motion_step`].
     pub motion_step: f64,
+    /// Seed of the random first-pose seeds.
     pub seed: u64,
 }
 
@@ -33,7 +36,12 @@ impl Default for IkTrackingParams {
     }
 }
 
+/// The IK-tracking baseline: no storage beyond the request's, no search; fast and myopic. It
+/// chooses every start and the assignment itself, so it refuses a problem with a robot whose
+/// start or trajectory is fixed ([`crate::planner::Takes::FreeOnly`]). The
+/// [`crate::planner`] module's example runs it.
 pub struct IkTracking {
+    /// Its settings.
     pub params: IkTrackingParams,
 }
 

@@ -11,15 +11,19 @@ const PARALLEL_SIN2: f64 = 1e-14;
 /// `t` in `[0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
+    /// The start (`t = 0`).
     pub a: Vector3<f64>,
+    /// The end (`t = 1`).
     pub b: Vector3<f64>,
 }
 
 impl Segment {
+    /// The segment from `a` to `b`.
     pub const fn new(a: Vector3<f64>, b: Vector3<f64>) -> Segment {
         Segment { a, b }
     }
 
+    /// The point `a + t (b - a)` (any `t`; the segment is `0..=1`).
     #[inline]
     pub fn at(&self, t: f64) -> Vector3<f64> {
         self.a + (self.b - self.a) * t

@@ -10,7 +10,9 @@ use crate::tool::Tool;
 pub struct OtherArm<'a, const D: usize> {
     /// Its model, an index into the planner's [`crate::model::Models`].
     pub model: u8,
+    /// Its base frame in the world.
     pub base: Frame,
+    /// What it carries.
     pub tool: Tool,
     /// One configuration per step.
     pub path: &'a [[f64; D]],
@@ -32,10 +34,15 @@ pub enum OthersMode {
 /// [`crate::motion::motions_contact`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointConstraint {
+    /// The step (or the step the motion starts from).
     pub t: u16,
+    /// Whether the constraint holds at an instant of the motion `t -> t + 1` rather than at
+    /// step `t`.
     pub segment: bool,
     /// Fraction of the step (`segment` constraints only).
     pub s: f64,
+    /// The point, in the world, metres.
     pub p: [f64; 3],
+    /// How near the robot may not come, metres (0: the point may not be inside it).
     pub margin: f64,
 }

@@ -1,4 +1,4 @@
-//! Ω-A*_single and multi-goal Ω-A* (Shaoul, Li, Likhachev), with the additions:
+//! Ω-A*_single and multi-goal Ω-A* (Shaoul, Li, Likhachev), with additions to the paper's:
 //! joint velocity limits between consecutive states, swept-motion checks, point constraints
 //! and assignment constraints from the high level, and bounded memory.
 //!
@@ -31,9 +31,12 @@ use super::{Deadline, OpenEntry};
 /// [`Query::starts`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum StartIk<const D: usize> {
+    /// Not tried yet.
     #[default]
     Unknown,
+    /// IK found no answer from this seed.
     Failed,
+    /// IK's answer from this seed.
     Solved([f64; D]),
 }
 
@@ -76,6 +79,7 @@ impl<'a, const D: usize> StartCache<'a, D> {
 /// One low-level planning request.
 #[derive(Clone, Copy)]
 pub struct Query<'a, const D: usize> {
+    /// The robot: its model, base, tool, start, fixed assignment and excluded starts.
     pub robot: Robot<D>,
     /// All trajectories of the problem (same length H).
     pub trajectories: &'a [Trajectory],
@@ -84,10 +88,16 @@ pub struct Query<'a, const D: usize> {
     /// Whether holding `robot.initial` for the whole horizon is an answer (tried only when no
     /// allowed trajectory can be tracked).
     pub hold: bool,
+    /// The fixed obstacles.
     pub obstacles: &'a [Obstacle],
+    /// The other robots' paths (moving obstacles): fewer than
+    /// [`MAX_ROBOTS`](crate::problem::MAX_ROBOTS), each of at least H configurations.
     pub others: &'a [OtherArm<'a, D>],
+    /// Whether meeting the other robots is forbidden or counted.
     pub others_mode: OthersMode,
+    /// Where the robot may not be (Ω-CBSA's constraints on it).
     pub points: &'a [PointConstraint],
+    /// Time between steps, s.
     pub dt: f64,
     /// This robot's start-seed IK answers, kept across its searches in one planning run: a
     /// trajectory's seeds are the same in every search, so a replan (under one more
@@ -100,7 +110,9 @@ pub struct Query<'a, const D: usize> {
 /// Counters of one search.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SearchStats {
+    /// States expanded.
     pub expansions: u32,
+    /// States generated (stored in the workspace).
     pub generated: u32,
 }
 
@@ -214,6 +226,11 @@ pub fn step_cost<M: Models<D>, const D: usize>(
 }
 
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
+///
+/// Bad queries are [`SearchError::InvalidQuery`] with the reason (no or ragged trajectories,
+/// more than 32 of them, `out` shorter than H, a start or hold at `initial` without one); a
+/// full workspace [`SearchError::OutOfMemory`]; the deadline is looked at every 32
+/// expansions. The [`crate::search`] module's documentation has a runnable example.
 pub fn plan<M: Models<D>, const D: usize>(
     query: &Query<'_, D>,
     params: &OmegaParams,

@@ -6,19 +6,20 @@ use crate::ik::IkParams;
 /// Tunables of Ω-A*. The defaults are the paper's (`ε = 0.2`, `w_h = 10`, `w_c = 0.1`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OmegaParams {
-    /// Null-space step.
+    /// Null-space step, rad (along a unit null-space direction).
     pub epsilon: f64,
     /// Weight of the heuristic (steps left).
     pub w_h: f64,
     /// Weight of the collision count.
     pub w_c: f64,
     /// Weight of the cost of coming near two collinear joint axes: each step adds `w_a`
-    /// times how far [`axis_separation`] is below `axis_margin`. 0 (the paper's) leaves it
-    /// out; online planning, which cannot see the hand's motion beyond a chunk, uses it so
-    /// that the null space keeps the arm away from configurations it could not leave fast
-    /// enough.
+    /// times how far [`axis_separation`](crate::kinematics::axis_separation) is below
+    /// `axis_margin`. 0 (the paper's) leaves it out; online planning, which cannot see the
+    /// hand's motion beyond a chunk, uses it so that the null space keeps the arm away from
+    /// configurations it could not leave fast enough.
     pub w_a: f64,
-    /// Separation (see [`axis_separation`]) below which `w_a` counts.
+    /// Separation (see [`axis_separation`](crate::kinematics::axis_separation)) below which
+    /// `w_a` counts.
     pub axis_margin: f64,
     /// Weight of the cost of the joints' speed headroom: each step adds `w_v` times how far
     /// [`speed_ratio`](crate::kinematics::speed_ratio) of the hand's motion at that step (the
@@ -53,6 +54,7 @@ pub struct OmegaParams {
     /// Largest displacement (m) of any point of the arm between two checked configurations
     /// of a motion; the checks inflate the links by half of it, so they are conservative.
     pub motion_step: f64,
+    /// The IK projection's settings.
     pub ik: IkParams,
     /// Seed of the random IK seeds.
     pub seed: u64,

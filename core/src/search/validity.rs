@@ -13,15 +13,63 @@ use crate::tool::Tool;
 use super::constraints::{OtherArm, OthersMode, PointConstraint};
 use super::workspace::Met;
 
-/// Everything that constrains one robot's states and motions.
+/// Everything that constrains one robot's states and motions. It keeps the arm's last
+/// placing and the other robots' placings at the last two steps asked for (a few tens of KB:
+/// keep it off a very small stack); a check places at most the arm and those robots, and
+/// allocates nothing.
+///
+/// ```
+/// use omcbsa_core::model::{Frame, KinovaGen3};
+/// use omcbsa_core::motion::MOTION_STEP;
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::problem::Robot;
+/// use omcbsa_core::search::{OtherArm, OthersMode, PointConstraint, Validity};
+/// use omcbsa_core::tool::Tool;
+///
+/// let robot = Robot::at(0, Frame::IDENTITY);
+/// let (up, forward) = ([0.0; 7], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+/// // Alone, 0.1 s steps: a Gen3 joint may move 0.14 rad a step.
+/// let alone = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP);
+/// assert_eq!(alone.state(&forward, 0), Some(0));
+/// assert!(!alone.step_within_limits(&up, &forward));
+/// // Out of joint 2's limits (±2.24 rad): refused.
+/// assert_eq!(alone.state(&[0.0, 2.5, 0.0, 0.0, 0.0, 0.0, 0.0], 0), None);
+///
+/// // Another Gen3 standing upright 0.6 m ahead, over two steps.
+/// let path = [up, up];
+/// let other_base = Frame { pos: Vector3::new(0.6, 0.0, 0.0), ..Frame::IDENTITY };
+/// let others = [OtherArm { model: 0, base: other_base, tool: Tool::NONE, path: &path }];
+/// let counting = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP)
+///     .with_others(&others, OthersMode::Count);
+/// assert_eq!(counting.state(&forward, 1), Some(1)); // one collision, counted
+/// let avoiding = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP)
+///     .with_others(&others, OthersMode::Avoid);
+/// assert_eq!(avoiding.state(&forward, 1), None);
+/// assert_eq!(avoiding.state(&up, 1), Some(0));
+///
+/// // A point constraint: not within 1 cm of a point on the upright arm's axis at step 0.
+/// let p = [0.0, 0.0, 0.6];
+/// let keep_off = [PointConstraint { t: 0, segment: false, s: 0.0, p, margin: 0.01 }];
+/// let constrained = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP)
+///     .with_points(&keep_off);
+/// assert_eq!(constrained.state(&up, 0), None);
+/// assert_eq!(constrained.state(&up, 1), Some(0));
+/// ```
 pub struct Validity<'q, M, const D: usize> {
     /// The robot's model, an index into `M`.
     pub model: u8,
+    /// The robot's base frame in the world.
     pub base: Frame,
+    /// What the robot carries.
     pub tool: Tool,
+    /// The fixed obstacles.
     pub obstacles: &'q [Obstacle],
+    /// The other robots' paths (fewer than [`MAX_ROBOTS`], each covering every step asked
+    /// about: a shorter one panics).
     pub others: &'q [OtherArm<'q, D>],
+    /// Whether meeting the other robots is forbidden or counted.
     pub others_mode: OthersMode,
+    /// Where the robot may not be, at a step or an instant of a motion.
     pub points: &'q [PointConstraint],
     /// Time between consecutive steps, s.
     pub dt: f64,

@@ -11,11 +11,18 @@ pub enum Error {
     Suite(suite::Error),
     /// A file could not be read or written.
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the system said.
         source: std::io::Error,
     },
     /// The results table could not be read or written.
-    Csv { path: PathBuf, message: String },
+    Csv {
+        /// The table.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// The options break a rule; the message says which.
     Options(String),
 }

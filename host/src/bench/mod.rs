@@ -49,12 +49,15 @@ pub const QUICK_STRIDE: usize = 15;
 pub const QUICK_TIMEOUT_S: f64 = 1.0;
 /// The results file in the output directory.
 pub const RESULTS_FILE: &str = "results.csv";
+/// The summary table in the output directory.
 pub const SUMMARY_FILE: &str = "summary.md";
 /// Stack of the worker threads: planners keep their fixed-size workspaces on it.
 pub(crate) const WORKER_STACK: usize = 16 << 20;
 
 /// Runs one planner on one problem: the problem as read and as loaded, and the timeout.
 pub trait Solver: Sync {
+    /// Plans `file` (loaded as `problem`) with the planner called `planner` within
+    /// `timeout_s` seconds; `Err` when the run could not happen.
     fn solve(
         &self,
         planner: &str,
@@ -79,8 +82,10 @@ where
     }
 }
 
+/// How `omcbsa bench` runs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchOptions {
+    /// Planner names, run in this order.
     pub planners: Vec<String>,
     /// Per run, seconds.
     pub timeout_s: f64,
@@ -124,14 +129,19 @@ impl BenchOptions {
 /// What a benchmark run did.
 #[derive(Clone, Debug)]
 pub struct BenchReport {
+    /// Where the results were written.
     pub out_dir: PathBuf,
-    /// Runs made now, and runs found in `results.csv` from before.
+    /// Runs made now.
     pub runs: usize,
+    /// Runs found in `results.csv` from before (not run again).
     pub resumed: usize,
     /// Over every row of `results.csv`.
     pub summary: Summary,
+    /// `summary.md`.
     pub summary_path: PathBuf,
+    /// `results.csv`.
     pub results_path: PathBuf,
+    /// The plots drawn (SVG and PNG).
     pub plots: Vec<PathBuf>,
     /// Why the plots were not drawn, if they were not (the rest was still written).
     pub plot_error: Option<String>,

@@ -75,7 +75,7 @@ pub struct Args {
     #[arg(long)]
     reassign: bool,
     /// Weight of the cost of two joint axes nearing one line in the chunks' plans (0: none,
-    /// IK tracking first, as before issue 26's transfer 013 was fixed).
+    /// the chunks planned greedily, IK tracking first).
     #[arg(long, default_value_t = omcbsa::online::AXIS_WEIGHT)]
     axis_weight: f64,
     /// omcbsa or pp.

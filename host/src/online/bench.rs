@@ -18,10 +18,13 @@ use crate::planners::{Capacities, Storage};
 /// Timings of one arm count.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ArmsRow {
+    /// Robots in the problems.
     pub arms: usize,
+    /// Problems of this arm count.
     pub problems: usize,
     /// Planning times of the later chunks, s, and how many were attempted.
     pub chunks: Vec<f64>,
+    /// Later chunks attempted.
     pub attempted: usize,
     /// Planning times of the first chunks, s (solved ones).
     pub first: Vec<f64>,
@@ -139,7 +142,7 @@ pub fn table(rows: &[ArmsRow]) -> String {
     s
 }
 
-/// How the policy's chunks reach the [`Embodier`] in [`bench_episodes`].
+/// How the policy's chunks reach the [`Embodier`] in [`run_episode`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Chunking {
     /// Poses per hand in a chunk.
@@ -155,7 +158,9 @@ pub struct Chunking {
 /// One episode's result.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EpisodeRun {
+    /// Chunks pushed.
     pub chunks: usize,
+    /// Chunks planned.
     pub planned: usize,
     /// Planning times of the chunks after the first, s (planned ones).
     pub later: Vec<f64>,
@@ -247,21 +252,31 @@ pub fn run_episode(
 /// The results of one arm count and chunking.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EpisodeRow {
+    /// Robots in the episodes.
     pub arms: usize,
+    /// How the episodes were cut into chunks (`None`: whole).
     pub chunking: Option<Chunking>,
+    /// Episodes run.
     pub episodes: usize,
+    /// Episodes whose every chunk was planned.
     pub embodied: usize,
+    /// Chunks pushed.
     pub chunks: usize,
+    /// Chunks planned.
     pub planned: usize,
+    /// Chunks planned by a recovery ([`crate::online::Recovery`]).
     pub recovered: usize,
     /// Episodes with a hand pose that no arm reaches ([`super::reach::out_of_reach`]; run
     /// all the same, and not embodied).
     pub out_of_reach: usize,
+    /// Planning times of the chunks after the first, s.
     pub later: Vec<f64>,
+    /// Planning times of the first chunks, s.
     pub first: Vec<f64>,
 }
 
 impl EpisodeRow {
+    /// Counts one episode's result in.
     pub fn add(&mut self, run: &EpisodeRun) {
         self.episodes += 1;
         self.embodied += usize::from(run.embodied);

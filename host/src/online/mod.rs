@@ -58,7 +58,9 @@ use crate::pose;
 pub struct Setup {
     /// Every robot needs `initial`: the arm's configuration when the run starts.
     pub robots: Vec<RobotSpec>,
+    /// Fixed obstacles.
     pub obstacles: Vec<ObstacleSpec>,
+    /// How closely the hands must be followed.
     pub tolerance: ToleranceSpec,
     /// Time between consecutive poses and configurations, s.
     pub dt: f64,
@@ -87,6 +89,7 @@ pub struct OnlineOptions {
     pub max_chunk_len: usize,
     /// Most configurations of the approach to the first chunk.
     pub max_approach_len: usize,
+    /// The approach's settings (to the first chunk, and after a hold).
     pub approach: ApproachParams,
     /// Pool sizes of the planner (allocated once, in [`Embodier::new`]).
     pub capacities: Capacities,
@@ -178,7 +181,7 @@ pub struct ChunkReport {
     /// The chunk's first poses that no arm tracks (reached by an approach instead).
     pub dropped: usize,
     /// How the chunk was planned when it could not be from where the last chunk left the
-    /// arms (see [`recover`]): `None` when it could.
+    /// arms: `None` when it could.
     pub recovery: Option<Recovery>,
     /// Timeline index of the chunk's first pose: the plan from here on is new.
     pub index: usize,
@@ -232,7 +235,55 @@ impl Recovery {
 /// ms with 0.6, 9.2 ms with 0.3 (README, "Online embodiment").
 const CHUNK_RESOLUTION: f64 = 0.3;
 
-/// Plans policy chunks as they arrive (see the module documentation).
+/// Plans policy chunks as they arrive (see the module documentation). Its pools are
+/// allocated once, in [`Embodier::new`] ([`OnlineOptions::capacities`]); the plan kept is
+/// bounded by the chunk length and the approach, however long the run.
+///
+/// ```
+/// use omcbsa::format::{Pose, RobotSpec, ToleranceSpec};
+/// use omcbsa::online::{Embodier, OnlineOptions, Setup};
+/// use omcbsa_core::model::{KinovaGen3, Model};
+///
+/// // One Gen3 standing at Kinova's retract posture.
+/// let arm = RobotSpec {
+///     name: "arm".to_string(),
+///     model: "kinova_gen3".to_string(),
+///     base: Pose::IDENTITY,
+///     initial: Some(vec![0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57]),
+///     tcp: None,
+///     tool: None,
+/// };
+/// let setup = Setup {
+///     robots: vec![arm],
+///     obstacles: Vec::new(),
+///     tolerance: ToleranceSpec::default(),
+///     dt: 0.1,
+/// };
+/// let options = OnlineOptions { max_chunk_len: 8, ..OnlineOptions::default() };
+/// let mut embodier = Embodier::new(&setup, options).unwrap();
+///
+/// // The policy's hand, pointing down, rising 1 cm a step; chunks of 4 poses, 2 apart.
+/// let hand = |k: u64| Pose {
+///     position: [0.5, 0.0, 0.4 + 0.01 * k as f64],
+///     quat_xyzw: [1.0, 0.0, 0.0, 0.0],
+/// };
+/// let chunk = |start: u64| vec![(start..start + 4).map(hand).collect::<Vec<_>>()];
+///
+/// // The first chunk chooses the assignment and an approach from `initial`.
+/// let first = embodier.push_chunk(0, &chunk(0)).unwrap();
+/// assert_eq!(embodier.assignment(), Some(&[Some(0)][..]));
+/// assert_eq!(first.index, embodier.approach_len() + 1);
+///
+/// // The arms are sent the approach; the next chunk replaces the plan from step 2 on.
+/// embodier.commit_until(first.index);
+/// let second = embodier.push_chunk(2, &chunk(2)).unwrap();
+/// assert_eq!(embodier.timeline_index(2), Some(second.index));
+/// for k in 2..6 {
+///     let q = embodier.configuration(0, embodier.timeline_index(k).unwrap()).unwrap();
+///     let z = KinovaGen3::fk(&q).pos.z;
+///     assert!((z - (0.4 + 0.01 * k as f64)).abs() < 1e-3);
+/// }
+/// ```
 pub struct Embodier {
     robots: heapless::Vec<Robot<DOF>, MAX_ROBOTS>,
     /// The setup as a core problem without trajectories.
@@ -263,6 +314,37 @@ pub struct Embodier {
 impl Embodier {
     /// Checks the setup (names the field that breaks a rule) and allocates every pool the
     /// planner will use.
+    ///
+    /// ```
+    /// use omcbsa::format::{Pose, RobotSpec, ToleranceSpec};
+    /// use omcbsa::online::{Embodier, OnlineError, OnlineOptions, Setup};
+    /// use omcbsa::planners::PlannerKind;
+    ///
+    /// let arm = RobotSpec {
+    ///     name: "arm".to_string(),
+    ///     model: "kinova_gen3".to_string(),
+    ///     base: Pose::IDENTITY,
+    ///     initial: None, // where the arm stands is needed online
+    ///     tcp: None,
+    ///     tool: None,
+    /// };
+    /// let setup = Setup {
+    ///     robots: vec![arm],
+    ///     obstacles: Vec::new(),
+    ///     tolerance: ToleranceSpec::default(),
+    ///     dt: 0.1,
+    /// };
+    /// // IK tracking cannot keep an assignment from chunk to chunk.
+    /// let planner = PlannerKind::IkTracking;
+    /// let options = OnlineOptions { planner, ..OnlineOptions::default() };
+    /// match Embodier::new(&setup, options) {
+    ///     Err(OnlineError::Input(e)) => {
+    ///         assert!(e.has("robots[0].initial", "missing"), "{e}");
+    ///         assert!(e.has("planner", "cannot plan online"), "{e}");
+    ///     }
+    ///     other => panic!("{:?}", other.err()),
+    /// }
+    /// ```
     pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
         let mut errors = Errors::default();
         if !matches!(options.planner, PlannerKind::OmCbsa | PlannerKind::Pp) {

@@ -24,7 +24,9 @@ use crate::validate::{validate, Report as Validation};
 /// How the run goes.
 #[derive(Clone, Debug)]
 pub struct RunScript {
+    /// The policy that emits the chunks.
     pub policy: BoxFlipPolicy,
+    /// Chunks the policy emits.
     pub chunks: usize,
     /// A chunk arrives when the arms are this many steps before its first step.
     pub lead_steps: usize,
@@ -35,6 +37,7 @@ pub struct RunScript {
     /// Uniform slow-down over the first chunk's need (velocity and acceleration limits), for
     /// the room later chunks may need.
     pub time_margin: f64,
+    /// How the chunks are planned.
     pub options: OnlineOptions,
     /// Fault detection (the command line's watchdog options).
     pub watch: WatchSettings,
@@ -61,8 +64,11 @@ impl Default for RunScript {
 /// One push to the executor, as replayed afterwards.
 #[derive(Clone, Debug)]
 pub struct Push {
+    /// The control cycle at which the push was made.
     pub cycle: u64,
+    /// The timeline index the pushed waypoints start at.
     pub start: usize,
+    /// Per arm, the waypoints pushed.
     pub waypoints: Vec<Vec<[f64; JOINTS]>>,
 }
 
@@ -73,17 +79,22 @@ pub struct RunOutcome {
     pub latencies: Vec<f64>,
     /// Chunks that were not planned, with why.
     pub chunk_errors: Vec<(usize, OnlineError)>,
+    /// The executor's events (queue dry, resumed).
     pub events: Vec<Event>,
+    /// Every push, for replaying the stream.
     pub pushes: Vec<Push>,
+    /// The executor's report.
     pub exec: Report,
     /// Per arm, the cycles its mock received, all equal to the replayed stream to 1e-6 rad
     /// and within the limits.
     pub cycles: Vec<usize>,
     /// The whole sent timeline against the poses it tracked.
     pub validation: Validation,
+    /// Per robot, the hand it held (`None`: it held still).
     pub assignment: Vec<Option<usize>>,
     /// The whole sent timeline as a problem and solution pair (what `validation` checked).
     pub problem: ProblemFile,
+    /// The sent timeline as a solution file.
     pub solution: SolutionFile,
 }
 

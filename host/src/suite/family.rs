@@ -12,6 +12,7 @@ use super::frames::{aligned, ease, heading, rot, v3, yaw, V3};
 use super::layout::{self, obstacle_box, post, Layout, LayoutKind};
 use crate::models::ModelKind;
 
+/// The benchmark suite's motion families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
     /// Every hand moves right to left under a shelf.
@@ -30,7 +31,7 @@ pub enum Family {
     /// hand collides (see `standing`): the approach is the hard part.
     Approach,
     /// The random family's motions on a mixed fleet: the arms alternate between the models of
-    /// [`MIXED_MODELS`] (2 + 2 and 3 + 3).
+    /// `MIXED_MODELS` (2 + 2 and 3 + 3).
     Mixed,
 }
 
@@ -40,6 +41,7 @@ pub const MIXED_MODELS: [&str; 2] = ["kinova_gen3", "franka_panda"];
 const MIXED_LIFT: [f64; 2] = [0.0, 0.3];
 
 impl Family {
+    /// Every family, in the suite's order.
     pub const ALL: [Family; 8] = [
         Family::Sweep,
         Family::BoxFlip,
@@ -59,6 +61,7 @@ impl Family {
         })
     }
 
+    /// The family's name (`sweep`, `box_flip`, ...).
     pub fn name(self) -> &'static str {
         match self {
             Family::Sweep => "sweep",

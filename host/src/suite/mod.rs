@@ -12,7 +12,7 @@
 //! order, so the listed order is not the assignment.
 //!
 //! Resampling: a task whose witness search fails is resampled, up to [`TASK_SAMPLES`] samples
-//! ([`RANDOM_SAMPLES`] for the random family, [`MIXED_SAMPLES`] for the mixed one). A sample
+//! (`RANDOM_SAMPLES` for the random family, `MIXED_SAMPLES` for the mixed one). A sample
 //! with a witness that the IK-tracking baseline still solves (within a fixed budget of work,
 //! see `myopic`) is also resampled, up to [`HARD_SAMPLES`] samples with a witness; then the first of them is kept. These are the
 //! only two grounds: no other planner is run, so the suite is not biased for or against any
@@ -65,6 +65,7 @@ const RANDOM_SAMPLES: u64 = 64;
 /// as a Gen3.
 const MIXED_SAMPLES: u64 = 256;
 
+/// How `omcbsa gen-bench` generates the suite.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GenOptions {
     /// Seed of the whole suite.
@@ -89,8 +90,11 @@ impl Default for GenOptions {
 /// What [`gen_bench`] wrote.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GenReport {
+    /// Problems written.
     pub problems: usize,
+    /// Of them, those with a witness solution.
     pub known_solvable: usize,
+    /// Wall time of generation, s.
     pub seconds: f64,
 }
 
@@ -98,8 +102,11 @@ pub struct GenReport {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SuiteIndex {
+    /// The index's format string.
     pub format: String,
+    /// The seed of the whole suite.
     pub seed: u64,
+    /// Every problem.
     pub problems: Vec<SuiteEntry>,
 }
 
@@ -107,15 +114,22 @@ pub struct SuiteIndex {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SuiteEntry {
+    /// The problem's name.
     pub name: String,
     /// The problem file, relative to the suite directory.
     pub file: String,
+    /// Its motion family.
     pub family: String,
+    /// Its layout of arms.
     pub layout: String,
+    /// Robots in it.
     pub robots: usize,
+    /// Trajectories in it.
     pub trajectories: usize,
+    /// Steps of every trajectory.
     #[serde(rename = "H")]
     pub horizon: usize,
+    /// Whether a witness solution shows it solvable.
     pub known_solvable: bool,
     /// The seed the problem was generated from.
     pub seed: u64,
@@ -131,18 +145,37 @@ pub struct SuiteEntry {
     pub straight_bridge_collides: Option<bool>,
 }
 
+/// Why the suite could not be generated or read.
 #[derive(Debug)]
 pub enum Error {
+    /// A file could not be read or written.
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the system said.
         source: std::io::Error,
     },
     /// A suite index that cannot be read.
-    Index { path: PathBuf, message: String },
+    Index {
+        /// The index file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// The generator made a problem it cannot stand behind (a bug, reported, not written).
-    Generation { problem: String, message: String },
+    Generation {
+        /// The problem's name.
+        problem: String,
+        /// What is wrong with it.
+        message: String,
+    },
     /// No sample of a random-family problem had a motion to build it from.
-    NoMotion { problem: String, samples: u64 },
+    NoMotion {
+        /// The problem's name.
+        problem: String,
+        /// Samples tried.
+        samples: u64,
+    },
 }
 
 impl std::fmt::Display for Error {

@@ -1,4 +1,4 @@
-//! The refinement family (`omcbsa gen-bench --refine N`, issue #12): problems with a validated
+//! The refinement family (`omcbsa gen-bench --refine N`): problems with a validated
 //! witness on which Ω-CBSA's first refinement level finds no plan.
 //!
 //! Candidates come from the suite's own generator (every motion family, layout and arm count,
@@ -30,6 +30,7 @@ use crate::load;
 use crate::models::DOF;
 use crate::planners::{Capacities, Storage};
 
+/// How `omcbsa gen-bench --refine` finds its problems.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefineOptions {
     /// Seed of the candidates (not the suite's, so the family shares no problem with it).
