@@ -12,6 +12,7 @@ pub mod fk;
 pub mod gen_bench;
 pub mod ik;
 mod lines;
+mod live;
 pub mod online;
 pub mod plan;
 pub mod validate;

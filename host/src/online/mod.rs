@@ -24,6 +24,7 @@
 pub mod aloha;
 pub mod bench;
 pub mod bimanual;
+mod checkpoint;
 mod chunk;
 pub(crate) mod diagnose;
 mod embody;
@@ -36,6 +37,7 @@ pub mod run;
 mod scaling;
 mod timeline;
 
+pub use checkpoint::Checkpoint;
 pub use error::OnlineError;
 pub use timeline::Target;
 
@@ -433,6 +435,11 @@ impl Embodier {
     /// Robot names, in the setup's order.
     pub fn robot_names(&self) -> &[String] {
         &self.names
+    }
+
+    /// Where the arms are and what is around them, as given.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
     }
 
     /// Per robot, the hand it holds (`None`: it holds still), once the first chunk chose it.

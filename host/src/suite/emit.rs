@@ -13,7 +13,9 @@ use super::layout::{Layout, NamedObstacle};
 use super::myopic::ik_tracking_solves;
 use super::standing::{clear_of, stand_anywhere, stand_clear, witness_approach};
 use super::trap::traps;
-use super::witness::{random_motion, retract, shuffle, task_witness, Arms, Placed, Scene, Q};
+use super::witness::{
+    random_motion, retract, shuffle, task_witness, Arms, MotionSpec, Placed, Scene, Q,
+};
 use super::{
     Error, Spec, SuiteEntry, HARD_SAMPLES, MIXED_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR,
 };
@@ -146,16 +148,14 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
                         path: p.path.clone(),
                     })
                     .collect();
-                let path = random_motion(
-                    &scene,
+                let spec = MotionSpec {
                     model,
-                    &base,
-                    &layout.stations[arm],
+                    base: &base,
+                    station: &layout.stations[arm],
                     h,
-                    holder != Some(arm),
-                    &others,
-                    rng,
-                )?;
+                    moving: holder != Some(arm),
+                };
+                let path = random_motion(&scene, &spec, &others, rng)?;
                 placed.push((arm, Placed { model, base, path }));
             }
             placed.sort_by_key(|(arm, _)| *arm);
