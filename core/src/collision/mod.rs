@@ -8,6 +8,10 @@
 
 use core::marker::PhantomData;
 
+mod batch;
+
+pub use batch::{ArmLanes, Boxes};
+
 use nalgebra::Vector3;
 
 use crate::geometry::{Aabb, Capsule, Contact, Obstacle};
@@ -154,6 +158,11 @@ impl ArmPose {
     /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
     pub fn capsules(&self) -> &[Capsule] {
         &self.capsules[..self.len]
+    }
+
+    /// The box around capsule `i` (empty for one not placed).
+    pub fn capsule_box(&self, i: usize) -> Aabb {
+        self.boxes[i]
     }
 
     /// Which tool capsule capsule `i` is (`None`: a link capsule).

@@ -1,0 +1,309 @@
+//! The batched kernel against the scalar path, bit for bit: kinematics and capsule placing
+//! of [`LANES`] configurations at once equal [`ArmPose`] of each, and the batched checks hit
+//! in exactly the lanes where the scalar checks do. Property tests on random configurations,
+//! scenes, tools, second arms and margins: 100,000 configurations per model (Gen3, Panda),
+//! with hits and misses of each check counted so that both are exercised.
+
+use std::cell::RefCell;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use omcbsa_core::collision::{ArmLanes, ArmPose};
+use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
+use omcbsa_core::lanes::{F64s, Mask, LANES};
+use omcbsa_core::model::{Frame, FrameOf, FrankaPanda, KinovaGen3, Model};
+use omcbsa_core::tool::{Tool, ToolCapsule};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestRunner};
+
+const D: usize = 7;
+/// Configurations checked per model.
+const CONFIGURATIONS: u32 = 100_000;
+
+fn frame(p: [f64; 3], axis_angle: [f64; 3]) -> Frame {
+    Frame {
+        rot: *Rotation3::from_scaled_axis(Vector3::from(axis_angle)).matrix(),
+        pos: Vector3::from(p),
+    }
+}
+
+fn obstacle() -> impl Strategy<Value = Obstacle> {
+    let shape = prop_oneof![
+        prop::array::uniform3(0.01..0.3f64).prop_map(|half_extents| Shape::Box { half_extents }),
+        (0.01..0.2f64).prop_map(|radius| Shape::Sphere { radius }),
+        (0.01..0.1f64, 0.0..0.3f64).prop_map(|(radius, half_length)| Shape::Capsule {
+            radius,
+            half_length
+        }),
+        (0.01..0.1f64, 0.0..0.3f64).prop_map(|(radius, half_length)| Shape::Cylinder {
+            radius,
+            half_length
+        }),
+    ];
+    let at = (-0.9..0.9f64, -0.9..0.9f64, -0.2..1.2f64);
+    (shape, at, prop::array::uniform3(-3.0..3.0f64)).prop_map(|(shape, (x, y, z), r)| Obstacle {
+        shape,
+        pose: frame([x, y, z], r),
+    })
+}
+
+fn tool() -> impl Strategy<Value = Tool> {
+    let capsule = (
+        prop::array::uniform3(-0.1..0.1f64),
+        prop::array::uniform3(-0.1..0.3f64),
+        0.005..0.06f64,
+    )
+        .prop_map(|(a, b, radius)| ToolCapsule { a, b, radius });
+    prop::collection::vec(capsule, 0..3).prop_map(|c| Tool::new(&c).expect("fits"))
+}
+
+/// One case: two arms of model `M` at a batch of configurations each, a scene, a margin.
+#[derive(Debug, Clone)]
+struct Case {
+    qs: Vec<[f64; D]>,
+    others: Vec<[f64; D]>,
+    base: Frame,
+    other_base: Frame,
+    tool: Tool,
+    obstacles: Vec<Obstacle>,
+    margin: f64,
+}
+
+fn case<M: Model<D>>() -> impl Strategy<Value = Case> {
+    let joint = |j: usize| {
+        let (lo, hi) = (M::LOWER[j].max(-3.2), M::UPPER[j].min(3.2));
+        lo..=hi
+    };
+    let config = move || -> [std::ops::RangeInclusive<f64>; D] { core::array::from_fn(joint) };
+    // Mostly full batches, some shorter.
+    let lanes = prop_oneof![7 => Just(LANES), 1 => 1..LANES];
+    let batches = lanes.prop_flat_map(move |n| {
+        (
+            prop::collection::vec(config(), n),
+            prop::collection::vec(config(), n),
+        )
+    });
+    (
+        batches,
+        (0.2..1.0f64, -0.6..0.6f64, -3.2..3.2f64),
+        tool(),
+        prop::collection::vec(obstacle(), 0..8),
+        prop_oneof![Just(0.0), 0.0..0.05f64],
+        (-0.1..0.1f64, -0.1..0.1f64),
+    )
+        .prop_map(
+            |((qs, others), (x, y, yaw), tool, obstacles, margin, (bx, by))| Case {
+                others,
+                qs,
+                base: frame([bx, by, 0.0], [0.0, 0.0, 0.0]),
+                other_base: frame([x, y, 0.0], [0.0, 0.0, yaw]),
+                tool,
+                obstacles,
+                margin,
+            },
+        )
+}
+
+/// Hits and misses seen per check: obstacles, self, arms.
+#[derive(Default, Debug)]
+struct Seen {
+    configurations: u32,
+    hits: [u32; 3],
+}
+
+/// The bits of a number, every NaN alike (which of two NaN operands an operation passes on is
+/// the hardware's choice, and nothing reads a NaN's bits).
+fn bits(v: &f64) -> u64 {
+    if v.is_nan() {
+        f64::NAN.to_bits()
+    } else {
+        v.to_bits()
+    }
+}
+
+/// The bits of every number of `f`.
+fn frame_bits(f: &Frame) -> Vec<u64> {
+    f.rot.iter().chain(f.pos.iter()).map(bits).collect()
+}
+
+fn capsule_bits(c: &Capsule) -> Vec<u64> {
+    let s = &c.segment;
+    (s.a.iter().chain(s.b.iter()).chain([&c.radius]))
+        .map(bits)
+        .collect()
+}
+
+fn box_bits(b: &Aabb) -> Vec<u64> {
+    b.min.iter().chain(b.max.iter()).map(bits).collect()
+}
+
+/// Lane `k` of `batch` is `pose`, bit for bit: capsules, their boxes, the arm's box.
+fn same_pose(batch: &ArmLanes, k: usize, pose: &ArmPose) -> Result<(), TestCaseError> {
+    let got = batch.pose(k);
+    prop_assert_eq!(got.capsules().len(), pose.capsules().len());
+    prop_assert_eq!(
+        box_bits(got.aabb()),
+        box_bits(pose.aabb()),
+        "arm box, lane {}",
+        k
+    );
+    for (i, (a, b)) in got.capsules().iter().zip(pose.capsules()).enumerate() {
+        prop_assert_eq!(
+            capsule_bits(a),
+            capsule_bits(b),
+            "capsule {}, lane {}",
+            i,
+            k
+        );
+        prop_assert_eq!(
+            box_bits(&got.capsule_box(i)),
+            box_bits(&pose.capsule_box(i)),
+            "box {}, lane {}",
+            i,
+            k
+        );
+    }
+    Ok(())
+}
+
+fn check<M: Model<D>>(c: &Case, seen: &mut Seen) -> Result<(), TestCaseError> {
+    let (mut mine, mut theirs) = (ArmLanes::EMPTY, ArmLanes::EMPTY);
+    mine.place::<M, D>(0, &c.base, &c.tool, &c.qs);
+    theirs.place::<M, D>(0, &c.other_base, &Tool::NONE, &c.others);
+    let n = c.qs.len();
+    prop_assert_eq!(mine.lanes(), ((1u16 << n) - 1) as Mask);
+    let (mut obstacles, mut itself, mut arms): (Mask, Mask, Mask) = (0, 0, 0);
+    for k in 0..n {
+        let pose = ArmPose::new::<M, D>(0, &c.base, &c.tool, &c.qs[k]);
+        let other = ArmPose::new::<M, D>(0, &c.other_base, &Tool::NONE, &c.others[k]);
+        same_pose(&mine, k, &pose)?;
+        same_pose(&theirs, k, &other)?;
+        obstacles |= Mask::from(pose.obstacle_hit(&c.obstacles, c.margin).is_some()) << k;
+        itself |= Mask::from(pose.self_hit(c.margin).is_some()) << k;
+        arms |= Mask::from(pose.arm_hit(&other, c.margin).is_some()) << k;
+    }
+    prop_assert_eq!(mine.obstacle_hits(&c.obstacles, c.margin), obstacles);
+    prop_assert_eq!(mine.self_hits(c.margin), itself);
+    prop_assert_eq!(mine.arm_hits(&theirs, c.margin), arms);
+    // Every lane against one pose, as a planner checks a batch against an arm standing.
+    let standing = ArmPose::new::<M, D>(0, &c.other_base, &Tool::NONE, &c.others[0]);
+    let against: Mask = (0..n)
+        .map(|k| {
+            let pose = ArmPose::new::<M, D>(0, &c.base, &c.tool, &c.qs[k]);
+            Mask::from(pose.arm_hit(&standing, c.margin).is_some()) << k
+        })
+        .fold(0, |m, b| m | b);
+    prop_assert_eq!(
+        mine.arm_hits(&ArmLanes::splat(&standing), c.margin),
+        against
+    );
+    seen.configurations += n as u32;
+    for (h, m) in seen.hits.iter_mut().zip([obstacles, itself, arms]) {
+        *h += m.count_ones();
+    }
+    Ok(())
+}
+
+fn equals_scalar<M: Model<D>>() {
+    let seen = RefCell::new(Seen::default());
+    // Cases of one to LANES configurations: 7.5 each on average.
+    let cases = CONFIGURATIONS.div_ceil(7);
+    let mut runner = TestRunner::new(Config {
+        cases,
+        failure_persistence: None,
+        ..Config::default()
+    });
+    let result = runner.run(&case::<M>(), |c| check::<M>(&c, &mut seen.borrow_mut()));
+    if let Err(e) = result {
+        panic!("{}: {e}", M::NAME);
+    }
+    let seen = seen.into_inner();
+    println!("{}: {seen:?}", M::NAME);
+    assert!(seen.configurations >= CONFIGURATIONS, "{seen:?}");
+    // Hits and misses alike, of every check.
+    for h in seen.hits {
+        let share = f64::from(h) / f64::from(seen.configurations);
+        assert!((0.05..=0.95).contains(&share), "{}: {seen:?}", M::NAME);
+    }
+}
+
+#[test]
+fn gen3_batches_equal_single_configurations() {
+    equals_scalar::<KinovaGen3>();
+}
+
+#[test]
+fn panda_batches_equal_single_configurations() {
+    equals_scalar::<FrankaPanda>();
+}
+
+/// Forward kinematics of a batch, tool frame and every link frame, equal single calls bit for
+/// bit, out-of-range angles (the trigonometry's slow path) included.
+#[test]
+fn kinematics_of_a_batch_equal_single_configurations() {
+    fn run<M: Model<D>>() {
+        let mut runner = TestRunner::new(Config {
+            cases: 2000,
+            failure_persistence: None,
+            ..Config::default()
+        });
+        let angle = prop_oneof![
+            8 => -3.2..3.2f64,
+            1 => -1e6..1e6f64,
+            1 => Just(f64::NAN),
+        ];
+        let batch = prop::collection::vec(prop::array::uniform7(angle), LANES);
+        let result = runner.run(&batch, |qs| {
+            let q: [F64s; D] =
+                core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| qs[k][j])));
+            let tool = M::fk_lanes(&q);
+            let n = M::LINK_NAMES.len();
+            let mut frames = [FrameOf::<F64s>::identity(); 16];
+            let last = M::link_frames_lanes(&q, &mut frames[..n]);
+            for (k, qk) in qs.iter().enumerate() {
+                let same = |a: &Frame, b: &Frame| frame_bits(a) == frame_bits(b);
+                prop_assert!(same(&tool.lane(k), &M::fk(qk)), "fk, lane {k}");
+                let mut one = [Frame::IDENTITY; 16];
+                let single = M::link_frames(qk, &mut one[..n]);
+                prop_assert!(same(&last.lane(k), &single), "tool frame, lane {k}");
+                for i in 0..n {
+                    prop_assert!(same(&frames[i].lane(k), &one[i]), "link {i}, lane {k}");
+                }
+            }
+            Ok(())
+        });
+        if let Err(e) = result {
+            panic!("{}: {e}", M::NAME);
+        }
+    }
+    run::<KinovaGen3>();
+    run::<FrankaPanda>();
+}
+
+/// A frame composed over lanes is nalgebra's product, bit for bit.
+#[test]
+fn composing_frames_is_nalgebras_product() {
+    let mut runner = TestRunner::new(Config {
+        cases: 10_000,
+        failure_persistence: None,
+        ..Config::default()
+    });
+    let m = || prop::array::uniform12(-2.0..2.0f64);
+    let result = runner.run(&(m(), m()), |(a, b)| {
+        let f = |v: [f64; 12]| Frame {
+            rot: Matrix3::from_row_slice(&v[..9]),
+            pos: Vector3::new(v[9], v[10], v[11]),
+        };
+        let (a, b) = (f(a), f(b));
+        let ours = FrameOf::<f64>::splat(&a).compose(&FrameOf::splat(&b));
+        prop_assert_eq!(frame_bits(&Frame::from(ours)), frame_bits(&a.compose(&b)));
+        let p = [b.pos.x, b.pos.y, b.pos.z];
+        let applied = Vector3::from(FrameOf::<f64>::splat(&a).apply(&p));
+        let want = a.apply(&b.pos);
+        prop_assert!(applied
+            .iter()
+            .zip(want.iter())
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+        Ok(())
+    });
+    result.unwrap();
+}
