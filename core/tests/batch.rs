@@ -7,7 +7,7 @@
 use std::cell::RefCell;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
-use omcbsa_core::collision::{ArmLanes, ArmPose};
+use omcbsa_core::collision::{sweeps_collide, ArmLanes, ArmPose, Placing, Sweep};
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrameOf, FrankaPanda, KinovaGen3, Model};
@@ -18,6 +18,8 @@ use proptest::test_runner::{Config, TestRunner};
 const D: usize = 7;
 /// Configurations checked per model.
 const CONFIGURATIONS: u32 = 100_000;
+/// Motions checked per model, each three ways (an arm alone, two arms moving, one standing).
+const MOTIONS: u32 = 10_000;
 
 fn frame(p: [f64; 3], axis_angle: [f64; 3]) -> Frame {
     Frame {
@@ -234,6 +236,104 @@ fn gen3_batches_equal_single_configurations() {
 #[test]
 fn panda_batches_equal_single_configurations() {
     equals_scalar::<FrankaPanda>();
+}
+
+/// A motion of each arm: from its configuration to another, near or far.
+#[derive(Debug, Clone)]
+struct Motions {
+    case: Case,
+    to: Vec<[f64; D]>,
+    step: f64,
+}
+
+fn motions<M: Model<D>>() -> impl Strategy<Value = Motions> {
+    let reach = prop_oneof![0.02..0.2f64, 0.2..1.5f64, 1.5..5.0f64];
+    (
+        case::<M>(),
+        prop::collection::vec(prop::array::uniform7(-1.0..1.0f64), 2),
+        reach,
+        prop_oneof![Just(0.01), 0.005..0.05f64],
+    )
+        .prop_map(|(case, dirs, reach, step)| {
+            let to = (case.qs.iter().zip(&case.others))
+                .take(1)
+                .flat_map(|(a, b)| [a, b])
+                .zip(&dirs)
+                .map(|(q, d)| {
+                    core::array::from_fn(|j| {
+                        (q[j] + reach * d[j]).clamp(M::LOWER[j].max(-3.2), M::UPPER[j].min(3.2))
+                    })
+                })
+                .collect();
+            Motions { case, to, step }
+        })
+}
+
+/// Motion checks placing a rake of configurations per call answer as those placing one at a
+/// time: an arm against the obstacles and itself, and two arms moving at once (or one of them
+/// standing).
+#[test]
+fn raked_motion_checks_equal_single_placings() {
+    fn run<M: Model<D>>() {
+        let seen = RefCell::new([0u32; 4]);
+        let mut runner = TestRunner::new(Config {
+            cases: MOTIONS,
+            failure_persistence: None,
+            ..Config::default()
+        });
+        let result = runner.run(&motions::<M>(), |m| {
+            let c = &m.case;
+            let (from, to) = ((c.qs[0], c.others[0]), (m.to[0], m.to[1]));
+            let sweep = |a: &[f64; D], b: &[f64; D], tool: &Tool, p: Placing| {
+                Sweep::<M, D>::new(0, tool, a, b, m.step).with_placing(p)
+            };
+            let mut seen = seen.borrow_mut();
+            let own = |p| sweep(&from.0, &to.0, &c.tool, p).arm_collides(&c.base, &c.obstacles);
+            let hit = own(Placing::Rake);
+            prop_assert_eq!(hit, own(Placing::Single), "own motion");
+            seen[0] += u32::from(hit);
+            seen[1] += 1;
+            let pair = |p, still: bool| {
+                let theirs = if still { &from.1 } else { &to.1 };
+                sweeps_collide(
+                    &sweep(&from.0, &to.0, &c.tool, p),
+                    &c.base,
+                    &sweep(&from.1, theirs, &Tool::NONE, p),
+                    &c.other_base,
+                )
+            };
+            for still in [false, true] {
+                let hit = pair(Placing::Rake, still);
+                prop_assert_eq!(
+                    hit,
+                    pair(Placing::Single, still),
+                    "two arms, still {}",
+                    still
+                );
+                seen[2] += u32::from(hit);
+                seen[3] += 1;
+            }
+            Ok(())
+        });
+        if let Err(e) = result {
+            panic!("{}: {e}", M::NAME);
+        }
+        let seen = seen.into_inner();
+        println!(
+            "{}: own {}/{}, pairs {}/{} collide",
+            M::NAME,
+            seen[0],
+            seen[1],
+            seen[2],
+            seen[3]
+        );
+        for (hits, all) in [(seen[0], seen[1]), (seen[2], seen[3])] {
+            let share = f64::from(hits) / f64::from(all);
+            assert!((0.05..=0.95).contains(&share), "{}: {seen:?}", M::NAME);
+        }
+    }
+    run::<KinovaGen3>();
+    run::<FrankaPanda>();
 }
 
 /// Forward kinematics of a batch, tool frame and every link frame, equal single calls bit for

@@ -20,7 +20,7 @@ use crate::model::{Frame, FrameOf, Models};
 use crate::tool::Tool;
 
 /// Three coordinates, a lane each.
-type Point = [F64s; 3];
+pub(super) type Point = [F64s; 3];
 
 /// An axis-aligned box per lane, as [`Aabb`]: `min..=max`.
 #[derive(Clone, Copy, Debug)]
@@ -147,37 +147,22 @@ impl ArmLanes {
         lanes: Mask,
         only: u32,
     ) {
-        const { M::CHECKED };
-        let mut frames = [FrameOf::<F64s>::identity(); MAX_LINK_FRAMES];
-        let linked = &mut frames[..M::link_names(model).len()];
-        let base = FrameOf::<F64s>::splat(base);
-        let flange = base.compose(&M::link_frames_lanes(model, q, linked));
-        for f in linked.iter_mut() {
-            *f = base.compose(f);
-        }
-        let capsules = M::capsules(model);
-        let links = capsules.len();
-        self.len = links + tool.capsules().len();
-        self.links = links;
+        self.len = M::capsules(model).len() + tool.capsules().len();
+        self.links = M::capsules(model).len();
         self.self_pairs = M::self_pairs(model);
         self.tool_self = M::tool_self_capsules(model);
         self.on_base = 0;
         self.aabb = Boxes::EMPTY;
         self.moving_aabb = Boxes::EMPTY;
         self.lanes = lanes;
-        let placed = capsules
-            .iter()
-            .map(|c| (&frames[usize::from(c.link)], c.a, c.b, c.radius))
-            .chain((tool.capsules().iter()).map(|c| (&flange, c.a, c.b, c.radius)));
-        for (i, (frame, a, b, radius)) in placed.enumerate() {
+        for i in 0..self.len {
             if only & (1 << i) == 0 {
                 (self.a[i], self.b[i]) = (ArmLanes::EMPTY.a[0], ArmLanes::EMPTY.b[0]);
                 self.radius[i] = 0.0;
                 self.boxes[i] = Boxes::EMPTY;
-                continue;
             }
-            let a = frame.apply(&a.map(F64s::splat));
-            let b = frame.apply(&b.map(F64s::splat));
+        }
+        place_ends::<M, D>(model, base, tool, q, only, |i, a, b, radius, on_base| {
             // `Capsule::aabb`.
             let r = F64s::splat(radius);
             let aabb = Boxes {
@@ -187,12 +172,12 @@ impl ArmLanes {
             (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
             self.boxes[i] = aabb;
             self.aabb = self.aabb.union(&aabb);
-            if i < links && capsules[i].link == 0 {
+            if on_base {
                 self.on_base |= 1 << i;
             } else {
                 self.moving_aabb = self.moving_aabb.union(&aabb);
             }
-        }
+        });
     }
 
     /// Every lane the pose `pose`.
@@ -320,5 +305,48 @@ impl ArmLanes {
             }
         }
         hit
+    }
+}
+
+/// Places the arm of model `model` of `M`, its base frame at `base`, carrying `tool`, at
+/// configuration `q` (a lane each) and hands each capsule in `only`, in order, to
+/// `each(index, a, b, radius, on the base link)`: [`ArmPose::place_only`]'s operations, lane
+/// by lane.
+#[inline(always)]
+pub(super) fn place_ends<M: Models<D>, const D: usize>(
+    model: u8,
+    base: &Frame,
+    tool: &Tool,
+    q: &[F64s; D],
+    only: u32,
+    mut each: impl FnMut(usize, Point, Point, f64, bool),
+) {
+    const { M::CHECKED };
+    let mut frames = [FrameOf::<F64s>::identity(); MAX_LINK_FRAMES];
+    let linked = &mut frames[..M::link_names(model).len()];
+    let base = FrameOf::<F64s>::splat(base);
+    let flange = base.compose(&M::link_frames_lanes(model, q, linked));
+    for f in linked.iter_mut() {
+        *f = base.compose(f);
+    }
+    let capsules = M::capsules(model);
+    let placed = capsules
+        .iter()
+        .map(|c| {
+            (
+                &frames[usize::from(c.link)],
+                c.a,
+                c.b,
+                c.radius,
+                c.link == 0,
+            )
+        })
+        .chain((tool.capsules().iter()).map(|c| (&flange, c.a, c.b, c.radius, false)));
+    for (i, (frame, a, b, radius, on_base)) in placed.enumerate() {
+        if only & (1 << i) != 0 {
+            let a = frame.apply(&a.map(F64s::splat));
+            let b = frame.apply(&b.map(F64s::splat));
+            each(i, a, b, radius, on_base);
+        }
     }
 }
