@@ -27,7 +27,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{Rotation3, Vector3};
-use omcbsa_core::collision::{ArmLanes, ArmPose};
+use omcbsa_core::collision::{sweeps_collide_posed, ArmLanes, ArmPose, Placing, Sweep};
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
 use omcbsa_core::lanes::{F64s, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
@@ -349,11 +349,102 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
     }
 }
 
+/// Whether the composite motion `from -> to` collides, placing as `placing` says: each arm
+/// against the obstacles and itself, then every pair, as the approach's composite check.
+fn motion_collides<M: Model<D>>(
+    fleet: &Fleet,
+    from: &[[f64; D]],
+    to: &[[f64; D]],
+    placing: Placing,
+) -> bool {
+    let sweeps: Vec<Sweep<M, D>> = (from.iter().zip(to))
+        .map(|(a, b)| Sweep::new(0, &Tool::NONE, a, b, MOTION_STEP).with_placing(placing))
+        .collect();
+    let ends: Vec<[ArmPose; 2]> = (sweeps.iter().zip(&fleet.bases))
+        .map(|(s, b)| s.ends(b))
+        .collect();
+    for ((s, b), e) in sweeps.iter().zip(&fleet.bases).zip(&ends) {
+        if s.arm_collides_posed(b, &fleet.obstacles, [&e[0], &e[1]]) {
+            return true;
+        }
+    }
+    let n = sweeps.len();
+    (0..n).any(|i| {
+        (i + 1..n).any(|k| {
+            let (ei, ek) = (&ends[i], &ends[k]);
+            sweeps_collide_posed(
+                &sweeps[i],
+                &fleet.bases[i],
+                [&ei[0], &ei[1]],
+                &sweeps[k],
+                &fleet.bases[k],
+                [&ek[0], &ek[1]],
+            )
+        })
+    })
+}
+
+/// `CASES` collision-free composite motions from collision-free configurations, every joint
+/// turning by `turn` (random sign; less where its limits are closer).
+fn motions<M: Model<D>>(
+    fleet: &Fleet,
+    turn: f64,
+    rng: &mut Rng,
+) -> Vec<(Vec<[f64; D]>, Vec<[f64; D]>)> {
+    let mut out = Vec::new();
+    let mut poses = fleet.poses::<M>(&vec![[0.0; D]; fleet.bases.len()]);
+    while out.len() < CASES / 4 {
+        let from = configs::<M>(fleet, true, rng).swap_remove(0);
+        for _ in 0..100 {
+            let to: Vec<[f64; D]> = (from.iter())
+                .map(|q| {
+                    core::array::from_fn(|j| {
+                        let sign = if rng.next_f64() < 0.5 { -1.0 } else { 1.0 };
+                        let (lo, hi) = (M::LOWER[j].max(-3.1), M::UPPER[j].min(3.1));
+                        (q[j] + sign * turn).clamp(lo, hi)
+                    })
+                })
+                .collect();
+            if !fleet.collides::<M>(&to, &mut poses)
+                && !motion_collides::<M>(fleet, &from, &to, Placing::Single)
+            {
+                out.push((from, to));
+                break;
+            }
+        }
+    }
+    out
+}
+
+fn motion_checks<M: Model<D>>(c: &mut Criterion, name: &str) {
+    for arms in [1, 3] {
+        let fleet = Fleet::new(arms);
+        for turn in [0.1, 1.0, 5.0] {
+            let mut rng = Rng::new(11 + arms as u64);
+            let cases = motions::<M>(&fleet, turn, &mut rng);
+            let mut g = c.benchmark_group(format!("motion/{name}/{arms}arms/{turn}rad"));
+            for (label, placing) in [("single", Placing::Single), ("batched", Placing::Rake)] {
+                g.bench_function(label, |b| {
+                    let mut i = 0;
+                    b.iter(|| {
+                        i = (i + 1) % cases.len();
+                        let (from, to) = &cases[i];
+                        motion_collides::<M>(&fleet, black_box(from), black_box(to), placing)
+                    })
+                });
+            }
+            g.finish();
+        }
+    }
+}
+
 fn collision(c: &mut Criterion) {
     fk::<KinovaGen3>(c, "gen3");
     fk::<FrankaPanda>(c, "panda");
     configurations::<KinovaGen3>(c, "gen3");
     configurations::<FrankaPanda>(c, "panda");
+    motion_checks::<KinovaGen3>(c, "gen3");
+    motion_checks::<FrankaPanda>(c, "panda");
 }
 
 criterion_group!(benches, collision);

@@ -11,6 +11,7 @@ use omcbsa_core::collision::{sweeps_collide, ArmLanes, ArmPose, Placing, Sweep};
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrameOf, FrankaPanda, KinovaGen3, Model};
+use omcbsa_core::search::{OtherArm, OthersMode, PointConstraint, Validity};
 use omcbsa_core::tool::{Tool, ToolCapsule};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -194,10 +195,7 @@ fn check<M: Model<D>>(c: &Case, seen: &mut Seen) -> Result<(), TestCaseError> {
             Mask::from(pose.arm_hit(&standing, c.margin).is_some()) << k
         })
         .fold(0, |m, b| m | b);
-    prop_assert_eq!(
-        mine.arm_hits(&ArmLanes::splat(&standing), c.margin),
-        against
-    );
+    prop_assert_eq!(mine.arm_hits_pose(&standing, c.margin), against);
     seen.configurations += n as u32;
     for (h, m) in seen.hits.iter_mut().zip([obstacles, itself, arms]) {
         *h += m.count_ones();
@@ -236,6 +234,92 @@ fn gen3_batches_equal_single_configurations() {
 #[test]
 fn panda_batches_equal_single_configurations() {
     equals_scalar::<FrankaPanda>();
+}
+
+/// The planners' state check of a batch ([`Validity::states_met`], Ω-A*'s successors) answers
+/// as one configuration at a time: joint limits, obstacles, itself, point constraints and
+/// other arms, avoided or counted.
+#[test]
+fn batched_state_checks_equal_single_ones() {
+    fn run<M: Model<D>>() {
+        let mut runner = TestRunner::new(Config {
+            cases: 2000,
+            failure_persistence: None,
+            ..Config::default()
+        });
+        let strategy = (
+            case::<M>(),
+            prop::bool::ANY,
+            prop::array::uniform3(-0.8..0.8f64),
+            0.0..0.3f64,
+            prop::collection::vec(0.0..1.0f64, LANES),
+        );
+        let counts = RefCell::new((0, 0));
+        let result = runner.run(&strategy, |(c, count, p, margin, out_of_limits)| {
+            // A few configurations past a joint limit.
+            let qs: Vec<[f64; D]> = (c.qs.iter().zip(&out_of_limits))
+                .map(|(q, &f)| {
+                    let mut q = *q;
+                    if f < 0.1 {
+                        q[1] = M::UPPER[1] + f;
+                    }
+                    q
+                })
+                .collect();
+            let path = [c.others[0], c.others[0]];
+            let others = [OtherArm {
+                model: 0,
+                base: c.other_base,
+                tool: Tool::NONE,
+                path: &path,
+            }];
+            let points = [PointConstraint {
+                t: 1,
+                segment: false,
+                s: 0.0,
+                p: [p[0], p[1], p[2] + 0.5],
+                margin,
+            }];
+            let mode = if count {
+                OthersMode::Count
+            } else {
+                OthersMode::Avoid
+            };
+            let valid = Validity::<M, D>::new(
+                0,
+                c.base,
+                c.tool,
+                &c.obstacles,
+                &others,
+                mode,
+                &points,
+                0.1,
+                0.01,
+            );
+            for t in [0, 1] {
+                let batch = valid.states_met(&qs, t);
+                for (k, q) in qs.iter().enumerate() {
+                    let one = valid.state_met(q, t);
+                    prop_assert_eq!(batch[k], one, "lane {}, step {}", k, t);
+                    let mut counts = counts.borrow_mut();
+                    if one.is_some() {
+                        counts.0 += 1;
+                    } else {
+                        counts.1 += 1;
+                    }
+                }
+                prop_assert!(batch[qs.len()..].iter().all(Option::is_none));
+            }
+            Ok(())
+        });
+        if let Err(e) = result {
+            panic!("{}: {e}", M::NAME);
+        }
+        let (some, none) = counts.into_inner();
+        assert!(some > 1000 && none > 1000, "{some} valid, {none} not");
+    }
+    run::<KinovaGen3>();
+    run::<FrankaPanda>();
 }
 
 /// A motion of each arm: from its configuration to another, near or far.

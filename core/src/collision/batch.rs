@@ -116,6 +116,11 @@ impl ArmLanes {
         self.lanes
     }
 
+    /// Leaves only the lanes of `keep` to the checks (the others are never reported).
+    pub fn keep(&mut self, keep: Mask) {
+        self.lanes &= keep;
+    }
+
     /// Places the arm of model `model` of `M`, its base frame at `base`, carrying `tool`, at
     /// the configurations `qs` (at most [`LANES`]; lane `k` holds `qs[k]`), as
     /// [`ArmPose::place`] each.
@@ -178,29 +183,6 @@ impl ArmLanes {
                 self.moving_aabb = self.moving_aabb.union(&aabb);
             }
         });
-    }
-
-    /// Every lane the pose `pose`.
-    pub fn splat(pose: &ArmPose) -> ArmLanes {
-        let mut lanes = ArmLanes {
-            len: pose.len,
-            links: pose.links,
-            on_base: pose.on_base,
-            self_pairs: pose.self_pairs,
-            tool_self: pose.tool_self,
-            aabb: Boxes::splat(&pose.aabb),
-            moving_aabb: Boxes::splat(&pose.moving_aabb),
-            lanes: ALL,
-            ..ArmLanes::EMPTY
-        };
-        for (i, c) in pose.capsules().iter().enumerate() {
-            let s = &c.segment;
-            lanes.a[i] = core::array::from_fn(|j| F64s::splat(s.a[j]));
-            lanes.b[i] = core::array::from_fn(|j| F64s::splat(s.b[j]));
-            lanes.radius[i] = c.radius;
-            lanes.boxes[i] = Boxes::splat(&pose.boxes[i]);
-        }
-        lanes
     }
 
     /// Capsule `i` in lane `k`.
@@ -283,19 +265,43 @@ impl ArmLanes {
     /// hold.
     pub fn arm_hits(&self, other: &ArmLanes, margin: f64) -> Mask {
         let lanes = self.lanes & other.lanes;
-        let near = self.aabb.near(&other.aabb, margin) & lanes;
+        let (boxes, capsule) = (|j| other.boxes[j], |j, k| other.capsule(j, k));
+        self.arm_hits_with(lanes, &other.aabb, other.len, boxes, capsule, margin)
+    }
+
+    /// [`ArmLanes::arm_hits`] against one pose in every lane (an arm standing).
+    pub fn arm_hits_pose(&self, other: &ArmPose, margin: f64) -> Mask {
+        let boxes = |j: usize| Boxes::splat(&other.boxes[j]);
+        let capsule = |j: usize, _| other.capsules[j];
+        let aabb = Boxes::splat(&other.aabb);
+        self.arm_hits_with(self.lanes, &aabb, other.len, boxes, capsule, margin)
+    }
+
+    /// [`ArmPose::arm_hit`] over `lanes`, the other arm's `len` capsules given by their boxes
+    /// and (capsule, lane) and its whole box by `aabb`.
+    #[inline(always)]
+    fn arm_hits_with(
+        &self,
+        lanes: Mask,
+        aabb: &Boxes,
+        len: usize,
+        boxes: impl Fn(usize) -> Boxes,
+        capsule: impl Fn(usize, usize) -> Capsule,
+        margin: f64,
+    ) -> Mask {
+        let near = self.aabb.near(aabb, margin) & lanes;
         let mut hit: Mask = 0;
         if near == 0 {
             return 0;
         }
         for i in 0..self.len {
-            let row = self.boxes[i].near(&other.aabb, margin) & near;
+            let row = self.boxes[i].near(aabb, margin) & near;
             if row == 0 {
                 continue;
             }
-            for j in 0..other.len {
-                for k in lanes_of(self.boxes[i].near(&other.boxes[j], margin) & row & !hit) {
-                    if self.capsule(i, k).contact(&other.capsule(j, k), margin) != Contact::Clear {
+            for j in 0..len {
+                for k in lanes_of(self.boxes[i].near(&boxes(j), margin) & row & !hit) {
+                    if self.capsule(i, k).contact(&capsule(j, k), margin) != Contact::Clear {
                         hit |= 1 << k;
                     }
                 }
