@@ -23,6 +23,7 @@
 //!   one configuration at a time along the sweeps' bisection, `batched` a rake of them per
 //!   call. Both give the same answer (`core/tests/batch.rs`).
 
+use std::cell::OnceCell;
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -31,6 +32,7 @@ use omcbsa_core::collision::{sweeps_collide_posed, ArmLanes, ArmPose, Placing, S
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
 use omcbsa_core::lanes::{F64s, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
+use omcbsa_core::motion::MOTION_STEP;
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 use parry3d_f64::math::{Pose3, Rot3, Vec3};
@@ -312,16 +314,24 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
         let fleet = Fleet::new(arms);
         let scene = parry_scene(&fleet.obstacles);
         for free in [false, true] {
-            let mut rng = Rng::new(7 + arms as u64);
-            let cases = configs::<M>(&fleet, free, &mut rng);
-            let batches: Vec<Vec<[F64s; D]>> = (0..CASES / LANES)
-                .map(|i| lanes_of(&cases, i * LANES))
-                .collect();
+            // Drawn once, when a benchmark of the group first runs (not at all when filtered
+            // out: collision-free configurations of six arms take a while to find).
+            let cases = OnceCell::new();
+            let cases = || {
+                cases.get_or_init(|| {
+                    let cases = configs::<M>(&fleet, free, &mut Rng::new(7 + arms as u64));
+                    let batches: Vec<Vec<[F64s; D]>> = (0..CASES / LANES)
+                        .map(|i| lanes_of(&cases, i * LANES))
+                        .collect();
+                    (cases, batches)
+                })
+            };
             let kind = if free { "free" } else { "random" };
             let mut g = c.benchmark_group(format!("config/{name}/{arms}arms/{kind}"));
-            let mut poses = fleet.poses::<M>(&cases[0]);
+            let mut poses = fleet.poses::<M>(&vec![[0.0; D]; arms]);
             g.throughput(Throughput::Elements(1));
             g.bench_function("single", |b| {
+                let (cases, _) = cases();
                 let mut i = 0;
                 b.iter(|| {
                     i = (i + 1) % CASES;
@@ -329,6 +339,7 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
                 })
             });
             g.bench_function("parry", |b| {
+                let (cases, _) = cases();
                 let mut i = 0;
                 b.iter(|| {
                     i = (i + 1) % CASES;
@@ -338,6 +349,7 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
             let mut lanes = vec![ArmLanes::EMPTY; arms];
             g.throughput(Throughput::Elements(LANES as u64));
             g.bench_function("batched", |b| {
+                let (_, batches) = cases();
                 let mut i = 0;
                 b.iter(|| {
                     i = (i + 1) % batches.len();
@@ -420,11 +432,14 @@ fn motion_checks<M: Model<D>>(c: &mut Criterion, name: &str) {
     for arms in [1, 3] {
         let fleet = Fleet::new(arms);
         for turn in [0.1, 1.0, 5.0] {
-            let mut rng = Rng::new(11 + arms as u64);
-            let cases = motions::<M>(&fleet, turn, &mut rng);
+            let cases = OnceCell::new();
+            let cases = || {
+                cases.get_or_init(|| motions::<M>(&fleet, turn, &mut Rng::new(11 + arms as u64)))
+            };
             let mut g = c.benchmark_group(format!("motion/{name}/{arms}arms/{turn}rad"));
             for (label, placing) in [("single", Placing::Single), ("batched", Placing::Rake)] {
                 g.bench_function(label, |b| {
+                    let cases = cases();
                     let mut i = 0;
                     b.iter(|| {
                         i = (i + 1) % cases.len();
