@@ -8,7 +8,8 @@ use std::cell::RefCell;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use omcbsa_core::collision::{sweeps_collide, ArmLanes, ArmPose, Placing, Sweep};
-use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
+use omcbsa_core::geometry::lanes::Segments;
+use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Segment, Shape};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrameOf, FrankaPanda, KinovaGen3, Model};
 use omcbsa_core::search::{OtherArm, OthersMode, PointConstraint, Validity};
@@ -487,6 +488,78 @@ fn composing_frames_is_nalgebras_product() {
             .iter()
             .zip(want.iter())
             .all(|(x, y)| x.to_bits() == y.to_bits()));
+        Ok(())
+    });
+    result.unwrap();
+}
+
+/// Segment distances over lanes equal the scalar ones bit for bit, degenerate segments too:
+/// points, parallel and collinear ones, shared ends, zero-length pairs, NaN.
+#[test]
+fn segment_distances_over_lanes_equal_single_ones() {
+    let mut runner = TestRunner::new(Config {
+        cases: 20_000,
+        failure_persistence: None,
+        ..Config::default()
+    });
+    let coordinate = prop_oneof![8 => -1.0..1.0f64, 1 => Just(0.0), 1 => Just(0.5)];
+    let point = prop::array::uniform3(coordinate);
+    let segment = (point.clone(), point, 0..6u8).prop_map(|(a, mut b, kind)| {
+        match kind {
+            // A point.
+            0 => b = a,
+            // Along x, as another may be (parallel, collinear).
+            1 => b = [a[0] + 0.3, a[1], a[2]],
+            _ => {}
+        }
+        if kind == 5 && a[0] > 0.9 {
+            b[1] = f64::NAN;
+        }
+        Segment::new(Vector3::from(a), Vector3::from(b))
+    });
+    let pairs = prop::collection::vec((segment.clone(), segment, 0.0..0.2f64), LANES);
+    let result = runner.run(&pairs, |pairs| {
+        let lanes = |f: &dyn Fn(&Segment) -> Vector3<f64>, which: usize| -> [F64s; 3] {
+            core::array::from_fn(|i| {
+                F64s::new(core::array::from_fn(|k| {
+                    let s = if which == 0 { &pairs[k].0 } else { &pairs[k].1 };
+                    f(s)[i]
+                }))
+            })
+        };
+        let mine = Segments {
+            a: lanes(&|s| s.a, 0),
+            b: lanes(&|s| s.b, 0),
+        };
+        let theirs = Segments {
+            a: lanes(&|s| s.a, 1),
+            b: lanes(&|s| s.b, 1),
+        };
+        let d2 = mine.distance2(&theirs);
+        for (k, (p, q, _)) in pairs.iter().enumerate() {
+            prop_assert_eq!(
+                bits(&d2.as_array()[k]),
+                bits(&p.distance2_to_segment(q)),
+                "lane {}",
+                k
+            );
+        }
+        let reach = 0.02 + 0.03;
+        let hits = mine.hits(&theirs, reach, pairs[0].2);
+        for (k, (p, q, _)) in pairs.iter().enumerate() {
+            let one = Capsule {
+                segment: *p,
+                radius: 0.02,
+            }
+            .hits(
+                &Capsule {
+                    segment: *q,
+                    radius: 0.03,
+                },
+                pairs[0].2,
+            );
+            prop_assert_eq!(hits & (1 << k) != 0, one, "lane {}", k);
+        }
         Ok(())
     });
     result.unwrap();

@@ -14,13 +14,12 @@
 use nalgebra::Vector3;
 
 use super::{ArmPose, MAX_LINK_FRAMES, MAX_POSE_CAPSULES};
-use crate::geometry::{Aabb, Capsule, Contact, Obstacle};
+pub(super) use crate::geometry::lanes::Point;
+use crate::geometry::lanes::Segments;
+use crate::geometry::{Aabb, Capsule, Obstacle};
 use crate::lanes::{lane, lanes_of, lt, max, min, F64s, Mask, ALL, LANES};
 use crate::model::{Frame, FrameOf, Models};
 use crate::tool::Tool;
-
-/// Three coordinates, a lane each.
-pub(super) type Point = [F64s; 3];
 
 /// An axis-aligned box per lane, as [`Aabb`]: `min..=max`.
 #[derive(Clone, Copy, Debug)]
@@ -185,6 +184,15 @@ impl ArmLanes {
         });
     }
 
+    /// The axes of capsule `i`.
+    #[inline(always)]
+    fn segments(&self, i: usize) -> Segments {
+        Segments {
+            a: self.a[i],
+            b: self.b[i],
+        }
+    }
+
     /// Capsule `i` in lane `k`.
     #[inline]
     pub fn capsule(&self, i: usize, k: usize) -> Capsule {
@@ -248,13 +256,12 @@ impl ArmLanes {
             .flat_map(|t| self.tool_self.iter().map(move |&c| (t, usize::from(c))));
         for (a, b) in links.chain(tool) {
             let near = self.boxes[a].near(&self.boxes[b], margin) & self.lanes & !hit;
-            for k in lanes_of(near) {
-                if self.capsule(a, k).contact(&self.capsule(b, k), margin) != Contact::Clear {
-                    hit |= 1 << k;
+            if near != 0 {
+                let reach = self.radius[a] + self.radius[b];
+                hit |= near & self.segments(a).hits(&self.segments(b), reach, margin);
+                if hit == self.lanes {
+                    break;
                 }
-            }
-            if hit == self.lanes {
-                break;
             }
         }
         hit
@@ -265,28 +272,34 @@ impl ArmLanes {
     /// hold.
     pub fn arm_hits(&self, other: &ArmLanes, margin: f64) -> Mask {
         let lanes = self.lanes & other.lanes;
-        let (boxes, capsule) = (|j| other.boxes[j], |j, k| other.capsule(j, k));
-        self.arm_hits_with(lanes, &other.aabb, other.len, boxes, capsule, margin)
+        let capsule = |j| (other.boxes[j], other.segments(j), other.radius[j]);
+        self.arm_hits_with(lanes, &other.aabb, other.len, capsule, margin)
     }
 
     /// [`ArmLanes::arm_hits`] against one pose in every lane (an arm standing).
     pub fn arm_hits_pose(&self, other: &ArmPose, margin: f64) -> Mask {
-        let boxes = |j: usize| Boxes::splat(&other.boxes[j]);
-        let capsule = |j: usize, _| other.capsules[j];
+        let capsule = |j: usize| {
+            let c = &other.capsules[j];
+            let point = |p: &Vector3<f64>| [0, 1, 2].map(|i| F64s::splat(p[i]));
+            let segments = Segments {
+                a: point(&c.segment.a),
+                b: point(&c.segment.b),
+            };
+            (Boxes::splat(&other.boxes[j]), segments, c.radius)
+        };
         let aabb = Boxes::splat(&other.aabb);
-        self.arm_hits_with(self.lanes, &aabb, other.len, boxes, capsule, margin)
+        self.arm_hits_with(self.lanes, &aabb, other.len, capsule, margin)
     }
 
-    /// [`ArmPose::arm_hit`] over `lanes`, the other arm's `len` capsules given by their boxes
-    /// and (capsule, lane) and its whole box by `aabb`.
+    /// [`ArmPose::arm_hit`] over `lanes`, the other arm's `len` capsules given by `capsule(j)`
+    /// (boxes, axes, radius) and its whole box by `aabb`.
     #[inline(always)]
     fn arm_hits_with(
         &self,
         lanes: Mask,
         aabb: &Boxes,
         len: usize,
-        boxes: impl Fn(usize) -> Boxes,
-        capsule: impl Fn(usize, usize) -> Capsule,
+        capsule: impl Fn(usize) -> (Boxes, Segments, f64),
         margin: f64,
     ) -> Mask {
         let near = self.aabb.near(aabb, margin) & lanes;
@@ -300,10 +313,11 @@ impl ArmLanes {
                 continue;
             }
             for j in 0..len {
-                for k in lanes_of(self.boxes[i].near(&boxes(j), margin) & row & !hit) {
-                    if self.capsule(i, k).contact(&capsule(j, k), margin) != Contact::Clear {
-                        hit |= 1 << k;
-                    }
+                let (boxes, segments, radius) = capsule(j);
+                let near = self.boxes[i].near(&boxes, margin) & row & !hit;
+                if near != 0 {
+                    let reach = self.radius[i] + radius;
+                    hit |= near & self.segments(i).hits(&segments, reach, margin);
                 }
             }
             if hit == near {

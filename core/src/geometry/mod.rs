@@ -9,6 +9,7 @@
 
 mod aabb;
 mod capsule;
+pub mod lanes;
 mod segment;
 mod solid;
 
