@@ -636,13 +636,13 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         };
         let halves = 2 * self.count;
         let ends = [[e0], [e1]];
+        let single = |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
+            let q = self.at(s);
+            at[0].place_only::<M, D>(self.model, base, &self.tool, &q, sus.capsules());
+        };
         match self.placing {
             Placing::Single => {
-                let place = |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
-                    let q = self.at(s);
-                    at[0].place_only::<M, D>(self.model, base, &self.tool, &q, sus.capsules());
-                };
-                let placer = &mut Single(place);
+                let placer = &mut Single(single);
                 refine(0, halves, halves, ends, left, None, placer, check)
             }
             Placing::Rake => {
@@ -653,7 +653,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 let pose = |rakes: &[Rake; 1], k: usize, sus: &Suspects, at: &mut [ArmPose; 1]| {
                     rakes[0].pose(k, sus.capsules(), e0, &mut at[0]);
                 };
-                let placer = &mut Raked(place, pose);
+                let placer = &mut Raked(place, pose, single);
                 refine(0, halves, halves, ends, left, None, placer, check)
             }
         }
@@ -800,7 +800,7 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
                     refine(0, halves, halves, ends, left, None, placer, check)
                 }
                 Placing::Rake => {
-                    let placer = &mut Raked(rake, pose);
+                    let placer = &mut Raked(rake, pose, place);
                     refine(0, halves, halves, ends, left, None, placer, check)
                 }
             }
@@ -907,33 +907,42 @@ impl<S, F: FnMut(f64, &S, &mut [ArmPose; K]), const K: usize> Placer<S, K> for S
     }
 }
 
-/// A rake ahead: `place(s, suspects, rakes)` places the arms at the fractions `s` (a lane
-/// each), `pose(rakes, lane, suspects, poses)` reads a lane's.
-struct Raked<F, G>(F, G);
+/// A rake ahead where it pays: `rake(s, suspects, rakes)` places the arms at the fractions
+/// `s` (a lane each), `pose(rakes, lane, suspects, poses)` reads a lane's; a part with fewer
+/// than [`rake::RAKE_MIN_SPLITS`] splits below it (a short motion) is placed one at a time
+/// by `place` (as [`Single`]), where a batch would cost more than the placings it holds.
+struct Raked<F, G, H>(F, G, H);
 
-impl<S, F, G, const K: usize> Placer<S, K> for Raked<F, G>
+impl<S, F, G, H, const K: usize> Placer<S, K> for Raked<F, G, H>
 where
     F: FnMut(F64s, &S, &mut [Rake; K]),
     G: FnMut(&[Rake; K], usize, &S, &mut [ArmPose; K]),
+    H: FnMut(f64, &S, &mut [ArmPose; K]),
 {
-    type Ahead = [Rake; K];
+    type Ahead = Option<[Rake; K]>;
 
-    fn ahead(&mut self, first: usize, end: usize, count: usize, sus: &S) -> [Rake; K] {
-        let mut rakes = [Rake::EMPTY; K];
-        (self.0)(rake::rake_fractions(first, end, count), sus, &mut rakes);
-        rakes
+    fn ahead(&mut self, first: usize, end: usize, count: usize, sus: &S) -> Self::Ahead {
+        let (s, splits) = rake::rake_fractions(first, end, count);
+        (splits >= rake::RAKE_MIN_SPLITS).then(|| {
+            let mut rakes = [Rake::EMPTY; K];
+            (self.0)(s, sus, &mut rakes);
+            rakes
+        })
     }
 
     fn at(
         &mut self,
-        rakes: &[Rake; K],
+        rakes: &Self::Ahead,
         part: usize,
-        _: usize,
-        _: usize,
+        mid: usize,
+        count: usize,
         sus: &S,
         out: &mut [ArmPose; K],
     ) {
-        (self.1)(rakes, part, sus, out);
+        match rakes {
+            Some(rakes) => (self.1)(rakes, part, sus, out),
+            None => (self.2)(mid as f64 / count as f64, sus, out),
+        }
     }
 }
 

@@ -87,16 +87,22 @@ impl Rake {
     }
 }
 
+/// Fewest splits below a part (of the [`RAKE_PARTS`] a rake covers) for which a rake is
+/// placed: a part of a short motion, with one or two, is placed one configuration at a time.
+pub(super) const RAKE_MIN_SPLITS: usize = 3;
+
 /// Per rake part (in the numbering of [`RAKE_PARTS`]), for part 0 `first..end` of `count`,
 /// the fraction of the motion at its middle (`mid / count`, as the bisection computes it);
-/// a part too short to split repeats part 0's.
-pub(super) fn rake_fractions(first: usize, end: usize, count: usize) -> F64s {
+/// a part too short to split repeats part 0's. And how many of the parts split.
+pub(super) fn rake_fractions(first: usize, end: usize, count: usize) -> (F64s, usize) {
     let mut parts = [(first, end); RAKE_PARTS];
     let mut s = [0.0; LANES];
+    let mut splits = 0;
     for n in 0..RAKE_PARTS {
         let (lo, hi) = parts[n];
         let mid = (lo + hi) / 2;
         s[n] = if hi - lo > 1 {
+            splits += 1;
             mid as f64 / count as f64
         } else {
             s[0]
@@ -109,5 +115,5 @@ pub(super) fn rake_fractions(first: usize, end: usize, count: usize) -> F64s {
     for v in &mut s[RAKE_PARTS..] {
         *v = first_part;
     }
-    F64s::new(s)
+    (F64s::new(s), splits)
 }

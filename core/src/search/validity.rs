@@ -126,14 +126,23 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
 
     /// [`Validity::state`] telling which other robots (bit `k`: `others[k]`) it meets.
     pub fn state_met(&self, q: &[f64; D], t: usize) -> Option<Met> {
+        self.state_met_in(q, t, &mut self.mine.borrow_mut())
+    }
+
+    /// [`Validity::state`], placing the robot in `pose` (which then holds it at `q` when the
+    /// check got that far: always when it passes), for a caller that checks a motion from or
+    /// to `q` next ([`Validity::motion_posed`]).
+    pub fn state_in(&self, q: &[f64; D], t: usize, pose: &mut ArmPose) -> Option<u16> {
+        self.state_met_in(q, t, pose).map(|m| m.count_ones() as u16)
+    }
+
+    fn state_met_in(&self, q: &[f64; D], t: usize, pose: &mut ArmPose) -> Option<Met> {
         if !self.within_limits(q) {
             return None;
         }
         if t == 0 && self.excluded.excludes(q) {
             return None;
         }
-        let mut mine = self.mine.borrow_mut();
-        let pose = &mut *mine;
         pose.place::<M, D>(self.model, &self.base, &self.tool, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
             return None;
