@@ -669,10 +669,9 @@ pub fn model(
     );
     let _ = writeln!(
         w,
-        "    fn link_frames_lanes(q: &[crate::lanes::F64s; {d}], out: &mut [crate::model::FrameOf<crate::lanes::F64s>]) \
+        "    #[inline]\n    fn link_frames_lanes(q: &[crate::lanes::F64s; {d}], out: impl crate::model::LinkSink) \
          -> crate::model::FrameOf<crate::lanes::F64s> {{\n        \
-         debug_assert!(out.len() >= {links});\n        \
-         Self::link_frames_of(q, |i, f| if let Some(slot) = out.get_mut(i) {{ *slot = *f; }})\n    }}\n"
+         Self::link_frames_of(q, out)\n    }}\n"
     );
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(

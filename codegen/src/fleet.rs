@@ -32,7 +32,7 @@ const QUERIES: [(&str, &str, &str); 18] = [
     ),
     (
         "link_frames_lanes",
-        "q: &[crate::lanes::F64s; D], out: &mut [crate::model::FrameOf<crate::lanes::F64s>]",
+        "q: &[crate::lanes::F64s; D], out: impl crate::model::LinkSink",
         "crate::model::FrameOf<crate::lanes::F64s>",
     ),
     (

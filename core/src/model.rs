@@ -69,6 +69,11 @@ pub const fn check_model<M: Model<D>, const D: usize>() {
             (M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(),
             "capsule on no link"
         );
+        // The batched placing takes each link's capsules as its frame is computed.
+        assert!(
+            i == 0 || M::CAPSULES[i - 1].link <= M::CAPSULES[i].link,
+            "capsules not in link order"
+        );
         i += 1;
     }
     let mut i = 0;
@@ -219,6 +224,11 @@ impl From<&FrameOf<f64>> for Frame {
     }
 }
 
+/// Where a batch's link frames go, one at a time: `(link index, frame)`.
+pub trait LinkSink: FnMut(usize, &FrameOf<F64s>) {}
+
+impl<F: FnMut(usize, &FrameOf<F64s>)> LinkSink for F {}
+
 /// Configuration `k` of a batch.
 #[inline]
 pub fn lane_config<const D: usize>(q: &[F64s; D], k: usize) -> [f64; D] {
@@ -303,17 +313,21 @@ pub trait Model<const D: usize>: 'static {
         tool
     }
 
-    /// [`Model::link_frames`] of a batch of configurations, as [`Model::fk_lanes`]. `out`
-    /// must hold at least `LINK_NAMES.len()` frames.
-    fn link_frames_lanes(q: &[F64s; D], out: &mut [FrameOf<F64s>]) -> FrameOf<F64s> {
-        let mut one = [Frame::IDENTITY; crate::collision::MAX_LINK_FRAMES];
-        let n = out.len().min(one.len());
+    /// [`Model::link_frames`] of a batch of configurations, as [`Model::fk_lanes`]: link
+    /// frame `i` goes to `out(i, ..)`, in chain order, as it is computed.
+    fn link_frames_lanes(q: &[F64s; D], mut out: impl LinkSink) -> FrameOf<F64s> {
+        const N: usize = crate::collision::MAX_LINK_FRAMES;
+        let n = Self::LINK_NAMES.len().min(N);
+        let (mut one, mut all) = ([Frame::IDENTITY; N], [FrameOf::identity(); N]);
         let mut tool = FrameOf::identity();
         for k in 0..LANES {
             tool.set_lane(k, &Self::link_frames(&lane_config(q, k), &mut one[..n]));
-            for (o, f) in out.iter_mut().zip(&one[..n]) {
+            for (o, f) in all.iter_mut().zip(&one[..n]) {
                 o.set_lane(k, f);
             }
+        }
+        for (i, f) in all[..n].iter().enumerate() {
+            out(i, f);
         }
         tool
     }
@@ -349,7 +363,7 @@ pub trait Models<const D: usize>: 'static {
     fn link_frames(id: u8, q: &[f64; D], out: &mut [Frame]) -> Frame;
     fn jacobian(id: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
     fn fk_lanes(id: u8, q: &[F64s; D]) -> FrameOf<F64s>;
-    fn link_frames_lanes(id: u8, q: &[F64s; D], out: &mut [FrameOf<F64s>]) -> FrameOf<F64s>;
+    fn link_frames_lanes(id: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s>;
 
     /// The index of the model called `name` ([`Model::NAME`]).
     fn find(name: &str) -> Option<u8> {
@@ -419,7 +433,7 @@ impl<M: Model<D>, const D: usize> Models<D> for M {
         M::fk_lanes(q)
     }
     #[inline]
-    fn link_frames_lanes(_: u8, q: &[F64s; D], out: &mut [FrameOf<F64s>]) -> FrameOf<F64s> {
+    fn link_frames_lanes(_: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s> {
         M::link_frames_lanes(q, out)
     }
 }

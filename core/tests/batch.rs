@@ -443,7 +443,7 @@ fn kinematics_of_a_batch_equal_single_configurations() {
             let tool = M::fk_lanes(&q);
             let n = M::LINK_NAMES.len();
             let mut frames = [FrameOf::<F64s>::identity(); 16];
-            let last = M::link_frames_lanes(&q, &mut frames[..n]);
+            let last = M::link_frames_lanes(&q, |i: usize, f: &FrameOf<F64s>| frames[i] = *f);
             for (k, qk) in qs.iter().enumerate() {
                 let same = |a: &Frame, b: &Frame| frame_bits(a) == frame_bits(b);
                 prop_assert!(same(&tool.lane(k), &M::fk(qk)), "fk, lane {k}");

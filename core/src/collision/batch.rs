@@ -13,7 +13,7 @@
 
 use nalgebra::Vector3;
 
-use super::{ArmPose, MAX_LINK_FRAMES, MAX_POSE_CAPSULES};
+use super::{ArmPose, MAX_POSE_CAPSULES};
 pub(super) use crate::geometry::lanes::Point;
 use crate::geometry::lanes::Segments;
 use crate::geometry::{Aabb, Capsule, Obstacle};
@@ -342,31 +342,39 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
     mut each: impl FnMut(usize, Point, Point, f64, bool),
 ) {
     const { M::CHECKED };
-    let mut frames = [FrameOf::<F64s>::identity(); MAX_LINK_FRAMES];
-    let linked = &mut frames[..M::link_names(model).len()];
     let base = FrameOf::<F64s>::splat(base);
-    let flange = base.compose(&M::link_frames_lanes(model, q, linked));
-    for f in linked.iter_mut() {
-        *f = base.compose(f);
-    }
     let capsules = M::capsules(model);
-    let placed = capsules
-        .iter()
-        .map(|c| {
-            (
-                &frames[usize::from(c.link)],
-                c.a,
-                c.b,
-                c.radius,
-                c.link == 0,
-            )
-        })
-        .chain((tool.capsules().iter()).map(|c| (&flange, c.a, c.b, c.radius, false)));
-    for (i, (frame, a, b, radius, on_base)) in placed.enumerate() {
-        if only & (1 << i) != 0 {
-            let a = frame.apply(&a.map(F64s::splat));
-            let b = frame.apply(&b.map(F64s::splat));
-            each(i, a, b, radius, on_base);
+    // Each link's capsules as its frame comes (they are in link order: `check_model`), the
+    // frame into the world first, as `ArmPose::place_only` does for every link.
+    let mut next = 0;
+    let tool_frame = M::link_frames_lanes(model, q, |link: usize, f: &FrameOf<F64s>| {
+        let on_link = |i: usize| capsules.get(i).is_some_and(|c| usize::from(c.link) == link);
+        if !on_link(next) {
+            return;
+        }
+        let frame = base.compose(f);
+        while on_link(next) {
+            let c = &capsules[next];
+            if only & (1 << next) != 0 {
+                let (a, b) = (
+                    frame.apply(&c.a.map(F64s::splat)),
+                    frame.apply(&c.b.map(F64s::splat)),
+                );
+                each(next, a, b, c.radius, link == 0);
+            }
+            next += 1;
+        }
+    });
+    let links = capsules.len();
+    let tools = tool.capsules().iter().enumerate();
+    if tools.clone().any(|(t, _)| only & (1 << (links + t)) != 0) {
+        let flange = base.compose(&tool_frame);
+        for (t, c) in tools.filter(|(t, _)| only & (1 << (links + t)) != 0) {
+            let (a, b) = (
+                flange.apply(&c.a.map(F64s::splat)),
+                flange.apply(&c.b.map(F64s::splat)),
+            );
+            each(links + t, a, b, c.radius, false);
         }
     }
 }
