@@ -11,18 +11,25 @@
 //! every target: the SIMD width changes the speed, never an answer.
 //!
 //! SIMD comes from `wide` (safe, `no_std`), which picks its instructions when the crate is
-//! compiled, from the target's features: on x86_64 by default SSE2 (an [`F64s`] is four
-//! 128-bit registers), with `-C target-cpu=x86-64-v3` (or `native` on a machine with it) AVX2
-//! (two 256-bit registers), with `x86-64-v4` AVX-512 (one); on targets without SIMD, such as
-//! `thumbv7em-none-eabihf`, plain arrays. Compile-time selection keeps the core free of
-//! `unsafe` (run-time dispatch needs `#[target_feature]` functions, called through `unsafe`)
-//! and costs nothing per call; the price is that a default build uses SSE2 only, so the
-//! benchmarks say which flags they were built with (`docs/bench`).
+//! compiled, from the target's features: on x86_64 SSE2 by default (an [`F64s`] is four
+//! 128-bit registers), AVX2 with `-C target-cpu=x86-64-v3` (two 256-bit registers), AVX-512
+//! with `x86-64-v4` or `native` on a machine with it (one); on targets without SIMD, such as
+//! `thumbv7em-none-eabihf`, plain arrays. The workspace builds x86_64 for `x86-64-v3`
+//! (`.cargo/config.toml`: AVX2 and FMA, every x86_64 CPU since 2013-2015), the machines this
+//! runs on; `RUSTFLAGS="-C target-cpu=x86-64"` gives a build for any x86_64, which batches
+//! nothing ([`WIDE`]: with SSE2 a batch of 8 costs about as much as 8 single checks, and
+//! loses their early exits). Compile-time selection keeps the core free of `unsafe`
+//! (run-time dispatch needs `#[target_feature]` functions, called through `unsafe`) and costs
+//! nothing per call. FMA being there changes nothing: Rust never fuses on its own.
 
 use core::ops::{Add, Mul, Neg, Sub};
 
 /// Configurations in one batch: one per lane of an [`F64s`].
 pub const LANES: usize = 8;
+
+/// Whether this build's SIMD is wide enough for batches to pay (AVX2: four lanes per
+/// instruction). The planners batch their checks only then; answers are the same either way.
+pub const WIDE: bool = cfg!(target_feature = "avx2");
 
 /// [`LANES`] numbers at once.
 pub type F64s = wide::f64x8;

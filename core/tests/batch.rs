@@ -237,7 +237,8 @@ fn panda_batches_equal_single_configurations() {
     equals_scalar::<FrankaPanda>();
 }
 
-/// The planners' state check of a batch ([`Validity::states_met`], Ω-A*'s successors) answers
+/// The planners' state check of a batch ([`Validity::states_met_batched`], Ω-A*'s successors)
+/// answers
 /// as one configuration at a time: joint limits, obstacles, itself, point constraints and
 /// other arms, avoided or counted.
 #[test]
@@ -298,7 +299,8 @@ fn batched_state_checks_equal_single_ones() {
                 0.01,
             );
             for t in [0, 1] {
-                let batch = valid.states_met(&qs, t);
+                let batch = valid.states_met_batched(&qs, t);
+                prop_assert_eq!(batch, valid.states_met(&qs, t));
                 for (k, q) in qs.iter().enumerate() {
                     let one = valid.state_met(q, t);
                     prop_assert_eq!(batch[k], one, "lane {}, step {}", k, t);

@@ -331,9 +331,15 @@ fn speed_ratio_is_the_least_share<M: Model<D>, const D: usize>(n: usize, seed: u
         let twist = jac * qdot;
         let r = speed_ratio::<D>(&jac, &twist, &M::VELOCITY);
         let share = |v: &nalgebra::SVector<f64, D>| {
-            (0..D).map(|j| v[j].abs() / M::VELOCITY[j]).fold(0.0, f64::max)
+            (0..D)
+                .map(|j| v[j].abs() / M::VELOCITY[j])
+                .fold(0.0, f64::max)
         };
-        assert!(r <= share(&qdot) + 1e-9, "{r} above a feasible {}", share(&qdot));
+        assert!(
+            r <= share(&qdot) + 1e-9,
+            "{r} above a feasible {}",
+            share(&qdot)
+        );
         // Any joint velocity that makes the twist: the least-norm one plus the null space.
         let pinv = jac.transpose() * (jac * jac.transpose()).try_inverse().unwrap();
         let p = pinv * twist;
@@ -341,9 +347,15 @@ fn speed_ratio_is_the_least_share<M: Model<D>, const D: usize>(n: usize, seed: u
         let scanned = (-4000..=4000)
             .map(|k| share(&(p + dir * (k as f64 * 1e-3))))
             .fold(f64::INFINITY, f64::min);
-        assert!(r <= scanned + 1e-9 && scanned <= r + 1e-2, "{r} vs scan {scanned}");
+        assert!(
+            r <= scanned + 1e-9 && scanned <= r + 1e-2,
+            "{r} vs scan {scanned}"
+        );
         let doubled = speed_ratio::<D>(&jac, &(twist * 2.0), &M::VELOCITY);
-        assert!((doubled - 2.0 * r).abs() < 1e-9 * (1.0 + r), "{doubled} vs 2 * {r}");
+        assert!(
+            (doubled - 2.0 * r).abs() < 1e-9 * (1.0 + r),
+            "{doubled} vs 2 * {r}"
+        );
     }
 }
 

@@ -5,7 +5,7 @@ use core::cell::RefCell;
 
 use crate::collision::{ArmLanes, ArmPose};
 use crate::geometry::Obstacle;
-use crate::lanes::{lanes_of, F64s, Mask, LANES};
+use crate::lanes::{lanes_of, F64s, Mask, LANES, WIDE};
 use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
 use crate::problem::{Robot, StartExclusions, MAX_ROBOTS};
@@ -167,8 +167,23 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
     }
 
     /// [`Validity::state_met`] of each of `qs` (at most [`LANES`]), placed and checked
-    /// together: the same answers, a batch's cost.
+    /// together where the build's SIMD makes a batch pay ([`WIDE`]), else one at a time: the
+    /// same answers.
     pub fn states_met(&self, qs: &[[f64; D]], t: usize) -> [Option<Met>; LANES] {
+        let mut out = [None; LANES];
+        let qs = &qs[..qs.len().min(LANES)];
+        if !WIDE {
+            for (o, q) in out.iter_mut().zip(qs) {
+                *o = self.state_met(q, t);
+            }
+            return out;
+        }
+        self.states_met_batched(qs, t)
+    }
+
+    /// [`Validity::states_met`] as one batch whatever the build (what it does on a [`WIDE`]
+    /// one).
+    pub fn states_met_batched(&self, qs: &[[f64; D]], t: usize) -> [Option<Met>; LANES] {
         let mut out = [None; LANES];
         let qs = &qs[..qs.len().min(LANES)];
         let Some(last) = qs.len().checked_sub(1) else {
