@@ -12,6 +12,7 @@ use omcbsa_core::geometry::lanes::Segments;
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Segment, Shape};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrameOf, FrankaPanda, KinovaGen3, Model};
+use omcbsa_core::problem::{Assigned, Robot, Start, StartExclusions};
 use omcbsa_core::search::{OtherArm, OthersMode, PointConstraint, Validity};
 use omcbsa_core::tool::{Tool, ToolCapsule};
 use proptest::prelude::*;
@@ -287,17 +288,19 @@ fn batched_state_checks_equal_single_ones() {
             } else {
                 OthersMode::Avoid
             };
-            let valid = Validity::<M, D>::new(
-                0,
-                c.base,
-                c.tool,
-                &c.obstacles,
-                &others,
-                mode,
-                &points,
-                0.1,
-                0.01,
-            );
+            let robot = Robot {
+                model: 0,
+                base: c.base,
+                tcp: Frame::IDENTITY,
+                initial: None,
+                tool: c.tool,
+                start: Start::default(),
+                assigned: Assigned::default(),
+                excluded: StartExclusions::NONE,
+            };
+            let valid = Validity::<M, D>::new(&robot, &c.obstacles, 0.1, 0.01)
+                .with_others(&others, mode)
+                .with_points(&points);
             for t in [0, 1] {
                 let batch = valid.states_met_batched(&qs, t);
                 prop_assert_eq!(batch, valid.states_met(&qs, t));
