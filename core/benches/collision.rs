@@ -2,8 +2,8 @@
 //! capsule queries as an in-process peer, in one run.
 //!
 //! `cargo bench -p omcbsa-core --bench collision -- --warm-up-time 0.5 --measurement-time 2`
-//! (AVX2: `RUSTFLAGS="-C target-cpu=x86-64-v3"`; the machine's best: `-C target-cpu=native`;
-//! see `omcbsa_core::lanes` for what a default build uses).
+//! (the workspace builds x86_64 for AVX2, `x86-64-v3`; the machine's best:
+//! `RUSTFLAGS="-C target-cpu=native"`; see `omcbsa_core::lanes`).
 //!
 //! The scene: per arm, 3 boxes, 2 spheres and a capsule around it (a low table in front, a
 //! post, a shelf behind, two balls, a bar), the arms in a row 0.8 m apart (6 arms: two rows
@@ -17,7 +17,7 @@
 //!   places and checks [`LANES`] composite configurations per call (`ArmLanes`), time per
 //!   configuration; `parry` places the arms as `single` and runs parry's intersection tests
 //!   on the pairs whose boxes meet (the same box tests first).
-//! - `motion`: a collision-free composite motion, every joint of every arm turning by 0.1, 1
+//! - `motion` (1 and 3 arms): a collision-free composite motion, every joint of every arm turning by 0.1, 1
 //!   or 5 rad (random signs) or less where a joint's limits are closer: each arm against the
 //!   obstacles and itself along the motion, and every pair (`sweeps_collide`); `single` places
 //!   one configuration at a time along the sweeps' bisection, `batched` a rake of them per
