@@ -48,9 +48,17 @@
 
 use core::marker::PhantomData;
 
+mod batch;
+mod rake;
+
+pub use batch::{ArmLanes, Boxes};
+pub use rake::Placing;
+use rake::Rake;
+
 use nalgebra::Vector3;
 
 use crate::geometry::{Aabb, Capsule, Contact, Obstacle};
+use crate::lanes::F64s;
 use crate::model::{Frame, Models};
 use crate::problem::MAX_OBSTACLES;
 use crate::tool::{Tool, MAX_TOOL_CAPSULES};
@@ -194,6 +202,11 @@ impl ArmPose {
     /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
     pub fn capsules(&self) -> &[Capsule] {
         &self.capsules[..self.len]
+    }
+
+    /// The box around capsule `i` (empty for one not placed).
+    pub fn capsule_box(&self, i: usize) -> Aabb {
+        self.boxes[i]
     }
 
     /// Which tool capsule capsule `i` is (`None`: a link capsule).
@@ -424,6 +437,8 @@ pub struct Sweep<M: Models<D>, const D: usize> {
     bow: [f64; MAX_POSE_CAPSULES],
     count: usize,
     tool: Tool,
+    /// How its checks place the arm between the ends.
+    placing: Placing,
     fleet: PhantomData<M>,
 }
 
@@ -516,6 +531,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             bow: bows,
             count: 1,
             tool: *tool,
+            placing: Placing::default(),
             fleet: PhantomData,
         }
         // `as` saturates; NaN (from a NaN input) gives 0 and so one piece.
@@ -558,6 +574,12 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             count: count.clamp(1, MAX_SWEEP_CHECKS),
             ..self
         }
+    }
+
+    /// The same motion, its checks placing the arm between the ends as `placing` says (the
+    /// answers are the same; [`sweeps_collide`] goes by the first sweep's).
+    pub fn with_placing(self, placing: Placing) -> Self {
+        Sweep { placing, ..self }
     }
 
     /// Number of pieces.
@@ -646,8 +668,11 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 .filter(|&i| !e0.on_base(i))
                 .fold(0, |m, i| m | 1 << i);
         }
+        // Each self pair's travel, computed once for every part of the motion.
+        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
         for (a, b) in e0.self_pairs() {
             all.pairs[a] |= 1 << b;
+            pair_travel[a][b] = self.pair_travel(a, b);
         }
         let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
             let ends = [ends[0][0], ends[1][0]];
@@ -668,7 +693,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
             for (a, &row) in sus.pairs.iter().enumerate() {
                 for b in bits(row) {
-                    let t = (self.pair_travel(a, b) * width).min(reach[a] + reach[b]);
+                    let t = (pair_travel[a][b] * width).min(reach[a] + reach[b]);
                     match ArmPose::pair_contact_over(ends, a, ends, b, t) {
                         Contact::Touch => return Found::Touch,
                         Contact::Near => left.pairs[a] |= 1 << b,
@@ -678,21 +703,33 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
             Found::left(left.any(), left)
         };
-        let place = &mut |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
-            at[0].place_only::<M, D>(self.model, base, &self.tool, &self.at(s), sus.capsules());
+        let left = match check([[e0], [e1]], 1.0, &all) {
+            Found::Clear => return false,
+            Found::Touch => return true,
+            Found::Suspects(left) => left,
         };
-        match check([[e0], [e1]], 1.0, &all) {
-            Found::Clear => false,
-            Found::Touch => true,
-            Found::Suspects(left) => refine(
-                0,
-                2 * self.count,
-                2 * self.count,
-                [[e0], [e1]],
-                left,
-                place,
-                check,
-            ),
+        let halves = 2 * self.count;
+        let ends = [[e0], [e1]];
+        let single = |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
+            let q = self.at(s);
+            at[0].place_only::<M, D>(self.model, base, &self.tool, &q, sus.capsules());
+        };
+        match self.placing {
+            Placing::Single => {
+                let placer = &mut Single(single);
+                refine(0, halves, halves, ends, left, None, placer, check)
+            }
+            Placing::Rake => {
+                let place = |s: F64s, sus: &Suspects, rakes: &mut [Rake; 1]| {
+                    let (q0, dq, only) = (&self.q0, &self.dq, sus.capsules());
+                    rakes[0].place::<M, D>(self.model, base, &self.tool, q0, dq, s, only);
+                };
+                let pose = |rakes: &[Rake; 1], k: usize, sus: &Suspects, at: &mut [ArmPose; 1]| {
+                    rakes[0].pose(k, sus.capsules(), e0, &mut at[0]);
+                };
+                let placer = &mut Raked(place, pose, single);
+                refine(0, halves, halves, ends, left, None, placer, check)
+            }
         }
     }
 }
@@ -788,13 +825,31 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         }
         Found::left(left.iter().any(|&r| r != 0), left)
     };
-    let place = &mut |s: f64, pairs: &Pairs, at: &mut [ArmPose; 2]| {
+    let place = |s: f64, pairs: &Pairs, at: &mut [ArmPose; 2]| {
         let (rows, columns) = rows_and_columns(pairs);
         if !a_still {
             at[0].place_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
         }
         if !b_still {
             at[1].place_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
+        }
+    };
+    let rake = |s: F64s, pairs: &Pairs, rakes: &mut [Rake; 2]| {
+        let (rows, columns) = rows_and_columns(pairs);
+        if !a_still {
+            rakes[0].place::<A, DA>(a.model, base_a, &a.tool, &a.q0, &a.dq, s, rows);
+        }
+        if !b_still {
+            rakes[1].place::<B, DB>(b.model, base_b, &b.tool, &b.q0, &b.dq, s, columns);
+        }
+    };
+    let pose = |rakes: &[Rake; 2], k: usize, pairs: &Pairs, at: &mut [ArmPose; 2]| {
+        let (rows, columns) = rows_and_columns(pairs);
+        if !a_still {
+            rakes[0].pose(k, rows, a0, &mut at[0]);
+        }
+        if !b_still {
+            rakes[1].pose(k, columns, b0, &mut at[1]);
         }
     };
     // The rows and columns the filter above keeps, as the pairs in question.
@@ -813,7 +868,16 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         Found::Suspects(left) => {
             // Half pieces, as one arm's sweep.
             let halves = 2 * a.count.max(b.count);
-            refine(0, halves, halves, ends, left, place, check)
+            match a.placing {
+                Placing::Single => {
+                    let placer = &mut Single(place);
+                    refine(0, halves, halves, ends, left, None, placer, check)
+                }
+                Placing::Rake => {
+                    let placer = &mut Raked(rake, pose, place);
+                    refine(0, halves, halves, ends, left, None, placer, check)
+                }
+            }
         }
     }
 }
@@ -884,37 +948,129 @@ impl<S> Found<S> {
     }
 }
 
+/// Where [`refine`] gets the arms at the middle of a part of the motion.
+trait Placer<S, const K: usize> {
+    /// Placings made ahead for a part and the parts below it (see [`rake::RAKE_PARTS`]).
+    type Ahead;
+    /// Places ahead for the part `first..end` of `count`, `suspects` in question there (and
+    /// so no others below it).
+    fn ahead(&mut self, first: usize, end: usize, count: usize, suspects: &S) -> Self::Ahead;
+    /// The arms at `mid`, the middle of part `part` of `ahead`, for the suspects' capsules.
+    fn at(
+        &mut self,
+        ahead: &Self::Ahead,
+        part: usize,
+        mid: usize,
+        count: usize,
+        suspects: &S,
+        out: &mut [ArmPose; K],
+    );
+}
+
+/// One configuration at a time: `place(s, suspects, poses)` places the arms a fraction `s` of
+/// the way.
+struct Single<F>(F);
+
+impl<S, F: FnMut(f64, &S, &mut [ArmPose; K]), const K: usize> Placer<S, K> for Single<F> {
+    type Ahead = ();
+
+    fn ahead(&mut self, _: usize, _: usize, _: usize, _: &S) {}
+
+    fn at(&mut self, _: &(), _: usize, mid: usize, count: usize, sus: &S, out: &mut [ArmPose; K]) {
+        (self.0)(mid as f64 / count as f64, sus, out);
+    }
+}
+
+/// A rake ahead where it pays: `rake(s, suspects, rakes)` places the arms at the fractions
+/// `s` (a lane each), `pose(rakes, lane, suspects, poses)` reads a lane's; a part with fewer
+/// than [`rake::RAKE_MIN_SPLITS`] splits below it (a short motion) is placed one at a time
+/// by `place` (as [`Single`]), where a batch would cost more than the placings it holds.
+struct Raked<F, G, H>(F, G, H);
+
+impl<S, F, G, H, const K: usize> Placer<S, K> for Raked<F, G, H>
+where
+    F: FnMut(F64s, &S, &mut [Rake; K]),
+    G: FnMut(&[Rake; K], usize, &S, &mut [ArmPose; K]),
+    H: FnMut(f64, &S, &mut [ArmPose; K]),
+{
+    type Ahead = Option<[Rake; K]>;
+
+    fn ahead(&mut self, first: usize, end: usize, count: usize, sus: &S) -> Self::Ahead {
+        let (s, splits) = rake::rake_fractions(first, end, count);
+        (splits >= rake::RAKE_MIN_SPLITS).then(|| {
+            let mut rakes = [Rake::EMPTY; K];
+            (self.0)(s, sus, &mut rakes);
+            rakes
+        })
+    }
+
+    fn at(
+        &mut self,
+        rakes: &Self::Ahead,
+        part: usize,
+        mid: usize,
+        count: usize,
+        sus: &S,
+        out: &mut [ArmPose; K],
+    ) {
+        match rakes {
+            Some(rakes) => (self.1)(rakes, part, sus, out),
+            None => (self.2)(mid as f64 / count as f64, sus, out),
+        }
+    }
+}
+
 /// Whether some suspect still fails on a single one of parts `first..end` of `count` (of the
 /// motion), where `suspects` fail the check over them as a whole: places the arms (`K` of
-/// them) at the parts' middle boundary by `place(s, suspects, poses)` (for the suspects'
-/// capsules only) and checks each half between its end poses by `check(ends, width, suspects)`, `width`
-/// the half's share of the motion, which tells which suspects may meet inside it and whether
-/// one touches at an end; then the halves' halves, for those alone. A touch ends the search.
+/// them) at the parts' middle boundary (for the suspects' capsules only, by `placer`, which
+/// may have placed them ahead: `ahead` is where, and which of its parts this is) and checks
+/// each half between its end poses by `check(ends, width, suspects)`, `width` the half's
+/// share of the motion, which tells which suspects may meet inside it and whether one touches
+/// at an end; then the halves' halves, for those alone. A touch ends the search. The answer
+/// does not depend on how the placer places: every check reads the same poses.
 ///
-/// Cost: one placing per split. Stack: `K` [`ArmPose`]s (about 2.2 KB each) per level, at
-/// most `log2(2 * MAX_SWEEP_CHECKS)` levels.
-fn refine<S: Copy, const K: usize>(
+/// Cost: one placing per split (one rake per three levels). Stack: `K` [`ArmPose`]s (about
+/// 2.2 KB each) per level, and `K` rakes (about 7.8 KB each) per three, at most
+/// `log2(2 * MAX_SWEEP_CHECKS)` levels.
+#[allow(clippy::too_many_arguments)]
+fn refine<S: Copy, P: Placer<S, K>, const K: usize>(
     first: usize,
     end: usize,
     count: usize,
     ends: [[&ArmPose; K]; 2],
     suspects: S,
-    place: &mut impl FnMut(f64, &S, &mut [ArmPose; K]),
+    ahead: Option<(&P::Ahead, usize)>,
+    placer: &mut P,
     check: &mut impl FnMut([[&ArmPose; K]; 2], f64, &S) -> Found<S>,
 ) -> bool {
     if end - first <= 1 {
         return true;
     }
     let mid = (first + end) / 2;
+    let made;
+    let (ahead, part) = match ahead {
+        Some(placed) => placed,
+        None => {
+            made = placer.ahead(first, end, count, &suspects);
+            (&made, 0)
+        }
+    };
     let mut at = [ArmPose::EMPTY; K];
-    place(mid as f64 / count as f64, &suspects, &mut at);
+    placer.at(ahead, part, mid, count, &suspects, &mut at);
     let at: [&ArmPose; K] = core::array::from_fn(|k| &at[k]);
-    for (lo, hi, ends) in [(first, mid, [ends[0], at]), (mid, end, [at, ends[1]])] {
+    let halves = [
+        (2 * part + 1, first, mid, [ends[0], at]),
+        (2 * part + 2, mid, end, [at, ends[1]]),
+    ];
+    for (half, lo, hi, ends) in halves {
         let found = check(ends, (hi - lo) as f64 / count as f64, &suspects);
         let hit = match found {
             Found::Clear => false,
             Found::Touch => true,
-            Found::Suspects(left) => refine(lo, hi, count, ends, left, place, check),
+            Found::Suspects(left) => {
+                let below = (half < rake::RAKE_PARTS).then_some((ahead, half));
+                refine(lo, hi, count, ends, left, below, placer, check)
+            }
         };
         if hit {
             return true;
