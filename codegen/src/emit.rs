@@ -317,13 +317,8 @@ fn sincos(e: &mut Emitter, steps: &[Step]) {
         })
         .collect();
     if !vars.is_empty() {
-        let sincos = if e.generic {
-            "T::sincos"
-        } else {
-            "crate::trig::sincos"
-        };
         e.line(&format!(
-            "let ([{}], [{}]) = {sincos}([{}]);",
+            "let ([{}], [{}]) = crate::trig::sincos([{}]);",
             list(&vars, |v| format!("s{v}")),
             list(&vars, |v| format!("c{v}")),
             list(&vars, |v| format!("q[{v}]"))
@@ -558,14 +553,14 @@ pub fn model(
     let _ = writeln!(
         w,
         "    /// [`crate::model::Model::fk`] over any numbers.\n    #[inline(always)]\n    \
-         pub fn fk_of<T: crate::lanes::Real>(q: &[T; {d}]) -> crate::model::FrameOf<T> {{\n{}    }}\n",
+         pub fn fk_of<T: crate::trig::Angle>(q: &[T; {d}]) -> crate::model::FrameOf<T> {{\n{}    }}\n",
         fk_body(chain)
     );
     let _ = writeln!(
         w,
         "    /// [`crate::model::Model::link_frames`] over any numbers: link frame `i` goes to \
          `out(i, ..)`.\n    #[inline(always)]\n    \
-         pub fn link_frames_of<T: crate::lanes::Real>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>)) \
+         pub fn link_frames_of<T: crate::trig::Angle>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>)) \
          -> crate::model::FrameOf<T> {{\n{}    }}",
         link_frames_body(chain)
     );

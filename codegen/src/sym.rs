@@ -40,7 +40,7 @@ impl Sym {
     }
 
     /// The Rust expression for this value: of type `f64`, or of the generic number type `T`
-    /// (`crate::lanes::Real`) if `generic`.
+    /// (`crate::trig::Angle`) if `generic`.
     pub fn code_as(&self, generic: bool) -> String {
         match self {
             Sym::Lit(v) => lit_as(*v, generic),
@@ -71,13 +71,13 @@ pub struct Emitter {
     pub code: String,
     /// Right-hand side of every binding -> its variable.
     bound: HashMap<String, Sym>,
-    /// Whether the numbers are of a generic type `T: crate::lanes::Real` (literals become
+    /// Whether the numbers are of a generic type `T: crate::trig::Angle` (literals become
     /// `T::splat(..)`), rather than `f64`. The operations and their order are the same.
     pub generic: bool,
 }
 
 impl Emitter {
-    /// An emitter for a body generic over `T: crate::lanes::Real`.
+    /// An emitter for a body generic over `T: crate::trig::Angle`.
     pub fn generic() -> Emitter {
         Emitter {
             generic: true,

@@ -46,9 +46,6 @@ pub trait Real:
 {
     /// `v` in every lane.
     fn splat(v: f64) -> Self;
-
-    /// Sines and cosines, element by element (see [`crate::trig`]).
-    fn sincos<const N: usize>(x: [Self; N]) -> ([Self; N], [Self; N]);
 }
 
 impl Real for f64 {
@@ -56,22 +53,12 @@ impl Real for f64 {
     fn splat(v: f64) -> Self {
         v
     }
-
-    #[inline(always)]
-    fn sincos<const N: usize>(x: [Self; N]) -> ([Self; N], [Self; N]) {
-        crate::trig::sincos(x)
-    }
 }
 
 impl Real for F64s {
     #[inline(always)]
     fn splat(v: f64) -> Self {
         F64s::splat(v)
-    }
-
-    #[inline(always)]
-    fn sincos<const N: usize>(x: [Self; N]) -> ([Self; N], [Self; N]) {
-        crate::trig::sincos(x)
     }
 }
 

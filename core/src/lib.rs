@@ -55,6 +55,6 @@ pub mod rng;
 pub mod search;
 pub mod tool;
 pub mod tracking;
-mod trig;
+pub mod trig;
 
 pub use nalgebra;

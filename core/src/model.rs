@@ -187,11 +187,14 @@ impl Frame {
 /// bit for bit, the `Frame` of configuration `k`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameOf<T> {
+    /// The rotation's rows.
     pub rot: [[T; 3]; 3],
+    /// The translation.
     pub pos: [T; 3],
 }
 
 impl<T: Real> FrameOf<T> {
+    /// The identity in every lane.
     #[inline(always)]
     pub fn identity() -> Self {
         let (o, z) = (T::splat(1.0), T::splat(0.0));
@@ -441,7 +444,9 @@ pub trait Models<const D: usize>: 'static {
     fn link_frames(id: u8, q: &[f64; D], out: &mut [Frame]) -> Frame;
     /// [`Model::jacobian`] of model `id`.
     fn jacobian(id: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
+    /// [`Model::fk_lanes`] of model `id`.
     fn fk_lanes(id: u8, q: &[F64s; D]) -> FrameOf<F64s>;
+    /// [`Model::link_frames_lanes`] of model `id`.
     fn link_frames_lanes(id: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s>;
 
     /// The index of the model called `name` ([`Model::NAME`]).

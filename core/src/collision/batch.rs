@@ -13,7 +13,7 @@
 
 use nalgebra::Vector3;
 
-use super::{ArmPose, MAX_POSE_CAPSULES};
+use super::pose::{ArmPose, MAX_POSE_CAPSULES};
 pub(super) use crate::geometry::lanes::Point;
 use crate::geometry::lanes::Segments;
 use crate::geometry::{Aabb, Capsule, Obstacle};
@@ -24,7 +24,9 @@ use crate::tool::Tool;
 /// An axis-aligned box per lane, as [`Aabb`]: `min..=max`.
 #[derive(Clone, Copy, Debug)]
 pub struct Boxes {
+    /// The least corner.
     pub min: Point,
+    /// The greatest corner.
     pub max: Point,
 }
 

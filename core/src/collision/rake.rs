@@ -11,7 +11,7 @@
 //! where it stops sooner.
 
 use super::batch::{place_ends, Point};
-use super::{ArmPose, MAX_POSE_CAPSULES};
+use super::pose::{ArmPose, MAX_POSE_CAPSULES};
 use nalgebra::Vector3;
 
 use crate::geometry::Capsule;
@@ -89,7 +89,7 @@ impl Rake {
         (out.len, out.links, out.on_base) = (like.len, like.links, like.on_base);
         (out.self_pairs, out.tool_self) = (like.self_pairs, like.tool_self);
         let at = |p: &Point| Vector3::new(lane(p[0], k), lane(p[1], k), lane(p[2], k));
-        for i in super::bits(only) {
+        for i in super::pose::bits(only) {
             let capsule = Capsule::new(at(&self.a[i]), at(&self.b[i]), self.radius[i]);
             out.capsules[i] = capsule;
             out.boxes[i] = capsule.aabb();

@@ -17,7 +17,9 @@ pub type Point = [F64s; 3];
 /// A segment per lane, from `a` to `b`.
 #[derive(Clone, Copy, Debug)]
 pub struct Segments {
+    /// The first end.
     pub a: Point,
+    /// The second end.
     pub b: Point,
 }
 
