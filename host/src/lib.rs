@@ -11,6 +11,7 @@ pub mod demo;
 pub mod error;
 pub mod execute;
 pub mod format;
+pub mod import;
 pub mod ik;
 pub mod load;
 pub mod models;
