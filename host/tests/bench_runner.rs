@@ -384,19 +384,33 @@ fn a_fixed_assignment_is_planned_under_and_checked() {
     let suite = tempfile::tempdir().unwrap();
     let out = tempfile::tempdir().unwrap();
     write_fixed_suite(suite.path(), vec![Some(0), None]);
-    let report = run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
     let rows = read_rows(&report.results_path);
-    assert_eq!((rows[0].success, rows[0].valid), (true, Some(true)), "{:?}", rows[0]);
+    assert_eq!(
+        (rows[0].success, rows[0].valid),
+        (true, Some(true)),
+        "{:?}",
+        rows[0]
+    );
     assert_eq!(rows[0].message, "[Track(0), Hold]");
 
     // Fixed the other way: a valid plan under another assignment is not a success.
     let out = tempfile::tempdir().unwrap();
     write_fixed_suite(suite.path(), vec![None, Some(0)]);
-    let report = run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
     let rows = read_rows(&report.results_path);
-    assert_eq!((rows[0].success, rows[0].valid), (false, Some(false)), "{:?}", rows[0]);
+    assert_eq!(
+        (rows[0].success, rows[0].valid),
+        (false, Some(false)),
+        "{:?}",
+        rows[0]
+    );
     assert!(
-        rows[0].message.contains("the plan's assignment [Some(0), None] is not the fixed [None, Some(0)]"),
+        rows[0]
+            .message
+            .contains("the plan's assignment [Some(0), None] is not the fixed [None, Some(0)]"),
         "{}",
         rows[0].message
     );
@@ -404,11 +418,14 @@ fn a_fixed_assignment_is_planned_under_and_checked() {
     // An assignment that does not fit the problem is an error of the suite, named.
     let out = tempfile::tempdir().unwrap();
     write_fixed_suite(suite.path(), vec![Some(1), None]);
-    let report = run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
     let rows = read_rows(&report.results_path);
     assert_eq!(rows[0].status, "error");
     assert!(
-        rows[0].message.contains("suite.json: fixed: assignment[0]: hand 1 does not exist"),
+        rows[0]
+            .message
+            .contains("suite.json: fixed: assignment[0]: hand 1 does not exist"),
         "{}",
         rows[0].message
     );

@@ -187,10 +187,17 @@ fn checkout(dir: &Path) {
     std::fs::write(core.join("config/srdf/two.srdf"), two).unwrap();
     let arms = ["panda0", "panda1", "panda2", "panda3"];
     let all = |q| arms.map(|a| (a, q));
-    let four = srdf(&arms, &[state("ready", &all(READY)), state("lean", &all(LEANING))]);
+    let four = srdf(
+        &arms,
+        &[state("ready", &all(READY)), state("lean", &all(LEANING))],
+    );
     std::fs::write(core.join("config/srdf/four.srdf"), four).unwrap();
     std::fs::write(core.join("config/srdf/two_gp.srdf"), srdf(&["left"], &[])).unwrap();
-    std::fs::write(core.join("scripts/plugins/config/panda_two_base_transforms.json"), PAIR_BASES).unwrap();
+    std::fs::write(
+        core.join("scripts/plugins/config/panda_two_base_transforms.json"),
+        PAIR_BASES,
+    )
+    .unwrap();
 }
 
 fn options(envs: &[&str]) -> Options {
@@ -215,24 +222,50 @@ fn imports_every_usable_pose_pair_with_scene_rods_and_fixed_assignment() {
         panic!("one pose left out: {two:?}")
     };
     assert_eq!(pose, "straight");
-    assert!(why.contains("robots[0].initial[3]") && why.contains("outside the limits"), "{why}");
+    assert!(
+        why.contains("robots[0].initial[3]") && why.contains("outside the limits"),
+        "{why}"
+    );
     assert_eq!((two.problems, two.obstacles, two.rods), (2, 2, 1));
-    assert_eq!((four.robots, four.problems, four.obstacles, four.rods), (4, 2, 6, 0));
+    assert_eq!(
+        (four.robots, four.problems, four.obstacles, four.rods),
+        (4, 2, 6, 0)
+    );
     let [(env, why)] = &report.not_imported[..] else {
         panic!("two_gp not imported: {report:?}")
     };
     assert_eq!(env, "two_gp");
-    assert!(why.contains("VampVariant::DualGp4, not Franka Pandas"), "{why}");
-    assert!(report.markdown().contains("| two | 2 | 2 | 1 | 2 | 1 | 2 |"), "{}", report.markdown());
+    assert!(
+        why.contains("VampVariant::DualGp4, not Franka Pandas"),
+        "{why}"
+    );
+    assert!(
+        report
+            .markdown()
+            .contains("| two | 2 | 2 | 1 | 2 | 1 | 2 |"),
+        "{}",
+        report.markdown()
+    );
 
     let index = read_index(&out).unwrap();
     let names: Vec<&str> = index.problems.iter().map(|e| e.name.as_str()).collect();
-    assert_eq!(names, ["two_ready_to_lean", "two_lean_to_ready", "four_ready_to_lean", "four_lean_to_ready"]);
+    assert_eq!(
+        names,
+        [
+            "two_ready_to_lean",
+            "two_lean_to_ready",
+            "four_ready_to_lean",
+            "four_lean_to_ready"
+        ]
+    );
     let panda = ModelKind::parse("franka_panda").unwrap().id();
     for entry in &index.problems {
         assert_eq!(entry.family, entry.name.split('_').next().unwrap());
         assert_eq!(entry.horizon, 1);
-        assert_eq!(entry.assignment, Some((0..entry.robots).map(Some).collect()));
+        assert_eq!(
+            entry.assignment,
+            Some((0..entry.robots).map(Some).collect())
+        );
         let text = load::read_text(&out.join(&entry.file)).unwrap();
         let file = load::parse_problem(&text).unwrap();
         // Every problem loads, its arms clear where they start.
@@ -261,17 +294,25 @@ fn imports_every_usable_pose_pair_with_scene_rods_and_fixed_assignment() {
     // The table segments, and the rod of arm 1 as a capsule across the hand (along the tool
     // frame's x axis after the pitch of pi/2), not arm 0.
     let table = &file.obstacles[0];
-    assert_eq!((table.name.as_str(), table.shape), ("table_segment_0", ShapeKind::Box));
+    assert_eq!(
+        (table.name.as_str(), table.shape),
+        ("table_segment_0", ShapeKind::Box)
+    );
     assert_eq!(table.half_extents, Some([1.0, 0.2, 0.05]));
     assert_eq!(table.pose.position, [0.0, 0.9, 0.05]);
     assert!(file.robots[0].tool.is_none());
     let rod = file.robots[1].tool.as_ref().unwrap();
     assert_eq!(rod.name, "panda1_rod");
-    let [c] = &rod.capsules[..] else { panic!("one capsule") };
+    let [c] = &rod.capsules[..] else {
+        panic!("one capsule")
+    };
     assert_eq!(c.radius, 0.01);
     for (end, sign) in [(c.a, -1.0), (c.b, 1.0)] {
         let want = [sign * 0.1, 0.0, -0.005];
-        assert!(end.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12), "{end:?}");
+        assert!(
+            end.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12),
+            "{end:?}"
+        );
     }
 
     // four: the quad layout's yaws, the table from z and thickness, the bin's floor and walls.
@@ -280,10 +321,16 @@ fn imports_every_usable_pose_pair_with_scene_rods_and_fixed_assignment() {
     let base2 = to_frame(&file.robots[2].base).unwrap();
     assert!((base2.pos - omcbsa_core::nalgebra::Vector3::new(0.5, 0.5, 0.1)).norm() < 1e-12);
     let yaw = base2.rot[(1, 0)].atan2(base2.rot[(0, 0)]);
-    assert!((yaw + 3.0 * std::f64::consts::FRAC_PI_4).abs() < 1e-12, "{yaw}");
+    assert!(
+        (yaw + 3.0 * std::f64::consts::FRAC_PI_4).abs() < 1e-12,
+        "{yaw}"
+    );
     let named = |n: &str| file.obstacles.iter().find(|o| o.name == n).unwrap();
     assert_eq!(named("table_segment_0").pose.position, [0.0, 1.2, 0.05]);
-    assert_eq!(named("table_segment_0").half_extents, Some([1.0, 0.1, 0.05]));
+    assert_eq!(
+        named("table_segment_0").half_extents,
+        Some([1.0, 0.1, 0.05])
+    );
     assert_eq!(named("bin_0_bottom").half_extents, Some([0.15, 0.15, 0.01]));
     let front = named("bin_0_front");
     assert_eq!(front.half_extents, Some([0.15, 0.01, 0.1]));
@@ -297,11 +344,17 @@ fn imports_every_usable_pose_pair_with_scene_rods_and_fixed_assignment() {
     };
     let out_free = dir.path().join("free");
     import(dir.path(), &out_free, &free).unwrap();
-    assert!(read_index(&out_free).unwrap().problems.iter().all(|e| e.assignment.is_none()));
+    assert!(read_index(&out_free)
+        .unwrap()
+        .problems
+        .iter()
+        .all(|e| e.assignment.is_none()));
 }
 
 fn error(dir: &Path, envs: &[&str]) -> String {
-    import(dir, &dir.join("out"), &options(envs)).unwrap_err().to_string()
+    import(dir, &dir.join("out"), &options(envs))
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
@@ -318,7 +371,11 @@ fn malformed_or_unsupported_files_are_named_with_what_is_wrong() {
     // A joint value that is not a number.
     let srdf_path = core.join("config/srdf/two.srdf");
     let good = std::fs::read_to_string(&srdf_path).unwrap();
-    std::fs::write(&srdf_path, good.replacen("value=\"-0.5\"", "value=\"-0.5rad\"", 1)).unwrap();
+    std::fs::write(
+        &srdf_path,
+        good.replacen("value=\"-0.5\"", "value=\"-0.5rad\"", 1),
+    )
+    .unwrap();
     let e = error(dir.path(), &["two"]);
     assert!(
         e.ends_with("two.srdf: group_state \"ready\" (group panda_multi_arm): joint \"panda0_joint2\": value \"-0.5rad\" is not a finite number"),
@@ -343,16 +400,29 @@ fn malformed_or_unsupported_files_are_named_with_what_is_wrong() {
         "{e}"
     );
     // A table with a row too short.
-    let short = FACTORY.replace("{0.0, -0.9, 0.05, 2.0, 0.4, 0.1}", "{0.0, -0.9, 0.05, 2.0, 0.4}");
+    let short = FACTORY.replace(
+        "{0.0, -0.9, 0.05, 2.0, 0.4, 0.1}",
+        "{0.0, -0.9, 0.05, 2.0, 0.4}",
+    );
     std::fs::write(&factory_path, short).unwrap();
     let e = error(dir.path(), &["two"]);
-    assert!(e.contains("function add_panda_table_segments: row 1: expected 6 numbers, found 5"), "{e}");
+    assert!(
+        e.contains("function add_panda_table_segments: row 1: expected 6 numbers, found 5"),
+        "{e}"
+    );
     // Unbalanced source.
     std::fs::write(&factory_path, "namespace vamp_env {\nvoid f() {\n").unwrap();
     let e = error(dir.path(), &["two"]);
-    assert!(e.contains("vamp_env_factory.cpp: line 2: '{' not closed by '}'"), "{e}");
+    assert!(
+        e.contains("vamp_env_factory.cpp: line 2: '{' not closed by '}'"),
+        "{e}"
+    );
     // An environment the factory does not configure.
-    std::fs::write(&factory_path, FACTORY.replace("name == \"four\"", "name == \"quad\"")).unwrap();
+    std::fs::write(
+        &factory_path,
+        FACTORY.replace("name == \"four\"", "name == \"quad\""),
+    )
+    .unwrap();
     let e = error(dir.path(), &["four"]);
     assert!(
         e.contains("function make_environment_config, environment \"four\": no branch for this environment"),
@@ -364,8 +434,13 @@ fn malformed_or_unsupported_files_are_named_with_what_is_wrong() {
     let bases = core.join("scripts/plugins/config/panda_two_base_transforms.json");
     std::fs::write(&bases, PAIR_BASES.replacen("\"rpy\"", "\"rpz\"", 1)).unwrap();
     let e = error(dir.path(), &["two"]);
-    assert!(e.contains("panda_two_base_transforms.json: [0]: unknown field `rpz`"), "{e}");
-    let e = parse_transforms(Path::new("b.json"), PAIR_BASES, 3).unwrap_err().to_string();
+    assert!(
+        e.contains("panda_two_base_transforms.json: [0].rpz: unknown field `rpz`"),
+        "{e}"
+    );
+    let e = parse_transforms(Path::new("b.json"), PAIR_BASES, 3)
+        .unwrap_err()
+        .to_string();
     assert_eq!(e, "b.json: 2 transforms for 3 arms");
     let e = parse_transforms(Path::new("b.json"), "[{\"quaternion\": [0, 0, 0, 2]}]", 1)
         .unwrap_err()

@@ -40,7 +40,7 @@ impl Value {
 
     /// `k` numbers (a list of them, or a vector constructor's).
     pub fn numbers(&self, k: usize) -> Result<Vec<f64>, String> {
-        let Value::List(items) = self.unbraced() else {
+        let Value::List(items) = self.unbraced(false) else {
             return Err(format!("expected {k} numbers, found {}", self.kind()));
         };
         if items.len() != k {
@@ -51,20 +51,29 @@ impl Value {
 
     /// Rows of `k` numbers each (`{{ {..}, {..} }}`, `{ Vector3d(..), .. }`).
     pub fn rows(&self, k: usize) -> Result<Vec<Vec<f64>>, String> {
-        let Value::List(items) = self.unbraced() else {
-            return Err(format!("expected rows of {k} numbers, found {}", self.kind()));
+        let Value::List(items) = self.unbraced(true) else {
+            return Err(format!(
+                "expected rows of {k} numbers, found {}",
+                self.kind()
+            ));
         };
         (items.iter().enumerate())
             .map(|(i, row)| row.numbers(k).map_err(|e| format!("row {i}: {e}")))
             .collect()
     }
 
-    /// Without the outer braces of `std::array`'s aggregate initialisation (`{{ .. }}`).
-    fn unbraced(&self) -> &Value {
+    /// Without the outer braces of `std::array`'s aggregate initialisation (`{{ .. }}`): of a
+    /// list of numbers, or with `rows`, of a list of rows.
+    fn unbraced(&self, rows: bool) -> &Value {
         match self {
-            Value::List(items) if items.len() == 1 && matches!(items[0], Value::List(_)) => {
-                items[0].unbraced()
-            }
+            Value::List(items) if items.len() == 1 => match &items[0] {
+                inner @ Value::List(x)
+                    if !rows || x.iter().all(|v| matches!(v, Value::List(_))) =>
+                {
+                    inner.unbraced(rows)
+                }
+                _ => self,
+            },
             v => v,
         }
     }
@@ -162,7 +171,9 @@ impl Lexer {
                     self.bump();
                     trees.push(Tree::Str(self.raw()?));
                 }
-                c if c.is_ascii_digit() || (c == '.' && self.peek(1).is_some_and(|d| d.is_ascii_digit())) => {
+                c if c.is_ascii_digit()
+                    || (c == '.' && self.peek(1).is_some_and(|d| d.is_ascii_digit())) =>
+                {
                     trees.push(Tree::Num(self.number()?));
                 }
                 c if c.is_alphabetic() || c == '_' => {
@@ -328,7 +339,9 @@ pub fn branch<'a>(trees: &'a [Tree], key: &str) -> Option<&'a [Tree]> {
     let mut found = None;
     each_level(trees, &mut |level| {
         for w in level.windows(3) {
-            let holds = inner(&w[1]).iter().any(|t| matches!(t, Tree::Str(s) if s == key));
+            let holds = inner(&w[1])
+                .iter()
+                .any(|t| matches!(t, Tree::Str(s) if s == key));
             if is_ident(&w[0], "if") && is_group(&w[1], '(') && holds && is_group(&w[2], '{') {
                 found = Some(inner(&w[2]));
                 return true;
@@ -414,7 +427,12 @@ fn split_commas(tokens: &[Tree]) -> Vec<&[Tree]> {
 /// `T name(args);`, or a parameter's default `T name = expr`).
 pub fn variable(trees: &[Tree], name: &str) -> Result<Value, String> {
     for (i, t) in trees.iter().enumerate() {
-        if !is_ident(t, name) || !matches!(trees.get(i.wrapping_sub(1)), Some(Tree::Ident(_) | Tree::Punct('>' | '&'))) {
+        if !is_ident(t, name)
+            || !matches!(
+                trees.get(i.wrapping_sub(1)),
+                Some(Tree::Ident(_) | Tree::Punct('>' | '&'))
+            )
+        {
             continue;
         }
         match trees.get(i + 1) {
@@ -543,7 +561,13 @@ fn call(name: &str, args: &[Tree]) -> Result<Value, String> {
         .map(eval)
         .collect::<Result<_, _>>()?;
     let short = name.rsplit("::").next().unwrap_or(name);
-    let unit = |k: usize| Value::List((0..3).map(|i| Value::Num(f64::from(u8::from(i == k)))).collect());
+    let unit = |k: usize| {
+        Value::List(
+            (0..3)
+                .map(|i| Value::Num(f64::from(u8::from(i == k))))
+                .collect(),
+        )
+    };
     Ok(match short {
         "Vector3d" | "Vector3f" => Value::List(args),
         "UnitX" => unit(0),
@@ -605,7 +629,10 @@ void setup(const Config &config)
             variable(table, "rows").unwrap().rows(3).unwrap(),
             vec![vec![0.0, -0.15, 2.0], vec![0.75, 0.0, 1000.0]]
         );
-        assert_eq!(variable(table, "size").unwrap().numbers(3).unwrap(), vec![0.5; 3]);
+        assert_eq!(
+            variable(table, "size").unwrap().numbers(3).unwrap(),
+            vec![0.5; 3]
+        );
         let Value::Call(name, args) = variable(table, "q").unwrap() else {
             panic!("a call")
         };
@@ -613,11 +640,17 @@ void setup(const Config &config)
         assert_eq!(args[1], Value::Num(FRAC_PI_2));
         assert!((args[2].num().unwrap() + 2.0 * PI / 3.0).abs() < 1e-15);
         // A parameter's default value.
-        assert_eq!(variable(definition.params, "thickness").unwrap(), Value::Num(0.02));
+        assert_eq!(
+            variable(definition.params, "thickness").unwrap(),
+            Value::Num(0.02)
+        );
 
         let setup = function(&trees, "setup").unwrap().body;
         let pair = case(setup, "Pair").unwrap();
-        assert_eq!(variable(pair, "yaws").unwrap().numbers(2).unwrap(), vec![PI, 0.0]);
+        assert_eq!(
+            variable(pair, "yaws").unwrap().numbers(2).unwrap(),
+            vec![PI, 0.0]
+        );
         assert!(case(setup, "Quad").is_none());
         let two = branch(setup, "two_rod").unwrap();
         assert!(identifiers(two).contains(&"add_table"));
@@ -629,22 +662,42 @@ void setup(const Config &config)
         assert_eq!(attach.len(), 1);
         assert_eq!(attach[0].len(), 5);
         assert_eq!(eval(attach[0][3]).unwrap(), Value::Num(0.015));
-        assert_eq!(eval(attach[0][4]).unwrap().numbers(3).unwrap(), vec![0.0, 0.0, -0.005]);
+        assert_eq!(
+            eval(attach[0][4]).unwrap().numbers(3).unwrap(),
+            vec![0.0, 0.0, -0.005]
+        );
         assert!(branch(setup, "six").is_none());
     }
 
     #[test]
     fn refuses_what_it_cannot_read() {
         assert!(parse("void f() { (] }").unwrap_err().contains("line 1"));
-        assert!(parse("a\n\"open").unwrap_err().contains("line 2: unterminated"));
+        assert!(parse("a\n\"open")
+            .unwrap_err()
+            .contains("line 2: unterminated"));
         assert!(parse("x = 0x1g;").unwrap_err().contains("not understood"));
         let trees = parse("void f() { double a = b + 1; double c = 1 + ; }").unwrap();
         let body = function(&trees, "f").unwrap().body;
-        assert!(variable(body, "a").unwrap_err().contains("identifier b has no value"));
+        assert!(variable(body, "a")
+            .unwrap_err()
+            .contains("identifier b has no value"));
         assert!(variable(body, "c").unwrap_err().contains("ends early"));
         assert!(variable(body, "d").unwrap_err().contains("not found"));
+        // One row, and numbers in double braces.
+        let one = eval(&parse("{{{1, 2}}}").unwrap()).unwrap();
+        assert_eq!(one.rows(2).unwrap(), vec![vec![1.0, 2.0]]);
+        assert_eq!(
+            eval(&parse("{{1, 2}}").unwrap())
+                .unwrap()
+                .numbers(2)
+                .unwrap(),
+            [1.0, 2.0]
+        );
         let v = eval(&parse("{1, 2}").unwrap()).unwrap();
-        assert!(v.numbers(3).unwrap_err().contains("expected 3 numbers, found 2"));
+        assert!(v
+            .numbers(3)
+            .unwrap_err()
+            .contains("expected 3 numbers, found 2"));
         assert!(v.rows(2).unwrap_err().contains("row 0"));
     }
 }

@@ -177,7 +177,10 @@ pub fn import(from: &Path, out: &Path, opts: &Options) -> Result<Report, ImportE
             let why = format!(
                 "its arms are VampVariant::{}, not Franka Pandas (the models compiled in: {})",
                 config.variant,
-                ModelKind::all().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+                ModelKind::all()
+                    .map(|m| m.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
             report.not_imported.push((env.clone(), why));
             continue;
@@ -198,7 +201,13 @@ pub fn import(from: &Path, out: &Path, opts: &Options) -> Result<Report, ImportE
 /// else `_`.
 fn slug(s: &str) -> String {
     s.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect()
 }
 
@@ -215,7 +224,14 @@ fn environment(
     for name in srdf.pose_names(&config.move_group, &config.robot_groups) {
         let q = srdf.pose(&name, &config.move_group, &config.robot_groups)?;
         // The pose to itself: loading it checks limits and collisions at `initial`.
-        let file = problem(&format!("{env}_{}", slug(&name)), config, scene, &q, &q, opts.dt);
+        let file = problem(
+            &format!("{env}_{}", slug(&name)),
+            config,
+            scene,
+            &q,
+            &q,
+            opts.dt,
+        );
         let why = match load_problem(&file) {
             Ok(_) => {
                 poses.push((name, q));
@@ -225,7 +241,10 @@ fn environment(
             Err(InputOrPlanError::Plan(e)) => e,
         };
         let depth = match deepest_arm_overlap(&file) {
-            Some(d) => format!(" (the deepest overlap of two arms' capsules: {:.1} mm)", d * 1e3),
+            Some(d) => format!(
+                " (the deepest overlap of two arms' capsules: {:.1} mm)",
+                d * 1e3
+            ),
             None => String::new(),
         };
         left_out.push((name, why + &depth));
@@ -256,7 +275,9 @@ fn environment(
 fn deepest_arm_overlap(file: &ProblemFile) -> Option<f64> {
     let p = load::problem::<Fleet, DOF>(file).ok()?;
     let arms: Vec<ArmPose> = (p.robots.iter())
-        .map(|r| ArmPose::new::<Fleet, DOF>(r.model, &r.base, &r.tool, &r.initial.unwrap_or([0.0; DOF])))
+        .map(|r| {
+            ArmPose::new::<Fleet, DOF>(r.model, &r.base, &r.tool, &r.initial.unwrap_or([0.0; DOF]))
+        })
         .collect();
     let least = (0..arms.len())
         .flat_map(|i| (i + 1..arms.len()).map(move |j| (i, j)))
@@ -289,7 +310,9 @@ fn problem(
     let trajectories = (config.robot_groups.iter().enumerate())
         .map(|(i, g)| TrajectorySpec {
             name: format!("{}_goal", arm(g)),
-            poses: vec![from_frame(&scene.bases[i].compose(&Fleet::fk(panda, &goal[i])))],
+            poses: vec![from_frame(
+                &scene.bases[i].compose(&Fleet::fk(panda, &goal[i])),
+            )],
         })
         .collect();
     let obstacles = (scene.boxes.iter())
@@ -354,7 +377,11 @@ fn entry(env: &str, p: &ProblemFile, assignment: Assignment) -> SuiteEntry {
     }
 }
 
-fn write_suite(out: &Path, entries: &[SuiteEntry], problems: &[ProblemFile]) -> Result<(), ImportError> {
+fn write_suite(
+    out: &Path,
+    entries: &[SuiteEntry],
+    problems: &[ProblemFile],
+) -> Result<(), ImportError> {
     std::fs::create_dir_all(out)
         .map_err(|e| ImportError::new(out, "", format!("cannot create: {e}")))?;
     let write = |path: &Path, text: Result<String, serde_json::Error>| {

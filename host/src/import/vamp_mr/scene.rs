@@ -117,15 +117,14 @@ impl Factory {
                 .collect(),
             _ => None,
         };
-        let variant = (fields.iter())
-            .find_map(|f| match f {
-                [Tree::Ident(v), Tree::Punct(':'), Tree::Punct(':'), Tree::Ident(name)]
-                    if v == "VampVariant" =>
-                {
-                    Some(name.clone())
-                }
-                _ => None,
-            });
+        let variant = (fields.iter()).find_map(|f| match f {
+            [Tree::Ident(v), Tree::Punct(':'), Tree::Punct(':'), Tree::Ident(name)]
+                if v == "VampVariant" =>
+            {
+                Some(name.clone())
+            }
+            _ => None,
+        });
         match (move_group, robot_groups, variant) {
             (Some(move_group), Some(robot_groups), Some(variant)) if !robot_groups.is_empty() => {
                 Ok(Config {
@@ -171,7 +170,9 @@ impl Factory {
 
     /// `yaws` and `translations` of `environment`'s branch in `case VampVariant::variant`.
     fn yawed_bases(&self, env: &str, variant: &str, n: usize) -> Result<Vec<Frame>, ImportError> {
-        let at = format!("function default_base_transforms, case VampVariant::{variant}, environment {env:?}");
+        let at = format!(
+            "function default_base_transforms, case VampVariant::{variant}, environment {env:?}"
+        );
         let body = self.function("default_base_transforms")?.body;
         let block = cpp::case(body, variant)
             .and_then(|c| cpp::branch(c, env))
@@ -180,7 +181,9 @@ impl Factory {
             return Err(self.error(&at, "the yaws are not about the z axis"));
         }
         let read = |name: &str| cpp::variable(block, name).map_err(|e| self.error(&at, e));
-        let yaws = read("yaws")?.numbers(n).map_err(|e| self.error(&at, format!("yaws: {e}")))?;
+        let yaws = read("yaws")?
+            .numbers(n)
+            .map_err(|e| self.error(&at, format!("yaws: {e}")))?;
         let translations = (read("translations")?.rows(3))
             .map_err(|e| self.error(&at, format!("translations: {e}")))?;
         if translations.len() != n {
@@ -200,11 +203,18 @@ impl Factory {
             return Ok(Vec::new());
         };
         let mut boxes = Vec::new();
-        let known = ["add_panda_table_segments", "add_panda_four_table_segments", "add_hollow_box_obstacles"];
+        let known = [
+            "add_panda_table_segments",
+            "add_panda_four_table_segments",
+            "add_hollow_box_obstacles",
+        ];
         for id in cpp::identifiers(block) {
             let builds = id.starts_with("add") || id.contains("Object") || id.starts_with("make_");
             if builds && !known.contains(&id) {
-                return Err(self.error(&at, format!("{id}: a scene builder the importer does not read")));
+                return Err(self.error(
+                    &at,
+                    format!("{id}: a scene builder the importer does not read"),
+                ));
             }
         }
         if !cpp::calls(block, "add_panda_table_segments").is_empty() {
@@ -233,8 +243,10 @@ impl Factory {
                 return Err(self.error(&at, "add_hollow_box_obstacles with other than 4 arguments (instance, name, centre, size)"));
             }
             let params = self.function("add_hollow_box_obstacles")?.params;
-            let thickness = (cpp::variable(params, "thickness").and_then(|v| v.num()))
-                .map_err(|e| self.error("function add_hollow_box_obstacles, parameter thickness", e))?;
+            let thickness =
+                (cpp::variable(params, "thickness").and_then(|v| v.num())).map_err(|e| {
+                    self.error("function add_hollow_box_obstacles, parameter thickness", e)
+                })?;
             let read = |name: &str, k: usize| {
                 cpp::variable(block, name)
                     .and_then(|v| v.rows(k).or_else(|_| v.numbers(k).map(|r| vec![r])))
@@ -276,7 +288,11 @@ impl Factory {
             return Ok(rods);
         };
         let calls = cpp::calls(block, "add_cylinder_attachment");
-        if calls.is_empty() && cpp::identifiers(block).iter().any(|id| id.contains("attach")) {
+        if calls.is_empty()
+            && cpp::identifiers(block)
+                .iter()
+                .any(|id| id.contains("attach"))
+        {
             return Err(self.error(&at, "an attachment other than add_cylinder_attachment"));
         }
         for args in calls {
@@ -290,7 +306,9 @@ impl Factory {
             }
             .map_err(&err)?;
             let Value::Call(f, rpy) = rpy else {
-                return Err(err("rotation: expected quaternion_from_rpy(roll, pitch, yaw)".into()));
+                return Err(err(
+                    "rotation: expected quaternion_from_rpy(roll, pitch, yaw)".into(),
+                ));
             };
             if f != "quaternion_from_rpy" || rpy.len() != 3 {
                 return Err(err(format!("rotation: {f} with {} arguments: expected quaternion_from_rpy(roll, pitch, yaw)", rpy.len())));
@@ -307,11 +325,16 @@ impl Factory {
                     .map_err(|e| err(format!("translation: {e}")))?
                     .try_into()
                     .map_err(|_| err("translation".into()))?,
-                rpy: [rpy[0].num().map_err(&err)?, rpy[1].num().map_err(&err)?, rpy[2].num().map_err(&err)?],
+                rpy: [
+                    rpy[0].num().map_err(&err)?,
+                    rpy[1].num().map_err(&err)?,
+                    rpy[2].num().map_err(&err)?,
+                ],
             };
             match robot {
                 [Tree::Num(i)] => {
-                    let slot = (rods.get_mut(*i as usize)).filter(|_| i.fract() == 0.0 && *i >= 0.0);
+                    let slot =
+                        (rods.get_mut(*i as usize)).filter(|_| i.fract() == 0.0 && *i >= 0.0);
                     *slot.ok_or_else(|| err(format!("robot {i}: there are {n} arms")))? = Some(rod);
                 }
                 // A loop over the arms.
@@ -374,10 +397,18 @@ pub fn parse_transforms(path: &Path, text: &str, n: usize) -> Result<Vec<Frame>,
     let de = &mut serde_json::Deserializer::from_str(text);
     let list: Vec<Transform> = serde_path_to_error::deserialize(de).map_err(|e| {
         let at = e.path().to_string();
-        ImportError::new(path, if at == "." { String::new() } else { at }, e.into_inner().to_string())
+        ImportError::new(
+            path,
+            if at == "." { String::new() } else { at },
+            e.into_inner().to_string(),
+        )
     })?;
     if list.len() != n {
-        return Err(ImportError::new(path, "", format!("{} transforms for {n} arms", list.len())));
+        return Err(ImportError::new(
+            path,
+            "",
+            format!("{} transforms for {n} arms", list.len()),
+        ));
     }
     (list.iter().enumerate())
         .map(|(i, t)| {
@@ -390,7 +421,10 @@ pub fn parse_transforms(path: &Path, text: &str, n: usize) -> Result<Vec<Frame>,
             match (t.rpy, t.quaternion) {
                 (Some(rpy), None) => Ok(frame(&xyz, &rpy)),
                 (None, Some(quat_xyzw)) => {
-                    let pose = Pose { position: xyz, quat_xyzw };
+                    let pose = Pose {
+                        position: xyz,
+                        quat_xyzw,
+                    };
                     pose::to_frame(&pose).map_err(|e| bad(&e.to_string()))
                 }
                 (None, None) => Ok(frame(&xyz, &[0.0; 3])),

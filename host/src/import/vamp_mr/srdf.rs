@@ -24,8 +24,15 @@ struct Group {
 pub struct Srdf {
     path: PathBuf,
     groups: HashMap<String, Group>,
-    /// `(group, state)` -> joint values, in file order.
-    states: Vec<((String, String), Vec<(String, f64)>)>,
+    states: Vec<State>,
+}
+
+/// One `<group_state>`: its group, name and joint values, in file order.
+#[derive(Clone, Debug)]
+struct State {
+    group: String,
+    name: String,
+    values: Vec<(String, f64)>,
 }
 
 impl Srdf {
@@ -94,7 +101,11 @@ impl Srdf {
                         })?;
                         values.push((joint, value));
                     }
-                    srdf.states.push(((group, state), values));
+                    srdf.states.push(State {
+                        group,
+                        name: state,
+                        values,
+                    });
                 }
                 _ => {}
             }
@@ -132,8 +143,8 @@ impl Srdf {
 
     fn state(&self, group: &str, name: &str) -> Option<&[(String, f64)]> {
         (self.states.iter())
-            .find(|((g, n), _)| g == group && n == name)
-            .map(|(_, v)| &v[..])
+            .find(|s| s.group == group && s.name == name)
+            .map(|s| &s.values[..])
     }
 
     fn error(&self, at: String, message: &str) -> ImportError {
@@ -144,7 +155,7 @@ impl Srdf {
     /// every robot group has a state of, each once, in file order.
     pub fn pose_names(&self, move_group: &str, robot_groups: &[String]) -> Vec<String> {
         let mut names: Vec<String> = Vec::new();
-        for ((group, name), _) in &self.states {
+        for State { group, name, .. } in &self.states {
             let whole = group == move_group;
             let each = robot_groups.contains(group)
                 && robot_groups.iter().all(|g| self.state(g, name).is_some());
@@ -168,12 +179,17 @@ impl Srdf {
         for g in robot_groups {
             let (state_group, values) = match whole {
                 Some(v) => (move_group, v),
-                None => (g.as_str(), self.state(g, name).ok_or_else(|| {
-                    self.error(
-                        format!("pose {name:?}"),
-                        &format!("neither group {move_group} nor group {g} has a state of this name"),
-                    )
-                })?),
+                None => (
+                    g.as_str(),
+                    self.state(g, name).ok_or_else(|| {
+                        self.error(
+                            format!("pose {name:?}"),
+                            &format!(
+                                "neither group {move_group} nor group {g} has a state of this name"
+                            ),
+                        )
+                    })?,
+                ),
             };
             let at = format!("group_state {name:?} (group {state_group})");
             let joints = self.group_joints(g)?;
@@ -220,7 +236,10 @@ mod tests {
         let joints: String = (prefixes.iter().enumerate())
             .flat_map(|(a, p)| {
                 (1..=7).map(move |k| {
-                    format!("<joint name=\"{p}_joint{k}\" value=\"{}\"/>", base + a as f64 + k as f64 / 10.0)
+                    format!(
+                        "<joint name=\"{p}_joint{k}\" value=\"{}\"/>",
+                        base + a as f64 + k as f64 / 10.0
+                    )
                 })
             })
             .collect();
@@ -251,8 +270,14 @@ mod tests {
         assert_eq!(ready[1][6], 1.7);
         let up = srdf.pose("up", "both", &groups()).unwrap();
         assert_eq!((up[0][0], up[1][0]), (1.1, 2.1));
-        let e = srdf.pose("only_a", "both", &groups()).unwrap_err().to_string();
-        assert!(e.contains("t.srdf: pose \"only_a\": neither group both nor group b_arm"), "{e}");
+        let e = srdf
+            .pose("only_a", "both", &groups())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("t.srdf: pose \"only_a\": neither group both nor group b_arm"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -260,23 +285,36 @@ mod tests {
         let bad = Srdf::parse(Path::new("x.srdf"), "<robot><group_state").unwrap_err();
         assert!(bad.to_string().starts_with("x.srdf: not XML"), "{bad}");
         let text = doc("<group_state name=\"s\" group=\"both\"><joint name=\"a_joint1\" value=\"1.x\"/></group_state>");
-        let e = Srdf::parse(Path::new("x.srdf"), &text).unwrap_err().to_string();
+        let e = Srdf::parse(Path::new("x.srdf"), &text)
+            .unwrap_err()
+            .to_string();
         assert_eq!(
             e,
             "x.srdf: group_state \"s\" (group both): joint \"a_joint1\": value \"1.x\" is not a finite number"
         );
         // Six joints for an arm: refused, not padded.
-        let short = doc(&state("s", "both", &["a", "b"], 0.0).replace("<joint name=\"b_joint7\" value=\"1.7\"/>", ""));
+        let short = doc(&state("s", "both", &["a", "b"], 0.0)
+            .replace("<joint name=\"b_joint7\" value=\"1.7\"/>", ""));
         let srdf = Srdf::parse(Path::new("x.srdf"), &short).unwrap();
         let e = srdf.pose("s", "both", &groups()).unwrap_err().to_string();
-        assert!(e.contains("gives 6 joint values for group b_arm, expected 7"), "{e}");
+        assert!(
+            e.contains("gives 6 joint values for group b_arm, expected 7"),
+            "{e}"
+        );
         // Joints out of order.
-        let swapped = doc(&state("s", "both", &["a", "b"], 0.0))
-            .replace("<joint name=\"a_joint1\"/><joint name=\"a_joint2\"/>", "<joint name=\"a_joint2\"/><joint name=\"a_joint1\"/>");
+        let swapped = doc(&state("s", "both", &["a", "b"], 0.0)).replace(
+            "<joint name=\"a_joint1\"/><joint name=\"a_joint2\"/>",
+            "<joint name=\"a_joint2\"/><joint name=\"a_joint1\"/>",
+        );
         let srdf = Srdf::parse(Path::new("x.srdf"), &swapped).unwrap();
         let e = srdf.pose("s", "both", &groups()).unwrap_err().to_string();
-        assert!(e.contains("joint \"a_joint2\" of group a_arm is not the arm's joint 1"), "{e}");
-        let e = Srdf::parse(Path::new("x.srdf"), "<launch/>").unwrap_err().to_string();
+        assert!(
+            e.contains("joint \"a_joint2\" of group a_arm is not the arm's joint 1"),
+            "{e}"
+        );
+        let e = Srdf::parse(Path::new("x.srdf"), "<launch/>")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("root element is <robot>"), "{e}");
     }
 }
