@@ -11,10 +11,13 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 /// A token, or a bracketed group of them.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Tree {
+    /// An identifier or keyword.
     Ident(String),
+    /// A number literal's value.
     Num(f64),
     /// A string or character literal's content, escapes kept as written.
     Str(String),
+    /// Any other character.
     Punct(char),
     /// `(`, `[` or `{` and what it encloses.
     Group(char, Vec<Tree>),
@@ -23,6 +26,7 @@ pub enum Tree {
 /// The value of an expression.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Value {
+    /// A number.
     Num(f64),
     /// A brace list, or a vector constructor's arguments (`Eigen::Vector3d(x, y, z)`).
     List(Vec<Value>),
@@ -31,6 +35,7 @@ pub enum Value {
 }
 
 impl Value {
+    /// The number this is.
     pub fn num(&self) -> Result<f64, String> {
         match self {
             Value::Num(x) => Ok(*x),
@@ -301,7 +306,9 @@ fn each_level<'a>(trees: &'a [Tree], visit: &mut dyn FnMut(&'a [Tree]) -> bool) 
 /// A function's definition: its parameter list and its body.
 #[derive(Clone, Copy, Debug)]
 pub struct Definition<'a> {
+    /// The parameter list, inside its parentheses.
     pub params: &'a [Tree],
+    /// The body, inside its braces.
     pub body: &'a [Tree],
 }
 

@@ -11,12 +11,16 @@ use crate::error::MAX_MESSAGE_CHARS;
 /// `function add_panda_table_segments`), and what is wrong.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ImportError {
+    /// The file.
     pub file: PathBuf,
+    /// Where in it (empty: the whole file).
     pub at: String,
+    /// What is wrong.
     pub message: String,
 }
 
 impl ImportError {
+    /// An error about `at` in `file`.
     pub fn new(file: &Path, at: impl Into<String>, message: impl Into<String>) -> Self {
         ImportError {
             file: file.to_path_buf(),

@@ -62,10 +62,12 @@ pub enum Assignment {
     Free,
 }
 
+/// What to import.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
     /// Environments (SRDF names); empty: [`DEFAULT_ENVIRONMENTS`].
     pub environments: Vec<String>,
+    /// Who chooses which arm takes which goal.
     pub assignment: Assignment,
     /// Seconds per step of the problems (VAMP-MR's benchmark's `--dt` default).
     pub dt: f64,
@@ -84,8 +86,11 @@ impl Default for Options {
 /// What was imported from one environment.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvironmentReport {
+    /// Its name (the SRDF's).
     pub environment: String,
+    /// Arms.
     pub robots: usize,
+    /// Boxes.
     pub obstacles: usize,
     /// Arms holding a rod.
     pub rods: usize,
@@ -93,17 +98,21 @@ pub struct EnvironmentReport {
     pub poses: Vec<String>,
     /// Poses left out, with why.
     pub left_out: Vec<(String, String)>,
+    /// Problems written.
     pub problems: usize,
 }
 
 /// What [`import`] did: the environments imported, and those not, with why.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Report {
+    /// Each environment imported.
     pub environments: Vec<EnvironmentReport>,
+    /// Environments not imported, with why.
     pub not_imported: Vec<(String, String)>,
 }
 
 impl Report {
+    /// Problems written in all.
     pub fn problems(&self) -> usize {
         self.environments.iter().map(|e| e.problems).sum()
     }

@@ -21,8 +21,11 @@ use crate::pose;
 /// `width`, `height`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneBox {
+    /// Named in messages.
     pub name: String,
+    /// Centre, m.
     pub center: [f64; 3],
+    /// Full sizes, m.
     pub size: [f64; 3],
 }
 
@@ -30,10 +33,15 @@ pub struct SceneBox {
 /// pitch, yaw) in VAMP's end-effector frame; `length` is its full length.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rod {
+    /// Its name in VAMP-MR.
     pub name: String,
+    /// m.
     pub radius: f64,
+    /// Full length, m.
     pub length: f64,
+    /// Its centre in the end-effector frame, m.
     pub translation: [f64; 3],
+    /// Its rotation in the end-effector frame: roll, pitch, yaw (rad).
     pub rpy: [f64; 3],
 }
 
@@ -41,8 +49,11 @@ pub struct Rod {
 /// `VampVariant`, e.g. `PandaQuad`, `DualGp4`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Config {
+    /// The SRDF group of all arms.
     pub move_group: String,
+    /// The SRDF group of each arm, in arm order.
     pub robot_groups: Vec<String>,
+    /// The `VampVariant` (without `VampVariant::`).
     pub variant: String,
 }
 
@@ -53,10 +64,12 @@ impl Config {
     }
 }
 
+/// What stands around the arms and what they hold.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     /// World poses of the arms' bases, in `robot_groups` order.
     pub bases: Vec<Frame>,
+    /// Boxes of tables and bins.
     pub boxes: Vec<SceneBox>,
     /// Per arm, the rod it holds, if any.
     pub rods: Vec<Option<Rod>>,
@@ -64,11 +77,14 @@ pub struct Scene {
 
 /// The parsed factory source and where it came from.
 pub struct Factory {
+    /// The source file.
     pub path: PathBuf,
+    /// Its token trees.
     pub trees: Vec<Tree>,
 }
 
 impl Factory {
+    /// Reads and tokenises the source at `path`.
     pub fn read(path: &Path) -> Result<Factory, ImportError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| ImportError::new(path, "", format!("cannot read: {e}")))?;

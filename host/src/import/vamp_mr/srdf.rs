@@ -36,6 +36,7 @@ struct State {
 }
 
 impl Srdf {
+    /// Reads the SRDF at `path`.
     pub fn read(path: &Path) -> Result<Srdf, ImportError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| ImportError::new(path, "", format!("cannot read: {e}")))?;
