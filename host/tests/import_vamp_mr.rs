@@ -381,6 +381,15 @@ fn malformed_or_unsupported_files_are_named_with_what_is_wrong() {
         e.ends_with("two.srdf: group_state \"ready\" (group panda_multi_arm): joint \"panda0_joint2\": value \"-0.5rad\" is not a finite number"),
         "{e}"
     );
+    // Two poses whose names make the same file name.
+    let pair = [("panda0", LEANING), ("panda1", READY)];
+    let twins = format!("{}{}</robot>", state("x y", &pair), state("x_y", &pair));
+    std::fs::write(&srdf_path, good.replace("</robot>", &twins)).unwrap();
+    let e = error(dir.path(), &["two"]);
+    assert!(
+        e.contains("two problems would both be written to two_ready_to_x_y.json"),
+        "{e}"
+    );
     // Not XML.
     std::fs::write(&srdf_path, &good[..good.len() / 2]).unwrap();
     let e = error(dir.path(), &["two"]);

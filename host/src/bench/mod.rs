@@ -9,6 +9,9 @@
 //!   `.svg` and `.png`.
 //! - `index.html`: the summary with the plots, and every problem with a page to view it.
 //!
+//! A suite entry with an `assignment` (a problem set that says which arm goes where) is planned
+//! under it, and a plan with another assignment counts as invalid.
+//!
 //! The planners are reached through [`Solver`], so the runner is tested with fake planners and
 //! anyone can bench their own planner on the suite.
 

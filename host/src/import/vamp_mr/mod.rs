@@ -169,6 +169,9 @@ fn core_dir(from: &Path) -> Result<PathBuf, ImportError> {
 /// (created if missing): `out/NAME.json` per problem and the index `out/suite.json`.
 pub fn import(from: &Path, out: &Path, opts: &Options) -> Result<Report, ImportError> {
     let core = core_dir(from)?;
+    let panda = ModelKind::parse(PANDA)
+        .map_err(|e| ImportError::new(from, "", e))?
+        .id();
     let factory = Factory::read(&core.join(FACTORY))?;
     let environments: Vec<String> = if opts.environments.is_empty() {
         DEFAULT_ENVIRONMENTS.iter().map(|e| e.to_string()).collect()
@@ -195,7 +198,13 @@ pub fn import(from: &Path, out: &Path, opts: &Options) -> Result<Report, ImportE
             continue;
         }
         let scene = factory.scene(env, &config, &core.join(PAIR_BASES))?;
-        let (env_report, env_problems) = environment(env, &srdf, &config, &scene, opts)?;
+        let arms = Arms {
+            panda,
+            config: &config,
+            scene: &scene,
+            dt: opts.dt,
+        };
+        let (env_report, env_problems) = environment(env, &srdf, &arms)?;
         for p in env_problems {
             entries.push(entry(env, &p, opts.assignment));
             problems.push(p);
@@ -220,27 +229,28 @@ fn slug(s: &str) -> String {
         .collect()
 }
 
+/// What every problem of an environment shares.
+struct Arms<'a> {
+    /// The model index of the Panda.
+    panda: u8,
+    config: &'a Config,
+    scene: &'a Scene,
+    dt: f64,
+}
+
 /// The problems of one environment: every usable pose to every other.
 fn environment(
     env: &str,
     srdf: &Srdf,
-    config: &Config,
-    scene: &Scene,
-    opts: &Options,
+    arms: &Arms,
 ) -> Result<(EnvironmentReport, Vec<ProblemFile>), ImportError> {
+    let Arms { config, scene, .. } = *arms;
     let mut poses = Vec::new();
     let mut left_out = Vec::new();
     for name in srdf.pose_names(&config.move_group, &config.robot_groups) {
         let q = srdf.pose(&name, &config.move_group, &config.robot_groups)?;
         // The pose to itself: loading it checks limits and collisions at `initial`.
-        let file = problem(
-            &format!("{env}_{}", slug(&name)),
-            config,
-            scene,
-            &q,
-            &q,
-            opts.dt,
-        );
+        let file = problem(&format!("{env}_{}", slug(&name)), arms, &q, &q);
         let why = match load_problem(&file) {
             Ok(_) => {
                 poses.push((name, q));
@@ -263,7 +273,7 @@ fn environment(
         for (goal, qg) in &poses {
             if start != goal {
                 let name = format!("{env}_{}_to_{}", slug(start), slug(goal));
-                problems.push(problem(&name, config, scene, qs, qg, opts.dt));
+                problems.push(problem(&name, arms, qs, qg));
             }
         }
     }
@@ -284,10 +294,8 @@ fn environment(
 fn deepest_arm_overlap(file: &ProblemFile) -> Option<f64> {
     let p = load::problem::<Fleet, DOF>(file).ok()?;
     let arms: Vec<ArmPose> = (p.robots.iter())
-        .map(|r| {
-            ArmPose::new::<Fleet, DOF>(r.model, &r.base, &r.tool, &r.initial.unwrap_or([0.0; DOF]))
-        })
-        .collect();
+        .map(|r| (r.initial).map(|q| ArmPose::new::<Fleet, DOF>(r.model, &r.base, &r.tool, &q)))
+        .collect::<Option<_>>()?;
     let least = (0..arms.len())
         .flat_map(|i| (i + 1..arms.len()).map(move |j| (i, j)))
         .map(|(i, j)| arms[i].clearance(&arms[j]))
@@ -296,15 +304,13 @@ fn deepest_arm_overlap(file: &ProblemFile) -> Option<f64> {
 }
 
 /// The arms at `start`, each to track the hand pose of its arm at `goal`.
-fn problem(
-    name: &str,
-    config: &Config,
-    scene: &Scene,
-    start: &[[f64; 7]],
-    goal: &[[f64; 7]],
-    dt: f64,
-) -> ProblemFile {
-    let panda = ModelKind::from_name(PANDA).unwrap_or_default().id();
+fn problem(name: &str, arms: &Arms, start: &[[f64; 7]], goal: &[[f64; 7]]) -> ProblemFile {
+    let Arms {
+        panda,
+        config,
+        scene,
+        dt,
+    } = *arms;
     let arm = |g: &str| g.strip_suffix("_arm").unwrap_or(g).to_string();
     let robots = (config.robot_groups.iter().enumerate())
         .map(|(i, g)| RobotSpec {
@@ -391,6 +397,11 @@ fn write_suite(
     entries: &[SuiteEntry],
     problems: &[ProblemFile],
 ) -> Result<(), ImportError> {
+    let mut files = std::collections::HashSet::new();
+    if let Some(e) = entries.iter().find(|e| !files.insert(&e.file)) {
+        let message = format!("two problems would both be written to {} (pose names that differ only in characters a file name cannot hold)", e.file);
+        return Err(ImportError::new(out, "", message));
+    }
     std::fs::create_dir_all(out)
         .map_err(|e| ImportError::new(out, "", format!("cannot create: {e}")))?;
     let write = |path: &Path, text: Result<String, serde_json::Error>| {
