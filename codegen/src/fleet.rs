@@ -5,7 +5,7 @@
 use std::fmt::Write;
 
 /// One `Models` function: its name, its parameters after `id: u8` and its return type.
-const QUERIES: [(&str, &str, &str); 16] = [
+const QUERIES: [(&str, &str, &str); 18] = [
     ("name", "", "&'static str"),
     ("link_names", "", "&'static [&'static str]"),
     ("joint_names", "", "&'static [&'static str; D]"),
@@ -24,6 +24,16 @@ const QUERIES: [(&str, &str, &str); 16] = [
         "link_frames",
         "q: &[f64; D], out: &mut [crate::model::Frame]",
         "crate::model::Frame",
+    ),
+    (
+        "fk_lanes",
+        "q: &[crate::lanes::F64s; D]",
+        "crate::model::FrameOf<crate::lanes::F64s>",
+    ),
+    (
+        "link_frames_lanes",
+        "q: &[crate::lanes::F64s; D], out: impl crate::model::LinkSink",
+        "crate::model::FrameOf<crate::lanes::F64s>",
     ),
     (
         "jacobian",

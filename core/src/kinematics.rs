@@ -209,13 +209,13 @@ pub fn speed_ratio<const D: usize>(
 }
 
 /// One configuration's map from tool twists to joint speeds ([`speed_ratio`] for several
-/// twists): the least-norm solution's factor and the null-space direction, made once.
+/// twists): the least-norm solution's matrix and the null-space direction, made once (a 6x6
+/// Cholesky factorisation and the null space), then about 200 flops a twist.
 pub struct SpeedMap<const D: usize> {
-    jt: SMatrix<f64, D, 6>,
-    chol: nalgebra::Cholesky<f64, nalgebra::U6>,
+    /// `J^T (J J^T)^-1`, each row over its joint's limit.
+    pinv: SMatrix<f64, D, 6>,
     /// The null-space direction, over the limits (zero without one).
     n: SVector<f64, D>,
-    inv_v: SVector<f64, D>,
 }
 
 impl<const D: usize> SpeedMap<D> {
@@ -223,41 +223,37 @@ impl<const D: usize> SpeedMap<D> {
     /// `None` at a singular Jacobian.
     pub fn new(jac: &SMatrix<f64, 6, D>, vmax: &[f64; D]) -> Option<Self> {
         let chol = (jac * jac.transpose()).cholesky()?;
-        let inv_v = SVector::<f64, D>::from_fn(|j, _| 1.0 / vmax[j]);
-        let n = null_space_basis::<D>(jac)
+        let mut pinv = jac.transpose() * chol.inverse();
+        let mut n = null_space_basis::<D>(jac)
             .first()
-            .map_or_else(SVector::zeros, |n| n.component_mul(&inv_v));
-        Some(SpeedMap {
-            jt: jac.transpose(),
-            chol,
-            n,
-            inv_v,
-        })
+            .copied()
+            .unwrap_or_else(SVector::zeros);
+        for (j, v) in vmax.iter().enumerate() {
+            pinv.row_mut(j).scale_mut(1.0 / v);
+            n[j] /= v;
+        }
+        Some(SpeedMap { pinv, n })
     }
 
     /// [`speed_ratio`] of `twist` here.
     pub fn ratio(&self, twist: &Vector6<f64>) -> f64 {
-        // The least-norm joint velocity J^T (J J^T)^-1 v, as shares of the limits.
-        let p: SVector<f64, D> = (self.jt * self.chol.solve(twist)).component_mul(&self.inv_v);
+        // The least-norm joint velocity as shares of the limits; the null space adds `n z`.
+        let p: SVector<f64, D> = self.pinv * twist;
         let n = &self.n;
-        // max_j |p_j + n_j z| is convex and piecewise linear in z: its least value is where two
-        // of the terms meet (or one is 0), so the candidates are those points.
-        let share = |z: f64| {
-            (0..D)
-                .map(|j| libm::fabs(p[j] + n[j] * z))
-                .fold(0.0, f64::max)
-        };
-        let mut best = share(0.0);
+        // min over z of max_j |p_j + n_j z|: each term is `|n_j| |z - z_j|`, so the least
+        // value is where the intervals `{z : |p_j + n_j z| <= r}` first all meet, and on a
+        // line intervals meet when every two do (Helly): the largest over pairs of the two's
+        // own least value, `|p_k n_i - p_i n_k| / (|n_i| + |n_k|)`, and `|p_j|` where
+        // `n_j = 0`.
+        let mut best = 0.0f64;
         for i in 0..D {
-            if n[i] != 0.0 {
-                best = best.min(share(-p[i] / n[i]));
+            if n[i] == 0.0 {
+                best = best.max(libm::fabs(p[i]));
             }
             for k in i + 1..D {
-                // n_i z + p_i = +-(n_k z + p_k)
-                for (den, num) in [(n[i] - n[k], p[k] - p[i]), (n[i] + n[k], -(p[i] + p[k]))] {
-                    if den != 0.0 {
-                        best = best.min(share(num / den));
-                    }
+                let w = libm::fabs(n[i]) + libm::fabs(n[k]);
+                if w > 0.0 {
+                    best = best.max(libm::fabs(p[k] * n[i] - p[i] * n[k]) / w);
                 }
             }
         }

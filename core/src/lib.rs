@@ -11,6 +11,8 @@
 //! Layers, bottom up:
 //! - [`model`]: the [`model::Model`] trait and the robot models generated at build time from
 //!   URDF files (forward kinematics, Jacobian, limits, collision primitives).
+//! - [`lanes`]: the numbers the kinematics and the batched checks compute with: one, or a
+//!   batch of [`lanes::LANES`] (SIMD).
 //! - [`kinematics`]: pose errors and the null-space basis of the Jacobian.
 //! - [`ik`]: damped-least-squares IK projection and seeded multi-start IK.
 //! - [`rng`]: a small deterministic random generator.
@@ -42,6 +44,7 @@ pub mod embody;
 pub mod geometry;
 pub mod ik;
 pub mod kinematics;
+pub mod lanes;
 pub mod model;
 pub mod motion;
 pub mod planner;
@@ -52,6 +55,6 @@ pub mod rng;
 pub mod search;
 pub mod tool;
 pub mod tracking;
-mod trig;
+pub mod trig;
 
 pub use nalgebra;

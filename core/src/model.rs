@@ -28,6 +28,8 @@
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
+use crate::lanes::{lane, F64s, Real, LANES};
+
 /// Most collision capsules one arm model may have. A model with more is refused when
 /// [`crate::collision::ArmPose::new`] is compiled for it (or for a fleet holding it), never
 /// truncated:
@@ -87,6 +89,11 @@ pub const fn check_model<M: Model<D>, const D: usize>() {
         assert!(
             (M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(),
             "capsule on no link"
+        );
+        // The batched placing takes each link's capsules as its frame is computed.
+        assert!(
+            i == 0 || M::CAPSULES[i - 1].link <= M::CAPSULES[i].link,
+            "capsules not in link order"
         );
         i += 1;
     }
@@ -174,6 +181,109 @@ impl Frame {
     }
 }
 
+/// [`Frame`] over any numbers ([`Real`]): one pose, or a batch of them ([`F64s`], a pose per
+/// lane). Rows of the rotation, then the translation. Composing and applying take the
+/// operations of [`Frame`]'s (nalgebra's) in their order, so that lane `k` of a batch is,
+/// bit for bit, the `Frame` of configuration `k`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameOf<T> {
+    /// The rotation's rows.
+    pub rot: [[T; 3]; 3],
+    /// The translation.
+    pub pos: [T; 3],
+}
+
+impl<T: Real> FrameOf<T> {
+    /// The identity in every lane.
+    #[inline(always)]
+    pub fn identity() -> Self {
+        let (o, z) = (T::splat(1.0), T::splat(0.0));
+        FrameOf {
+            rot: [[o, z, z], [z, o, z], [z, z, o]],
+            pos: [z; 3],
+        }
+    }
+
+    /// `f` in every lane.
+    #[inline(always)]
+    pub fn splat(f: &Frame) -> Self {
+        FrameOf {
+            rot: core::array::from_fn(|i| core::array::from_fn(|j| T::splat(f.rot[(i, j)]))),
+            pos: core::array::from_fn(|i| T::splat(f.pos[i])),
+        }
+    }
+
+    /// `self * other`, as [`Frame::compose`].
+    #[inline(always)]
+    pub fn compose(&self, other: &Self) -> Self {
+        let (a, b) = (&self.rot, &other.rot);
+        FrameOf {
+            rot: core::array::from_fn(|i| {
+                core::array::from_fn(|j| a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j])
+            }),
+            pos: self.apply(&other.pos),
+        }
+    }
+
+    /// Maps a point given in this frame to the parent frame, as [`Frame::apply`].
+    #[inline(always)]
+    pub fn apply(&self, p: &[T; 3]) -> [T; 3] {
+        let r = &self.rot;
+        core::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + self.pos[i])
+    }
+}
+
+impl FrameOf<F64s> {
+    /// The pose of lane `k`.
+    pub fn lane(&self, k: usize) -> Frame {
+        Frame {
+            rot: Matrix3::from_fn(|i, j| lane(self.rot[i][j], k)),
+            pos: Vector3::from_fn(|i, _| lane(self.pos[i], k)),
+        }
+    }
+
+    /// Sets lane `k` to `f`.
+    pub fn set_lane(&mut self, k: usize, f: &Frame) {
+        for i in 0..3 {
+            for j in 0..3 {
+                self.rot[i][j].as_mut_array()[k] = f.rot[(i, j)];
+            }
+            self.pos[i].as_mut_array()[k] = f.pos[i];
+        }
+    }
+}
+
+impl From<FrameOf<f64>> for Frame {
+    #[inline(always)]
+    fn from(f: FrameOf<f64>) -> Frame {
+        (&f).into()
+    }
+}
+
+impl From<&FrameOf<f64>> for Frame {
+    #[inline(always)]
+    fn from(f: &FrameOf<f64>) -> Frame {
+        let r = &f.rot;
+        Frame {
+            rot: Matrix3::new(
+                r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
+            ),
+            pos: Vector3::new(f.pos[0], f.pos[1], f.pos[2]),
+        }
+    }
+}
+
+/// Where a batch's link frames go, one at a time: `(link index, frame)`.
+pub trait LinkSink: FnMut(usize, &FrameOf<F64s>) {}
+
+impl<F: FnMut(usize, &FrameOf<F64s>)> LinkSink for F {}
+
+/// Configuration `k` of a batch.
+#[inline]
+pub fn lane_config<const D: usize>(q: &[F64s; D], k: usize) -> [f64; D] {
+    core::array::from_fn(|j| lane(q[j], k))
+}
+
 /// One collision primitive of a link, in the link's frame: the set of points within `radius`
 /// of the segment `a`-`b` (a sphere when `a == b`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -246,6 +356,35 @@ pub trait Model<const D: usize>: 'static {
     /// Tool pose and the geometric Jacobian at the tool frame's origin, in the base frame:
     /// rows 0-2 linear velocity, rows 3-5 angular velocity.
     fn jacobian(q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
+
+    /// [`Model::fk`] of a batch of configurations, lane by lane the same. By default one
+    /// configuration at a time; the generated models compute every lane at once.
+    fn fk_lanes(q: &[F64s; D]) -> FrameOf<F64s> {
+        let mut tool = FrameOf::identity();
+        for k in 0..LANES {
+            tool.set_lane(k, &Self::fk(&lane_config(q, k)));
+        }
+        tool
+    }
+
+    /// [`Model::link_frames`] of a batch of configurations, as [`Model::fk_lanes`]: link
+    /// frame `i` goes to `out(i, ..)`, in chain order, as it is computed.
+    fn link_frames_lanes(q: &[F64s; D], mut out: impl LinkSink) -> FrameOf<F64s> {
+        const N: usize = crate::collision::MAX_LINK_FRAMES;
+        let n = Self::LINK_NAMES.len().min(N);
+        let (mut one, mut all) = ([Frame::IDENTITY; N], [FrameOf::identity(); N]);
+        let mut tool = FrameOf::identity();
+        for k in 0..LANES {
+            tool.set_lane(k, &Self::link_frames(&lane_config(q, k), &mut one[..n]));
+            for (o, f) in all.iter_mut().zip(&one[..n]) {
+                o.set_lane(k, f);
+            }
+        }
+        for (i, f) in all[..n].iter().enumerate() {
+            out(i, f);
+        }
+        tool
+    }
 }
 
 /// The models a planner is compiled for, each robot naming its own by index
@@ -305,6 +444,10 @@ pub trait Models<const D: usize>: 'static {
     fn link_frames(id: u8, q: &[f64; D], out: &mut [Frame]) -> Frame;
     /// [`Model::jacobian`] of model `id`.
     fn jacobian(id: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>);
+    /// [`Model::fk_lanes`] of model `id`.
+    fn fk_lanes(id: u8, q: &[F64s; D]) -> FrameOf<F64s>;
+    /// [`Model::link_frames_lanes`] of model `id`.
+    fn link_frames_lanes(id: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s>;
 
     /// The index of the model called `name` ([`Model::NAME`]).
     fn find(name: &str) -> Option<u8> {
@@ -368,6 +511,14 @@ impl<M: Model<D>, const D: usize> Models<D> for M {
     #[inline]
     fn jacobian(_: u8, q: &[f64; D]) -> (Frame, SMatrix<f64, 6, D>) {
         M::jacobian(q)
+    }
+    #[inline]
+    fn fk_lanes(_: u8, q: &[F64s; D]) -> FrameOf<F64s> {
+        M::fk_lanes(q)
+    }
+    #[inline]
+    fn link_frames_lanes(_: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s> {
+        M::link_frames_lanes(q, out)
     }
 }
 

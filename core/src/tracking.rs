@@ -31,6 +31,7 @@
 
 use core::cell::Cell;
 
+use crate::collision::ArmPose;
 use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
 use crate::kinematics::twist;
@@ -129,7 +130,10 @@ pub fn track<M: Models<D>, const D: usize>(
         (Start::AtInitial, None) => return None,
         (Start::Sampled, _) => ik::<M, D>(robot.model, &target(&traj[0]), seed, ik_params).ok()?,
     };
-    let mut c = valid.state(&q, 0)? as u32;
+    // The arm at the last configuration and at the next: each step's motion check starts
+    // from the poses its state checks placed.
+    let mut poses = [ArmPose::EMPTY; 2];
+    let mut c = valid.state_in(&q, 0, &mut poses[0])? as u32;
     out[0] = q;
     let (steered, dt) = (matches!(steps, Steps::Steered(p) if p.w_v > 0.0), valid.dt);
     for t in 1..traj.len() {
@@ -140,8 +144,10 @@ pub fn track<M: Models<D>, const D: usize>(
             (true, None) => twist(&target(&traj[t - 1]), &target(&traj[t]), dt),
         };
         let next = next(&target(&traj[t]), &motion, &q)?;
-        c += valid.state(&next, t)? as u32;
-        c += valid.motion(&q, &next, t - 1)? as u32;
+        let [here, there] = &mut poses;
+        c += valid.state_in(&next, t, there)? as u32;
+        c += valid.motion_posed(&q, &next, [here, there], t - 1)? as u32;
+        poses.swap(0, 1);
         q = next;
         out[t] = q;
     }

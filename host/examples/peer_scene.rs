@@ -1,6 +1,8 @@
 //! omcbsa's side of the side-by-side comparison with other planners' collision checkers and
 //! kinematics libraries (docs/bench/collision.md): one Panda scene, written once in a JSON file
-//! that the peers' harnesses read too, measured with today's scalar checks.
+//! that the peers' harnesses read too, measured with the scalar checks (one configuration at a
+//! time) and the batched ones (`_batched` rows: [`LANES`] configurations per call, or a rake of
+//! placings per call along a motion; the same answers).
 //!
 //! ```text
 //! cargo run --release -p omcbsa --example peer_scene -- run core/benches/scenes/panda_vamp.json
@@ -35,10 +37,11 @@ use clap::{Parser, Subcommand};
 use omcbsa::error::Errors;
 use omcbsa::format::ObstacleSpec;
 use omcbsa::load;
-use omcbsa_core::collision::ArmPose;
+use omcbsa_core::collision::{ArmLanes, ArmPose, Placing, Sweep};
 use omcbsa_core::geometry::Obstacle;
+use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
-use omcbsa_core::motion::{motion_is_free, ArmMotion, MOTION_STEP};
+use omcbsa_core::motion::MOTION_STEP;
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 use serde::{Deserialize, Serialize};
@@ -207,15 +210,13 @@ fn collides(pose: &mut ArmPose, obstacles: &[Obstacle], q: &[f64; D]) -> bool {
     pose.obstacle_hit(obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some()
 }
 
-fn motion_free(obstacles: &[Obstacle], [from, to]: &[[f64; D]; 2]) -> bool {
-    let m = ArmMotion {
-        model: 0,
-        base: &Frame::IDENTITY,
-        tool: &Tool::NONE,
-        from,
-        to,
-    };
-    motion_is_free::<Panda, D>(&m, obstacles, MOTION_STEP)
+/// Whether the motion is valid, the arm placed between its ends as `placing` says (the same
+/// answer either way).
+fn motion_free(obstacles: &[Obstacle], [from, to]: &[[f64; D]; 2], placing: Placing) -> bool {
+    let sweep = Sweep::<Panda, D>::new(0, &Tool::NONE, from, to, MOTION_STEP);
+    !sweep
+        .with_placing(placing)
+        .arm_collides(&Frame::IDENTITY, obstacles)
 }
 
 /// Time per item of `op` over `items`: median, least and most over `passes` passes, after an
@@ -266,6 +267,19 @@ fn fk_row<M: Model<D>>(passes: usize, pass_ms: f64) {
         false
     });
     row(&format!("fk_{}", M::NAME), qs.len(), timed);
+    let batches: Vec<[F64s; D]> = (qs.chunks_exact(LANES))
+        .map(|b| core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| b[k][j]))))
+        .collect();
+    let (hits, ns) = measure(&batches, passes, pass_ms, |q| {
+        black_box(M::fk_lanes(q));
+        false
+    });
+    let name = format!("fk_{}_batched", M::NAME);
+    row(
+        &name,
+        batches.len() * LANES,
+        (hits, ns.map(|t| t / LANES as f64)),
+    );
 }
 
 fn run(path: &Path, passes: usize, pass_ms: f64) -> Result<()> {
@@ -273,9 +287,24 @@ fn run(path: &Path, passes: usize, pass_ms: f64) -> Result<()> {
     let obstacles = &s.obstacles[..];
     println!("system\tcase\titems\thits\tmedian_ns\tmin_ns\tmax_ns");
     let mut pose = ArmPose::EMPTY;
+    let mut lanes = ArmLanes::EMPTY;
     for (case, qs) in [("check_random", &s.random), ("check_free", &s.free)] {
         let timed = measure(qs, passes, pass_ms, |q| collides(&mut pose, obstacles, q));
         row(case, qs.len(), timed);
+        // The same configurations LANES at a time (time and hits per configuration).
+        let batches: Vec<&[[f64; D]]> = qs.chunks(LANES).collect();
+        let hits = (batches.iter())
+            .map(|qs| collides_lanes(&mut lanes, obstacles, qs).count_ones() as usize)
+            .sum();
+        let (_, ns) = measure(&batches, passes, pass_ms, |qs| {
+            collides_lanes(&mut lanes, obstacles, qs) != 0
+        });
+        let per = qs.len() as f64 / batches.len() as f64;
+        row(
+            &format!("{case}_batched"),
+            qs.len(),
+            (hits, ns.map(|t| t / per)),
+        );
     }
     // What one batched call of a peer answers: whether any of 8 collides (stopping at the
     // first that does), per configuration.
@@ -284,13 +313,35 @@ fn run(path: &Path, passes: usize, pass_ms: f64) -> Result<()> {
         qs.iter().any(|q| collides(&mut pose, obstacles, q))
     });
     row("any8_random", eights.len(), (hits, ns.map(|t| t / 8.0)));
+    // The same question asked of one batch: the self check only when no obstacle is hit.
+    let (hits, ns) = measure(&eights, passes, pass_ms, |qs| {
+        lanes.place::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, qs);
+        lanes.obstacle_hits(obstacles, 0.0) != 0 || lanes.self_hits(0.0) != 0
+    });
+    row(
+        "any8_random_batched",
+        eights.len(),
+        (hits, ns.map(|t| t / 8.0)),
+    );
     for (length, pairs) in &s.motions {
-        let timed = measure(pairs, passes, pass_ms, |m| !motion_free(obstacles, m));
-        row(&format!("motion_{length}"), pairs.len(), timed);
+        for (suffix, placing) in [("", Placing::Single), ("_batched", Placing::Rake)] {
+            let timed = measure(pairs, passes, pass_ms, |m| {
+                !motion_free(obstacles, m, placing)
+            });
+            row(&format!("motion_{length}{suffix}"), pairs.len(), timed);
+        }
     }
     fk_row::<Panda>(passes, pass_ms);
     fk_row::<KinovaGen3>(passes, pass_ms);
     Ok(())
+}
+
+/// Which of `qs` (at most [`LANES`]) collide, a bit each, checked as one batch.
+fn collides_lanes(lanes: &mut ArmLanes, obstacles: &[Obstacle], qs: &[[f64; D]]) -> Mask {
+    lanes.place::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, qs);
+    let hit = lanes.obstacle_hits(obstacles, 0.0);
+    lanes.keep(!hit);
+    hit | lanes.self_hits(0.0)
 }
 
 /// `q` rounded to `decimals`, or `None` when rounding takes it outside the limits.
@@ -330,7 +381,8 @@ fn generated(path: &Path) -> Result<String> {
             let norm = dir.iter().map(|v| v * v).sum::<f64>().sqrt();
             let to = core::array::from_fn(|j| from[j] + length * dir[j] / norm);
             let to = rounded(to, g.decimals)?;
-            let valid = clear(&from) && clear(&to) && motion_free(obstacles, &[from, to]);
+            let valid =
+                clear(&from) && clear(&to) && motion_free(obstacles, &[from, to], Placing::Single);
             valid.then_some([from, to])
         })?;
         motions.push(MotionSet {

@@ -49,6 +49,7 @@ pub mod error;
 pub mod execute;
 pub mod format;
 pub mod ik;
+pub mod import;
 pub mod live;
 pub mod load;
 pub mod models;

@@ -69,6 +69,8 @@ fn a_dead_end_is_recovered_by_planning_again_what_was_not_sent() {
 fn greedy() -> OnlineOptions {
     OnlineOptions {
         axis_weight: 0.0,
+        headroom_weight: 0.0,
+        reserve_weight: 0.0,
         time_scaling: false,
         ..OnlineOptions::default()
     }

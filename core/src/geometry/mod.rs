@@ -42,6 +42,7 @@
 
 mod aabb;
 mod capsule;
+pub mod lanes;
 mod segment;
 mod solid;
 

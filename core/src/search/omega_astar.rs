@@ -146,6 +146,8 @@ const CHECK_EVERY: u32 = 32;
 /// Most successors one state can have: the projection and `±ε` along up to three null-space
 /// directions.
 pub const MAX_MOVES: usize = 7;
+// A node's moves are checked as one batch.
+const _: () = assert!(MAX_MOVES <= crate::lanes::LANES);
 
 /// The candidate successors of `q` on the manifold of `target` (before any validity check):
 /// the IK projection `q'` of `q`, then `IK(target, q' ± ε n)` for each null-space basis
@@ -550,11 +552,19 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
         let motion = self.twist_at(node.j as usize, t1);
-        for q in &moves[..n] {
-            if !self.valid.step_within_limits(&node.q, q) {
-                continue;
-            }
-            let Some(met) = self.valid.state_met(q, t1) else {
+        // The moves within the velocity limits, checked as one batch.
+        let mut within = [[0.0; D]; MAX_MOVES];
+        let mut m = 0;
+        for q in moves[..n]
+            .iter()
+            .filter(|q| self.valid.step_within_limits(&node.q, q))
+        {
+            within[m] = *q;
+            m += 1;
+        }
+        let states = self.valid.states_met(&within[..m], t1);
+        for (q, state) in within[..m].iter().zip(states) {
+            let Some(met) = state else {
                 continue;
             };
             let dist2: f64 = (0..D)

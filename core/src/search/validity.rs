@@ -3,8 +3,9 @@
 
 use core::cell::RefCell;
 
-use crate::collision::ArmPose;
+use crate::collision::{ArmLanes, ArmPose};
 use crate::geometry::Obstacle;
+use crate::lanes::{lanes_of, F64s, Mask, LANES, WIDE};
 use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
 use crate::problem::{Robot, StartExclusions, MAX_ROBOTS};
@@ -85,6 +86,8 @@ pub struct Validity<'q, M, const D: usize> {
     others_at: RefCell<[(usize, [ArmPose; MAX_ROBOTS]); 2]>,
     /// Where [`Validity::state`] places the robot.
     mine: RefCell<ArmPose>,
+    /// Where [`Validity::states_met`] places the robot.
+    batch: RefCell<ArmLanes>,
     _model: core::marker::PhantomData<M>,
 }
 
@@ -112,6 +115,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             excluded: robot.excluded,
             others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
             mine: RefCell::new(ArmPose::EMPTY),
+            batch: RefCell::new(ArmLanes::EMPTY),
             _model: core::marker::PhantomData,
         }
     }
@@ -149,6 +153,14 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
         f(&cache[t % 2].1[..self.others.len()])
     }
 
+    /// Whether every joint of `q` is within its limits (NaN is not).
+    fn within_limits(&self, q: &[f64; D]) -> bool {
+        let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
+        (q.iter())
+            .zip(M::lower(self.model).iter().zip(M::upper(self.model)))
+            .all(within)
+    }
+
     /// Whether no joint moves faster than its velocity limit from `a` to `b`.
     pub fn step_within_limits(&self, a: &[f64; D], b: &[f64; D]) -> bool {
         (0..D).all(|i| libm::fabs(b[i] - a[i]) <= self.step_limit[i])
@@ -162,20 +174,23 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
 
     /// [`Validity::state`] telling which other robots (bit `k`: `others[k]`) it meets.
     pub fn state_met(&self, q: &[f64; D], t: usize) -> Option<Met> {
-        // Written so that NaN is refused too.
-        let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
-        if !q
-            .iter()
-            .zip(M::lower(self.model).iter().zip(M::upper(self.model)))
-            .all(within)
-        {
+        self.state_met_in(q, t, &mut self.mine.borrow_mut())
+    }
+
+    /// [`Validity::state`], placing the robot in `pose` (which then holds it at `q` when the
+    /// check got that far: always when it passes), for a caller that checks a motion from or
+    /// to `q` next ([`Validity::motion_posed`]).
+    pub fn state_in(&self, q: &[f64; D], t: usize, pose: &mut ArmPose) -> Option<u16> {
+        self.state_met_in(q, t, pose).map(|m| m.count_ones() as u16)
+    }
+
+    fn state_met_in(&self, q: &[f64; D], t: usize, pose: &mut ArmPose) -> Option<Met> {
+        if !self.within_limits(q) {
             return None;
         }
         if t == 0 && self.excluded.excludes(q) {
             return None;
         }
-        let mut mine = self.mine.borrow_mut();
-        let pose = &mut *mine;
         pose.place::<M, D>(self.model, &self.base, &self.tool, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
             return None;
@@ -197,6 +212,67 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             }
             Some(met)
         })
+    }
+
+    /// [`Validity::state_met`] of each of `qs` (at most [`LANES`]), placed and checked
+    /// together where the build's SIMD makes a batch pay ([`WIDE`]), else one at a time: the
+    /// same answers.
+    pub fn states_met(&self, qs: &[[f64; D]], t: usize) -> [Option<Met>; LANES] {
+        let mut out = [None; LANES];
+        let qs = &qs[..qs.len().min(LANES)];
+        if !WIDE {
+            for (o, q) in out.iter_mut().zip(qs) {
+                *o = self.state_met(q, t);
+            }
+            return out;
+        }
+        self.states_met_batched(qs, t)
+    }
+
+    /// [`Validity::states_met`] as one batch whatever the build (what it does on a [`WIDE`]
+    /// one).
+    pub fn states_met_batched(&self, qs: &[[f64; D]], t: usize) -> [Option<Met>; LANES] {
+        let mut out = [None; LANES];
+        let qs = &qs[..qs.len().min(LANES)];
+        let Some(last) = qs.len().checked_sub(1) else {
+            return out;
+        };
+        let live = (qs.iter().enumerate())
+            .filter(|(_, q)| self.within_limits(q) && !(t == 0 && self.excluded.excludes(q)))
+            .fold(0, |m: Mask, (k, _)| m | 1 << k);
+        if live == 0 {
+            return out;
+        }
+        let mut guard = self.batch.borrow_mut();
+        let batch = &mut *guard;
+        let q = core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| qs[k.min(last)][j])));
+        batch.place_lanes::<M, D>(self.model, &self.base, &self.tool, &q, live, u32::MAX);
+        batch.keep(!batch.obstacle_hits(self.obstacles, 0.0));
+        batch.keep(!batch.self_hits(0.0));
+        for pc in self.points {
+            if !pc.segment && pc.t as usize == t {
+                for k in lanes_of(batch.lanes()) {
+                    if near_point(&batch.pose(k), &pc.p, pc.margin) {
+                        batch.keep(!(1 << k));
+                    }
+                }
+            }
+        }
+        let mut met = [0; LANES];
+        self.with_others_at(t, |theirs| {
+            for (o, other) in theirs.iter().enumerate() {
+                let hit = batch.arm_hits_pose(other, 0.0);
+                if self.others_mode == OthersMode::Avoid {
+                    batch.keep(!hit);
+                } else {
+                    lanes_of(hit).for_each(|k| met[k] |= 1 << o);
+                }
+            }
+        });
+        for k in lanes_of(batch.lanes()) {
+            out[k] = Some(met[k]);
+        }
+        out
     }
 
     /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see

@@ -9,6 +9,9 @@
 //!   `.svg` and `.png`.
 //! - `index.html`: the summary with the plots, and every problem with a page to view it.
 //!
+//! A suite entry with an `assignment` (a problem set that says which arm goes where) is planned
+//! under it, and a plan with another assignment counts as invalid.
+//!
 //! The planners are reached through [`Solver`], so the runner is tested with fake planners and
 //! anyone can bench their own planner on the suite.
 
@@ -31,6 +34,7 @@ use rayon::prelude::*;
 
 use omcbsa_core::problem::Problem;
 
+use crate::assignment::AssignmentRule;
 use crate::format::{ProblemFile, SolutionFile, Status};
 use crate::plan::{plan_loaded, InputOrPlanError};
 use crate::suite::{self, SuiteEntry};
@@ -381,13 +385,22 @@ fn run_one(
     let loaded = load::read_text(&path)
         .and_then(|text| load::parse_problem(&text))
         .and_then(|file| load::problem::<Fleet, DOF>(&file).map(|p| (file, Box::new(p))));
-    let (file, problem) = match loaded {
+    let (file, mut problem) = match loaded {
         Ok(x) => x,
         Err(e) => {
             row.message = format!("{}: {}", path.display(), e.to_string().replace('\n', "; "));
             return row;
         }
     };
+    // A problem set that says which arm goes where is planned under that assignment.
+    let rule = (entry.assignment.clone()).map_or(AssignmentRule::Free, AssignmentRule::Fixed);
+    let (robots, hands) = (problem.robots.len(), problem.trajectories.len());
+    if let Err(e) = rule.check("assignment", robots, hands) {
+        let e = e.to_string().replace('\n', "; ");
+        row.message = format!("{}: {}: {e}", suite::INDEX_FILE, entry.name);
+        return row;
+    }
+    AssignmentRule::apply(rule.list(), &mut problem);
     let start = Instant::now();
     let outcome = catch_unwind(AssertUnwindSafe(|| {
         solver.solve(planner, &file, &problem, timeout_s)
@@ -428,6 +441,15 @@ fn run_one(
         row.success = report.is_valid();
         if !report.is_valid() {
             row.message = report.summary();
+        } else if let Some(fixed) =
+            (entry.assignment.as_ref()).filter(|f| **f != solution.assignment)
+        {
+            row.valid = Some(false);
+            row.success = false;
+            row.message = format!(
+                "the plan's assignment {:?} is not the fixed {fixed:?}",
+                solution.assignment
+            );
         } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
             row.set_quality(&path_quality::<Fleet, DOF>(
                 &problem,

@@ -78,6 +78,19 @@ pub struct Args {
     /// the chunks planned greedily, IK tracking first).
     #[arg(long, default_value_t = omcbsa::online::AXIS_WEIGHT)]
     axis_weight: f64,
+    /// Weight of the joints' speed headroom for the hands' motion in the chunks' plans (0:
+    /// none).
+    #[arg(long, default_value_t = omcbsa::online::HEADROOM_WEIGHT)]
+    headroom_weight: f64,
+    /// Weight of the joints' reserve for any motion of the hands in the chunks' plans (0:
+    /// none).
+    #[arg(long, default_value_t = omcbsa::online::RESERVE_WEIGHT)]
+    reserve_weight: f64,
+    /// Slow a chunk the arms cannot follow at the policy's rate instead of failing it (the
+    /// Embodier's `time_scaling`; off by default here, so that the rows measure the policy's
+    /// rate).
+    #[arg(long)]
+    time_scaling: bool,
     /// omcbsa or pp.
     #[arg(long, default_value_t = PlannerKind::DEFAULT, value_parser = planners::parse)]
     planner: PlannerKind,
@@ -93,8 +106,14 @@ pub fn run(args: &Args) -> ExitCode {
             "--chunk-len and --stride must be at least 1, --stride at most --chunk-len",
         );
     }
-    if !(args.axis_weight.is_finite() && args.axis_weight >= 0.0) {
-        return bad_input("--axis-weight must be a finite number, 0 or more");
+    for (flag, w) in [
+        ("--axis-weight", args.axis_weight),
+        ("--headroom-weight", args.headroom_weight),
+        ("--reserve-weight", args.reserve_weight),
+    ] {
+        if !(w.is_finite() && w >= 0.0) {
+            return bad_input(format!("{flag} must be a finite number, 0 or more"));
+        }
     }
     if args.chunk_len >= MAX_STEPS {
         return bad_input(format!("--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"));
@@ -104,6 +123,9 @@ pub fn run(args: &Args) -> ExitCode {
         planner: args.planner,
         reassign: args.reassign,
         axis_weight: args.axis_weight,
+        headroom_weight: args.headroom_weight,
+        reserve_weight: args.reserve_weight,
+        time_scaling: args.time_scaling,
         max_chunk_len: defaults.max_chunk_len.max(args.chunk_len),
         ..defaults
     };

@@ -11,6 +11,7 @@ pub mod execute;
 pub mod fk;
 pub mod gen_bench;
 pub mod ik;
+pub mod import;
 mod lines;
 mod live;
 pub mod online;

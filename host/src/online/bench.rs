@@ -32,13 +32,18 @@ pub struct ArmsRow {
     pub whole: Vec<f64>,
 }
 
-/// The `q`-quantile of sorted `v` (nearest rank), in ms.
-pub fn quantile_ms(v: &[f64], q: f64) -> f64 {
+/// The `q`-quantile of sorted `v` (nearest rank); NaN when `v` is empty.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
     let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len());
-    1e3 * v[k - 1]
+    v[k - 1]
+}
+
+/// [`quantile`] of seconds, in ms.
+pub fn quantile_ms(v: &[f64], q: f64) -> f64 {
+    1e3 * quantile(v, q)
 }
 
 /// Runs the benchmark on the suite in `dir` for each arm count of `arms`, until at least
@@ -168,8 +173,15 @@ pub struct EpisodeRun {
     pub first: Option<f64>,
     /// Chunks planned by a recovery (see `super::Recovery`).
     pub recovered: usize,
-    /// Every chunk planned and the whole sent timeline valid under the validator.
+    /// Every chunk planned, every pose tracked in order (none dropped) and the whole sent
+    /// timeline valid under the validator.
     pub embodied: bool,
+    /// Chunks the Embodier slowed ([`super::Recovery::TimeScaled`]).
+    pub scaled: usize,
+    /// How far the arms were behind the policy at the episode's last step, s.
+    pub lag_s: f64,
+    /// The episode's duration at the policy's rate, s.
+    pub duration_s: f64,
     /// The first error, as the Embodier gave it.
     pub error: Option<String>,
 }
@@ -208,6 +220,7 @@ pub fn run_episode(
         match e.push_chunk(start as u64, &hands) {
             Ok(r) => {
                 run.recovered += usize::from(r.recovery.is_some());
+                run.scaled += usize::from(r.recovery == Some(super::Recovery::TimeScaled));
                 // A chunk whose first poses were dropped (an approach after a hold) is not
                 // embodied.
                 if r.dropped == 0 {
@@ -235,8 +248,22 @@ pub fn run_episode(
         start += chunking.stride;
     }
     record.send(&e, e.end());
+    run.duration_s = steps as f64 * episode.setup.dt;
+    run.lag_s = e.lag_s(steps.saturating_sub(1) as u64);
     let windows = record.windows(&episode.setup, &e, omcbsa_core::problem::MAX_STEPS - 1);
     let mut valid = !windows.is_empty();
+    match record.check_order() {
+        Ok(order) if order.dropped == 0 => {}
+        Ok(order) => {
+            run.error
+                .get_or_insert(format!("{} steps dropped by catch-ups", order.dropped));
+            valid = false;
+        }
+        Err(e) => {
+            run.error.get_or_insert(e);
+            valid = false;
+        }
+    }
     for (problem, solution) in &windows {
         let core = load::problem::<Fleet, DOF>(problem).map_err(|e| e.to_string())?;
         let report = crate::validate::validate::<Fleet, DOF>(problem, &core, solution);
@@ -273,6 +300,10 @@ pub struct EpisodeRow {
     pub later: Vec<f64>,
     /// Planning times of the first chunks, s.
     pub first: Vec<f64>,
+    /// Chunks slowed by time scaling.
+    pub scaled: usize,
+    /// Per episode, the arms' lag at its end as a share of its duration.
+    pub lags: Vec<f64>,
 }
 
 impl EpisodeRow {
@@ -285,14 +316,17 @@ impl EpisodeRow {
         self.recovered += run.recovered;
         self.later.extend(&run.later);
         self.first.extend(run.first);
+        self.scaled += run.scaled;
+        self.lags
+            .push(run.lag_s / run.duration_s.max(f64::MIN_POSITIVE));
     }
 }
 
 /// The rows as a markdown table (`None` chunking: the reference, whole windows).
 pub fn episode_table(rows: &[EpisodeRow]) -> String {
     let mut s = String::from(
-        "| arms | chunks (len / stride) | episodes | out of reach | embodied | chunks | planned | recovered | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
-         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| arms | chunks (len / stride) | episodes | out of reach | embodied | chunks | planned | recovered | time-scaled | lag p50 / max (% of episode) | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
+         |---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|\n",
     );
     for r in rows {
         let mut later = r.later.clone();
@@ -304,8 +338,10 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
             .map_or("whole windows (reference)".to_string(), |c| {
                 format!("{} / {} (lead {})", c.len, c.stride, c.lead)
             });
+        let mut lags = r.lags.clone();
+        lags.sort_by(f64::total_cmp);
         s += &format!(
-            "| {} | {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {} | {:.2} / {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
             r.arms,
             chunking,
             r.episodes,
@@ -314,6 +350,9 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
             r.chunks,
             100.0 * r.planned as f64 / r.chunks.max(1) as f64,
             r.recovered,
+            r.scaled,
+            100.0 * quantile(&lags, 0.5),
+            100.0 * quantile(&lags, 1.0),
             quantile_ms(&later, 0.5),
             quantile_ms(&later, 0.99),
             quantile_ms(&later, 1.0),

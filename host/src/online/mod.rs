@@ -126,17 +126,17 @@ pub struct OnlineOptions {
     pub time_scaling: bool,
 }
 
-/// [`OnlineOptions::axis_weight`] by default. `bench-online --family bimanual` at 50 Hz, 2
-/// arms, 16-step chunks just in time: weights from 0.5 to 8 embody all 40 episodes; 0.25 loses
-/// transfer 013 (the dead end this cost is for), 16 steers so hard that two others lose a
-/// wrist joint's speed. 4 is in the middle (log scale).
-pub const AXIS_WEIGHT: f64 = 4.0;
+/// [`OnlineOptions::axis_weight`] by default: none. On hand trajectories a real policy
+/// emits (`bench-online --family aloha-sim`), keeping the arm's joint axes apart turned it away
+/// from the straight wrist a fast wrist turn needs (two wrist joints sharing the turn); the
+/// headroom and the reserve below keep it ready instead.
+pub const AXIS_WEIGHT: f64 = 0.0;
 
 /// [`OnlineOptions::headroom_weight`] by default.
-pub const HEADROOM_WEIGHT: f64 = 0.0;
+pub const HEADROOM_WEIGHT: f64 = 2.0;
 
 /// [`OnlineOptions::reserve_weight`] by default.
-pub const RESERVE_WEIGHT: f64 = 0.0;
+pub const RESERVE_WEIGHT: f64 = 1.0;
 
 impl OnlineOptions {
     /// The horizon the planner needs: a chunk and the step before it, and room for time

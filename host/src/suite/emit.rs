@@ -360,6 +360,7 @@ fn files(
         seed: spec.seed,
         stance: spec.stance.map(|s| s.name().to_string()),
         straight_bridge_collides,
+        assignment: None,
         witness: witness
             .as_ref()
             .map(|_| format!("{WITNESS_DIR}/{}.json", spec.name)),

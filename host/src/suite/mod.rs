@@ -143,6 +143,11 @@ pub struct SuiteEntry {
     /// all arms together from `initial` to the witness's first configurations collides.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub straight_bridge_collides: Option<bool>,
+    /// When the problem set says which arm goes where: `assignment[i]`, the trajectory robot
+    /// `i` tracks (`null`: it holds). `omcbsa bench` plans under it and counts a plan with any
+    /// other assignment as invalid. Absent, the planner chooses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub assignment: Option<Vec<Option<usize>>>,
 }
 
 /// Why the suite could not be generated or read.
