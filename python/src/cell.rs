@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use std::time::Duration;
 
-use numpy::{PyArray1, PyArrayLikeDyn, AllowTypeChange};
+use numpy::{AllowTypeChange, PyArray1, PyArrayLikeDyn};
 use omcbsa::live::{LiveCell, LiveError, LiveOptions, LivePush, LiveStatus};
 use omcbsa::online::OnlineError;
 use omcbsa_hw::cell::CellEnd;
@@ -140,16 +140,31 @@ fn live_options(py: Python<'_>, o: &Options<'_>, kortex: bool) -> PyResult<LiveO
             w.following_error_timeout_ms,
         )?,
         drive_lag: ms("drive_lag_ms", w.drive_lag)?,
-        following_error_bound: o.or("following_error_bound", "a number", w.following_error_bound)?,
+        following_error_bound: o.or(
+            "following_error_bound",
+            "a number",
+            w.following_error_bound,
+        )?,
     };
     watch
         .check()
         .map_err(|e| field_error(py, "watchdog", e.to_string()))?;
     let rate = o.get::<f64>("rate", "a number of Hz")?;
     if let Some(r) = rate.filter(|r| !(100.0..=1000.0).contains(r)) {
-        return Err(field_error(py, "rate", format!("{r} Hz: must be 100 to 1000")));
+        return Err(field_error(
+            py,
+            "rate",
+            format!("{r} Hz: must be 100 to 1000"),
+        ));
     }
     let priority = o.get::<Option<u8>>("rt_priority", "an int from 1 to 99, or None")?;
+    if let Some(p) = priority.flatten().filter(|p| !(1..=99).contains(p)) {
+        return Err(field_error(
+            py,
+            "rt_priority",
+            format!("{p}: must be 1 to 99, or None"),
+        ));
+    }
     let credentials = match kortex {
         false => None,
         true => Some(
@@ -162,7 +177,9 @@ fn live_options(py: Python<'_>, o: &Options<'_>, kortex: bool) -> PyResult<LiveO
         ),
     };
     Ok(LiveOptions {
-        time_scale: o.get::<Option<f64>>("time_scale", "a number, or None")?.flatten(),
+        time_scale: o
+            .get::<Option<f64>>("time_scale", "a number, or None")?
+            .flatten(),
         period: rate.map(|r| Duration::from_secs_f64(1.0 / r)),
         config: ExecConfig {
             watch,
@@ -172,7 +189,9 @@ fn live_options(py: Python<'_>, o: &Options<'_>, kortex: bool) -> PyResult<LiveO
             ..d
         },
         credentials,
-        records: o.get::<Option<PathBuf>>("records", "a path, or None")?.flatten(),
+        records: o
+            .get::<Option<PathBuf>>("records", "a path, or None")?
+            .flatten(),
     })
 }
 
@@ -281,7 +300,11 @@ fn push_dict<'py>(py: Python<'py>, p: &LivePush) -> PyResult<Bound<'py, PyDict>>
     Ok(d)
 }
 
-fn end_dict<'py>(py: Python<'py>, end: &CellEnd, records: &PathBuf) -> PyResult<Bound<'py, PyDict>> {
+fn end_dict<'py>(
+    py: Python<'py>,
+    end: &CellEnd,
+    records: &PathBuf,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let r = &end.report;
     d.set_item("cycles", r.cycles)?;
@@ -349,7 +372,8 @@ impl Cell {
         let o = Options::new("Cell", options, &OPTIONS)?;
         let mut urls = Vec::with_capacity(arms.len());
         for (name, url) in &arms {
-            let parsed = ArmUrl::parse(url).map_err(|e| field_error(py, format!("arms[{name:?}]"), e))?;
+            let parsed =
+                ArmUrl::parse(url).map_err(|e| field_error(py, format!("arms[{name:?}]"), e))?;
             urls.push((name.clone(), parsed));
         }
         // In the Embodier's order, for stable messages.
@@ -502,8 +526,10 @@ impl Drop for Cell {
 
 /// Whether `slot` (an Embodier's cell) still runs.
 pub fn running(slot: &Weak<Mutex<State>>) -> bool {
-    slot.upgrade()
-        .is_some_and(|s| s.try_lock().map_or(true, |g| matches!(*g, State::Running(_))))
+    slot.upgrade().is_some_and(|s| {
+        s.try_lock()
+            .map_or(true, |g| matches!(*g, State::Running(_)))
+    })
 }
 
 /// The cell of an Embodier, as it keeps it.

@@ -9,13 +9,12 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{field_error, flat, input_error};
 use crate::cell::{running, CellRef};
+use crate::convert::{field_error, flat, input_error};
 use crate::guard;
 use crate::options::Options;
 use crate::problem::{
-    check, planner_kind, problem_document, robots_value, rule, to_python, ModelArg, Problem,
-    DOF,
+    check, planner_kind, problem_document, robots_value, rule, to_python, ModelArg, Problem, DOF,
 };
 use omcbsa::load;
 

@@ -57,7 +57,10 @@ pub fn aloha_episode<'py>(
         tolerance: setup.tolerance,
     };
     let file = check(file).map_err(|e| crate::convert::input_error(py, &e))?;
-    let (h, t) = (episode.hands.len(), episode.hands.first().map_or(0, Vec::len));
+    let (h, t) = (
+        episode.hands.len(),
+        episode.hands.first().map_or(0, Vec::len),
+    );
     let values: Vec<f64> = (episode.hands.iter().flatten())
         .flat_map(|p| p.position.into_iter().chain(p.quat_xyzw))
         .collect();

@@ -48,6 +48,8 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(episode::aloha_episode, m)?)?;
     // Leaving the interpreter stops every arm of every cell still running.
     let stop_all = wrap_pyfunction!(cell::stop_all_cells, m)?;
-    m.py().import("atexit")?.call_method1("register", (stop_all,))?;
+    m.py()
+        .import("atexit")?
+        .call_method1("register", (stop_all,))?;
     Ok(())
 }

@@ -162,7 +162,10 @@ impl Source {
         watch: &mut dyn FnMut() -> Result<(), Stop>,
     ) -> Result<Option<(usize, Result<ChunkLine, String>)>, Stop> {
         let parsed = |n: usize, line: Result<String, String>| {
-            Some((n, line.and_then(|l| parse_line(&l).map_err(|e| e.to_string()))))
+            Some((
+                n,
+                line.and_then(|l| parse_line(&l).map_err(|e| e.to_string())),
+            ))
         };
         match self {
             Source::Stdin(lines) => loop {
@@ -216,7 +219,10 @@ fn episode_chunks(hands: &[Vec<Pose>], len: usize, stride: usize) -> Vec<ChunkLi
         .step_by(stride)
         .map(|s| ChunkLine {
             start_step: s as u64,
-            hands: hands.iter().map(|h| h[s..steps.min(s + len)].to_vec()).collect(),
+            hands: hands
+                .iter()
+                .map(|h| h[s..steps.min(s + len)].to_vec())
+                .collect(),
         })
         .collect()
 }
@@ -415,7 +421,9 @@ fn stream(
 
 fn pushed_line(at: &str, chunk: &ChunkLine, p: &LivePush) -> String {
     let r = &p.report;
-    let recovery = r.recovery.map_or(String::new(), |w| format!(", {}", w.name()));
+    let recovery = r
+        .recovery
+        .map_or(String::new(), |w| format!(", {}", w.name()));
     let late = match p.late {
         0 => String::new(),
         n => format!(", its first {n} poses late (passed)"),

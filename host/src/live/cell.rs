@@ -200,7 +200,11 @@ impl LiveCell {
                 errors.push(format!(
                     "arm {}: no robot of the Embodier has this name (robots: {})",
                     quoted(name),
-                    names.iter().map(|n| quoted(n)).collect::<Vec<_>>().join(", ")
+                    names
+                        .iter()
+                        .map(|n| quoted(n))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ));
             }
             if arms[..i].iter().any(|(n, _)| n == name) {
@@ -410,9 +414,7 @@ fn unsent(
 ) -> Result<(usize, Vec<Vec<Pose>>), LiveError> {
     let len = hands.first().map_or(0, Vec::len);
     let late = (0..len)
-        .take_while(|&k| {
-            (embodier.timeline_index(start_step + k as u64)).is_some_and(|i| i < from)
-        })
+        .take_while(|&k| (embodier.timeline_index(start_step + k as u64)).is_some_and(|i| i < from))
         .count();
     if late == len && len > 0 {
         return Err(LiveError::Chunk(OnlineError::DeadlineMissed {
@@ -420,7 +422,13 @@ fn unsent(
             committed_step: (start_step + late as u64) as i64 - 1,
         }));
     }
-    Ok((late, hands.iter().map(|h| h[late.min(h.len())..].to_vec()).collect()))
+    Ok((
+        late,
+        hands
+            .iter()
+            .map(|h| h[late.min(h.len())..].to_vec())
+            .collect(),
+    ))
 }
 
 /// A number no other cell of this process has.
@@ -428,4 +436,68 @@ fn unique() -> usize {
     use std::sync::atomic::{AtomicUsize, Ordering};
     static CELLS: AtomicUsize = AtomicUsize::new(0);
     CELLS.fetch_add(1, Ordering::SeqCst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::format::{RobotSpec, ToleranceSpec};
+    use crate::online::{OnlineOptions, Setup};
+
+    #[test]
+    fn the_poses_the_arms_have_passed_are_dropped_and_a_chunk_all_passed_is_late() {
+        let arm = RobotSpec {
+            name: "arm".to_string(),
+            model: "kinova_gen3".to_string(),
+            base: Pose::IDENTITY,
+            initial: Some(vec![0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57]),
+            tcp: None,
+            tool: None,
+        };
+        let setup = Setup {
+            robots: vec![arm],
+            obstacles: Vec::new(),
+            tolerance: ToleranceSpec::default(),
+            dt: 0.1,
+        };
+        let mut e = Embodier::new(&setup, OnlineOptions::default()).unwrap();
+        let hand = |k: u64| Pose {
+            position: [0.5, 0.0, 0.4 + 0.01 * k as f64],
+            quat_xyzw: [1.0, 0.0, 0.0, 0.0],
+        };
+        let chunk = |s: u64| vec![(s..s + 4).map(hand).collect::<Vec<_>>()];
+        // Before the first chunk nothing is placed: nothing is late.
+        assert_eq!(unsent(&e, 5, 0, &chunk(0)).unwrap().0, 0);
+        let first = e.push_chunk(0, &chunk(0)).unwrap();
+        // The arms have fixed step 1's waypoint: steps 0 and 1 are passed.
+        let (late, rest) = unsent(&e, first.index + 2, 0, &chunk(0)).unwrap();
+        assert_eq!(late, 2);
+        assert_eq!(rest[0], chunk(0)[0][2..]);
+        match unsent(&e, first.index + 4, 0, &chunk(0)) {
+            Err(LiveError::Chunk(OnlineError::DeadlineMissed { start_step: 0, .. })) => {}
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_default_time_scale_brings_the_models_speeds_within_the_executors() {
+        let arm = RobotSpec {
+            name: "arm".to_string(),
+            model: "kinova_gen3".to_string(),
+            base: Pose::IDENTITY,
+            initial: Some(vec![0.0; DOF]),
+            tcp: None,
+            tool: None,
+        };
+        let setup = Setup {
+            robots: vec![arm],
+            obstacles: Vec::new(),
+            tolerance: ToleranceSpec::default(),
+            dt: 0.1,
+        };
+        let e = Embodier::new(&setup, OnlineOptions::default()).unwrap();
+        // The Gen3's joints 1-4 turn at 1.3963 rad/s, the executor keeps to 0.8727.
+        let ratio = speed_ratio(&e).unwrap();
+        assert!((ratio - 1.3963 / CAUTIOUS_SPEED).abs() < 1e-12, "{ratio}");
+    }
 }

@@ -65,3 +65,98 @@ pub fn check_segment(embodier: &Embodier, from: usize) -> Result<(), String> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::format::{RobotSpec, ToleranceSpec};
+    use crate::models::Fleet;
+    use crate::online::{OnlineOptions, Setup};
+    use omcbsa_core::model::{KinovaGen3, Model};
+
+    const RETRACT: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+
+    fn embodier() -> Embodier {
+        let arm = RobotSpec {
+            name: "arm".to_string(),
+            model: "kinova_gen3".to_string(),
+            base: Pose::IDENTITY,
+            initial: Some(RETRACT.to_vec()),
+            tcp: None,
+            tool: None,
+        };
+        let setup = Setup {
+            robots: vec![arm],
+            obstacles: Vec::new(),
+            tolerance: ToleranceSpec::default(),
+            dt: 0.1,
+        };
+        let options = OnlineOptions {
+            max_chunk_len: 8,
+            ..OnlineOptions::default()
+        };
+        Embodier::new(&setup, options).unwrap()
+    }
+
+    fn chunk(start: u64) -> Vec<Vec<Pose>> {
+        vec![(start..start + 4)
+            .map(|k| Pose {
+                position: [0.5, 0.0, 0.4 + 0.002 * (k % 50) as f64],
+                quat_xyzw: [1.0, 0.0, 0.0, 0.0],
+            })
+            .collect()]
+    }
+
+    #[test]
+    fn every_push_of_a_run_passes_and_a_long_hold_is_checked_in_windows() {
+        let mut e = embodier();
+        let first = e.push_chunk(0, &chunk(0)).unwrap();
+        assert!(e.approach_len() > 0);
+        check_segment(&e, 1).unwrap();
+        e.commit_until(first.index + 2);
+        let next = e.push_chunk(2, &chunk(2)).unwrap();
+        check_segment(&e, next.index).unwrap();
+        // A chunk far ahead: the arms hold for longer than one problem holds steps.
+        let old_end = e.end();
+        let far = e.push_chunk(2 * MAX_STEPS as u64, &chunk(2 * MAX_STEPS as u64));
+        let far = far.unwrap();
+        assert!(far.end - old_end > MAX_STEPS, "{} to {}", old_end, far.end);
+        check_segment(&e, old_end).unwrap();
+    }
+
+    #[test]
+    fn a_jump_from_where_the_arms_are_to_the_segment_is_caught() {
+        let mut e = embodier();
+        e.push_chunk(0, &chunk(0)).unwrap();
+        let a = e.approach_len();
+        let path: Vec<[f64; DOF]> = e.planned(0, a + 1).to_vec();
+        let check = |before: [f64; DOF]| {
+            let window = Window {
+                name: "junction".to_string(),
+                initial: Some(vec![before]),
+                approach: Some(vec![Vec::new()]),
+                path: vec![path.clone()],
+            };
+            let (problem, solution) = window.files(e.setup(), &e, |k| {
+                let frames = e.target_poses(a + 1 + k)?;
+                Some(frames.iter().map(pose::from_frame).collect())
+            });
+            let core = crate::load::problem::<Fleet, DOF>(&problem).unwrap();
+            validate::<Fleet, DOF>(&problem, &core, &solution)
+        };
+        // From the approach's last configuration, where the arm is: valid, the hand where the
+        // chunk puts it.
+        let before = e.configuration(0, a).unwrap();
+        let report = check(before);
+        assert!(report.is_valid(), "{}", report.summary());
+        let hand = KinovaGen3::fk(&path[0]).pos;
+        assert!((hand.x - 0.5).abs() < 1e-3, "{hand:?}");
+        // The arm said to stand 0.3 rad away on joint 1: one step of 0.1 s at 3 rad/s.
+        let mut far = before;
+        far[0] += 0.3;
+        let report = check(far);
+        assert!(!report.is_valid());
+        let v = &report.violations[0];
+        assert!(v.to_string().contains("velocity"), "{v}");
+    }
+}

@@ -67,7 +67,10 @@ mod tests {
         for (text, field) in [
             (r#"{"hands": []}"#, ""),
             (r#"{"start_step": -1, "hands": []}"#, "start_step"),
-            (r#"{"start_step": 0, "hands": [[{"position": [0,0,0]}]]}"#, "hands[0][0]"),
+            (
+                r#"{"start_step": 0, "hands": [[{"position": [0,0,0]}]]}"#,
+                "hands[0][0]",
+            ),
             (r#"{"start_step": 0, "hands": [], "speed": 2}"#, "speed"),
             (r#"{"start_step": 0, "hands": []} {}"#, ""),
             ("not json", ""),

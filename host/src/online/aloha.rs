@@ -207,7 +207,10 @@ pub fn read_family(dir: &Path) -> Result<Family, String> {
 pub fn read_episode(path: &Path) -> Result<Family, String> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let (index, tool) = read_index(dir)?;
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default();
     let entry = (index.episodes.iter().find(|e| e.file == name)).ok_or_else(|| {
         format!(
             "{}: not an episode that {} lists",
