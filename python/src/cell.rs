@@ -7,7 +7,7 @@
 
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use numpy::{AllowTypeChange, PyArray1, PyArrayLikeDyn};
@@ -21,6 +21,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use crate::cell_state::{lock, CellRef, State};
 use crate::convert::{field_error, input_error};
 use crate::embodier::{online_error, poses_of, report_dict, Embodier};
 use crate::guard;
@@ -46,20 +47,10 @@ pyo3::create_exception!(
      the whole report. The cell has ended."
 );
 
-/// A cell while it runs, or why it ended.
-pub(crate) enum State {
-    Running(LiveCell),
-    Ended(String),
-}
-
 type Slot = Arc<Mutex<State>>;
 
 /// Every cell of the process, stopped when the interpreter exits.
-static CELLS: Mutex<Vec<Weak<Mutex<State>>>> = Mutex::new(Vec::new());
-
-fn lock(slot: &Mutex<State>) -> MutexGuard<'_, State> {
-    slot.lock().unwrap_or_else(|p| p.into_inner())
-}
+static CELLS: Mutex<Vec<CellRef>> = Mutex::new(Vec::new());
 
 /// Ends the cell in `slot` if it runs: every arm stopped (`stop`) or finished; its end.
 fn end(slot: &Mutex<State>, why: &str, finish: bool) -> Option<Result<CellEnd, LiveError>> {
@@ -92,7 +83,8 @@ pub fn stop_all_cells(py: Python<'_>) {
 /// planned no chunk yet) to its arm's URL: `kortex://HOST`, `socketcan://IFACE`,
 /// `slcan:///dev/ttyX`, or `mock-kortex` / `mock-can` (the project's mock arms, started for
 /// the cell). Returns once every arm holds where its robot's `initial` says. See the stub
-/// (`_omcbsa.pyi`) for the options and docs/PYTHON.md for a policy loop.
+/// (`_omcbsa.pyi`) for the options and docs/HARDWARE.md ("Running a policy on arms") for a
+/// policy loop.
 #[pyclass(module = "omcbsa")]
 pub struct Cell {
     slot: Slot,
@@ -392,7 +384,7 @@ impl Cell {
             period: live.period(),
             step_time: live.step_time(),
             records: live.records().to_path_buf(),
-            slot: Arc::new(Mutex::new(State::Running(live))),
+            slot: Arc::new(Mutex::new(State::Running(Box::new(live)))),
             embodier: embodier.clone_ref(py),
         };
         e.cell = Some(Arc::downgrade(&cell.slot));
@@ -523,14 +515,3 @@ impl Drop for Cell {
         Python::attach(|py| py.detach(|| end(&slot, "the Cell was collected", false)));
     }
 }
-
-/// Whether `slot` (an Embodier's cell) still runs.
-pub fn running(slot: &Weak<Mutex<State>>) -> bool {
-    slot.upgrade().is_some_and(|s| {
-        s.try_lock()
-            .map_or(true, |g| matches!(*g, State::Running(_)))
-    })
-}
-
-/// The cell of an Embodier, as it keeps it.
-pub type CellRef = Weak<Mutex<State>>;

@@ -9,7 +9,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::cell::{running, CellRef};
+use crate::cell_state::{running, CellRef};
 use crate::convert::{field_error, flat, input_error};
 use crate::guard;
 use crate::options::Options;

@@ -3,6 +3,7 @@
 //! joint paths and poses. One implementation: everything here converts and calls the host library.
 
 mod cell;
+mod cell_state;
 mod convert;
 mod embodier;
 mod episode;

@@ -441,31 +441,13 @@ fn unique() -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::format::{RobotSpec, ToleranceSpec};
-    use crate::online::{OnlineOptions, Setup};
+    use crate::online::testing::{self, one_gen3, RETRACT};
+    use crate::online::OnlineOptions;
 
     #[test]
     fn the_poses_the_arms_have_passed_are_dropped_and_a_chunk_all_passed_is_late() {
-        let arm = RobotSpec {
-            name: "arm".to_string(),
-            model: "kinova_gen3".to_string(),
-            base: Pose::IDENTITY,
-            initial: Some(vec![0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57]),
-            tcp: None,
-            tool: None,
-        };
-        let setup = Setup {
-            robots: vec![arm],
-            obstacles: Vec::new(),
-            tolerance: ToleranceSpec::default(),
-            dt: 0.1,
-        };
-        let mut e = Embodier::new(&setup, OnlineOptions::default()).unwrap();
-        let hand = |k: u64| Pose {
-            position: [0.5, 0.0, 0.4 + 0.01 * k as f64],
-            quat_xyzw: [1.0, 0.0, 0.0, 0.0],
-        };
-        let chunk = |s: u64| vec![(s..s + 4).map(hand).collect::<Vec<_>>()];
+        let mut e = Embodier::new(&one_gen3(RETRACT), OnlineOptions::default()).unwrap();
+        let chunk = |s: u64| testing::chunk(s, |k| 0.4 + 0.01 * k as f64);
         // Before the first chunk nothing is placed: nothing is late.
         assert_eq!(unsent(&e, 5, 0, &chunk(0)).unwrap().0, 0);
         let first = e.push_chunk(0, &chunk(0)).unwrap();
@@ -481,21 +463,7 @@ mod tests {
 
     #[test]
     fn the_default_time_scale_brings_the_models_speeds_within_the_executors() {
-        let arm = RobotSpec {
-            name: "arm".to_string(),
-            model: "kinova_gen3".to_string(),
-            base: Pose::IDENTITY,
-            initial: Some(vec![0.0; DOF]),
-            tcp: None,
-            tool: None,
-        };
-        let setup = Setup {
-            robots: vec![arm],
-            obstacles: Vec::new(),
-            tolerance: ToleranceSpec::default(),
-            dt: 0.1,
-        };
-        let e = Embodier::new(&setup, OnlineOptions::default()).unwrap();
+        let e = Embodier::new(&one_gen3([0.0; DOF]), OnlineOptions::default()).unwrap();
         // The Gen3's joints 1-4 turn at 1.3963 rad/s, the executor keeps to 0.8727.
         let ratio = speed_ratio(&e).unwrap();
         assert!((ratio - 1.3963 / CAUTIOUS_SPEED).abs() < 1e-12, "{ratio}");

@@ -69,42 +69,11 @@ pub fn check_segment(embodier: &Embodier, from: usize) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::format::{RobotSpec, ToleranceSpec};
-    use crate::models::Fleet;
-    use crate::online::{OnlineOptions, Setup};
+    use crate::online::testing::{self, embodier};
     use omcbsa_core::model::{KinovaGen3, Model};
 
-    const RETRACT: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
-
-    fn embodier() -> Embodier {
-        let arm = RobotSpec {
-            name: "arm".to_string(),
-            model: "kinova_gen3".to_string(),
-            base: Pose::IDENTITY,
-            initial: Some(RETRACT.to_vec()),
-            tcp: None,
-            tool: None,
-        };
-        let setup = Setup {
-            robots: vec![arm],
-            obstacles: Vec::new(),
-            tolerance: ToleranceSpec::default(),
-            dt: 0.1,
-        };
-        let options = OnlineOptions {
-            max_chunk_len: 8,
-            ..OnlineOptions::default()
-        };
-        Embodier::new(&setup, options).unwrap()
-    }
-
     fn chunk(start: u64) -> Vec<Vec<Pose>> {
-        vec![(start..start + 4)
-            .map(|k| Pose {
-                position: [0.5, 0.0, 0.4 + 0.002 * (k % 50) as f64],
-                quat_xyzw: [1.0, 0.0, 0.0, 0.0],
-            })
-            .collect()]
+        testing::chunk(start, |k| 0.4 + 0.002 * (k % 50) as f64)
     }
 
     #[test]

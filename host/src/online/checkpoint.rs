@@ -60,38 +60,11 @@ impl Embodier {
 
 #[cfg(test)]
 mod tests {
-    use crate::format::{Pose, RobotSpec, ToleranceSpec};
-    use crate::online::{Embodier, OnlineOptions, Setup};
-
-    fn embodier() -> Embodier {
-        let arm = RobotSpec {
-            name: "arm".to_string(),
-            model: "kinova_gen3".to_string(),
-            base: Pose::IDENTITY,
-            initial: Some(vec![0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57]),
-            tcp: None,
-            tool: None,
-        };
-        let setup = Setup {
-            robots: vec![arm],
-            obstacles: Vec::new(),
-            tolerance: ToleranceSpec::default(),
-            dt: 0.1,
-        };
-        let options = OnlineOptions {
-            max_chunk_len: 8,
-            ..OnlineOptions::default()
-        };
-        Embodier::new(&setup, options).unwrap()
-    }
+    use crate::format::Pose;
+    use crate::online::testing::{self, embodier};
 
     fn chunk(start: u64, dz: f64) -> Vec<Vec<Pose>> {
-        vec![(start..start + 4)
-            .map(|k| Pose {
-                position: [0.5, 0.0, 0.4 + dz * k as f64],
-                quat_xyzw: [1.0, 0.0, 0.0, 0.0],
-            })
-            .collect()]
+        testing::chunk(start, |k| 0.4 + dz * k as f64)
     }
 
     #[test]

@@ -35,6 +35,8 @@ pub mod record;
 mod recover;
 pub mod run;
 mod scaling;
+#[cfg(test)]
+pub(crate) mod testing;
 mod timeline;
 
 pub use checkpoint::Checkpoint;
