@@ -1,6 +1,8 @@
 """A recorded ALOHA episode on a cell of four mock arms, for the Cell's tests (test_cell.py) and
-run on its own by the Ctrl-C test: ``python aloha_cell.py RECORDS_DIR`` streams the episode and
-prints a line per chunk pushed.
+run on its own by the tests of leaving the cell: ``python aloha_cell.py RECORDS_DIR [HOW]``
+streams the episode, printing a line per chunk pushed, and then (HOW) lets the queue run out in
+a ``with`` block (``finish``, the default: Ctrl-C is sent meanwhile), raises in the block
+(``raise``), or leaves the interpreter with the cell running (``exit``).
 
 The cell: the aloha-sim family's four Gen3s at the table's corners; the two that take the hands
 (south_west, north_east) start where the episode's first poses put them (a policy starts from
@@ -29,6 +31,8 @@ EPISODE = ROOT / "data" / "aloha_sim" / "transfer_100.json.gz"
 PREFIX = 40
 CHUNK, STRIDE = 16, 8
 TIME_SCALE = 12.0
+#: Control cycles per policy step: TIME_SCALE times the episode's 20 ms over the mocks' 10 ms.
+STEP_CYCLES = 24
 
 ARMS = {
     "south_west": "mock-kortex",
@@ -86,15 +90,26 @@ def replay(cell, embodier, hands, dt, on_push=None):
     return timeline
 
 
-def main(records):
+def main(records, how="finish"):
     setup, hands = episode()
     e = omcbsa.Embodier(setup)
+    announce = lambda s, p: print(f"pushed {s}", flush=True)  # noqa: E731
+    if how == "exit":
+        # Held by the module, so that only the interpreter's exit ends it (atexit).
+        global CELL
+        CELL = omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records, **RELAXED)
+        replay(CELL, e, hands, setup.dt, on_push=announce)
+        time.sleep(0.5)
+        print("leaving", flush=True)
+        return
     with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records, **RELAXED) as cell:
-        replay(cell, e, hands, setup.dt,
-               on_push=lambda s, p: print(f"pushed {s}", flush=True))
+        replay(cell, e, hands, setup.dt, on_push=announce)
+        if how == "raise":
+            time.sleep(0.5)
+            raise RuntimeError("the policy failed")
         cell.finish()
     print("finished", flush=True)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(*sys.argv[1:])

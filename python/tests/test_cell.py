@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import omcbsa
-from aloha_cell import (ARMS, CLI_RELAXED, EPISODE, PREFIX, RELAXED, TIME_SCALE, chunks, episode,
-                        replay)
+from aloha_cell import (ARMS, CLI_RELAXED, EPISODE, PREFIX, RELAXED, STEP_CYCLES, TIME_SCALE, chunks,
+                        episode, replay)
 
 HERE = Path(__file__).resolve().parent
 QUICK_STOP, ENABLE_OPERATION = 0x0002, 0x000F
@@ -145,6 +145,7 @@ def test_an_episode_at_its_rate_drives_every_arm_along_the_embodied_timeline(cel
         assert cell.robot_names == list(ARMS)
         m = round(cell.step_time / cell.period)
         assert m * cell.period == pytest.approx(cell.step_time)
+        assert m == STEP_CYCLES
         before = cell.status()
         assert all(a["state"] == "holding" for a in before["arms"].values())
         reports = []
@@ -213,27 +214,52 @@ def test_a_fault_mid_episode_stops_every_arm_within_3_periods_and_raises_arm_fau
         assert after == 0, f"{name}: {after} commands after its stop"
 
 
-def test_ctrl_c_stops_every_arm(tmp_path):
-    proc = subprocess.Popen([sys.executable, str(HERE / "aloha_cell.py"), str(tmp_path)],
+def assert_stopped_while_moving(records, since):
+    """Every arm got a stop (wall clock) after `since`, in place of a cycle before the motion's
+    end (the episode's steps alone take PREFIX x STEP_CYCLES cycles), and no command after it."""
+    for name, (t, after, cycle) in stops(records, time.time() - time.monotonic()).items():
+        print(f"{name}: stopped in place of cycle {cycle}, {t - since:.3f} s after")
+        assert t > since, f"{name}: stopped before"
+        assert cycle < PREFIX * STEP_CYCLES, f"{name}: stopped at cycle {cycle}, past its motion"
+        assert after == 0, f"{name}: {after} commands after its stop"
+
+
+def run_cell_script(records, how, pushed=lambda proc: None):
+    """Runs aloha_cell.py; `pushed(proc)` once the policy has pushed three chunks (the arms
+    moving). Returns (return code, stdout, stderr, when the three had been pushed)."""
+    proc = subprocess.Popen([sys.executable, str(HERE / "aloha_cell.py"), str(records), how],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        # Once the policy has pushed three chunks, the arms are moving.
         for _ in range(3):
             line = proc.stdout.readline()
             assert line.startswith("pushed"), line + proc.stderr.read()
-        time.sleep(1.0)
-        sent = time.time()
-        proc.send_signal(signal.SIGINT)
+        since = time.time()
+        pushed(proc)
         out, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
+    return proc.returncode, out, err, since
+
+
+def test_ctrl_c_stops_every_arm(tmp_path):
+    def interrupt(proc):
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGINT)
+
+    code, out, err, since = run_cell_script(tmp_path, "finish", interrupt)
     assert "finished" not in out
-    assert "KeyboardInterrupt" in err
-    offset = time.time() - time.monotonic()
-    for name, (t, after, _) in stops(tmp_path, offset).items():
-        print(f"{name}: stopped {t - sent:.3f} s after SIGINT")
-        assert 0 < t - sent < 2.0, f"{name}: stopped {t - sent:.3f} s after SIGINT"
-        assert after == 0, f"{name}: {after} commands after its stop"
+    assert code != 0 and "KeyboardInterrupt" in err, err
+    assert_stopped_while_moving(tmp_path, since)
+
+
+@pytest.mark.parametrize("how", ["raise", "exit"])
+def test_an_exception_or_the_interpreters_exit_stops_every_arm(tmp_path, how):
+    code, out, err, since = run_cell_script(tmp_path, how)
+    if how == "raise":
+        assert code == 1 and "RuntimeError: the policy failed" in err, err
+    else:
+        assert code == 0 and "leaving" in out, err
+    assert_stopped_while_moving(tmp_path, since)
 
 
 def test_the_same_episode_through_the_command_line_exits_0_and_1_with_a_fault(cell_episode, cli,

@@ -123,6 +123,9 @@ enum Source {
     Episode(std::vec::IntoIter<ChunkLine>),
 }
 
+/// A chunk read and the line it came from (0 for an episode's), or why the line is not one.
+type NumberedChunk = (usize, Result<ChunkLine, String>);
+
 /// Why the run stops early.
 enum Stop {
     Fault(String),
@@ -160,7 +163,7 @@ impl Source {
     fn next(
         &mut self,
         watch: &mut dyn FnMut() -> Result<(), Stop>,
-    ) -> Result<Option<(usize, Result<ChunkLine, String>)>, Stop> {
+    ) -> Result<Option<NumberedChunk>, Stop> {
         let parsed = |n: usize, line: Result<String, String>| {
             Some((
                 n,

@@ -441,12 +441,12 @@ fn unique() -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::online::testing::{self, one_gen3, RETRACT};
+    use crate::online::testing::{self, one_gen3, HOME};
     use crate::online::OnlineOptions;
 
     #[test]
     fn the_poses_the_arms_have_passed_are_dropped_and_a_chunk_all_passed_is_late() {
-        let mut e = Embodier::new(&one_gen3(RETRACT), OnlineOptions::default()).unwrap();
+        let mut e = Embodier::new(&one_gen3(HOME), OnlineOptions::default()).unwrap();
         let chunk = |s: u64| testing::chunk(s, |k| 0.4 + 0.01 * k as f64);
         // Before the first chunk nothing is placed: nothing is late.
         assert_eq!(unsent(&e, 5, 0, &chunk(0)).unwrap().0, 0);

@@ -1,12 +1,14 @@
 //! Fixtures of the online and live tests: one Gen3 at the origin and chunks of its hand's
 //! poses.
 
+use std::f64::consts::{FRAC_PI_2, PI};
+
 use super::{Embodier, OnlineOptions, Setup};
 use crate::format::{Pose, RobotSpec, ToleranceSpec};
 use crate::models::DOF;
 
-/// The Gen3's retract posture.
-pub const RETRACT: [f64; DOF] = [0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57];
+/// Kinova's home posture of the Gen3 (0, 15, 180, 230, 0, 55, 90 degrees).
+pub const HOME: [f64; DOF] = [0.0, 0.26, PI, -2.27, 0.0, 0.96, FRAC_PI_2];
 
 /// One Gen3 named "arm" at the origin, standing at `initial`, nothing around it, dt 0.1 s.
 pub fn one_gen3(initial: [f64; DOF]) -> Setup {
@@ -26,13 +28,13 @@ pub fn one_gen3(initial: [f64; DOF]) -> Setup {
     }
 }
 
-/// An Embodier for [`one_gen3`] at [`RETRACT`], chunks of at most 8 poses.
+/// An Embodier for [`one_gen3`] at [`HOME`], chunks of at most 8 poses.
 pub fn embodier() -> Embodier {
     let options = OnlineOptions {
         max_chunk_len: 8,
         ..OnlineOptions::default()
     };
-    Embodier::new(&one_gen3(RETRACT), options).unwrap()
+    Embodier::new(&one_gen3(HOME), options).unwrap()
 }
 
 /// A chunk of the one hand: 4 poses from step `start`, at (0.5, 0, `z(k)`) at step `k`,
