@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Checks the Markdown of the repository: every relative link and image in a tracked .md file
-points at a file that exists (and at a heading of it, for `file.md#anchor`), and README.md and
-docs/ cite no issue numbers. Prints each problem as `file:line: what` and exits 1 if any.
+points at a file that exists (and at a heading of it, for `file.md#anchor`), README.md and
+docs/ cite no issue numbers, and the index docs/README.md links every other page of docs/.
+Prints each problem as `file:line: what` and exits 1 if any.
 
     python3 scripts/check_docs.py
 """
@@ -70,6 +71,21 @@ def check_issue_numbers(md, problems):
             problems.append(f"{md.relative_to(ROOT)}:{n}: cites {m.group(0)!r}")
 
 
+def check_index(files, problems):
+    index = ROOT / "docs" / "README.md"
+    if not index.exists():
+        problems.append("docs/README.md: missing (the index of docs/)")
+        return
+    linked = set()
+    for _, line in prose_lines(index.read_text(encoding="utf-8")):
+        for target in LINK.findall(line):
+            linked.add((index.parent / target.partition("#")[0]).resolve())
+    for f in files:
+        page = (ROOT / f).resolve()
+        if f.startswith("docs/") and page != index and page not in linked:
+            problems.append(f"docs/README.md: does not link {f} (one line per page)")
+
+
 def main():
     try:
         files = subprocess.run(["git", "ls-files", "*.md"], cwd=ROOT, check=True,
@@ -86,6 +102,7 @@ def main():
         check_links(md, problems)
         if f == "README.md" or f.startswith("docs/"):
             check_issue_numbers(md, problems)
+    check_index(files, problems)
     for p in problems:
         print(p)
     print(f"check_docs: {len(files)} Markdown files, {len(problems)} problems")
