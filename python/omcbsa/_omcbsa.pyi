@@ -230,9 +230,9 @@ class Embodier:
     @property
     def last_report(self) -> Optional[dict[str, Any]]:
         """The last chunk's report: ``start_step``, ``index``, ``dropped``, ``recovery``,
-        ``end``, ``planning_time_s``, ``stats``, ``time_factor`` (timeline steps per pose, above
-        1 when slowed), ``lag_s`` (seconds the arms fell behind the policy with it),
-        ``total_lag_s`` (seconds behind in all)."""
+        ``blocked`` (why it needed one), ``end``, ``planning_time_s``, ``stats``,
+        ``time_factor`` (timeline steps per pose, above 1 when slowed), ``lag_s`` (seconds the
+        arms fell behind the policy with it), ``total_lag_s`` (seconds behind in all)."""
     @property
     def robot_names(self) -> list[str]: ...
 

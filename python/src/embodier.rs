@@ -136,6 +136,7 @@ pub(crate) fn report_dict<'py>(py: Python<'py>, r: &ChunkReport) -> PyResult<Bou
     d.set_item("index", r.index)?;
     d.set_item("dropped", r.dropped)?;
     d.set_item("recovery", r.recovery.map(|r| r.name()))?;
+    d.set_item("blocked", r.blocked.as_deref())?;
     d.set_item("end", r.end)?;
     d.set_item("planning_time_s", r.planning_time_s)?;
     d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;
@@ -366,9 +367,10 @@ impl Embodier {
     }
 
     /// The last chunk's planning report: start_step, index, dropped, recovery (None, or how a
-    /// dead end was recovered), end, planning_time_s, stats, time_factor (timeline steps per
-    /// pose: above 1 when the chunk was slowed), lag_s (seconds the arms fell behind the
-    /// policy with it), total_lag_s (seconds behind in all, at its last pose).
+    /// dead end was recovered), blocked (why it needed one), end, planning_time_s,
+    /// time_factor (timeline steps per policy step: above 1 when time-scaled), lag_s (how far
+    /// the arms fell behind the policy with this chunk), total_lag_s (how far behind they
+    /// are at its last pose), stats.
     #[getter]
     fn last_report<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         self.last.as_ref().map(|r| report_dict(py, r)).transpose()
