@@ -307,9 +307,11 @@ impl Embodier {
         let poses = poses_of(py, &hands)?;
         let chunk_len = chunk_len.unwrap_or(self.max_chunk_len);
         let inner = &mut self.inner;
-        let timeline = py
+        let embodied = py
             .detach(|| guard("embody", || inner.embody(&poses, chunk_len)))?
             .map_err(|e| online_error(py, e))?;
+        let timeline = embodied.timeline;
+        self.last = Some(embodied.last);
         let (n, len) = (timeline.len(), timeline.first().map_or(0, Vec::len));
         let values: Vec<f64> = timeline.iter().flatten().flatten().copied().collect();
         Array3::from_shape_vec((n, len, DOF), values)

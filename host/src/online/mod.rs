@@ -40,6 +40,7 @@ pub(crate) mod testing;
 mod timeline;
 
 pub use checkpoint::Checkpoint;
+pub use embody::Embodied;
 pub use error::OnlineError;
 pub use timeline::Target;
 
