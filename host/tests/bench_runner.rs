@@ -62,7 +62,9 @@ fn write_suite(dir: &Path, n: usize) {
             horizon: 3,
             known_solvable: k % 3 != 0,
             seed: k as u64,
+            redraws: 0,
             witness: None,
+            witness_method: None,
             stance: None,
             straight_bridge_collides: None,
         });
@@ -71,6 +73,7 @@ fn write_suite(dir: &Path, n: usize) {
         format: INDEX_FORMAT.to_string(),
         seed: 0,
         problems,
+        undrawn: Vec::new(),
     };
     std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
 }

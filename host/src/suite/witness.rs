@@ -14,10 +14,9 @@ use omcbsa_core::motion::{motion_is_free, motions_collide, ArmMotion};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 
-use super::family::Hand;
-use super::frames::{aligned, rot, v3, V3};
+use super::frames::{aligned, rot, sin, v3, V3};
 use super::layout::Station;
-use crate::models::{ModelKind, DOF};
+use crate::models::DOF;
 
 /// The models the suite's arms are of (each arm's an index into it).
 pub type Arms = crate::models::Fleet;
@@ -64,9 +63,12 @@ pub fn retract(model: u8) -> Q {
     std::array::from_fn(|j| RETRACT[j].clamp(lower[j], upper[j]))
 }
 
-/// The model of arms whose family names none.
-pub fn default_model() -> u8 {
-    ModelKind::default().id()
+/// One hand trajectory and the arm it was designed for (the witness tracks it with that arm
+/// first).
+#[derive(Clone, Debug)]
+pub struct Hand {
+    pub arm: usize,
+    pub poses: Vec<Frame>,
 }
 
 /// An arm whose path is fixed.
@@ -313,7 +315,7 @@ pub fn random_motion(
                     let offset: f64 = (waves[j].iter())
                         .map(|&(c, a, phase)| {
                             let w = 2.0 * std::f64::consts::PI * c / span;
-                            a * ((w * t as f64 + phase).sin() - phase.sin())
+                            a * (sin(w * t as f64 + phase) - sin(phase))
                         })
                         .sum();
                     (q0[j] + offset).clamp(lower[j], upper[j])
