@@ -2,6 +2,7 @@
 //! files, planners, validator, kinematics and online API, with NumPy arrays for joint paths
 //! and poses. One implementation: everything here converts and calls the host library.
 
+mod bench;
 mod convert;
 mod embodier;
 mod kinematics;
@@ -39,5 +40,9 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(problem::validate, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::fk, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::ik, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_run, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_csv_header, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_report, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_planners, m)?)?;
     Ok(())
 }
