@@ -10,6 +10,10 @@ so its results equal the command's. Each setting gets the output of ``omcbsa ben
 ``OUT/<setting>/results.csv``, ``summary.md``, the plots, ``index.html`` with the 3D views
 and the solutions they show, written by the host's own code (``omcbsa bench --report-only``).
 
+Beside the settings' directories: ``sweep.json`` (runs, wall time, CPUs, runs per second, the
+mean time inside a task, and Ray's overhead per run: the CPU time of the sweep not spent
+inside the runs) and ``tasks.csv`` (each run's wall and CPU time inside its task).
+
 Parameters: ``timeout`` (seconds per run, default 5) and ``approach`` (``on`` or ``off``,
 default ``on``: ``off`` is ``omcbsa bench --no-approach``). A setting's directory is named by
 its values, e.g. ``timeout=1_approach=on``.
@@ -43,6 +47,8 @@ PARAMS = {"timeout": ["5"], "approach": ["on"]}
 
 class Usage(Exception):
     """Bad arguments or files: the message says what and where (exit code 2)."""
+
+
 #: How often Ray runs a task again whose worker died (a planner's failure is a row, not an
 #: exception: it is never retried).
 MAX_RETRIES = 3
@@ -172,9 +178,9 @@ def run(args: argparse.Namespace) -> int:
     def plan(entry: str, problem, planner: str, timeout: float, approach: bool):
         from omcbsa import _omcbsa as native
 
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         record, solution = native.bench_run(entry, problem, planner, timeout, approach)
-        return record, solution, time.perf_counter() - start
+        return record, solution, time.perf_counter() - start, time.process_time() - cpu
 
     texts = {}
     pending = {}
@@ -187,7 +193,11 @@ def run(args: argparse.Namespace) -> int:
         pending[ref] = (results, (name, planner))
 
     start = time.perf_counter()
-    written, failed, task_s = 0, [], 0.0
+    written, failed, task_s, task_cpu_s = 0, [], 0.0, 0.0
+    # Each run's time inside its task, wall and CPU: what the runs cost, Ray aside.
+    tasks = open(out / "tasks.csv", "a" if args.resume else "w", newline="")
+    if tasks.tell() == 0:
+        tasks.write("setting,problem,planner,task_wall_s,task_cpu_s\n")
     bar = tqdm(total=len(runs), unit="run", desc=f"{cpus} CPUs", disable=args.no_progress,
                file=sys.stderr)
     waiting = list(pending)
@@ -196,14 +206,18 @@ def run(args: argparse.Namespace) -> int:
         for ref in ready:
             results, key = pending.pop(ref)
             try:
-                record, solution, seconds = ray.get(ref)
+                record, solution, seconds, cpu_seconds = ray.get(ref)
             except (ray.exceptions.RayError, ValueError) as e:
                 failed.append((results.out.name, key, str(e).splitlines()[0]))
             else:
-                task_s += seconds
-                written += results.add(key, record, solution)
+                if results.add(key, record, solution):
+                    written += 1
+                    task_s += seconds
+                    task_cpu_s += cpu_seconds
+                    tasks.write(f"{results.out.name},{key[0]},{key[1]},{seconds},{cpu_seconds}\n")
             bar.update(1)
     bar.close()
+    tasks.close()
     wall = time.perf_counter() - start
 
     for setting in every:
@@ -213,6 +227,7 @@ def run(args: argparse.Namespace) -> int:
         "runs": written, "skipped_done": skipped, "failed": len(failed), "cpus": cpus,
         "wall_s": wall, "runs_per_s": written / wall if wall > 0 else None,
         "task_s_mean": task_s / written if written else None,
+        "task_cpu_s_mean": task_cpu_s / written if written else None,
         # What Ray adds to each run: the CPU time of the sweep not spent in the runs.
         "overhead_per_run_s": (cpus * wall - task_s) / written if written else None,
     }
