@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
-"""Lists import circles between the modules of each crate: modules that, through `use`
-declarations and paths written in code (`crate::`, `super::`, `self::`), import each other
-in a loop. A module is a source file (inline modules such as `mod tests` belong to their
-file); the crate root is left out, and a name the root re-exports counts as an import of the
-module that defines it.
+"""Lists import circles between the modules of each crate: modules that import each other in
+a loop, through `use` declarations and paths written in code (`crate::`, `super::`, `self::`,
+or a child module's name, as in `use fleet::Fleet;` or `rrt::connect(..)`).
+
+A module is a source file (inline modules such as `mod tests` belong to their file). A parent
+that uses its child while the child uses the parent is a circle too. A `pub use` that
+re-exports an item is not an import of its own: a name a module re-exports counts as an import
+of the module that defines it (so a facade `mod.rs` or the crate root that only re-exports
+makes no circle).
 
     python3 scripts/module_cycles.py [CRATE_DIR ...]    # default: every crate of the workspace
 
@@ -17,8 +21,8 @@ CRATES = ["core", "codegen", "host", "hw-adapter", "tests", "python"]
 
 COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
 STRING = re.compile(r'"(?:\\.|[^"\\])*"')
-USE = re.compile(r"\buse\s+((?:crate|super|self)\b[^;]*);", re.S)
-PATH = re.compile(r"\b((?:crate|super|self)(?:::[A-Za-z_][A-Za-z0-9_]*)+)")
+USE = re.compile(r"\b(pub(?:\([^)]*\))?\s+)?use\s+([^;]*);", re.S)
+PATH = re.compile(r"(?<![:\w])([a-z_][a-z0-9_]*(?:::[A-Za-z_][A-Za-z0-9_]*)+)")
 
 
 def modules(src):
@@ -39,13 +43,33 @@ def modules(src):
     return found
 
 
+def inline_modules(text):
+    """(name, start, end) of every `mod name { .. }` written inline in a file."""
+    found = []
+    for m in re.finditer(r"\bmod\s+([A-Za-z_]\w*)\s*\{", text):
+        depth, i = 0, m.end() - 1
+        while i < len(text):
+            depth += text[i] == "{"
+            depth -= text[i] == "}"
+            if depth == 0:
+                break
+            i += 1
+        found.append((m.group(1), m.end(), i))
+    return found
+
+
+def enclosing(inline, pos):
+    """Names of the inline modules around `pos`, outermost first."""
+    return [name for name, start, end in inline if start <= pos < end]
+
+
 def expand(tree):
     """`a::{b, c::{d, e}}` -> ["a::b", "a::c::d", "a::c::e"]."""
-    tree = re.sub(r"\s+", "", tree)
+    tree = re.sub(r"\s+", " ", tree).strip()
     i = tree.find("{")
     if i < 0:
-        return [tree.split(" as ")[0]]
-    prefix, inner = tree[:i], tree[i + 1 : tree.rfind("}")]
+        return [tree.split(" as ")[0].replace(" ", "")]
+    prefix, inner = tree[:i].replace(" ", ""), tree[i + 1 : tree.rfind("}")]
     parts, depth, cur = [], 0, ""
     for ch in inner:
         if ch == "," and depth == 0:
@@ -57,64 +81,89 @@ def expand(tree):
         cur += ch
     parts.append(cur)
     out = []
-    for p in filter(None, parts):
+    for p in filter(str.strip, parts):
         out += [prefix + x for x in expand(p)]
     return out
 
 
-def resolve(path, here, mods, reexports):
-    """The module a `crate::`/`super::`/`self::` path lands in, or None."""
-    segs = [s for s in path.split("::") if s]
-    if segs[0] == "crate":
-        base, segs = [], segs[1:]
-    else:
-        base = list(here)
-        while segs and segs[0] in ("super", "self"):
-            if segs.pop(0) == "super":
-                base = base[:-1]
-    full = base + segs
-    for n in range(len(full), 0, -1):
-        if tuple(full[:n]) in mods:
-            if n == len(full) or n < len(full):
-                return tuple(full[:n])
-    # A name defined or re-exported by the root.
-    if segs and not base and segs[0] in reexports:
-        return reexports[segs[0]]
-    return None
+class Crate:
+    def __init__(self, src):
+        self.mods = modules(src)
+        self.uses = {}  # module -> [path] (imports)
+        self.pub_uses = {}  # module -> [path] (re-exports)
+        for m, f in self.mods.items():
+            with open(f) as fh:
+                text = STRING.sub('""', COMMENT.sub("", fh.read()))
+            inline = inline_modules(text)
+            # (path, the inline modules it is written in), for imports and re-exports.
+            uses, pub_uses = [], []
+            for u in USE.finditer(text):
+                within = enclosing(inline, u.start())
+                for path in expand(u.group(2)):
+                    (pub_uses if u.group(1) else uses).append((path, within))
+            blanked = USE.sub(lambda u: " " * len(u.group(0)), text)
+            for p in PATH.finditer(blanked):
+                uses.append((p.group(1), enclosing(inline, p.start())))
+            self.uses[m] = uses
+            self.pub_uses[m] = [path for path, within in pub_uses if not within]
 
+    def children(self, m):
+        return {c[-1] for c in self.mods if len(c) == len(m) + 1 and c[: len(m)] == m}
 
-def graph(src):
-    mods = modules(src)
-    texts = {}
-    for m, f in mods.items():
-        with open(f) as fh:
-            texts[m] = STRING.sub('""', COMMENT.sub("", fh.read()))
-    reexports = {}
-    root = texts.get(())
-    if root is not None:
-        for u in USE.findall(root) + re.findall(r"\bpub\s+use\s+([a-z_][^;]*);", root):
-            for p in expand(u):
-                segs = [s for s in p.split("::") if s not in ("crate", "self")]
-                target = None
-                for n in range(len(segs), 0, -1):
-                    if tuple(segs[:n]) in mods:
-                        target = tuple(segs[:n])
-                        break
-                if target:
-                    reexports[segs[-1]] = target
-    edges = {m: set() for m in mods if m}
-    for m, text in texts.items():
-        if not m:
-            continue
-        refs = []
-        for u in USE.findall(text):
-            refs += expand(u)
-        refs += PATH.findall(USE.sub("", text))
-        for r in refs:
-            t = resolve(r, m, mods, reexports)
-            if t and t != m and t != ():
-                edges[m].add(t)
-    return edges
+    def absolute(self, path, here):
+        """Segments of a path written in module `here`, from the crate root; None when the
+        path starts outside the crate (std, another crate)."""
+        segs = [s for s in path.split("::") if s]
+        if not segs:
+            return None
+        if segs[0] == "crate":
+            return segs[1:]
+        if segs[0] in ("super", "self"):
+            base = list(here)
+            while segs and segs[0] in ("super", "self"):
+                if segs.pop(0) == "super":
+                    base = base[:-1]
+            return base + segs
+        if segs[0] in self.children(here):
+            return list(here) + segs
+        return None
+
+    def resolve(self, segs, seen=()):
+        """The module that defines what an absolute path names."""
+        for n in range(len(segs), -1, -1):
+            prefix = tuple(segs[:n])
+            if prefix not in self.mods:
+                continue
+            rest = segs[n:]
+            if rest and (prefix, rest[0]) not in seen:
+                # A name the module re-exports: the module it comes from.
+                for p in self.pub_uses.get(prefix, ()):
+                    if p.split("::")[-1] == rest[0] or p.endswith("::*"):
+                        target = self.absolute(p, prefix)
+                        if target is None:
+                            continue
+                        if p.endswith("::*"):
+                            target = target[:-1] + [rest[0]]
+                        got = self.resolve(target + rest[1:], seen + ((prefix, rest[0]),))
+                        if got is not None and got != prefix:
+                            return got
+            return prefix
+        return None
+
+    def graph(self):
+        edges = {m: set() for m in self.mods if m}
+        for m in edges:
+            for path, within in self.uses[m]:
+                here = tuple(m) + tuple(within)
+                segs = self.absolute(path, here)
+                if segs is None:
+                    continue
+                if tuple(segs[: len(here)]) == here and within:
+                    continue  # inside the file's own inline modules
+                t = self.resolve(segs)
+                if t and t != m:
+                    edges[m].add(t)
+        return edges
 
 
 def circles(edges):
@@ -161,7 +210,7 @@ def main():
         src = os.path.join(c, "src")
         if not os.path.isdir(src):
             continue
-        for comp in circles(graph(src)):
+        for comp in circles(Crate(src).graph()):
             found += 1
             print(f"{os.path.basename(c.rstrip('/'))}: " + " / ".join("::".join(m) for m in comp))
     print(f"{found} import circle(s)")

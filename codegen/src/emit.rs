@@ -72,14 +72,25 @@ struct SymFrame {
 }
 
 impl SymFrame {
-    fn code(&self) -> String {
-        let rot: Vec<String> = self.rot.iter().flatten().map(Sym::code).collect();
-        let pos: Vec<String> = self.pos.iter().map(Sym::code).collect();
-        format!(
-            "crate::model::Frame {{ rot: ::nalgebra::Matrix3::new({}), pos: ::nalgebra::Vector3::new({}) }}",
-            rot.join(", "),
-            pos.join(", ")
-        )
+    /// A `crate::model::Frame`, or with `generic` a `crate::model::FrameOf<T>`.
+    fn code(&self, generic: bool) -> String {
+        let code = |s: &Sym| s.code_as(generic);
+        if generic {
+            let rows: Vec<String> = (self.rot.iter())
+                .map(|row| format!("[{}]", list(row, code)))
+                .collect();
+            format!(
+                "crate::model::FrameOf {{ rot: [{}], pos: [{}] }}",
+                rows.join(", "),
+                list(&self.pos, code)
+            )
+        } else {
+            format!(
+                "crate::model::Frame {{ rot: ::nalgebra::Matrix3::new({}), pos: ::nalgebra::Vector3::new({}) }}",
+                list(self.rot.iter().flatten(), code),
+                list(&self.pos, code)
+            )
+        }
     }
 }
 
@@ -390,8 +401,9 @@ fn list<T>(items: impl IntoIterator<Item = T>, f: impl Fn(T) -> String) -> Strin
     items.into_iter().map(f).collect::<Vec<_>>().join(", ")
 }
 
+/// The body of `fk_of<T>`: the tool frame.
 fn fk_body(chain: &Chain) -> String {
-    let mut e = Emitter::default();
+    let mut e = Emitter::generic();
     let mut steps = folded_steps(chain);
     sincos(&mut e, &steps);
     let tool = match steps.last() {
@@ -405,31 +417,29 @@ fn fk_body(chain: &Chain) -> String {
             .expect("a literal factor keeps a local");
     }
     let frame = product(&mut e, &locals, 0);
-    e.line(&frame.code());
+    e.line(&frame.code(true));
     e.code
 }
 
+/// The body of `link_frames_of<T>`: hands every link frame to `out` (with its index) and
+/// returns the tool frame.
 fn link_frames_body(chain: &Chain) -> String {
-    let mut e = Emitter::default();
+    let mut e = Emitter::generic();
     let steps = all_steps(chain);
-    e.line(&format!(
-        "debug_assert!(out.len() >= {});",
-        chain.links.len()
-    ));
     sincos(&mut e, &steps);
-    e.line("if let Some(slot) = out.get_mut(0) { *slot = crate::model::Frame::IDENTITY; }");
+    e.line("out(0, &crate::model::FrameOf::identity());");
     let mut frame = Frame::Local(Local::literal(&Transform::IDENTITY));
-    let mut code = String::new();
     for (i, s) in steps.iter().enumerate() {
         let t = i.to_string();
         frame = frame.then(&mut e, &t, &Local::of(s));
-        code = frame.emit(&mut e, &t).code();
-        e.line(&format!(
-            "if let Some(slot) = out.get_mut({}) {{ *slot = {code}; }}",
-            i + 1
-        ));
+        let code = frame.emit(&mut e, &t).code(true);
+        e.line(&format!("let f{t} = {code};"));
+        e.line(&format!("out({}, &f{t});", i + 1));
     }
-    e.line(&code);
+    match steps.len() {
+        0 => e.line("crate::model::FrameOf::identity()"),
+        n => e.line(&format!("f{}", n - 1)),
+    }
     e.code
 }
 
@@ -496,13 +506,13 @@ fn jacobian_body(chain: &Chain, dof: usize) -> String {
             let [v0, v1, v2] = v;
             [v0, v1, v2, w[0].clone(), w[1].clone(), w[2].clone()]
         };
-        columns.push(format!("[{}]", list(&column, Sym::code)));
+        columns.push(format!("[{}]", list(&column, |s: &Sym| s.code())));
     }
     e.line(&format!(
         "let jacobian = ::nalgebra::SMatrix::<f64, 6, {dof}>::from_array_storage(::nalgebra::ArrayStorage([{}]));",
         columns.join(", ")
     ));
-    e.line(&format!("({}, jacobian)", frame.code()));
+    e.line(&format!("({}, jacobian)", frame.code(false)));
     e.code
 }
 
@@ -532,6 +542,29 @@ pub fn model(
     }
     let _ = writeln!(w, "#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]");
     let _ = writeln!(w, "pub struct {type_name};\n");
+    // The kinematics once, over any `Real`: one configuration (`f64`) and a batch (`F64s`)
+    // run the same operations in the same order, so a batch's lanes equal single calls.
+    let _ = writeln!(
+        w,
+        "#[allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::approx_constant, \
+         clippy::too_many_lines)]"
+    );
+    let _ = writeln!(w, "impl {type_name} {{");
+    let _ = writeln!(
+        w,
+        "    /// [`crate::model::Model::fk`] over any numbers.\n    #[inline(always)]\n    \
+         pub fn fk_of<T: crate::trig::Angle>(q: &[T; {d}]) -> crate::model::FrameOf<T> {{\n{}    }}\n",
+        fk_body(chain)
+    );
+    let _ = writeln!(
+        w,
+        "    /// [`crate::model::Model::link_frames`] over any numbers: link frame `i` goes to \
+         `out(i, ..)`.\n    #[inline(always)]\n    \
+         pub fn link_frames_of<T: crate::trig::Angle>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>)) \
+         -> crate::model::FrameOf<T> {{\n{}    }}",
+        link_frames_body(chain)
+    );
+    let _ = writeln!(w, "}}\n");
     let _ = writeln!(
         w,
         "#[allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::approx_constant, \
@@ -612,16 +645,28 @@ pub fn model(
         list(&geometry.tool_reach, |&r| limit(r))
     );
     let _ = writeln!(w);
-    let _ = writeln!(w, "    #[inline]");
+    let links = chain.links.len();
     let _ = writeln!(
         w,
-        "    fn fk(q: &[f64; {d}]) -> crate::model::Frame {{\n{}    }}\n",
-        fk_body(chain)
+        "    #[inline]\n    fn fk(q: &[f64; {d}]) -> crate::model::Frame {{\n        \
+         Self::fk_of(q).into()\n    }}\n"
     );
     let _ = writeln!(
         w,
-        "    fn link_frames(q: &[f64; {d}], out: &mut [crate::model::Frame]) -> crate::model::Frame {{\n{}    }}\n",
-        link_frames_body(chain)
+        "    fn link_frames(q: &[f64; {d}], out: &mut [crate::model::Frame]) -> crate::model::Frame {{\n        \
+         debug_assert!(out.len() >= {links});\n        \
+         Self::link_frames_of(q, |i, f| if let Some(slot) = out.get_mut(i) {{ *slot = f.into(); }}).into()\n    }}\n"
+    );
+    let _ = writeln!(
+        w,
+        "    #[inline]\n    fn fk_lanes(q: &[crate::lanes::F64s; {d}]) -> crate::model::FrameOf<crate::lanes::F64s> {{\n        \
+         Self::fk_of(q)\n    }}\n"
+    );
+    let _ = writeln!(
+        w,
+        "    #[inline]\n    fn link_frames_lanes(q: &[crate::lanes::F64s; {d}], out: impl crate::model::LinkSink) \
+         -> crate::model::FrameOf<crate::lanes::F64s> {{\n        \
+         Self::link_frames_of(q, out)\n    }}\n"
     );
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(

@@ -6,6 +6,7 @@ mod capsule;
 mod mesh;
 mod minimize;
 mod pairs;
+mod shape;
 mod slack;
 
 use std::fmt::{self, Write as _};
@@ -13,9 +14,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-pub use capsule::{refine, total_volume, Capsule, Fit};
+pub use capsule::{refine, Fit};
 pub use mesh::{link_meshes, Mesh};
 pub use pairs::{disabled_pairs, parse_srdf, DisabledPair, SrdfEntry};
+pub use shape::{total_volume, Capsule};
 pub use slack::{MeshDistance, Slack, SPACING};
 
 /// Added to every fitted radius so that rounding in later transforms cannot put a mesh vertex

@@ -5,7 +5,7 @@
 use std::fmt::Write;
 
 /// One `Models` function: its name, its parameters after `id: u8` and its return type.
-const QUERIES: [(&str, &str, &str); 16] = [
+const QUERIES: [(&str, &str, &str); 18] = [
     ("name", "", "&'static str"),
     ("link_names", "", "&'static [&'static str]"),
     ("joint_names", "", "&'static [&'static str; D]"),
@@ -26,6 +26,16 @@ const QUERIES: [(&str, &str, &str); 16] = [
         "crate::model::Frame",
     ),
     (
+        "fk_lanes",
+        "q: &[crate::lanes::F64s; D]",
+        "crate::model::FrameOf<crate::lanes::F64s>",
+    ),
+    (
+        "link_frames_lanes",
+        "q: &[crate::lanes::F64s; D], out: impl crate::model::LinkSink",
+        "crate::model::FrameOf<crate::lanes::F64s>",
+    ),
+    (
         "jacobian",
         "q: &[f64; D]",
         "(crate::model::Frame, ::nalgebra::SMatrix<f64, 6, D>)",
@@ -42,6 +52,19 @@ fn arguments(params: &str) -> String {
 
 /// Source of the unit struct `type_name` implementing `Models<dof>` over `models` (type
 /// names, in index order; at least one). An index past the last reads as the last model.
+///
+/// ```
+/// use omcbsa_codegen::generate_fleet;
+///
+/// let models = [("KinovaGen3", "kinova_gen3"), ("FrankaPanda", "franka_panda")];
+/// let source = generate_fleet("Fleet7", 7, &models);
+/// assert!(source.contains("pub struct Fleet7;"));
+/// assert!(source.contains("impl crate::model::Models<7> for Fleet7"));
+/// assert!(source.contains("const COUNT: usize = 2;"));
+/// // Each query dispatches on the model index.
+/// assert!(source.contains("0 => <KinovaGen3 as crate::model::Models<7>>::fk(0, q),"));
+/// assert!(source.contains("_ => <FrankaPanda as crate::model::Models<7>>::fk(0, q),"));
+/// ```
 pub fn fleet(type_name: &str, dof: usize, models: &[(&str, &str)]) -> String {
     let mut out = String::new();
     let w = &mut out;
@@ -60,7 +83,7 @@ pub fn fleet(type_name: &str, dof: usize, models: &[(&str, &str)]) -> String {
     let _ = writeln!(w, "impl crate::model::Models<{dof}> for {type_name} {{");
     let _ = writeln!(w, "    const COUNT: usize = {};", models.len());
     let checks: String = (models.iter())
-        .map(|(ty, _)| format!(" crate::collision::check_model::<{ty}, {dof}>();"))
+        .map(|(ty, _)| format!(" crate::model::check_model::<{ty}, {dof}>();"))
         .collect();
     let _ = writeln!(w, "    const CHECKED: () = {{{checks} }};");
     for (query, params, ret) in QUERIES {

@@ -26,6 +26,7 @@ pub use fleet::fleet as generate_fleet;
 /// Where an input comes from.
 #[derive(Clone, Copy, Debug)]
 pub enum Input<'a> {
+    /// A file, read when the model is generated.
     File(&'a Path),
     /// Text given directly (named `<string>` in messages).
     Text(&'a str),
@@ -54,6 +55,7 @@ pub struct ModelSpec<'a> {
     /// `Model::NAME`, the name problem files use, e.g. `kinova_gen3`; the collision file's
     /// `model` field must match it.
     pub name: &'a str,
+    /// The URDF.
     pub urdf: Input<'a>,
     /// Collision capsules and disabled link pairs; without it the model has no capsules.
     pub collision: Option<Input<'a>>,
@@ -68,13 +70,62 @@ pub struct ModelSpec<'a> {
 /// Joint limits given beside the URDF, one value per actuated joint in chain order.
 #[derive(Clone, Copy, Debug)]
 pub struct Limits<'a> {
+    /// Velocity limits, rad/s (m/s for a prismatic joint).
     pub velocity: &'a [f64],
+    /// Acceleration limits, rad/s² (m/s²).
     pub acceleration: &'a [f64],
     /// Where the numbers come from (written into the generated type's documentation).
     pub source: &'a str,
 }
 
-/// Rust source for `spec`: a unit struct and its `crate::model::Model<D>` impl.
+/// Rust source for `spec`: a unit struct and its `crate::model::Model<D>` impl. Anything
+/// the generated code could not stand behind (a URDF that is no serial chain, a joint type
+/// that is not supported, limits that are not numbers, ...) is an [`Error`] naming the link,
+/// joint or file; nothing is guessed.
+///
+/// ```
+/// use omcbsa_codegen::{generate_model, Error, Input, ModelSpec};
+///
+/// // A two-joint arm: a shoulder about z, an elbow about y, a 0.3 m forearm.
+/// let urdf = r#"<robot name="two_link">
+///   <link name="base"/> <link name="upper"/> <link name="fore"/> <link name="tool"/>
+///   <joint name="shoulder" type="revolute">
+///     <parent link="base"/> <child link="upper"/> <origin xyz="0 0 0.1"/> <axis xyz="0 0 1"/>
+///     <limit lower="-3" upper="3" effort="1" velocity="1.5"/>
+///   </joint>
+///   <joint name="elbow" type="revolute">
+///     <parent link="upper"/> <child link="fore"/> <origin xyz="0 0 0.4"/> <axis xyz="0 1 0"/>
+///     <limit lower="-2" upper="2" effort="1" velocity="2.0"/>
+///   </joint>
+///   <joint name="flange" type="fixed">
+///     <parent link="fore"/> <child link="tool"/> <origin xyz="0.3 0 0"/>
+///   </joint>
+/// </robot>"#;
+/// let spec = ModelSpec {
+///     type_name: "TwoLink",
+///     name: "two_link",
+///     urdf: Input::Text(urdf),
+///     collision: None,
+///     ends: None,
+///     limits: None,
+/// };
+/// let source = generate_model(&spec).unwrap();
+/// assert!(source.contains("pub struct TwoLink;"));
+/// assert!(source.contains("impl crate::model::Model<2> for TwoLink"));
+/// assert!(source.contains(r#"JOINT_NAMES: [&'static str; 2] = ["shoulder", "elbow"];"#));
+/// // Without the vendor's limits: the URDF's velocities and no acceleration limit.
+/// assert!(source.contains("const VELOCITY: [f64; 2] = [1.5, 2.0];"));
+/// assert!(source.contains("ACCELERATION: [f64; 2] = [f64::INFINITY, f64::INFINITY];"));
+///
+/// // A joint type the generator does not support is named, with the joint.
+/// let floating = urdf.replace(r#""elbow" type="revolute""#, r#""elbow" type="floating""#);
+/// let err = generate_model(&ModelSpec { urdf: Input::Text(&floating), ..spec }).unwrap_err();
+/// let named = matches!(&err, Error::UnsupportedJoint { joint, kind: "floating" } if joint == "elbow");
+/// assert!(named, "{err}");
+/// // So is a type name that is no Rust identifier.
+/// let spaced = ModelSpec { type_name: "two link", ..spec };
+/// assert!(matches!(generate_model(&spaced), Err(Error::TypeName(_))));
+/// ```
 pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
     if !is_type_name(spec.type_name) {
         return Err(Error::TypeName(spec.type_name.to_string()));

@@ -20,15 +20,20 @@ pub struct Manifest {
     /// The generated Rust type.
     #[serde(rename = "type")]
     pub type_name: String,
+    /// The URDF file.
     pub urdf: String,
+    /// The link the chain starts at (the model's base frame).
     pub base_link: String,
+    /// The last link of the arm proper: only fixed joints may follow it.
     pub tip_link: String,
     /// The frame `fk` reports: hand poses are poses of this frame.
     pub tool_frame: String,
     /// Why this tool frame (free text).
     #[serde(default)]
     pub tool_frame_note: String,
+    /// The vendor's joint limits.
     pub limits: ManifestLimits,
+    /// The collision capsules: their file and how they were fitted.
     pub capsules: FitSettings,
     /// What the plan viewer draws for the links (none: it draws the capsules).
     #[serde(default)]
@@ -79,11 +84,15 @@ pub struct FitSettings {
 /// A model's folder and its manifest.
 #[derive(Debug, Clone)]
 pub struct Folder {
+    /// The folder.
     pub dir: PathBuf,
+    /// Its `model.json`.
     pub manifest: Manifest,
 }
 
 impl Folder {
+    /// Reads `dir`'s manifest ([`FILE`]); an unreadable or malformed one is an [`Error`]
+    /// naming the file.
     pub fn read(dir: &Path) -> Result<Folder, Error> {
         let path = dir.join(FILE);
         let (source, text) = Input::File(&path).read()?;
@@ -97,14 +106,17 @@ impl Folder {
         })
     }
 
+    /// The URDF's path.
     pub fn urdf(&self) -> PathBuf {
         self.dir.join(&self.manifest.urdf)
     }
 
+    /// The collision file's path (it may not exist yet: `fit-capsules` writes it).
     pub fn collision(&self) -> PathBuf {
         self.dir.join(&self.manifest.capsules.file)
     }
 
+    /// The folder of the link meshes the capsules are fitted to, if any.
     pub fn meshes(&self) -> Option<PathBuf> {
         self.manifest
             .capsules
@@ -113,6 +125,7 @@ impl Folder {
             .map(|m| self.dir.join(m))
     }
 
+    /// The SRDF whose disabled collision pairs the fit keeps, if any.
     pub fn srdf(&self) -> Option<PathBuf> {
         self.manifest
             .capsules
@@ -121,6 +134,7 @@ impl Folder {
             .map(|s| self.dir.join(s))
     }
 
+    /// The chain's ends: base link, tip link and tool frame.
     pub fn ends(&self) -> Ends<'_> {
         Ends {
             base: &self.manifest.base_link,
@@ -148,7 +162,27 @@ impl Folder {
     }
 }
 
-/// Rust source for the model in `dir` (see [`crate::generate_model`]).
+/// Rust source for the model in `dir` (see [`crate::generate_model`]): what `core/build.rs`
+/// runs for every folder it compiles in.
+///
+/// ```
+/// use std::path::Path;
+///
+/// use omcbsa_codegen::manifest::{generate_folder, Folder};
+///
+/// let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/synthetic");
+/// let folder = Folder::read(&dir).unwrap();
+/// assert_eq!(folder.manifest.type_name, "SyntheticChain");
+/// let source = generate_folder(&dir).unwrap();
+/// assert!(source.contains("impl crate::model::Model<5> for SyntheticChain"));
+/// // The manifest's limits replace the URDF's, and their source is kept in the docs.
+/// assert!(source.contains("const ACCELERATION: [f64; 5] = [5.0, 1.0, 8.0, 6.0, 7.0];"));
+/// assert!(source.contains("made up for the tests"));
+///
+/// // A folder without a manifest is an error naming the file.
+/// let err = generate_folder(&dir.join("no_such_model")).unwrap_err();
+/// assert!(err.to_string().contains("model.json"), "{err}");
+/// ```
 pub fn generate_folder(dir: &Path) -> Result<String, Error> {
     let folder = Folder::read(dir)?;
     let (urdf, collision) = (folder.urdf(), folder.collision());

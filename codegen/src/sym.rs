@@ -34,10 +34,16 @@ impl Sym {
         }
     }
 
-    /// The Rust expression for this value.
+    /// The Rust expression for this value, of type `f64`.
     pub fn code(&self) -> String {
+        self.code_as(false)
+    }
+
+    /// The Rust expression for this value: of type `f64`, or of the generic number type `T`
+    /// (`crate::trig::Angle`) if `generic`.
+    pub fn code_as(&self, generic: bool) -> String {
         match self {
-            Sym::Lit(v) => lit(*v),
+            Sym::Lit(v) => lit_as(*v, generic),
             Sym::Var { name, neg: false } => name.clone(),
             Sym::Var { name, neg: true } => format!("-{name}"),
         }
@@ -50,15 +56,35 @@ pub fn lit(v: f64) -> String {
     format!("{v:?}")
 }
 
+/// [`lit`], as a value of the generic number type `T` if `generic`.
+pub fn lit_as(v: f64, generic: bool) -> String {
+    if generic {
+        format!("T::splat({})", lit(v))
+    } else {
+        lit(v)
+    }
+}
+
 /// Collects `let` bindings into a function body.
 #[derive(Default)]
 pub struct Emitter {
     pub code: String,
     /// Right-hand side of every binding -> its variable.
     bound: HashMap<String, Sym>,
+    /// Whether the numbers are of a generic type `T: crate::trig::Angle` (literals become
+    /// `T::splat(..)`), rather than `f64`. The operations and their order are the same.
+    pub generic: bool,
 }
 
 impl Emitter {
+    /// An emitter for a body generic over `T: crate::trig::Angle`.
+    pub fn generic() -> Emitter {
+        Emitter {
+            generic: true,
+            ..Emitter::default()
+        }
+    }
+
     pub fn line(&mut self, line: &str) {
         self.code.push_str("        ");
         self.code.push_str(line);
@@ -82,7 +108,8 @@ impl Emitter {
                     if c.abs() == 1.0 {
                         parts.push((negative, name.clone(), true));
                     } else {
-                        parts.push((negative, format!("{} * {name}", lit(c.abs())), false));
+                        let c = lit_as(c.abs(), self.generic);
+                        parts.push((negative, format!("{c} * {name}"), false));
                     }
                 }
                 (Sym::Var { name: x, neg: nx }, Sym::Var { name: y, neg: ny }) => {
@@ -100,11 +127,14 @@ impl Emitter {
             }
             _ => {}
         }
-        let expr = sum_code(constant, &parts, false);
+        let expr = sum_code(constant, &parts, false, self.generic);
         if let Some(v) = self.bound.get(&expr) {
             return v.clone();
         }
-        if let Some(v) = self.bound.get(&sum_code(constant, &parts, true)) {
+        if let Some(v) = self
+            .bound
+            .get(&sum_code(constant, &parts, true, self.generic))
+        {
             return v.neg();
         }
         self.line(&format!("let {name} = {expr};"));
@@ -119,11 +149,11 @@ impl Emitter {
 }
 
 /// `constant ± part ± ...`, every sign flipped if `negate`.
-fn sum_code(constant: f64, parts: &[(bool, String, bool)], negate: bool) -> String {
+fn sum_code(constant: f64, parts: &[(bool, String, bool)], negate: bool, generic: bool) -> String {
     let mut expr = String::new();
     let constant = if negate { -constant } else { constant };
     if constant != 0.0 {
-        expr.push_str(&lit(constant));
+        expr.push_str(&lit_as(constant, generic));
     }
     for (i, (negative, text, _)) in parts.iter().enumerate() {
         let op = match (expr.is_empty() && i == 0, *negative != negate) {
@@ -166,6 +196,25 @@ mod tests {
         );
         assert_eq!(s, Sym::var("d"));
         assert_eq!(e.code.trim(), "let d = 1.0 - 0.5 * x - x * y;");
+    }
+
+    #[test]
+    fn generic_literals_are_splats_in_the_same_expression() {
+        let mut e = Emitter::generic();
+        let (x, y) = (Sym::var("x"), Sym::var("y"));
+        e.sum_of_products(
+            "d",
+            &[
+                (&Sym::Lit(-0.5), &x),
+                (&x.neg(), &y),
+                (&Sym::ONE, &Sym::ONE),
+            ],
+        );
+        assert_eq!(
+            e.code.trim(),
+            "let d = T::splat(1.0) - T::splat(0.5) * x - x * y;"
+        );
+        assert_eq!(Sym::Lit(-2.0).code_as(true), "T::splat(-2.0)");
     }
 
     #[test]

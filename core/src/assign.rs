@@ -4,6 +4,25 @@
 //! are enumerated in increasing order of their summed single-arm path lengths (the k-best
 //! assignments, found again by a bounded depth-first search each time: at most 8! leaves, no
 //! memory beyond the table).
+//!
+//! ```
+//! use omcbsa_core::assign::{Pair, PairTable, HOLD};
+//!
+//! // Two robots, one trajectory: robot 0 tracks it for 1.0 rad of joint motion, robot 1 for
+//! // 0.5; either may hold (cost 0).
+//! let mut table = PairTable::new(2, 1);
+//! table.set(0, 0, Pair::Feasible(1.0));
+//! table.set(1, 0, Pair::Feasible(0.5));
+//! table.set(0, HOLD, Pair::Feasible(0.0));
+//! table.set(1, HOLD, Pair::Feasible(0.0));
+//! let first = table.next(None).unwrap();
+//! assert_eq!((first.robot_of[0], first.cost), (1, 0.5));
+//! assert_eq!(first.trajectory_of(1, 1), Some(0));
+//! assert_eq!(first.trajectory_of(0, 1), None); // robot 0 holds
+//! let second = table.next(Some(&first)).unwrap();
+//! assert_eq!(second.robot_of[0], 0);
+//! assert!(table.next(Some(&second)).is_none());
+//! ```
 
 use crate::problem::MAX_ROBOTS;
 
@@ -34,7 +53,9 @@ pub struct PairTable {
 /// One assignment: trajectory `j < t` goes to robot `robot_of[j]`, every other robot holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Choice {
+    /// The summed single-arm path lengths of the pairs used (joint space, rad).
     pub cost: f64,
+    /// The robot of each trajectory (entries past the problem's trajectories are unused).
     pub robot_of: [u8; MAX_ROBOTS],
 }
 
@@ -52,6 +73,8 @@ impl Choice {
 }
 
 impl PairTable {
+    /// A table of `robots` robots (at most [`MAX_ROBOTS`]) and `trajectories` trajectories
+    /// (at most `robots`), every cell [`Pair::Unknown`].
     pub fn new(robots: usize, trajectories: usize) -> Self {
         PairTable {
             cells: [[Pair::Unknown; MAX_ROBOTS + 1]; MAX_ROBOTS],
@@ -65,6 +88,7 @@ impl PairTable {
         self.cells[r][c]
     }
 
+    /// Records what robot `r` does alone on column `c` (a trajectory, or [`HOLD`]).
     pub fn set(&mut self, r: usize, c: usize, p: Pair) {
         self.cells[r][c] = p;
     }
@@ -99,7 +123,6 @@ impl PairTable {
         best
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn dfs(
         &self,
         j: usize,

@@ -20,7 +20,9 @@
 use crate::collision::ArmPose;
 use crate::model::Models;
 use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{
+    Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
+};
 use crate::problem::{Problem, Robot, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::refine::{level_params, EXHAUSTED, FIRST_ROUND, LEVELS, LEVEL_CAP};
@@ -39,6 +41,7 @@ const HOLD: u8 = u8::MAX;
 /// Tunables of Ω-CBSA.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CbsParams {
+    /// The low level's (Ω-A*'s) settings at refinement level 0.
     pub low: OmegaParams,
     /// Time cap of each root's warm start by repeated IK tracking, seconds (0 turns it off).
     pub warm_start_seconds: f64,
@@ -110,9 +113,16 @@ impl Default for CtNode {
     }
 }
 
-/// Caller storage of the high level.
+/// Caller storage of the high level. A pool that runs out ends the constraint tree it was
+/// building (its refinement level is then not proven exhausted); when every level has ended so
+/// the answer is [`Status::OutOfMemory`] naming the pool. Sizes: `nodes` and `open` a few
+/// hundred bytes and 16 bytes a constraint-tree node, `paths` `H` configurations a pooled path
+/// (each node keeps one new path), `scratch` `H` configurations, `points` the longest branch's
+/// constraints on one robot, `starts` any length (more remembers more IK answers).
 pub struct CbsStorage<'a, const D: usize> {
+    /// The constraint-tree nodes.
     pub nodes: &'a mut [CtNode],
+    /// The constraint tree's OPEN list (as many entries as `nodes`).
     pub open: &'a mut [OpenEntry],
     /// Path pool: slot `k` is `paths[k * H..(k + 1) * H]`.
     pub paths: &'a mut [[f64; D]],
@@ -125,36 +135,99 @@ pub struct CbsStorage<'a, const D: usize> {
     pub starts: &'a mut [StartIk<D>],
 }
 
-/// The Ω-CBSA planner.
+/// The Ω-CBSA planner: its settings, Ω-A*'s [`Workspace`] and the constraint tree's
+/// [`CbsStorage`], all borrowed from the caller and reused request after request. Run it
+/// through [`Planner::solve`].
+///
+/// Two Gen3s 2 m apart, each with a hand to follow in front of it; the first trajectory is
+/// the second arm's. The pools are sized for this small problem (3 steps):
+///
+/// ```
+/// use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+/// use omcbsa_core::problem::{Problem, Robot};
+/// use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk, Workspace};
+///
+/// const H: usize = 3;
+/// let left = Frame::IDENTITY;
+/// let right = Frame { pos: Vector3::new(0.0, 2.0, 0.0), ..Frame::IDENTITY };
+/// let mut problem = Problem::<7>::new(0.1);
+/// problem.robots.push(Robot::at(0, left)).unwrap();
+/// problem.robots.push(Robot::at(0, right)).unwrap();
+/// // A hand in front of each arm, moving 1 cm a step along x.
+/// let hand = KinovaGen3::fk(&[0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0]);
+/// for base in [right, left] {
+///     let pose = |t: usize| {
+///         let mut x = base.compose(&hand);
+///         x.pos.x += 0.01 * t as f64;
+///         x
+///     };
+///     problem.trajectories.push((0..H).map(pose).collect()).unwrap();
+/// }
+///
+/// // Ω-A*'s storage: nodes, OPEN entries, and a duplicate table (a power of two, at least
+/// // the node count).
+/// let mut nodes = [Node::<7>::default(); 256];
+/// let mut open = [OpenEntry::default(); 512];
+/// let mut table = [Slot::default(); 512];
+/// let ws = Workspace::new(&mut nodes, &mut open, &mut table).unwrap();
+/// // The constraint tree's: nodes and their OPEN list, a pool of paths of H steps, one path
+/// // of scratch, point constraints, and start-seed IK answers.
+/// let mut ct = [CtNode::default(); 16];
+/// let mut ct_open = [OpenEntry::default(); 16];
+/// let mut pool = [[0.0; 7]; 16 * H];
+/// let mut scratch = [[0.0; 7]; H];
+/// let none = PointConstraint { t: 0, segment: false, s: 0.0, p: [0.0; 3], margin: 0.0 };
+/// let mut points = [none; 16];
+/// let mut starts = [StartIk::default(); 64];
+/// let st = CbsStorage {
+///     nodes: &mut ct,
+///     open: &mut ct_open,
+///     paths: &mut pool,
+///     scratch: &mut scratch,
+///     points: &mut points,
+///     starts: &mut starts,
+/// };
+/// let mut planner = OmegaCbsa::new(CbsParams::default(), ws, st);
+///
+/// // The answer: both robots' paths, robot after robot.
+/// let mut paths = [[0.0; 7]; 2 * H];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
+/// assert_eq!(req.out.assignment[..2], [Some(1), Some(0)]);
+/// for (i, robot) in problem.robots.iter().enumerate() {
+///     let traj = &problem.trajectories[usize::from(req.out.assignment[i].unwrap())];
+///     for (q, pose) in req.out.path(i, H).iter().zip(traj) {
+///         let reached = robot.base.compose(&KinovaGen3::fk(q));
+///         assert!((reached.pos - pose.pos).norm() <= problem.tolerance.position);
+///     }
+/// }
+/// ```
 pub struct OmegaCbsa<'a, const D: usize> {
+    /// The settings; they may be changed between requests.
     pub params: CbsParams,
     ws: Workspace<'a, D>,
     st: CbsStorage<'a, D>,
 }
 
 impl<'a, const D: usize> OmegaCbsa<'a, D> {
+    /// A planner over the caller's storage: `ws` for Ω-A*, `st` for the constraint tree.
     pub fn new(params: CbsParams, ws: Workspace<'a, D>, st: CbsStorage<'a, D>) -> Self {
         OmegaCbsa { params, ws, st }
     }
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
-    fn name(&self) -> &'static str {
-        PlannerKind::OmCbsa.name()
+    const TAKES: Takes = Takes::Fixed;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::OmCbsa
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::Fixed, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         if self.st.scratch.len() < h {
             return Status::OutOfMemory("CBS scratch path");
         }
@@ -183,11 +256,11 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for OmegaCbsa<'_, D> {
             ),
             h,
             n: problem.robots.len(),
-            deadline: Until { clock, at: timeout },
-            stats,
+            deadline: req.until,
+            stats: &mut req.stats,
             _m: core::marker::PhantomData,
         };
-        run.solve(clock, out)
+        run.solve(&mut req.out)
     }
 }
 
@@ -232,7 +305,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// waiting until the deadline. The budgets count expansions, not time, so the answer is
     /// deterministic. A tree whose pools run out ends its level (not proven exhausted) and the
     /// other levels go on.
-    fn solve(&mut self, clock: &dyn Clock, out: &mut Solution<'_, D>) -> Status {
+    fn solve(&mut self, out: &mut Solution<'_, D>) -> Status {
         let levels = usize::from(self.params.levels.clamp(1, LEVELS));
         let mut exhausted = [false; LEVELS as usize];
         // Whether the finest level's exhaustion proves nothing (a search ran out of memory).
@@ -252,7 +325,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                     0 => u64::MAX,
                     b => b.saturating_mul(1u64 << shift.min(40)),
                 };
-                let ended = self.tree(clock, out, shift, budget);
+                let ended = self.tree(out, shift, budget);
                 self.used_nodes = 0;
                 self.used_slots = 0;
                 self.open.clear();
@@ -295,14 +368,8 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// (`budget` Ω-A* expansions after the root's) without ending. The root is not counted: a
     /// fine level's root alone can take more than a small budget, and a tree cut off at its
     /// root would be work thrown away.
-    fn tree(
-        &mut self,
-        clock: &dyn Clock,
-        out: &mut Solution<'_, D>,
-        restart: u32,
-        budget: u64,
-    ) -> Option<Status> {
-        let root = match self.root(clock, restart) {
+    fn tree(&mut self, out: &mut Solution<'_, D>, restart: u32, budget: u64) -> Option<Status> {
+        let root = match self.root(restart) {
             Ok(r) => r,
             Err(s) => return Some(s),
         };
@@ -411,14 +478,15 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
     /// failing that, by Ω-A* with its collisions with the earlier robots counted. Only the root
     /// is built this way: every child replans by Ω-A* under its constraints, so the tree's
     /// completeness (docs/ARCHITECTURE.md) does not depend on the root.
-    fn root(&mut self, clock: &dyn Clock, restart: u32) -> Result<CtNode, Status> {
+    fn root(&mut self, restart: u32) -> Result<CtNode, Status> {
         // The cap counts from this root on: the tracking itself is a few milliseconds of
         // bounded work, so in practice the cap never cuts it and the root (hence the answer)
         // does not depend on how busy the machine is.
-        let warm = Until {
-            clock,
-            at: (clock.seconds() + self.params.warm_start_seconds).min(self.deadline.at),
-        };
+        let now = self.deadline.now();
+        let warm = Until::new(
+            self.deadline.clock,
+            (now + self.params.warm_start_seconds).min(self.deadline.at),
+        );
         let mut order: [usize; MAX_ROBOTS] = core::array::from_fn(|i| i);
         if restart > 0 {
             let mut rng = Rng::new(self.low.seed ^ u64::from(restart).rotate_left(40));
@@ -440,16 +508,13 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                 // A trajectory left free first; if the robot can track none of them, any,
                 // holding only if it can track none at all (the tree prunes on holders, so a
                 // holder must be one that cannot track anything under its constraints).
-                None => {
-                    let mode = OthersMode::Count;
-                    match self.low_level_in(i, &node, left, 0, placed, mode, false, None) {
-                        Err(Status::NoSolution) => {
-                            self.low_level(i, &node, self.all_trajectories(), 0, placed)?
-                                .0
-                        }
-                        r => r?.0,
+                None => match self.low_level_in(i, &node, left, 0, placed, false) {
+                    Err(Status::NoSolution) => {
+                        self.low_level(i, &node, self.all_trajectories(), 0, placed)?
+                            .0
                     }
-                }
+                    r => r?.0,
+                },
             };
             if node.assignment[i] != HOLD {
                 taken |= 1 << node.assignment[i];
@@ -496,21 +561,12 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
                 path: slot_of(self.paths, node.slots[k], self.h),
             });
         }
-        let valid = Validity::<M, D>::new(
-            robot.model,
-            robot.base,
-            robot.tool,
-            &self.pr.obstacles,
-            &others,
-            OthersMode::Avoid,
-            &[],
-            self.pr.dt,
-            self.low.motion_step,
-        )
-        .excluding(robot.excluded);
+        let valid =
+            Validity::<M, D>::new(&robot, &self.pr.obstacles, self.pr.dt, self.low.motion_step)
+                .with_others(&others, OthersMode::Avoid);
         // With a step cost, the warm start weighs it as the search would.
         let steered = self.low.at_step(self.pr.dt);
-        let steps = if steered.w_a > 0.0 {
+        let steps = if steered.w_a > 0.0 || steered.w_v > 0.0 || steered.w_r > 0.0 {
             Steps::Steered(&steered)
         } else {
             Steps::Nearest(&self.low.ik)
@@ -560,21 +616,10 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         npoints: usize,
         others: u32,
     ) -> Result<(u8, u32), Status> {
-        self.low_level_in(
-            i,
-            node,
-            allowed,
-            npoints,
-            others,
-            OthersMode::Count,
-            self.can_hold(),
-            None,
-        )
+        self.low_level_in(i, node, allowed, npoints, others, self.can_hold())
     }
 
-    /// [`Run::low_level`] with the other robots counted or avoided, holding allowed or not,
-    /// and an earlier deadline.
-    #[allow(clippy::too_many_arguments)]
+    /// [`Run::low_level`] with holding allowed (`hold`) or not.
     fn low_level_in(
         &mut self,
         i: usize,
@@ -582,9 +627,7 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
         allowed: u32,
         npoints: usize,
         others_set: u32,
-        mode: OthersMode,
         hold: bool,
-        until: Option<&Until<'_>>,
     ) -> Result<(u8, u32), Status> {
         let mut others: heapless::Vec<OtherArm<'_, D>, MAX_ROBOTS> = heapless::Vec::new();
         // Which robot each of `others` is.
@@ -605,18 +648,21 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             hold,
             obstacles: &self.pr.obstacles,
             others: &others,
-            others_mode: mode,
+            others_mode: OthersMode::Count,
             points: &self.points[..npoints],
             dt: self.pr.dt,
             starts: self.starts.robot(i),
         };
         let mut s = SearchStats::default();
         self.stats.low_level_calls += 1;
-        let deadline: &dyn Deadline = match until {
-            Some(u) => u,
-            None => &self.deadline,
-        };
-        let r = plan::<M, D>(&query, &self.low, self.ws, deadline, self.scratch, &mut s);
+        let r = plan::<M, D>(
+            &query,
+            &self.low,
+            self.ws,
+            &self.deadline,
+            self.scratch,
+            &mut s,
+        );
         self.stats.expansions += s.expansions as u64;
         match r {
             Ok(found) => {

@@ -1,7 +1,29 @@
-//! Pose errors (the rotation log map) and the null space of a model's Jacobian.
+//! Pose errors (the rotation log map), the null space of a model's Jacobian, and how fast the
+//! joints must turn for the tool to move with a given twist.
 //!
 //! Both work in the model's base frame, with the Jacobian's row order: position first,
-//! rotation second.
+//! rotation second. Neither allocates; the null-space basis costs one 6 x D elimination.
+//!
+//! A 7-joint arm away from singularities has a one-dimensional null space: moving along it
+//! turns the joints without moving the hand (to first order), which is what Ω-A* explores.
+//!
+//! ```
+//! use omcbsa_core::kinematics::{null_space_basis, pose_error};
+//! use omcbsa_core::model::{KinovaGen3, Model};
+//!
+//! let q = [0.1, 0.5, -0.2, 1.2, 0.0, 0.8, 0.3];
+//! let (hand, jacobian) = KinovaGen3::jacobian(&q);
+//! let basis = null_space_basis(&jacobian);
+//! assert_eq!(basis.len(), 1);
+//! let n = basis[0];
+//! assert!((n.norm() - 1.0).abs() < 1e-12);
+//! assert!((jacobian * n).norm() < 1e-9);
+//!
+//! // A small step along it leaves the hand where it was, to second order.
+//! let moved: [f64; 7] = core::array::from_fn(|i| q[i] + 1e-3 * n[i]);
+//! let err = pose_error(&KinovaGen3::fk(&moved), &hand);
+//! assert!(err.norm() < 1e-5);
+//! ```
 
 use heapless::Vec;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
@@ -12,6 +34,21 @@ use crate::model::Frame;
 /// difference `target - current`, rows 3-5 the rotation vector `log(target.rot *
 /// current.rot^T)` (axis times angle, angle in `[0, pi]`). A Jacobian step `J dq = e` moves
 /// `current` towards `target`.
+///
+/// ```
+/// use omcbsa_core::kinematics::pose_error;
+/// use omcbsa_core::model::Frame;
+/// use omcbsa_core::nalgebra::{Rotation3, Vector3};
+///
+/// let target = Frame {
+///     rot: Rotation3::from_axis_angle(&Vector3::z_axis(), 0.5).into_inner(),
+///     pos: Vector3::new(0.1, 0.0, 0.0),
+/// };
+/// let e = pose_error(&Frame::IDENTITY, &target);
+/// assert!((e[0] - 0.1).abs() < 1e-15);
+/// // Rows 3-5: the rotation vector, 0.5 rad about z.
+/// assert!((e[5] - 0.5).abs() < 1e-15 && e[3].abs() < 1e-15 && e[4].abs() < 1e-15);
+/// ```
 pub fn pose_error(current: &Frame, target: &Frame) -> Vector6<f64> {
     let dp = target.pos - current.pos;
     let w = log_rotation(&(target.rot * current.rot.transpose()));
@@ -148,6 +185,84 @@ pub fn axis_separation<const D: usize>(jacobian: &SMatrix<f64, 6, D>) -> f64 {
         }
     }
     least
+}
+
+/// The tool's twist moving from `a` to `b` in `dt` seconds, as [`pose_error`] over `dt`:
+/// rows 0-2 metres per second, rows 3-5 radians per second, in the frame both poses are in.
+pub fn twist(a: &Frame, b: &Frame, dt: f64) -> Vector6<f64> {
+    pose_error(a, b) / dt
+}
+
+/// How close to their speed limits the joints must turn for the tool to move with `twist`
+/// (as [`twist`] gives it, in the base frame) at the configuration whose Jacobian is `jac`:
+/// the fastest joint's share of its limit `vmax[j]`, with the arm's motion along its null
+/// space chosen to make that share least (exactly, for one null-space direction: 7 joints for
+/// 6 task dimensions; with more, only the first direction is used). Above 1, no joint motion
+/// follows the twist within the limits; `f64::INFINITY` at a singular Jacobian. About 1 µs;
+/// [`SpeedMap`] answers several twists at one configuration for less.
+pub fn speed_ratio<const D: usize>(
+    jac: &SMatrix<f64, 6, D>,
+    twist: &Vector6<f64>,
+    vmax: &[f64; D],
+) -> f64 {
+    SpeedMap::new(jac, vmax).map_or(f64::INFINITY, |m| m.ratio(twist))
+}
+
+/// One configuration's map from tool twists to joint speeds ([`speed_ratio`] for several
+/// twists): the least-norm solution's matrix and the null-space direction, made once (a 6x6
+/// Cholesky factorisation and the null space), then about 200 flops a twist.
+pub struct SpeedMap<const D: usize> {
+    /// `J^T (J J^T)^-1`, each row over its joint's limit.
+    pinv: SMatrix<f64, D, 6>,
+    /// The null-space direction, over the limits (zero without one).
+    n: SVector<f64, D>,
+}
+
+impl<const D: usize> SpeedMap<D> {
+    /// The map at the configuration whose Jacobian is `jac`, for joint speed limits `vmax`;
+    /// `None` at a singular Jacobian.
+    pub fn new(jac: &SMatrix<f64, 6, D>, vmax: &[f64; D]) -> Option<Self> {
+        let chol = (jac * jac.transpose()).cholesky()?;
+        let mut pinv = jac.transpose() * chol.inverse();
+        let mut n = null_space_basis::<D>(jac)
+            .first()
+            .copied()
+            .unwrap_or_else(SVector::zeros);
+        for (j, v) in vmax.iter().enumerate() {
+            pinv.row_mut(j).scale_mut(1.0 / v);
+            n[j] /= v;
+        }
+        Some(SpeedMap { pinv, n })
+    }
+
+    /// [`speed_ratio`] of `twist` here.
+    pub fn ratio(&self, twist: &Vector6<f64>) -> f64 {
+        // The least-norm joint velocity as shares of the limits; the null space adds `n z`.
+        let p: SVector<f64, D> = self.pinv * twist;
+        let n = &self.n;
+        // min over z of max_j |p_j + n_j z|: each term is `|n_j| |z - z_j|`, so the least
+        // value is where the intervals `{z : |p_j + n_j z| <= r}` first all meet, and on a
+        // line intervals meet when every two do (Helly): the largest over pairs of the two's
+        // own least value, `|p_k n_i - p_i n_k| / (|n_i| + |n_k|)`, and `|p_j|` where
+        // `n_j = 0`.
+        let mut best = 0.0f64;
+        for i in 0..D {
+            if n[i] == 0.0 {
+                best = best.max(libm::fabs(p[i]));
+            }
+            for k in i + 1..D {
+                let w = libm::fabs(n[i]) + libm::fabs(n[k]);
+                if w > 0.0 {
+                    best = best.max(libm::fabs(p[k] * n[i] - p[i] * n[k]) / w);
+                }
+            }
+        }
+        if best.is_finite() {
+            best
+        } else {
+            f64::INFINITY
+        }
+    }
 }
 
 #[cfg(test)]

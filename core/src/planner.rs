@@ -1,6 +1,28 @@
 //! The one interface every planner implements (Ω-CBSA, the prioritised planners and the
-//! baselines), in OMPL's vocabulary: a problem definition ([`Problem`]), a planner, a
-//! termination condition ([`Clock`] + timeout) and a solution written to caller storage.
+//! baselines), in OMPL's vocabulary: a problem definition ([`Problem`]), a termination
+//! condition ([`Until`]: a [`Clock`] and the time to stop), a planner, and a [`Request`] that
+//! carries the problem, the deadline, the caller's storage for the answer ([`Solution`]) and
+//! the counters. A planner holds its own parameters and pools; [`Planner::solve`] opens every
+//! request the same way (the checks of [`open`]) before the planner's own [`Planner::plan`].
+//!
+//! ```
+//! use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//! use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+//! use omcbsa_core::problem::{Problem, Robot, Trajectory};
+//!
+//! // One Gen3 holding its hand still where it is at the zero configuration.
+//! let hand = KinovaGen3::fk(&[0.0; 7]);
+//! let mut problem = Problem::<7>::new(0.02);
+//! problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
+//! problem.trajectories.push(Trajectory::from_slice(&[hand; 4]).unwrap()).unwrap();
+//!
+//! let mut paths = [[0.0; 7]; 4];
+//! let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+//! let mut planner = IkTracking { params: IkTrackingParams::default() };
+//! assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
+//! assert_eq!(req.out.assignment[0], Some(0));
+//! ```
 
 use crate::model::Models;
 use crate::problem::{Assigned, Problem, Start, MAX_ROBOTS};
@@ -10,6 +32,7 @@ use crate::search::Deadline;
 /// Time since planning started, in seconds. The core has no clock of its own: the host passes
 /// `std::time::Instant`, a microcontroller its cycle counter.
 pub trait Clock {
+    /// Seconds since the clock's start.
     fn seconds(&self) -> f64;
 }
 
@@ -22,10 +45,52 @@ impl Clock for NoClock {
     }
 }
 
-/// "Stop when `clock` reaches `at`."
+/// The termination condition of a request: "stop when `clock` reaches `at`". Made once by the
+/// caller and copied, never rebuilt, by every search under it.
+///
+/// ```
+/// use omcbsa_core::planner::{Clock, Until};
+/// use omcbsa_core::search::Deadline;
+///
+/// /// A clock stopped at a given time (a microcontroller would read its cycle counter).
+/// struct Stopped(f64);
+/// impl Clock for Stopped {
+///     fn seconds(&self) -> f64 {
+///         self.0
+///     }
+/// }
+///
+/// let clock = Stopped(2.0);
+/// assert!(Until::new(&clock, 1.5).expired());
+/// assert!(!Until::new(&clock, 3.0).expired());
+/// assert!(!Until::never(&clock).expired());
+/// ```
+#[derive(Clone, Copy)]
 pub struct Until<'c> {
+    /// The clock read.
     pub clock: &'c dyn Clock,
+    /// Seconds on `clock` at which planning stops.
     pub at: f64,
+}
+
+impl<'c> Until<'c> {
+    /// Stop when `clock` reaches `at` seconds.
+    pub fn new(clock: &'c dyn Clock, at: f64) -> Self {
+        Until { clock, at }
+    }
+
+    /// No deadline: planning ends only by success, exhaustion or a full pool.
+    pub fn never(clock: &'c dyn Clock) -> Self {
+        Until {
+            clock,
+            at: f64::INFINITY,
+        }
+    }
+
+    /// Seconds on the clock now.
+    pub fn now(&self) -> f64 {
+        self.clock.seconds()
+    }
 }
 
 impl Deadline for Until<'_> {
@@ -37,9 +102,13 @@ impl Deadline for Until<'_> {
 /// How planning ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Status {
+    /// A plan was written to the request's [`Solution`]: every robot within its joint limits
+    /// and speeds, tracking its trajectory within the tolerance, and collision-free.
     Solved,
-    /// The search space was exhausted.
+    /// The search space was exhausted (or a trajectory is out of every robot's reach):
+    /// [`Stats::reason`] says which.
     NoSolution,
+    /// The request's [`Until`] passed first.
     Timeout,
     /// A bounded pool was exhausted; the message names it.
     OutOfMemory(&'static str),
@@ -84,10 +153,12 @@ pub struct Solution<'a, const D: usize> {
     /// Trajectory tracked by each robot; `None` for a robot that holds its initial
     /// configuration.
     pub assignment: [Option<u8>; MAX_ROBOTS],
+    /// The robots' paths, robot after robot (the caller's storage).
     pub paths: &'a mut [[f64; D]],
 }
 
 impl<'a, const D: usize> Solution<'a, D> {
+    /// An empty answer written into `paths`.
     pub fn new(paths: &'a mut [[f64; D]]) -> Self {
         Solution {
             assignment: [None; MAX_ROBOTS],
@@ -101,20 +172,68 @@ impl<'a, const D: usize> Solution<'a, D> {
     }
 }
 
+/// One planning request: what to plan, until when, where the answer goes, and the counters
+/// the planner adds to. Every planner's [`Planner::solve`] takes one.
+pub struct Request<'r, const D: usize> {
+    /// The problem definition.
+    pub problem: &'r Problem<D>,
+    /// The termination condition.
+    pub until: Until<'r>,
+    /// The answer, in the caller's storage.
+    pub out: Solution<'r, D>,
+    /// Counters; a planner adds to them, so one `Stats` can count several requests.
+    pub stats: Stats,
+}
+
+impl<'r, const D: usize> Request<'r, D> {
+    /// A request with zeroed counters.
+    pub fn new(problem: &'r Problem<D>, until: Until<'r>, out: Solution<'r, D>) -> Self {
+        Request {
+            problem,
+            until,
+            out,
+            stats: Stats::default(),
+        }
+    }
+}
+
+/// The horizon of a request [`open`] checked: only `open` makes one, so a planner's
+/// [`Planner::plan`] cannot run on an unchecked request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Horizon(usize);
+
+impl Horizon {
+    /// Steps of every trajectory.
+    pub fn get(self) -> usize {
+        self.0
+    }
+}
+
 /// The planners, by the names the command line, the benchmark, Python and the online runner
 /// use: the one list of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PlannerKind {
+    /// Ω-CBSA ([`crate::cbs::OmegaCbsa`]).
     OmCbsa,
+    /// OM-PP-A* ([`crate::pp::Prioritized`], [`crate::pp::Variant::MultiGoal`]).
     Pp,
+    /// OM-PP-A*_single ([`crate::pp::Prioritized`], [`crate::pp::Variant::SingleGoal`]).
     PpSingle,
+    /// IK tracking ([`crate::baselines::IkTracking`]).
     IkTracking,
+    /// PP-Descartes ([`crate::baselines::Descartes`]).
     Descartes,
+    /// Composite A* ([`crate::baselines::CompositeAstar`]).
     CompositeAstar,
+    /// Ω-A* alone ([`crate::search::plan`]; one robot).
     OmegaAstar,
 }
 
 impl PlannerKind {
+    /// The planner used where none is named: Ω-CBSA.
+    pub const DEFAULT: PlannerKind = PlannerKind::OmCbsa;
+
+    /// Every planner.
     pub const ALL: [PlannerKind; 7] = [
         PlannerKind::OmCbsa,
         PlannerKind::Pp,
@@ -137,6 +256,19 @@ impl PlannerKind {
         bench
     };
 
+    /// The planner's name (`omcbsa`, `pp`, `pp-single`, ...), as [`PlannerKind::parse`]
+    /// reads it.
+    ///
+    /// ```
+    /// use omcbsa_core::planner::PlannerKind;
+    ///
+    /// assert_eq!(PlannerKind::DEFAULT.name(), "omcbsa");
+    /// assert_eq!(PlannerKind::parse("pp-single"), Some(PlannerKind::PpSingle));
+    /// assert_eq!(PlannerKind::parse("rrt"), None);
+    /// for p in PlannerKind::ALL {
+    ///     assert_eq!(PlannerKind::parse(p.name()), Some(p));
+    /// }
+    /// ```
     pub const fn name(self) -> &'static str {
         match self {
             PlannerKind::OmCbsa => "omcbsa",
@@ -172,6 +304,7 @@ impl PlannerKind {
         }
     }
 
+    /// The planner called `name` ([`PlannerKind::name`]), `None` for any other text.
     pub fn parse(name: &str) -> Option<PlannerKind> {
         Self::ALL.into_iter().find(|p| p.name() == name)
     }
@@ -182,26 +315,38 @@ impl PlannerKind {
     }
 }
 
+impl Default for PlannerKind {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 impl core::fmt::Display for PlannerKind {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(self.name())
     }
 }
 
-/// A multi-robot planner for model `M`.
+/// A multi-robot planner for the models `M`: it holds its parameters and pools; a request
+/// brings the rest.
 pub trait Planner<M: Models<D>, const D: usize> {
-    /// The name used on the command line and in benchmark tables.
-    fn name(&self) -> &'static str;
+    /// The problems it takes, checked by [`Planner::solve`] before it plans.
+    const TAKES: Takes;
 
-    /// Plans `problem` until solved, exhausted, out of memory or `timeout` seconds on `clock`.
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status;
+    /// Which planner this is (its name on the command line and in benchmark tables).
+    fn kind(&self) -> PlannerKind;
+
+    /// Plans a request [`open`] accepted, until solved, exhausted, out of memory or past
+    /// `req.until`.
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status;
+
+    /// Checks `req` as every planner must ([`open`]), then plans it.
+    fn solve(&mut self, req: &mut Request<'_, D>) -> Status {
+        match open::<M, D>(req, Self::TAKES) {
+            Ok(h) => self.plan(req, h),
+            Err(status) => status,
+        }
+    }
 }
 
 /// What a planner takes, for [`open`].
@@ -214,24 +359,52 @@ pub enum Takes {
 }
 
 /// The opening of every planner's `solve`: the problem fits the planners' assumptions (and
-/// the planner's, `takes`), `out` can hold the answer, and no trajectory has a pose out of
-/// every robot's reach (a proof that nothing solves it: `NoSolution`, with the reason in
-/// `stats`). Returns the horizon, or the status to return.
+/// the planner's, `takes`), the request's storage can hold the answer, and no trajectory has a
+/// pose out of every robot's reach (a proof that nothing solves it: `NoSolution`, with the
+/// reason in the request's stats). Returns the horizon, or the status to return.
+///
+/// Bad input is a status that says what is wrong, never a panic:
+///
+/// ```
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::planner::{open, NoClock, Request, Solution, Status, Takes, Until};
+/// use omcbsa_core::problem::{Problem, Robot, Trajectory};
+///
+/// let hand = KinovaGen3::fk(&[0.0; 7]);
+/// let mut problem = Problem::<7>::new(0.1);
+/// problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
+/// problem.trajectories.push(Trajectory::from_slice(&[hand; 3]).unwrap()).unwrap();
+///
+/// // Room for 3 configurations: enough for one robot over 3 steps.
+/// let mut paths = [[0.0; 7]; 3];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(open::<KinovaGen3, 7>(&mut req, Takes::Fixed).map(|h| h.get()), Ok(3));
+///
+/// // Too little storage for the answer.
+/// let mut short = [[0.0; 7]; 2];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut short));
+/// let refused = open::<KinovaGen3, 7>(&mut req, Takes::Fixed);
+/// assert_eq!(refused, Err(Status::OutOfMemory("solution path buffer")));
+///
+/// // A time step that is not positive.
+/// problem.dt = f64::NAN;
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// let refused = open::<KinovaGen3, 7>(&mut req, Takes::Fixed);
+/// assert_eq!(refused, Err(Status::InvalidProblem("dt must be positive")));
+/// ```
 pub fn open<M: Models<D>, const D: usize>(
-    problem: &Problem<D>,
-    out: &Solution<'_, D>,
+    req: &mut Request<'_, D>,
     takes: Takes,
-    stats: &mut Stats,
-) -> Result<usize, Status> {
+) -> Result<Horizon, Status> {
     if takes == Takes::FreeOnly {
-        check_free(problem)?;
+        check_free(req.problem)?;
     }
-    let h = check_problem(problem, out)?;
-    if unreachable_trajectory::<M, D>(problem).is_some() {
-        stats.reason = Some(UNREACHABLE);
+    let h = check_problem(req.problem, &req.out)?;
+    if unreachable_trajectory::<M, D>(req.problem).is_some() {
+        req.stats.reason = Some(UNREACHABLE);
         return Err(Status::NoSolution);
     }
-    Ok(h)
+    Ok(Horizon(h))
 }
 
 /// Checks that `problem` fits the planners' assumptions and `out` can hold the answer.

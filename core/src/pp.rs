@@ -14,7 +14,9 @@
 
 use crate::assign::{Choice, Pair, PairTable, HOLD};
 use crate::model::Models;
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{
+    Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
+};
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::search::refine::{level_params, EXHAUSTED, LEVELS};
 use crate::search::{
@@ -35,9 +37,62 @@ pub enum Variant {
     SingleGoal,
 }
 
-/// A prioritised planner.
+/// A prioritised planner, over the caller's storage: Ω-A*'s [`Workspace`], one path of
+/// scratch and the start-seed IK answers. A full workspace ends the search that filled it
+/// (its level is then not proven exhausted); the answer is [`Status::OutOfMemory`] only when
+/// nothing else is left to try. Run it through [`Planner::solve`].
+///
+/// Two Gen3s side by side 2 m apart, each with a hand in front of it, planned one after the
+/// other (OM-PP-A*_single: the assignment enumerated, cheapest first):
+///
+/// ```
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+/// use omcbsa_core::pp::{Prioritized, Variant};
+/// use omcbsa_core::problem::{Problem, Robot};
+/// use omcbsa_core::search::{Node, OmegaParams, OpenEntry, Slot, StartIk, Workspace};
+///
+/// const H: usize = 3;
+/// let hand = KinovaGen3::fk(&[0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0]);
+/// let mut problem = Problem::<7>::new(0.1);
+/// for y in [0.0, 2.0] {
+///     let base = Frame { pos: Vector3::new(0.0, y, 0.0), ..Frame::IDENTITY };
+///     problem.robots.push(Robot::at(0, base)).unwrap();
+///     let pose = |t: usize| {
+///         let mut x = base.compose(&hand);
+///         x.pos.z += 0.01 * t as f64;
+///         x
+///     };
+///     problem.trajectories.push((0..H).map(pose).collect()).unwrap();
+/// }
+///
+/// let mut nodes = [Node::<7>::default(); 256];
+/// let mut open = [OpenEntry::default(); 512];
+/// let mut table = [Slot::default(); 512];
+/// let ws = Workspace::new(&mut nodes, &mut open, &mut table).unwrap();
+/// let (mut scratch, mut starts) = ([[0.0; 7]; H], [StartIk::default(); 64]);
+/// let params = OmegaParams::default();
+/// let mut pp = Prioritized::new(Variant::SingleGoal, params, ws, &mut scratch, &mut starts);
+///
+/// let mut paths = [[0.0; 7]; 2 * H];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut pp, &mut req), Status::Solved);
+/// assert_eq!(req.out.assignment[..2], [Some(0), Some(1)]);
+/// // Joint speeds hold between steps: no joint moves more than its limit times dt.
+/// for i in 0..2 {
+///     let path = req.out.path(i, H);
+///     for (a, b) in path.iter().zip(&path[1..]) {
+///         for j in 0..7 {
+///             assert!((b[j] - a[j]).abs() <= KinovaGen3::VELOCITY[j] * problem.dt);
+///         }
+///     }
+/// }
+/// ```
 pub struct Prioritized<'a, const D: usize> {
+    /// Which Ω-A* the robots use.
     pub variant: Variant,
+    /// Ω-A*'s settings at refinement level 0.
     pub params: OmegaParams,
     ws: Workspace<'a, D>,
     scratch: &'a mut [[f64; D]],
@@ -65,25 +120,17 @@ impl<'a, const D: usize> Prioritized<'a, D> {
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
-    fn name(&self) -> &'static str {
+    const TAKES: Takes = Takes::Fixed;
+
+    fn kind(&self) -> PlannerKind {
         match self.variant {
-            Variant::MultiGoal => PlannerKind::Pp.name(),
-            Variant::SingleGoal => PlannerKind::PpSingle.name(),
+            Variant::MultiGoal => PlannerKind::Pp,
+            Variant::SingleGoal => PlannerKind::PpSingle,
         }
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::Fixed, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         if self.scratch.len() < h {
             return Status::OutOfMemory("prioritised planning scratch path");
         }
@@ -94,7 +141,7 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             pr: problem,
             h,
             starts: StartCache::new(&mut *buf, n, problem.trajectories.len(), &self.params),
-            deadline: Until { clock, at: timeout },
+            deadline: req.until,
             ws: &mut self.ws,
             scratch: &mut *self.scratch,
             params: self.params,
@@ -102,7 +149,7 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
             incomplete: false,
             _m: core::marker::PhantomData,
         };
-        let status = run.levels(self.variant, &self.params, out, stats);
+        let status = run.levels(self.variant, &self.params, &mut req.out, &mut req.stats);
         self.starts = buf;
         status
     }

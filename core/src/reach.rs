@@ -1,5 +1,27 @@
 //! Proofs that a problem has no plan at any search resolution, found before searching: a
-//! trajectory whose poses no single robot can all reach.
+//! trajectory whose poses no single robot can all reach. Every planner runs this check
+//! before it searches ([`crate::planner::open`]); it costs two link-frame evaluations per
+//! robot and one distance per pose and robot.
+//!
+//! ```
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//! use omcbsa_core::problem::{Problem, Robot, Trajectory};
+//! use omcbsa_core::reach::{tcp_reach, unreachable_trajectory};
+//!
+//! let gen3 = Robot::at(0, Frame::IDENTITY);
+//! let reach = tcp_reach::<KinovaGen3, 7>(&gen3);
+//! // The sum of the Gen3's link lengths: a little more than its 1.19 m fully stretched.
+//! assert!(reach > 1.18 && reach < 1.3);
+//!
+//! let mut problem = Problem::<7>::new(0.1);
+//! problem.robots.push(gen3).unwrap();
+//! let near = KinovaGen3::fk(&[0.0; 7]);
+//! let far = Frame { pos: near.pos * 2.0, ..near };
+//! problem.trajectories.push(Trajectory::from_slice(&[near, near]).unwrap()).unwrap();
+//! assert_eq!(unreachable_trajectory::<KinovaGen3, 7>(&problem), None);
+//! problem.trajectories[0][1] = far;
+//! assert_eq!(unreachable_trajectory::<KinovaGen3, 7>(&problem), Some(0));
+//! ```
 
 use crate::collision::MAX_LINK_FRAMES;
 use crate::model::{Frame, Models};

@@ -2,6 +2,22 @@
 //!
 //! The planners draw IK seeds from it. It is not cryptographic; what matters is that the same
 //! seed gives the same sequence on every platform, with no operating system and no heap.
+//! The state is 32 bytes; a draw is a few integer operations.
+//!
+//! ```
+//! use omcbsa_core::rng::Rng;
+//!
+//! let (mut a, mut b) = (Rng::new(42), Rng::new(42));
+//! assert_eq!(a.next_u64(), b.next_u64());
+//! let x = a.uniform(-1.0, 2.0);
+//! assert!((-1.0..2.0).contains(&x));
+//! assert_eq!(x, b.uniform(-1.0, 2.0));
+//!
+//! // A configuration within joint limits; an unbounded joint is drawn in [-pi, pi].
+//! let q = a.configuration(&[-1.0, f64::NEG_INFINITY], &[1.0, f64::INFINITY]);
+//! assert!((-1.0..1.0).contains(&q[0]));
+//! assert!((-core::f64::consts::PI..core::f64::consts::PI).contains(&q[1]));
+//! ```
 
 use core::f64::consts::PI;
 
@@ -21,6 +37,7 @@ fn splitmix64(x: &mut u64) -> u64 {
 }
 
 impl Rng {
+    /// The generator seeded with `seed` (any value, 0 included).
     pub fn new(seed: u64) -> Rng {
         let mut x = seed;
         // SplitMix64 never yields four zero words in a row, so the state is never all zero.
@@ -34,6 +51,7 @@ impl Rng {
         }
     }
 
+    /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         let s = &mut self.s;
         let result = s[1].wrapping_mul(5).rotate_left(7).wrapping_mul(9);

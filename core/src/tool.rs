@@ -2,6 +2,29 @@
 //! model's tool frame (the frame `tcp` is given in). They are part of the arm for every
 //! check: obstacles, other arms and their tools, and the arm's own links that neither carry
 //! the tool frame nor are adjacent to it ([`crate::model::Model::TOOL_SELF_CAPSULES`]).
+//!
+//! A tool is a fixed-size value (no heap): more than [`MAX_TOOL_CAPSULES`] capsules, or a
+//! capsule that is not finite or has no positive radius, is refused with a [`ToolError`],
+//! never truncated.
+//!
+//! ```
+//! use omcbsa_core::tool::{Tool, ToolCapsule, ToolError, MAX_TOOL_CAPSULES};
+//!
+//! // A gripper: a 12 cm capsule of radius 4 cm along the tool frame's z axis.
+//! let finger = ToolCapsule { a: [0.0, 0.0, 0.02], b: [0.0, 0.0, 0.12], radius: 0.04 };
+//! let gripper = Tool::new(&[finger]).unwrap();
+//! assert_eq!(gripper.capsules().len(), 1);
+//! assert!(Tool::NONE.capsules().is_empty());
+//!
+//! // A joint that moves the tool frame's origin 0.5 m per radian moves the gripper's points
+//! // at most 0.5 + 0.16 m per radian (its farthest point from the origin).
+//! let reach = gripper.reach(&[0.5], 0);
+//! assert!((reach[0] - 0.66).abs() < 1e-12);
+//!
+//! assert_eq!(Tool::new(&[finger; MAX_TOOL_CAPSULES + 1]), Err(ToolError::TooMany));
+//! let flat = ToolCapsule { radius: 0.0, ..finger };
+//! assert_eq!(Tool::new(&[finger, flat]), Err(ToolError::BadCapsule(1)));
+//! ```
 
 /// Most capsules one tool may have.
 pub const MAX_TOOL_CAPSULES: usize = 4;
@@ -9,8 +32,11 @@ pub const MAX_TOOL_CAPSULES: usize = 4;
 /// One capsule of a tool, in the tool frame: points within `radius` of the segment `a`-`b`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToolCapsule {
+    /// One end of the axis, in the tool frame, metres.
     pub a: [f64; 3],
+    /// The other end (equal to `a` for a sphere), metres.
     pub b: [f64; 3],
+    /// Radius, metres (above 0).
     pub radius: f64,
 }
 
@@ -67,6 +93,7 @@ impl Tool {
         Ok(tool)
     }
 
+    /// The tool's capsules (empty for [`Tool::NONE`]).
     pub fn capsules(&self) -> &[ToolCapsule] {
         &self.capsules[..self.len]
     }
@@ -74,7 +101,8 @@ impl Tool {
     /// Per joint of a model whose tool frame origin moves at most `tool_reach[j]` per radian
     /// (or metre) of joint `j` ([`crate::model::Model::TOOL_REACH`]), a bound on how far the
     /// points of tool capsule `i` travel per radian that joint moves: the origin's bound plus
-    /// the capsule's farthest point from that origin (triangle inequality).
+    /// the capsule's farthest point from that origin (triangle inequality). `i` must be below
+    /// `capsules().len()`; past [`MAX_TOOL_CAPSULES`] it panics.
     pub fn reach<const D: usize>(&self, tool_reach: &[f64; D], i: usize) -> [f64; D] {
         let extent = self.capsules[i].extent();
         core::array::from_fn(|j| tool_reach[j] + extent)

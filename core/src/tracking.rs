@@ -1,16 +1,45 @@
 //! IK tracking: follow a trajectory by projecting each pose from the previous configuration,
 //! `q_t = IK(x_t, q_{t-1})`, or steered along the null space by Ω-A*'s step cost
-//! ([`Steps`]). Myopic but fast;
+//! ([`Steps`]). Myopic but fast (one IK projection a step, three when steered);
 //! Ω-CBSA warm-starts its root with it and the IK-tracking baseline is made of it.
+//!
+//! ```
+//! use omcbsa_core::ik::IkParams;
+//! use omcbsa_core::model::{Frame, KinovaGen3, Model};
+//! use omcbsa_core::motion::MOTION_STEP;
+//! use omcbsa_core::nalgebra::Vector3;
+//! use omcbsa_core::problem::{Robot, Trajectory};
+//! use omcbsa_core::search::Validity;
+//! use omcbsa_core::tracking::{track, Steps};
+//!
+//! let robot = Robot::at(0, Frame::IDENTITY);
+//! let q0 = [0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0];
+//! let hand = KinovaGen3::fk(&q0);
+//! // Three poses 0.1 s apart, the hand sliding 1 cm a step along y.
+//! let slide = |t: usize| Frame { pos: hand.pos + Vector3::y() * (0.01 * t as f64), ..hand };
+//! let traj: Trajectory = (0..3).map(slide).collect();
+//! // No obstacles, no other robots: only joint limits, speeds and self-collision count.
+//! let valid = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP);
+//! let ik = IkParams::default();
+//! let mut path = [[0.0; 7]; 3];
+//! let collisions = track(&robot, &traj, &q0, &valid, Steps::Nearest(&ik), &mut path);
+//! assert_eq!(collisions, Some(0));
+//! for (q, pose) in path.iter().zip(&traj) {
+//!     assert!((KinovaGen3::fk(q).pos - pose.pos).norm() <= ik.position_tolerance);
+//! }
+//! ```
 
 use core::cell::Cell;
 
+use crate::collision::ArmPose;
 use crate::ik::{ik, IkParams};
 use crate::kinematics::null_space_basis;
+use crate::kinematics::twist;
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::search::Validity;
-use crate::search::{axes_cost, OmegaParams};
+use crate::search::{step_cost, OmegaParams};
+use nalgebra::Vector6;
 
 /// How [`track`] takes each step.
 #[derive(Clone, Copy, Debug)]
@@ -21,7 +50,7 @@ pub enum Steps<'p> {
     /// rate of at most Ω-A*'s null-space step `epsilon` (these settings, already at the
     /// problem's step) that changes by at most `epsilon /` [`NULL_RATE_STEPS`] a step: each
     /// step keeps, slows or speeds up the rate, whichever gives the least joint motion plus
-    /// [`axes_cost`]. The search's costs without its backtracking, and without the jumps of
+    /// [`step_cost`]. The search's costs without its backtracking, and without the jumps of
     /// its `± epsilon` moves, which a streamed path could not follow within the joints'
     /// accelerations.
     Steered(&'p OmegaParams),
@@ -33,7 +62,8 @@ pub const NULL_RATE_STEPS: f64 = 8.0;
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
 /// state and motion with `valid`, each step taken as `steps` says. Writes `out[..H]` and
 /// returns the collision count with the other robots (always 0 when `valid` avoids them), or
-/// `None` when tracking breaks down.
+/// `None` when tracking breaks down (IK fails, a step breaks a joint's speed limit, or a
+/// state or motion is invalid). `out` must hold H configurations; a shorter one panics.
 pub fn track<M: Models<D>, const D: usize>(
     robot: &Robot<D>,
     traj: &Trajectory,
@@ -49,7 +79,8 @@ pub fn track<M: Models<D>, const D: usize>(
     // Steered: the null-space rate (rad a step) and direction of the last step.
     let rate = Cell::new(0.0);
     let last_dir = Cell::new([0.0; D]);
-    let next = |target: &Frame, q: &[f64; D]| {
+    // `motion`: the hand's twist at the step taken (see `step_cost`).
+    let next = |target: &Frame, motion: &Vector6<f64>, q: &[f64; D]| {
         let proj = ik::<M, D>(robot.model, target, q, ik_params).ok()?;
         let Steps::Steered(p) = steps else {
             return Some(proj).filter(|next| valid.step_within_limits(q, next));
@@ -73,7 +104,7 @@ pub fn track<M: Models<D>, const D: usize>(
         };
         let cost = |m: &[f64; D]| {
             let d2: f64 = m.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
-            libm::sqrt(d2) + axes_cost::<M, D>(robot.model, m, p)
+            libm::sqrt(d2) + step_cost::<M, D>(robot.model, m, motion, p)
         };
         let best = [a - d, a, a + d]
             .into_iter()
@@ -99,12 +130,24 @@ pub fn track<M: Models<D>, const D: usize>(
         (Start::AtInitial, None) => return None,
         (Start::Sampled, _) => ik::<M, D>(robot.model, &target(&traj[0]), seed, ik_params).ok()?,
     };
-    let mut c = valid.state(&q, 0)? as u32;
+    // The arm at the last configuration and at the next: each step's motion check starts
+    // from the poses its state checks placed.
+    let mut poses = [ArmPose::EMPTY; 2];
+    let mut c = valid.state_in(&q, 0, &mut poses[0])? as u32;
     out[0] = q;
+    let (steered, dt) = (matches!(steps, Steps::Steered(p) if p.w_v > 0.0), valid.dt);
     for t in 1..traj.len() {
-        let next = next(&target(&traj[t]), &q)?;
-        c += valid.state(&next, t)? as u32;
-        c += valid.motion(&q, &next, t - 1)? as u32;
+        let motion = match (steered, traj.get(t + 1)) {
+            (false, _) => Vector6::zeros(),
+            (true, Some(after)) => twist(&target(&traj[t]), &target(after), dt),
+            // The last step's motion goes on past the end.
+            (true, None) => twist(&target(&traj[t - 1]), &target(&traj[t]), dt),
+        };
+        let next = next(&target(&traj[t]), &motion, &q)?;
+        let [here, there] = &mut poses;
+        c += valid.state_in(&next, t, there)? as u32;
+        c += valid.motion_posed(&q, &next, [here, there], t - 1)? as u32;
+        poses.swap(0, 1);
         q = next;
         out[t] = q;
     }
@@ -117,7 +160,7 @@ mod tests {
     use crate::kinematics::axis_separation;
     use crate::model::{KinovaGen3, Model};
     use crate::problem::{Assigned, StartExclusions};
-    use crate::search::{OthersMode, REFERENCE_DT};
+    use crate::search::REFERENCE_DT;
     use crate::tool::Tool;
 
     /// A hand held still in front of a Gen3 whose shoulder stands nearly straight up (its
@@ -139,17 +182,7 @@ mod tests {
         let hand = <KinovaGen3 as Model<7>>::fk(&q0);
         let traj: Trajectory = (0..40).map(|_| hand).collect();
         let dt = 0.02;
-        let valid = Validity::<KinovaGen3, 7>::new(
-            0,
-            Frame::IDENTITY,
-            Tool::NONE,
-            &[],
-            &[],
-            OthersMode::Avoid,
-            &[],
-            dt,
-            crate::motion::MOTION_STEP,
-        );
+        let valid = Validity::<KinovaGen3, 7>::new(&robot, &[], dt, crate::motion::MOTION_STEP);
         let separation = |q: &[f64; 7]| axis_separation(&<KinovaGen3 as Model<7>>::jacobian(q).1);
         let mut plain = [[0.0; 7]; 40];
         let ik_params = IkParams::default();

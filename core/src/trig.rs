@@ -6,7 +6,10 @@
 //! 6 in `r`, and `sin`, `cos` of `n pi/32` from a table, joined by the angle-sum formulas. No
 //! branch depends on the angles except one test that all of them are in range. Within 2 ulp
 //! of the exact values (about 1e-16 absolute) for `|x| <= LIMIT`; beyond that, and for NaN and
-//! infinities, it is `libm::sincos`.
+//! infinities, it is `libm::sincos`. Generic over [`Angle`]: a batch of angles ([`F64s`]) goes
+//! through the same operations lane by lane, so it gives what each angle gives alone.
+
+use crate::lanes::{F64s, Real, LANES};
 
 /// With `|x| <= LIMIT`, `n = round(x * 32/pi) < 2^20`, so `n * STEP_HI` and `n * STEP_MID`
 /// are exact (33 + 20 bits) and the reduction loses nothing to cancellation.
@@ -70,19 +73,74 @@ const fn full_turn() -> [[f64; 2]; 64] {
     table
 }
 
+/// What the reduction needs of its numbers beyond arithmetic: one `f64` or a batch of them
+/// ([`F64s`]), lane by lane the same operations.
+pub trait Angle: Real {
+    /// `[sin, cos]` of `j pi/32`, `j` the low 6 bits of each lane of `shifted`.
+    fn turn(shifted: Self) -> (Self, Self);
+    /// Whether every lane is within `LIMIT` (NaN is not).
+    fn in_range(self) -> bool;
+    /// `(sin, cos)` of each lane through [`one`].
+    fn each(self) -> (Self, Self);
+}
+
+impl Angle for f64 {
+    #[inline(always)]
+    fn turn(shifted: f64) -> (f64, f64) {
+        // n mod 64, from the low mantissa bits (two's complement, so negative n works too).
+        let [s, c] = TABLE[(shifted.to_bits() & 63) as usize];
+        (s, c)
+    }
+
+    #[inline(always)]
+    fn in_range(self) -> bool {
+        self.abs() <= LIMIT
+    }
+
+    #[inline(always)]
+    fn each(self) -> (f64, f64) {
+        one(self)
+    }
+}
+
+impl Angle for F64s {
+    #[inline(always)]
+    fn turn(shifted: F64s) -> (F64s, F64s) {
+        let bits = shifted.to_array();
+        let (mut s, mut c) = ([0.0; LANES], [0.0; LANES]);
+        for k in 0..LANES {
+            (s[k], c[k]) = f64::turn(bits[k]);
+        }
+        (F64s::new(s), F64s::new(c))
+    }
+
+    #[inline(always)]
+    fn in_range(self) -> bool {
+        self.abs().simd_le(F64s::splat(LIMIT)).all()
+    }
+
+    fn each(self) -> (F64s, F64s) {
+        let x = self.to_array();
+        let (mut s, mut c) = ([0.0; LANES], [0.0; LANES]);
+        for k in 0..LANES {
+            (s[k], c[k]) = one(x[k]);
+        }
+        (F64s::new(s), F64s::new(c))
+    }
+}
+
 /// `(sin x, cos x)` for `|x| <= LIMIT`.
-#[inline]
-fn reduced(x: f64) -> (f64, f64) {
-    let shifted = x * INV_STEP + ROUND;
-    let n = shifted - ROUND;
-    // n mod 64, from the low mantissa bits (two's complement, so negative n works too).
-    let j = (shifted.to_bits() & 63) as usize;
-    let r = ((x - n * STEP_HI) - n * STEP_MID) - n * STEP_LO;
+#[inline(always)]
+fn reduced<T: Angle>(x: T) -> (T, T) {
+    let c = T::splat;
+    let shifted = x * c(INV_STEP) + c(ROUND);
+    let n = shifted - c(ROUND);
+    let r = ((x - n * c(STEP_HI)) - n * c(STEP_MID)) - n * c(STEP_LO);
     let z = r * r;
     // Estrin's scheme: shorter than Horner's, and this is on the critical path.
-    let sin_r = r + r * z * ((SIN[0] + SIN[1] * z) + SIN[2] * (z * z));
-    let cos_r_minus_1 = z * (-0.5 + z * (COS[0] + COS[1] * z));
-    let [s, c] = TABLE[j];
+    let sin_r = r + r * z * ((c(SIN[0]) + c(SIN[1]) * z) + c(SIN[2]) * (z * z));
+    let cos_r_minus_1 = z * (c(-0.5) + z * (c(COS[0]) + c(COS[1]) * z));
+    let (s, c) = T::turn(shifted);
     // The table entry plus a small correction, which keeps the rounding error near 1 ulp.
     (
         s + (s * cos_r_minus_1 + c * sin_r),
@@ -90,23 +148,33 @@ fn reduced(x: f64) -> (f64, f64) {
     )
 }
 
-/// `(sin, cos)` of each angle, element by element. Always inlined: LLVM judges it too big,
-/// but called, its results come back through memory and the caller's products wait for the
-/// last of them. The rare path stays inline too: moved out of line, it measured slower.
+/// `(sin x, cos x)` of one angle, any.
+fn one(x: f64) -> (f64, f64) {
+    if x.in_range() {
+        reduced(x)
+    } else {
+        libm::sincos(x)
+    }
+}
+
+/// `(sin, cos)` of each angle, element by element (each lane of a batch as alone). Always
+/// inlined: LLVM judges it too big, but called, its results come back through memory and the
+/// caller's products wait for the last of them. The rare path stays inline too: moved out of
+/// line, it measured slower.
 #[inline(always)]
-pub fn sincos<const N: usize>(x: [f64; N]) -> ([f64; N], [f64; N]) {
-    let mut sin = [0.0; N];
-    let mut cos = [0.0; N];
-    if x.iter().all(|v| v.abs() <= LIMIT) {
+pub fn sincos<T: Angle, const N: usize>(x: [T; N]) -> ([T; N], [T; N]) {
+    let mut sin = [T::splat(0.0); N];
+    let mut cos = [T::splat(0.0); N];
+    if x.iter().all(|v| v.in_range()) {
         for i in 0..N {
             (sin[i], cos[i]) = reduced(x[i]);
         }
     } else {
         for i in 0..N {
-            (sin[i], cos[i]) = if x[i].abs() <= LIMIT {
+            (sin[i], cos[i]) = if x[i].in_range() {
                 reduced(x[i])
             } else {
-                libm::sincos(x[i])
+                x[i].each()
             };
         }
     }

@@ -316,3 +316,55 @@ fn gen3_urdf_is_kinovas_file_with_a_licence_header() {
         "figures must stay exactly as Kinova published them"
     );
 }
+
+/// `speed_ratio` is the least, over the null space, of the fastest joint's share of its limit:
+/// a joint velocity that makes the twist bounds it from above, a dense scan of the null space
+/// from below, and it grows in proportion to the twist.
+fn speed_ratio_is_the_least_share<M: Model<D>, const D: usize>(n: usize, seed: u64) {
+    use omcbsa_core::kinematics::speed_ratio;
+    let mut rng = Rng::new(seed);
+    for _ in 0..n {
+        let q = rng.configuration(&M::LOWER, &M::UPPER);
+        let (_, jac) = M::jacobian(&q);
+        let qdot: nalgebra::SVector<f64, D> =
+            nalgebra::SVector::from_fn(|j, _| rng.uniform(-0.8, 0.8) * M::VELOCITY[j]);
+        let twist = jac * qdot;
+        let r = speed_ratio::<D>(&jac, &twist, &M::VELOCITY);
+        let share = |v: &nalgebra::SVector<f64, D>| {
+            (0..D)
+                .map(|j| v[j].abs() / M::VELOCITY[j])
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            r <= share(&qdot) + 1e-9,
+            "{r} above a feasible {}",
+            share(&qdot)
+        );
+        // Any joint velocity that makes the twist: the least-norm one plus the null space.
+        let pinv = jac.transpose() * (jac * jac.transpose()).try_inverse().unwrap();
+        let p = pinv * twist;
+        let dir = null_space_basis::<D>(&jac)[0];
+        let scanned = (-4000..=4000)
+            .map(|k| share(&(p + dir * (k as f64 * 1e-3))))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            r <= scanned + 1e-9 && scanned <= r + 1e-2,
+            "{r} vs scan {scanned}"
+        );
+        let doubled = speed_ratio::<D>(&jac, &(twist * 2.0), &M::VELOCITY);
+        assert!(
+            (doubled - 2.0 * r).abs() < 1e-9 * (1.0 + r),
+            "{doubled} vs 2 * {r}"
+        );
+    }
+}
+
+#[test]
+fn gen3_speed_ratio_is_the_least_share() {
+    speed_ratio_is_the_least_share::<KinovaGen3, 7>(200, 31);
+}
+
+#[test]
+fn panda_speed_ratio_is_the_least_share() {
+    speed_ratio_is_the_least_share::<FrankaPanda, 7>(200, 32);
+}

@@ -18,10 +18,10 @@ use std::path::Path;
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
-use omcbsa_hw::executor::Progress;
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::mock::exec_config;
+use omcbsa_hw::Progress;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report, WatchSettings};
 use serde_json::Map;
 
@@ -33,9 +33,11 @@ use crate::format::{
 use crate::models::{self, ModelKind, DOF};
 use crate::pose::from_frame;
 
+/// The demo problem's name.
 pub const NAME: &str = "demo_box_flip_3arms";
 /// The robots, on the ring at 0, 120 and 240 degrees.
 pub const ROBOTS: [&str; 3] = ["north", "south_west", "south_east"];
+/// Time between steps, s.
 pub const DT: f64 = 0.1;
 /// Steps of the motion (3 s).
 pub const STEPS: usize = 31;
@@ -55,7 +57,9 @@ const SEED: [f64; 7] = [0.0, 0.6, 0.0, 1.8, 0.0, 0.7, PI / 2.0];
 
 /// The demo problem and the witness it was made from.
 pub struct Demo {
+    /// The problem: three arms flipping a box.
     pub problem: ProblemFile,
+    /// The solution it was built from (IK from a known pose), which shows it solvable.
     pub witness: SolutionFile,
 }
 
@@ -212,7 +216,12 @@ pub enum MockRunError {
     /// The executor refused to start or was stopped by a fault.
     Exec(ExecError),
     /// What a mock arm received is not the interpolated plan.
-    Record { arm: String, error: String },
+    Record {
+        /// The arm's name.
+        arm: String,
+        /// What differs.
+        error: String,
+    },
 }
 
 impl fmt::Display for MockRunError {

@@ -6,7 +6,9 @@ use std::fmt;
 /// whole document).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FieldError {
+    /// Where: `robots[2].initial`, `dt`, or empty for the whole document.
     pub path: String,
+    /// What is wrong.
     pub message: String,
 }
 
@@ -19,6 +21,7 @@ pub const MAX_MESSAGE_CHARS: usize = 300;
 pub const MAX_NAME_CHARS: usize = 40;
 
 impl FieldError {
+    /// An error at `path`; both are cut to a bounded length ([`MAX_MESSAGE_CHARS`]).
     pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
         FieldError {
             path: clipped(path.into(), MAX_NAME_CHARS * 2),
@@ -77,10 +80,12 @@ pub fn quoted(name: &str) -> String {
 /// Everything wrong with one input document (at least one entry).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct InputError {
+    /// The errors, in the order found.
     pub errors: Vec<FieldError>,
 }
 
 impl InputError {
+    /// One error at `path`.
     pub fn one(path: impl Into<String>, message: impl Into<String>) -> Self {
         InputError {
             errors: vec![FieldError::new(path, message)],
@@ -128,10 +133,12 @@ pub struct Errors {
 }
 
 impl Errors {
+    /// Adds an error at `path`.
     pub fn push(&mut self, path: impl Into<String>, message: impl Into<String>) {
         self.add(FieldError::new(path, message));
     }
 
+    /// Adds an error (counted only, beyond [`MAX_ERRORS`]).
     pub fn add(&mut self, e: FieldError) {
         if self.list.len() < MAX_ERRORS {
             self.list.push(e);

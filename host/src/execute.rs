@@ -65,18 +65,22 @@ impl CheckedSolution {
             .collect()
     }
 
+    /// The validator's report on the solution (valid: checked before a plan is made).
     pub fn report(&self) -> &Report {
         &self.report
     }
 
+    /// The problem.
     pub fn problem(&self) -> &ProblemFile {
         &self.problem
     }
 
+    /// The solution.
     pub fn solution(&self) -> &SolutionFile {
         &self.solution
     }
 
+    /// The problem and the solution, taken back.
     pub fn into_parts(self) -> (ProblemFile, SolutionFile) {
         (self.problem, self.solution)
     }

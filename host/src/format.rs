@@ -8,6 +8,40 @@
 //!
 //! Unknown fields are refused everywhere except inside `stats`: a misspelt optional field
 //! (`"initail"`, `"tolerence"`) would otherwise be dropped silently and change the problem.
+//!
+//! ```
+//! use omcbsa::format::{Pose, ProblemFile, RobotSpec, TrajectorySpec, PROBLEM_FORMAT};
+//! use omcbsa::load;
+//!
+//! let file = ProblemFile {
+//!     format: PROBLEM_FORMAT.to_string(),
+//!     name: "reach".to_string(),
+//!     dt: 0.1,
+//!     robots: vec![RobotSpec {
+//!         name: "arm".to_string(),
+//!         model: "kinova_gen3".to_string(),
+//!         base: Pose::IDENTITY,
+//!         initial: None,
+//!         tcp: None,
+//!         tool: None,
+//!     }],
+//!     trajectories: vec![TrajectorySpec {
+//!         name: "hand".to_string(),
+//!         poses: vec![Pose { position: [0.5, 0.0, 0.4], quat_xyzw: [1.0, 0.0, 0.0, 0.0] }],
+//!     }],
+//!     obstacles: Vec::new(),
+//!     tolerance: Default::default(),
+//! };
+//! // Written and read back, it is the same file; optional fields left out stay out.
+//! let text = serde_json::to_string(&file).unwrap();
+//! assert!(!text.contains("initial") && !text.contains("obstacles"));
+//! assert_eq!(load::parse_problem(&text).unwrap(), file);
+//!
+//! // A misspelt field is refused, with its path.
+//! let typo = text.replace("\"dt\"", "\"dtt\"");
+//! let err = load::parse_problem(&typo).unwrap_err();
+//! assert!(err.to_string().contains("unknown field `dtt`"), "{err}");
+//! ```
 
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
@@ -26,11 +60,14 @@ pub const MAX_JOINT_VALUE: f64 = omcbsa_hw::cia402::MAX_POSITION_RAD;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pose {
+    /// Position, metres.
     pub position: [f64; 3],
+    /// Orientation: a unit quaternion `[x, y, z, w]` (norm within 1e-6 of 1).
     pub quat_xyzw: [f64; 4],
 }
 
 impl Pose {
+    /// At the origin, not rotated.
     pub const IDENTITY: Pose = Pose {
         position: [0.0; 3],
         quat_xyzw: [0.0, 0.0, 0.0, 1.0],
@@ -46,13 +83,20 @@ pub const DT_RANGE: std::ops::RangeInclusive<f64> = 0.001..=60.0;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProblemFile {
+    /// [`PROBLEM_FORMAT`].
     pub format: String,
+    /// The problem's name (solutions name it).
     pub name: String,
+    /// Time between consecutive poses, s (within [`DT_RANGE`]).
     pub dt: f64,
+    /// The arms (at least 1).
     pub robots: Vec<RobotSpec>,
+    /// The hands' trajectories (at least 1, at most one per robot, all of one length).
     pub trajectories: Vec<TrajectorySpec>,
+    /// Fixed obstacles (optional).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub obstacles: Vec<ObstacleSpec>,
+    /// How closely the hands must be followed (optional).
     #[serde(default)]
     pub tolerance: ToleranceSpec,
 }
@@ -61,15 +105,20 @@ pub struct ProblemFile {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotSpec {
+    /// The robot's name (unique in the problem).
     pub name: String,
+    /// Its model's name (`kinova_gen3`, `franka_panda`; see [`crate::models::ModelKind`]).
     pub model: String,
+    /// The pose of the model's base frame in the world.
     pub base: Pose,
     /// The arm's current configuration; its length depends on the model, so it is checked
     /// by [`crate::load`], not here.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub initial: Option<Vec<f64>>,
+    /// The tool centre point relative to the model's tool frame (default: identity).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tcp: Option<Pose>,
+    /// What the flange carries (default: nothing).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tool: Option<ToolSpec>,
 }
@@ -81,6 +130,7 @@ pub struct RobotSpec {
 pub struct ToolSpec {
     /// Named in validation messages.
     pub name: String,
+    /// At most [`omcbsa_core::tool::MAX_TOOL_CAPSULES`].
     pub capsules: Vec<ToolCapsuleSpec>,
 }
 
@@ -88,8 +138,11 @@ pub struct ToolSpec {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ToolCapsuleSpec {
+    /// One end of the axis.
     pub a: [f64; 3],
+    /// The other end.
     pub b: [f64; 3],
+    /// Radius (above 0).
     pub radius: f64,
 }
 
@@ -97,7 +150,9 @@ pub struct ToolCapsuleSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrajectorySpec {
+    /// The trajectory's name (for messages).
     pub name: String,
+    /// One pose per step, `dt` apart, in the world frame.
     pub poses: Vec<Pose>,
 }
 
@@ -105,9 +160,13 @@ pub struct TrajectorySpec {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeKind {
+    /// `half_extents`.
     Box,
+    /// `radius`.
     Sphere,
+    /// `radius` and `half_length`, axis along local z.
     Capsule,
+    /// `radius` and `half_length`, axis along local z.
     Cylinder,
 }
 
@@ -128,14 +187,20 @@ impl ShapeKind {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObstacleSpec {
+    /// The obstacle's name (for messages).
     pub name: String,
+    /// Its shape.
     pub shape: ShapeKind,
+    /// A box's half size along its local axes, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half_extents: Option<[f64; 3]>,
+    /// A sphere's, capsule's or cylinder's radius, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius: Option<f64>,
+    /// Half a capsule's or cylinder's length, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half_length: Option<f64>,
+    /// Where the shape's frame is in the world.
     pub pose: Pose,
 }
 
@@ -143,8 +208,10 @@ pub struct ObstacleSpec {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ToleranceSpec {
+    /// Position error, metres (default 0.001).
     #[serde(default = "default_position_tolerance")]
     pub position_m: f64,
+    /// Angle of the relative rotation, radians (default 0.01).
     #[serde(default = "default_orientation_tolerance")]
     pub orientation_rad: f64,
 }
@@ -170,10 +237,15 @@ impl Default for ToleranceSpec {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Status {
+    /// A plan, in `joint_paths`.
     Solved,
+    /// The search space was exhausted (the message says why).
     NoSolution,
+    /// The time limit was reached.
     Timeout,
+    /// A bounded pool was exhausted (the message names it).
     OutOfMemory,
+    /// The problem cannot be planned (the message says why).
     InvalidProblem,
 }
 
@@ -194,13 +266,18 @@ impl Status {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolutionFile {
+    /// [`SOLUTION_FORMAT`].
     pub format: String,
     /// The `name` of the problem this solves.
     pub problem: String,
+    /// The planner's name ([`crate::planners::PlannerKind::name`]).
     pub planner: String,
+    /// How planning ended.
     pub status: Status,
+    /// Why, when not solved (empty when solved).
     #[serde(default)]
     pub message: String,
+    /// Wall time of planning, s.
     pub planning_time_s: f64,
     /// `assignment[i]`: the trajectory robot i tracks, `None` for a robot that holds.
     /// Planners that stop before assigning may leave it empty.

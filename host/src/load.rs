@@ -5,6 +5,31 @@
 //! `robots[2].initial: expected 7 joint values for model kinova_gen3, got 6`. Input beyond
 //! the core's capacities is refused with the capacity's name, never truncated. Rules that
 //! need a problem and a solution together are the validator's ([`crate::validate`]).
+//!
+//! ```
+//! use omcbsa::load;
+//! use omcbsa::models::{Fleet, DOF};
+//!
+//! // Four rules broken at once: a negative dt, an unknown model, an initial configuration
+//! // of the wrong length, and one missing (with two robots and one hand, either may have to
+//! // hold where it stands). All four are reported, each at its field.
+//! let text = r#"{
+//!   "format": "omcbsa.problem.v1", "name": "bad", "dt": -0.1,
+//!   "robots": [
+//!     {"name": "a", "model": "ur5", "base": {"position": [0, 0, 0], "quat_xyzw": [0, 0, 0, 1]}},
+//!     {"name": "b", "model": "kinova_gen3", "initial": [0, 0, 0],
+//!      "base": {"position": [1, 0, 0], "quat_xyzw": [0, 0, 0, 1]}}],
+//!   "trajectories": [{"name": "hand", "poses": [
+//!     {"position": [0.5, 0, 0.4], "quat_xyzw": [1, 0, 0, 0]}]}]
+//! }"#;
+//! let file = load::parse_problem(text).unwrap(); // the JSON's shape is right
+//! let err = load::problem::<Fleet, DOF>(&file).unwrap_err();
+//! assert!(err.has("dt", "must be > 0"));
+//! assert!(err.has("robots[0].model", "unknown model \"ur5\""));
+//! assert!(err.has("robots[1].initial", "expected 7"));
+//! assert!(err.has("robots[0].initial", "missing"));
+//! assert_eq!(err.errors.len(), 4, "{err}");
+//! ```
 
 use std::collections::hash_map::{Entry, HashMap};
 use std::io::Read;
@@ -99,7 +124,7 @@ pub fn parse_solution(text: &str) -> Result<SolutionFile, InputError> {
 /// `format` first means a file of another format is reported as such, not as a list of
 /// unexpected fields. Neither pass builds a generic JSON tree: a tree costs up to 16 times
 /// the text's size, the typed value about as much as the text.
-fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError> {
+pub(crate) fn parse<T: DeserializeOwned>(text: &str, format: &str) -> Result<T, InputError> {
     /// Only `format`, borrowed unparsed; every other field is skipped.
     #[derive(serde::Deserialize)]
     #[serde(rename = "JSON object")]
@@ -178,7 +203,29 @@ fn model_id<M: Models<D>, const D: usize>(
 }
 
 /// Checks every value of a problem file whose robots use models of `M` and converts it into
-/// the core's fixed-capacity problem, each robot's model an index into `M`.
+/// the core's fixed-capacity problem, each robot's model an index into `M`. Every broken rule
+/// is reported at its field (the module's example); input beyond a capacity
+/// ([`MAX_ROBOTS`], [`MAX_STEPS`], [`MAX_OBSTACLES`], [`MAX_TOOL_CAPSULES`]) is refused with
+/// the capacity's name, never truncated.
+///
+/// ```
+/// use omcbsa::load;
+/// use omcbsa::models::{Fleet, DOF};
+///
+/// let text = r#"{
+///   "format": "omcbsa.problem.v1", "name": "one", "dt": 0.1,
+///   "robots": [{"name": "arm", "model": "panda",
+///               "base": {"position": [0, 0, 0], "quat_xyzw": [0, 0, 0, 1]}}],
+///   "trajectories": [{"name": "hand", "poses": [
+///     {"position": [0.5, 0, 0.4], "quat_xyzw": [1, 0, 0, 0]},
+///     {"position": [0.5, 0, 0.41], "quat_xyzw": [1, 0, 0, 0]}]}]
+/// }"#;
+/// let problem = load::problem::<Fleet, DOF>(&load::parse_problem(text).unwrap()).unwrap();
+/// assert_eq!(problem.horizon(), 2);
+/// // `panda` is an alias of `franka_panda`, model 1 of the fleet.
+/// assert_eq!(problem.robots[0].model, 1);
+/// assert!((problem.trajectories[0][1].pos.z - 0.41).abs() < 1e-12);
+/// ```
 pub fn problem<M: Models<D>, const D: usize>(file: &ProblemFile) -> Result<Problem<D>, InputError> {
     let mut errors = Errors::default();
 
@@ -444,7 +491,8 @@ pub fn joint_values<M: Models<D>, const D: usize>(
     ok.then_some(q)
 }
 
-fn obstacle(i: usize, spec: &ObstacleSpec, errors: &mut Errors) -> Option<Obstacle> {
+/// Checks obstacle `i` of a file (the fields its shape needs, sizes, pose) and converts it.
+pub fn obstacle(i: usize, spec: &ObstacleSpec, errors: &mut Errors) -> Option<Obstacle> {
     let path = format!("obstacles[{i}]");
     let shape_name = spec.shape.as_str();
     let needs: &[&str] = match spec.shape {

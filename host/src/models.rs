@@ -18,11 +18,20 @@ pub const DOF: usize = 7;
 
 /// One of [`Fleet`]'s models, by its index there. The default is the first compiled in
 /// (`kinova_gen3`, the arm of the demo and of the benchmark families that name none).
+///
+/// ```
+/// use omcbsa::models::ModelKind;
+///
+/// assert_eq!(ModelKind::default().name(), "kinova_gen3");
+/// assert_eq!(ModelKind::parse("panda").unwrap().name(), "franka_panda");
+/// let err = ModelKind::parse("ur5").unwrap_err();
+/// assert!(err.contains("compiled in: kinova_gen3, franka_panda"), "{err}");
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct ModelKind(u8);
 
 impl ModelKind {
-    /// Short names accepted besides [`ModelKind::name`] (the issue's and Franka's own).
+    /// Short names accepted besides [`ModelKind::name`] (Franka's own short name).
     const ALIASES: [(&'static str, &'static str); 1] = [("panda", "franka_panda")];
 
     /// Every model, in index order.

@@ -3,28 +3,22 @@
 
 use std::time::Instant;
 
-use crate::approach::{check_initial, describe_miss, MAX_APPROACH};
-use crate::assignment::AssignmentRule;
-use crate::error::InputError;
+use crate::approach::{describe_miss, MAX_APPROACH};
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
 };
-use crate::load;
 use crate::models::Fleet;
-use crate::validate::validate;
 use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
     CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
     IkTracking, IkTrackingParams,
 };
 use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
-use omcbsa_core::embody::{solve_from_initial, Embodied};
-use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
+use omcbsa_core::embody::{run_planner, solve_from_initial, Embodied, Embodiment};
+use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status, Until};
 use omcbsa_core::pp::{Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
-use omcbsa_core::search::{
-    Node, OmegaParams, OpenEntry, PointConstraint, Slot, StartIk, Workspace,
-};
+use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk, Workspace};
 
 pub use omcbsa_core::planner::PlannerKind;
 
@@ -61,11 +55,17 @@ pub use crate::models::DOF;
 /// `H * 56` per pooled path; composite A* about 490 per node.
 #[derive(Clone, Copy, Debug)]
 pub struct Capacities {
+    /// Ω-A*'s search nodes (112 bytes each with the OPEN list and table).
     pub search_nodes: usize,
+    /// Ω-CBSA's constraint-tree nodes (about 220 bytes each).
     pub ct_nodes: usize,
+    /// Ω-CBSA's pooled paths (`H * 56` bytes each).
     pub path_slots: usize,
+    /// Point constraints on the robot being replanned (Ω-CBSA).
     pub constraints: usize,
+    /// Composite A*'s nodes (about 490 bytes each).
     pub composite_nodes: usize,
+    /// PP-Descartes' IK samples per pose.
     pub descartes_samples: usize,
     /// RRT-Connect nodes of the approach (both trees; `robots * 56 + 4` bytes each).
     pub approach_nodes: usize,
@@ -96,7 +96,9 @@ pub const START_CACHE_ENTRIES: usize = 1 << 16;
 /// What a planning run produced.
 #[derive(Clone, Debug)]
 pub struct Outcome {
+    /// How planning ended.
     pub status: Status,
+    /// Wall time of the run, approach included, s.
     pub planning_time_s: f64,
     /// Per robot: the trajectory tracked, `None` when holding (meaningful when solved).
     pub assignment: Vec<Option<usize>>,
@@ -105,13 +107,16 @@ pub struct Outcome {
     /// Per robot: the approach from `initial` to `joint_paths[i][0]` (only when solved and
     /// every robot has `initial`; then the same length for every robot, possibly 0).
     pub approach: Option<Vec<Vec<[f64; DOF]>>>,
+    /// How the approach was found.
     pub approach_info: ApproachInfo,
+    /// The planner's counters over all its runs.
     pub stats: Stats,
 }
 
 /// How the approach of a run was found.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ApproachInfo {
+    /// Which approach planner found it.
     pub method: Method,
     /// Configurations per robot.
     pub steps: usize,
@@ -129,6 +134,7 @@ pub struct ApproachInfo {
 pub struct WallClock(Instant);
 
 impl WallClock {
+    /// A clock reading 0 now.
     pub fn start() -> Self {
         WallClock(Instant::now())
     }
@@ -140,7 +146,10 @@ impl Clock for WallClock {
     }
 }
 
-/// All pools of all planners, allocated once and reused run after run.
+/// All pools of all planners, allocated once and reused run after run: about 50 MB with the
+/// default [`Capacities`], plus `path_slots * max_h * 56` bytes of pooled paths (used by
+/// [`crate::plan::plan_loaded`]). A pool that runs out ends the run with
+/// [`Status::OutOfMemory`] naming it.
 pub struct Storage {
     /// Ω-CBSA's settings (the paper's by default).
     pub cbs_params: CbsParams,
@@ -194,13 +203,7 @@ impl Storage {
             tree_parent: vec![0; caps.approach_nodes],
             waypoints: vec![[0.0; DOF]; caps.approach_waypoints * MAX_ROBOTS],
             approach_out: vec![[0.0; DOF]; MAX_APPROACH * MAX_ROBOTS],
-            last: Embodied {
-                status: Status::Timeout,
-                approach: Default::default(),
-                attempts: 0,
-                last_miss: None,
-                approach_seconds: 0.0,
-            },
+            last: Embodied::ended(Status::Timeout, 0),
             nodes: vec![Node::default(); caps.search_nodes],
             open: vec![OpenEntry::default(); 2 * caps.search_nodes],
             table: vec![Slot::default(); (2 * caps.search_nodes).next_power_of_two()],
@@ -227,7 +230,7 @@ impl Storage {
         }
     }
 
-    /// Runs planner `name` on `problem`, the approach from where the arms stand included
+    /// Runs planner `kind` on `problem`, the approach from where the arms stand included
     /// ([`omcbsa_core::embody`]); this call allocates nothing but the returned [`Outcome`]'s
     /// vectors, after the core call.
     pub fn solve(
@@ -237,20 +240,22 @@ impl Storage {
         timeout_s: f64,
     ) -> Result<Outcome, String> {
         let clock = WallClock::start();
-        let mut stats = Stats::default();
-        let (status, assignment) = self.solve_core(kind, problem, &clock, timeout_s, &mut stats)?;
+        let ran = self.solve_core(kind, problem, Until::new(&clock, timeout_s))?;
         let planning_time_s = clock.seconds();
         let h = problem.horizon();
         let n = problem.robots.len();
-        let solved = status == Status::Solved;
+        let solved = ran.status == Status::Solved;
         let last = self.last;
         let with_approach =
             self.with_approach && solved && problem.robots.iter().all(|r| r.initial.is_some());
         let a = last.approach.len;
         Ok(Outcome {
-            status,
+            status: ran.status,
             planning_time_s,
-            assignment: assignment[..n].iter().map(|a| a.map(usize::from)).collect(),
+            assignment: ran.assignment[..n]
+                .iter()
+                .map(|a| a.map(usize::from))
+                .collect(),
             joint_paths: if solved {
                 (0..n)
                     .map(|i| self.out[i * h..(i + 1) * h].to_vec())
@@ -275,63 +280,66 @@ impl Storage {
                 attempts: last.attempts,
                 last_miss: last.last_miss.filter(|_| !solved),
             },
-            stats,
+            stats: ran.stats,
         })
     }
 
-    /// The core call alone (no allocation happens in it): the status and the assignment; the
-    /// paths are left in this storage, the approach too ([`Storage::last`]).
+    /// The core call alone (no allocation happens in it), until `until`: the status, the
+    /// assignment and the counters; the paths are left in this storage, the approach too
+    /// ([`Storage::last`]).
     pub fn solve_core(
         &mut self,
         kind: PlannerKind,
         problem: &Problem<DOF>,
-        clock: &dyn Clock,
-        timeout_s: f64,
-        stats: &mut Stats,
-    ) -> Result<(Status, [Option<u8>; MAX_ROBOTS]), String> {
+        until: Until<'_>,
+    ) -> Result<Ran, String> {
         let h = problem.horizon();
-        if h * MAX_ROBOTS > self.out.len() || h > self.width.len() {
+        if h > self.max_horizon() {
             return Err(format!(
                 "horizon {h} is longer than this storage was made for ({})",
-                self.width.len()
+                self.max_horizon()
             ));
         }
         copy_problem(&mut self.problem, problem);
-        let mut out = Solution::new(&mut self.out);
-        let mut rest = Rest {
+        let n = problem.robots.len();
+        let mut req = Embodiment {
             problem: &mut self.problem,
+            until,
+            out: Solution::new(&mut self.out),
+            stats: Stats::default(),
             approach: ApproachStorage {
                 tree: &mut self.tree,
                 parent: &mut self.tree_parent,
                 waypoints: &mut self.waypoints,
             },
-            approach_out: &mut self.approach_out,
-            params: &self.approach_params,
-            with_approach: self.with_approach,
-            clock,
-            timeout_s,
+            // Robot `i`'s approach from `i * MAX_APPROACH`, as `Storage::solve` reads it.
+            approach_out: &mut self.approach_out[..n * MAX_APPROACH],
+            params: self.approach_params,
         };
-        let omega = OmegaParams::default();
+        let with_approach = self.with_approach;
         let last = match kind {
             PlannerKind::OmCbsa => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let st = CbsStorage {
                     nodes: &mut self.ct_nodes,
                     open: &mut self.ct_open,
-                    paths: &mut self.paths,
+                    // The same number of paths whatever horizon the storage was made for, so
+                    // that every caller (plan, bench, Python) gets the same search.
+                    paths: &mut self.paths[..self.caps.path_slots * h],
                     scratch: &mut self.scratch,
                     points: &mut self.points,
                     starts: &mut self.starts,
                 };
                 let mut p = OmegaCbsa::new(self.cbs_params, ws, st);
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             // Ω-A* alone is prioritised planning with one robot.
-            PlannerKind::OmegaAstar if problem.robots.len() != 1 => {
-                rest.refuse(Status::InvalidProblem(
+            PlannerKind::OmegaAstar if n != 1 => Embodied::ended(
+                Status::InvalidProblem(
                     "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
-                ))
-            }
+                ),
+                0,
+            ),
             PlannerKind::Pp | PlannerKind::PpSingle | PlannerKind::OmegaAstar => {
                 let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
                 let v = if kind == PlannerKind::PpSingle {
@@ -339,14 +347,16 @@ impl Storage {
                 } else {
                     Variant::MultiGoal
                 };
+                // Ω-A*'s settings are Ω-CBSA's low level's, so both plan alike online.
+                let omega = self.cbs_params.low;
                 let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::IkTracking => {
                 let mut p = IkTracking {
                     params: IkTrackingParams::default(),
                 };
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::Descartes => {
                 let st = DescartesStorage {
@@ -360,7 +370,7 @@ impl Storage {
                     ..DescartesParams::default()
                 };
                 let mut p = Descartes::new(params, st);
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::CompositeAstar => {
                 let mut p = CompositeAstar::new(
@@ -368,17 +378,46 @@ impl Storage {
                     &mut self.composite,
                     &mut self.open,
                 );
-                rest.run(&mut p, &mut out, stats)
+                embody(&mut p, &mut req, with_approach)
             }
         };
+        let ran = Ran {
+            status: last.status,
+            assignment: req.out.assignment,
+            stats: req.stats,
+        };
         self.last = last;
-        Ok((last.status, out.assignment))
+        Ok(ran)
+    }
+
+    /// The longest horizon these pools plan.
+    pub fn max_horizon(&self) -> usize {
+        self.width.len()
     }
 
     /// How the last [`Storage::solve_core`] ended: the approach (in this storage, robot `i`'s
     /// from index `i * MAX_APPROACH`), the planner runs, the last approach missed.
     pub fn last(&self) -> &Embodied {
         &self.last
+    }
+}
+
+/// Pools kept from call to call, made anew (the old ones dropped first) when a problem with a
+/// longer horizon comes: allocating them (tens of MB) costs more than planning a small
+/// problem. Every caller that plans problem after problem (the benchmark's workers, Python's
+/// `plan`) keeps one; with [`Storage::solve_core`]'s sizing rule the answer does not depend
+/// on the horizon the pools were made for.
+#[derive(Default)]
+pub struct Pools(Option<Storage>);
+
+impl Pools {
+    /// Storage with the default capacities for horizons of at least `h`.
+    pub fn for_horizon(&mut self, h: usize) -> &mut Storage {
+        if self.0.as_ref().is_some_and(|s| s.max_horizon() < h) {
+            self.0 = None;
+        }
+        self.0
+            .get_or_insert_with(|| Storage::new(Capacities::default(), h))
     }
 }
 
@@ -399,54 +438,28 @@ fn copy_problem(to: &mut Problem<DOF>, from: &Problem<DOF>) {
     }
 }
 
-/// What every planner's run shares: the problem, the approach's storage and the deadline.
-struct Rest<'a> {
-    problem: &'a mut Problem<DOF>,
-    approach: ApproachStorage<'a, DOF>,
-    approach_out: &'a mut [[f64; DOF]],
-    params: &'a ApproachParams,
-    with_approach: bool,
-    clock: &'a dyn Clock,
-    timeout_s: f64,
+/// How a core call ended (see [`Storage::solve_core`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Ran {
+    /// How planning ended.
+    pub status: Status,
+    /// Per robot, the trajectory it tracks (`None`: it holds), when solved.
+    pub assignment: [Option<u8>; MAX_ROBOTS],
+    /// The planner's counters over all its runs.
+    pub stats: Stats,
 }
 
-impl Rest<'_> {
-    fn run<P: Planner<Fleet, DOF>>(
-        &mut self,
-        planner: &mut P,
-        out: &mut Solution<'_, DOF>,
-        stats: &mut Stats,
-    ) -> Embodied {
-        if !self.with_approach {
-            let status = planner.solve(self.problem, self.clock, self.timeout_s, out, stats);
-            return Embodied {
-                attempts: 1,
-                ..self.refuse(status)
-            };
-        }
-        let n = self.problem.robots.len();
-        solve_from_initial::<Fleet, P, DOF>(
-            planner,
-            self.problem,
-            self.clock,
-            self.timeout_s,
-            out,
-            &mut self.approach,
-            // Robot `i`'s approach from `i * MAX_APPROACH`, as `Storage::solve` reads it.
-            &mut self.approach_out[..n * MAX_APPROACH],
-            self.params,
-            stats,
-        )
-    }
-
-    fn refuse(&self, status: Status) -> Embodied {
-        Embodied {
-            status,
-            approach: Default::default(),
-            attempts: 0,
-            last_miss: None,
-            approach_seconds: 0.0,
-        }
+/// Runs `planner` on `req`, with the approach from where the arms stand when `with_approach`
+/// (else the planner alone, its plan beginning wherever it chose).
+fn embody<P: Planner<Fleet, DOF>>(
+    planner: &mut P,
+    req: &mut Embodiment<'_, DOF>,
+    with_approach: bool,
+) -> Embodied {
+    if with_approach {
+        solve_from_initial::<Fleet, P, DOF>(planner, req)
+    } else {
+        Embodied::ended(run_planner::<Fleet, P, DOF>(planner, req), 1)
     }
 }
 
@@ -536,94 +549,4 @@ impl Outcome {
             stats,
         }
     }
-}
-
-/// Plans a problem file with planner `kind` and returns its solution file. A plan the planner
-/// calls solved is validated first; if it fails validation it is reported as not solved, with
-/// the violation in `message`, never as solved.
-pub fn plan_file(
-    file: &ProblemFile,
-    kind: PlannerKind,
-    timeout_s: f64,
-) -> Result<SolutionFile, InputOrPlanError> {
-    let problem = load_problem(file)?;
-    let mut storage = Storage::new(Capacities::default(), problem.horizon());
-    plan_loaded(&mut storage, file, &problem, kind, timeout_s)
-}
-
-/// The checked core problem of a problem file.
-pub fn load_problem(file: &ProblemFile) -> Result<Problem<DOF>, InputOrPlanError> {
-    let problem = load::problem::<Fleet, DOF>(file).map_err(InputOrPlanError::Input)?;
-    check_initial::<Fleet, DOF>(file, &problem).map_err(InputOrPlanError::Input)?;
-    Ok(problem)
-}
-
-/// [`plan_file`] on a loaded problem with storage the caller keeps from run to run (made for
-/// horizons of at least `problem`'s).
-pub fn plan_loaded(
-    storage: &mut Storage,
-    file: &ProblemFile,
-    problem: &Problem<DOF>,
-    kind: PlannerKind,
-    timeout_s: f64,
-) -> Result<SolutionFile, InputOrPlanError> {
-    plan_assigned(
-        storage,
-        file,
-        problem,
-        kind,
-        timeout_s,
-        &AssignmentRule::Free,
-    )
-}
-
-/// [`plan_loaded`] under an assignment rule, checked here (errors at `assignment`).
-pub fn plan_assigned(
-    storage: &mut Storage,
-    file: &ProblemFile,
-    problem: &Problem<DOF>,
-    kind: PlannerKind,
-    timeout_s: f64,
-    rule: &AssignmentRule,
-) -> Result<SolutionFile, InputOrPlanError> {
-    rule.check(
-        "assignment",
-        problem.robots.len(),
-        problem.trajectories.len(),
-    )
-    .map_err(InputOrPlanError::Input)?;
-    let outcome = match rule {
-        AssignmentRule::Free => storage.solve(kind, problem, timeout_s),
-        _ => crate::assignment::solve(
-            storage,
-            kind,
-            &mut Box::new(problem.clone()),
-            rule,
-            timeout_s,
-        ),
-    }
-    .map_err(InputOrPlanError::Plan)?;
-    let mut solution = outcome.to_solution_file(file, kind.name());
-    if solution.status == FileStatus::Solved {
-        let report = validate::<Fleet, DOF>(file, problem, &solution);
-        if !report.is_valid() {
-            solution.status = FileStatus::NoSolution;
-            solution.message = format!(
-                "planner bug: its plan failed validation: {}",
-                report.summary()
-            );
-            solution.joint_paths = None;
-        }
-    }
-    Ok(solution)
-}
-
-/// Why [`plan_file`] gave no solution file.
-#[derive(Debug)]
-pub enum InputOrPlanError {
-    /// The problem file breaks the spec.
-    Input(InputError),
-    /// The request cannot run (storage too small for the horizon, a workspace that cannot be
-    /// made).
-    Plan(String),
 }

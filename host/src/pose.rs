@@ -12,6 +12,23 @@ pub const QUAT_NORM_TOLERANCE: f64 = 1e-6;
 
 /// Checks a pose (finite numbers, unit quaternion) and converts it. Error paths are relative
 /// to the pose (`quat_xyzw`, `position[2]`).
+///
+/// ```
+/// use omcbsa::format::Pose;
+/// use omcbsa::pose::{from_frame, to_frame};
+///
+/// // Half a turn about x: the tool's z axis points down.
+/// let down = Pose { position: [0.5, 0.0, 0.4], quat_xyzw: [1.0, 0.0, 0.0, 0.0] };
+/// let frame = to_frame(&down).unwrap();
+/// assert!((frame.rot[(2, 2)] + 1.0).abs() < 1e-12);
+/// assert_eq!(from_frame(&frame), down);
+///
+/// // A quaternion that is not a unit one is refused, not normalised.
+/// let err = to_frame(&Pose { quat_xyzw: [1.0, 0.0, 0.0, 0.1], ..down }).unwrap_err();
+/// assert_eq!(err.path, "quat_xyzw");
+/// let err = to_frame(&Pose { position: [0.5, f64::NAN, 0.4], ..down }).unwrap_err();
+/// assert_eq!(err.path, "position[1]");
+/// ```
 pub fn to_frame(pose: &Pose) -> Result<Frame, FieldError> {
     finite(&pose.position).map_err(|e| e.within("position"))?;
     finite(&pose.quat_xyzw).map_err(|e| e.within("quat_xyzw"))?;

@@ -29,10 +29,15 @@ pub const MOTION_CHECK_SPACING: f64 = 0.002;
 pub enum Rule {
     /// Not a solved solution of this problem.
     Solution,
+    /// Rule 1: a joint outside its limits.
     JointLimits,
+    /// Rule 2: a tool centre point off its pose.
     Tracking,
+    /// Rule 3: a joint faster than its velocity limit.
     Velocity,
+    /// Rule 4: a collision, at a step or between two.
     Collision,
+    /// Rule 5: an assignment that is not one robot per trajectory.
     Assignment,
 }
 
@@ -76,6 +81,7 @@ pub enum Phase {
 /// One broken rule.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Violation {
+    /// The rule broken.
     pub rule: Rule,
     /// The robot (index into `robots`) the violation is about, if one.
     pub robot: Option<usize>,
@@ -125,6 +131,7 @@ pub struct Report {
 }
 
 impl Report {
+    /// Whether no rule is broken.
     pub fn is_valid(&self) -> bool {
         self.violations.is_empty()
     }
@@ -179,7 +186,60 @@ impl Report {
 }
 
 /// Checks `solution` against `problem` (the checked file and its converted form) for robots of
-/// model `M`.
+/// model `M`. Every violation is listed (up to [`MAX_VIOLATIONS`], then counted) with its
+/// rule, robot and step; the validator shares no code path with the planners' search.
+///
+/// ```
+/// use omcbsa::format::{Pose, ProblemFile, RobotSpec, SolutionFile, Status, TrajectorySpec};
+/// use omcbsa::format::{PROBLEM_FORMAT, SOLUTION_FORMAT};
+/// use omcbsa::models::{Fleet, DOF};
+/// use omcbsa::validate::{validate, Rule};
+/// use omcbsa::{load, pose};
+/// use omcbsa_core::model::{KinovaGen3, Model};
+///
+/// // A Gen3 whose hand must stay where it is for three steps.
+/// let q = [0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0];
+/// let hand = pose::from_frame(&KinovaGen3::fk(&q));
+/// let file = ProblemFile {
+///     format: PROBLEM_FORMAT.to_string(),
+///     name: "still".to_string(),
+///     dt: 0.1,
+///     robots: vec![RobotSpec {
+///         name: "arm".to_string(),
+///         model: "kinova_gen3".to_string(),
+///         base: Pose::IDENTITY,
+///         initial: None,
+///         tcp: None,
+///         tool: None,
+///     }],
+///     trajectories: vec![TrajectorySpec { name: "hand".to_string(), poses: vec![hand; 3] }],
+///     obstacles: Vec::new(),
+///     tolerance: Default::default(),
+/// };
+/// let problem = load::problem::<Fleet, DOF>(&file).unwrap();
+/// let mut solution = SolutionFile {
+///     format: SOLUTION_FORMAT.to_string(),
+///     problem: "still".to_string(),
+///     planner: "by hand".to_string(),
+///     status: Status::Solved,
+///     message: String::new(),
+///     planning_time_s: 0.0,
+///     assignment: vec![Some(0)],
+///     joint_paths: Some(vec![vec![q.to_vec(); 3]]),
+///     approach: None,
+///     stats: Default::default(),
+/// };
+/// assert!(validate::<Fleet, DOF>(&file, &problem, &solution).is_valid());
+///
+/// // Joint 2 jumps 0.5 rad at step 1: too fast (rule 3), and the hand leaves its pose (2).
+/// solution.joint_paths.as_mut().unwrap()[0][1][1] += 0.5;
+/// let report = validate::<Fleet, DOF>(&file, &problem, &solution);
+/// let broke = |rule, step| {
+///     (report.violations.iter()).any(|v| v.rule == rule && v.step == Some(step))
+/// };
+/// assert!(broke(Rule::Velocity, 0) && broke(Rule::Velocity, 1) && broke(Rule::Tracking, 1));
+/// assert!(!report.is_valid() && report.summary().starts_with("invalid: "));
+/// ```
 pub fn validate<M: Models<D>, const D: usize>(
     file: &ProblemFile,
     problem: &Problem<D>,

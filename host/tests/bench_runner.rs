@@ -12,7 +12,7 @@ use omcbsa::format::{
 use omcbsa::pose::from_frame;
 use omcbsa::suite::{SuiteEntry, SuiteIndex, INDEX_FILE, INDEX_FORMAT};
 use omcbsa_core::model::{KinovaGen3, Model};
-use omcbsa_core::problem::Problem;
+use omcbsa_core::problem::{Assigned, Problem};
 
 /// Kinova's home configuration: clear of itself.
 const HOME: [f64; 7] = [0.0, 0.26, 3.1, -2.27, 0.0, 0.96, 1.57];
@@ -67,6 +67,7 @@ fn write_suite(dir: &Path, n: usize) {
             witness_method: None,
             stance: None,
             straight_bridge_collides: None,
+            assignment: None,
         });
     }
     let index = SuiteIndex {
@@ -371,4 +372,111 @@ fn a_report_of_runs_made_elsewhere_runs_nothing() {
         summary(here.path()).replace(&here.path().display().to_string(), "OUT")
     );
     assert_eq!(report.plots.len(), 12);
+}
+
+/// Two Gen3s 3 m apart at HOME and one hand where robot 0's HOME puts it; `assignment` in the
+/// index fixes it to robot 1.
+fn write_fixed_suite(dir: &Path, assignment: Vec<Option<usize>>) {
+    let mut p = problem("fixed", 2);
+    let mut far = p.robots[0].clone();
+    far.name = "far".to_string();
+    far.base.position = [3.0, 0.0, 0.0];
+    p.robots.push(far);
+    for r in &mut p.robots {
+        r.initial = Some(HOME.to_vec());
+    }
+    std::fs::write(dir.join("fixed.json"), serde_json::to_string(&p).unwrap()).unwrap();
+    let index = SuiteIndex {
+        format: INDEX_FORMAT.to_string(),
+        seed: 0,
+        problems: vec![SuiteEntry {
+            name: "fixed".to_string(),
+            file: "fixed.json".to_string(),
+            family: "fixed".to_string(),
+            layout: "pair".to_string(),
+            robots: 2,
+            trajectories: 1,
+            horizon: 2,
+            known_solvable: false,
+            seed: 0,
+            redraws: 0,
+            witness: None,
+            witness_method: None,
+            stance: None,
+            straight_bridge_collides: None,
+            assignment: Some(assignment),
+        }],
+        undrawn: Vec::new(),
+    };
+    std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
+}
+
+/// Robot 0 tracks the hand (a valid plan), robot 1 holds, whatever the problem fixes; it
+/// reports the assignment the problem handed it as the message.
+fn robot0_tracks(
+    planner: &str,
+    file: &ProblemFile,
+    problem: &Problem<7>,
+    timeout: f64,
+) -> Result<SolutionFile, String> {
+    let mut s = fake("good", file, problem, timeout)?;
+    s.planner = planner.to_string();
+    s.assignment = vec![Some(0), None];
+    s.joint_paths = Some(vec![vec![HOME.to_vec(); 2]; 2]);
+    let assigned: Vec<Assigned> = problem.robots.iter().map(|r| r.assigned).collect();
+    s.message = format!("{assigned:?}");
+    Ok(s)
+}
+
+#[test]
+fn a_fixed_assignment_is_planned_under_and_checked() {
+    // Fixed as the plan goes: the planner is handed it, and the plan counts.
+    let suite = tempfile::tempdir().unwrap();
+    let out = tempfile::tempdir().unwrap();
+    write_fixed_suite(suite.path(), vec![Some(0), None]);
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
+    let rows = read_rows(&report.results_path);
+    assert_eq!(
+        (rows[0].success, rows[0].valid),
+        (true, Some(true)),
+        "{:?}",
+        rows[0]
+    );
+    assert_eq!(rows[0].message, "[Track(0), Hold]");
+
+    // Fixed the other way: a valid plan under another assignment is not a success.
+    let out = tempfile::tempdir().unwrap();
+    write_fixed_suite(suite.path(), vec![None, Some(0)]);
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
+    let rows = read_rows(&report.results_path);
+    assert_eq!(
+        (rows[0].success, rows[0].valid),
+        (false, Some(false)),
+        "{:?}",
+        rows[0]
+    );
+    assert!(
+        rows[0]
+            .message
+            .contains("the plan's assignment [Some(0), None] is not the fixed [None, Some(0)]"),
+        "{}",
+        rows[0].message
+    );
+
+    // An assignment that does not fit the problem is an error of the suite, named.
+    let out = tempfile::tempdir().unwrap();
+    write_fixed_suite(suite.path(), vec![Some(1), None]);
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &robot0_tracks).unwrap();
+    let rows = read_rows(&report.results_path);
+    assert_eq!(rows[0].status, "error");
+    assert!(
+        rows[0]
+            .message
+            .contains("suite.json: fixed: assignment[0]: hand 1 does not exist"),
+        "{}",
+        rows[0].message
+    );
 }

@@ -291,7 +291,7 @@ fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
     );
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(
-        table.contains("| 2 | 64 / 16 (lead 0) | 2 | 100.0 %"),
+        table.contains("| 2 | 64 / 16 (lead 0) | 2 | 0 | 100.0 %"),
         "{table}"
     );
     assert!(table.contains("whole windows (reference)"), "{table}");
@@ -323,6 +323,22 @@ fn bench_online_runs_the_bimanual_family_and_refuses_mixed_options() {
         ],
         &["bench-online", "/nonexistent", "--hz", "50"],
         &["bench-online"],
+        &[
+            "bench-online",
+            "--family",
+            "bimanual",
+            "--dir",
+            "data/aloha_sim",
+        ],
+        &[
+            "bench-online",
+            "--family",
+            "aloha-sim",
+            "--dir",
+            "/nonexistent",
+        ],
+        &["bench-online", "--family", "aloha-sim", "--layouts", "ring"],
+        &["bench-online", "--family", "aloha-sim", "--hz", "30"],
     ] {
         let out = omcbsa(bad, "");
         assert_eq!(out.status.code(), Some(2), "{bad:?}");

@@ -8,7 +8,7 @@ use omcbsa::demo::{box_flip, NAME, ROBOTS, STEPS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::load;
-use omcbsa::planners::plan_file;
+use omcbsa::plan::plan_file;
 
 #[test]
 fn demo_problem_is_made_from_a_valid_witness_and_planned_by_omcbsa() {

@@ -8,7 +8,8 @@ use omcbsa::format::{
 };
 use omcbsa::load;
 use omcbsa::models::{Fleet, ModelKind, DOF};
-use omcbsa::planners::{plan_file, PlannerKind};
+use omcbsa::plan::plan_file;
+use omcbsa::planners::PlannerKind;
 use omcbsa::pose;
 use omcbsa::validate::validate;
 use omcbsa_core::model::{KinovaGen3, Models};
@@ -148,7 +149,7 @@ fn omega_astar_solves_a_panda() {
 #[test]
 fn each_arm_is_executed_within_its_own_models_limits() {
     use omcbsa::execute::CheckedSolution;
-    use omcbsa_hw::{link::ArmPorts, ExecConfig, Executor};
+    use omcbsa_hw::{ArmPorts, ExecConfig, Executor};
     let file = mixed(&TWO_AND_TWO, 8);
     let solution = plan_file(&file, PlannerKind::OmCbsa, 20.0).unwrap();
     assert_eq!(solution.status, Status::Solved, "{}", solution.message);

@@ -29,7 +29,6 @@ fn run(
         let report = e
             .push_chunk(chunk.start_step, &chunk.hands)
             .unwrap_or_else(|err| panic!("chunk {c}: {err}"));
-        rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
         assert_eq!(Some(report.index), e.timeline_index(chunk.start_step));
     }
 }
@@ -166,7 +165,6 @@ fn a_chunk_after_a_hold_is_reached_by_an_approach() {
         (end..report.index).any(|t| (0..3).any(|i| e.configuration(i, t).unwrap() != hold[i]));
     assert!(moved, "no approach between the hold and the chunk");
     assert_eq!(report.dropped as u64, report.start_step - chunk.start_step);
-    rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
     rec.send(&e, e.end());
     let (problem, solution) = rec.files(&policy.setup(), &e).unwrap();
     let core = omcbsa::load::problem::<KinovaGen3, DOF>(&problem).unwrap();

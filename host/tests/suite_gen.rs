@@ -14,7 +14,7 @@ use omcbsa::suite::{
     gen_bench, gen_refine, read_index, GenOptions, RefineOptions, Tightness, INDEX_FILE,
 };
 use omcbsa::validate::validate;
-use omcbsa_core::planner::{NoClock, Stats, Status};
+use omcbsa_core::planner::{NoClock, Status, Until};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
 /// Two problems per family: 16 problems, every family, several layouts and arm counts.
@@ -262,18 +262,15 @@ fn refine_family_problems_have_witnesses_and_exhaust_level_0() {
         if problem.robots.iter().all(|r| r.initial.is_some()) {
             assert!(witness.approach.is_some(), "{}: no approach", entry.name);
         }
-        let mut stats = Stats::default();
-        let (status, _) = storage
+        let ran = storage
             .solve_core(
                 omcbsa::planners::PlannerKind::OmCbsa,
                 &problem,
-                &NoClock,
-                f64::INFINITY,
-                &mut stats,
+                Until::never(&NoClock),
             )
             .unwrap();
         assert_eq!(
-            (status, stats.reason),
+            (ran.status, ran.stats.reason),
             (Status::NoSolution, Some(LEVEL_CAP)),
             "{}",
             entry.name

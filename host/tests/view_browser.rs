@@ -312,7 +312,7 @@ fn the_approach_is_played_before_the_path() {
         r.initial = Some(RETRACT.to_vec());
     }
     let solution =
-        omcbsa::planners::plan_file(&problem, omcbsa::planners::PlannerKind::OmCbsa, 10.0).unwrap();
+        omcbsa::plan::plan_file(&problem, omcbsa::planners::PlannerKind::OmCbsa, 10.0).unwrap();
     let approach = solution.approach.clone().expect("an approach from initial");
     let a = approach[0].len();
     assert!(a > 2, "the arms stand folded away from the box");
@@ -376,7 +376,8 @@ fn the_approach_is_played_before_the_path() {
 fn a_mixed_fleet_is_drawn_each_arm_with_its_own_model() {
     use omcbsa::format::RobotSpec;
     use omcbsa::models::{Fleet, ModelKind};
-    use omcbsa::planners::{plan_file, PlannerKind};
+    use omcbsa::plan::plan_file;
+    use omcbsa::planners::PlannerKind;
     use omcbsa_core::model::Models;
     // A Gen3 and a Panda 1.2 m apart, each hand where its own arm's slow motion puts it.
     let homes = [

@@ -6,6 +6,9 @@
 //! cargo run --release -p omcbsa-hw --example kortex_loop_period -- [--seconds 10] [--rate 1000]
 //!     [--rt-priority 50|off] [--missed-cycles 2]
 
+mod common;
+
+use common::{arg, percentile};
 use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::plan::{ArmPlan, Plan, PlanValidator};
@@ -18,19 +21,6 @@ impl PlanValidator for AcceptAll {
     fn validate(&self, _plan: &Plan) -> Result<(), String> {
         Ok(())
     }
-}
-
-fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<T, String> {
-    match args.iter().position(|a| a == name) {
-        None => Ok(default),
-        Some(i) => (args.get(i + 1))
-            .and_then(|v| v.parse().ok())
-            .ok_or_else(|| format!("{name}: expected a value")),
-    }
-}
-
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
 
 fn main() -> Result<(), String> {

@@ -11,9 +11,11 @@ TPDOs with the mapping the host wrote, follows NMT commands, and produces boot-u
 EMCY messages. This file adds what the library leaves to the application: the checks a drive
 makes on its PDO configuration (CiA 301: mapping only while the PDO is invalid, mappable objects
 of the right size, at most 64 bits), the CiA 402 state machine in cyclic synchronous position
-mode, the joint model (first order), and the drive's own limit checks (Gen3 position limits in
-0x607D, velocity and acceleration over the interpolation period 0x60C2; a violating command is
-refused, recorded and answered with an EMCY), and its following-error monitoring as CiA 402 has
+mode, the joint model (first order in time, --tau: the joint moves toward its target between
+SYNCs too, and a TPDO reports where it got to by its SYNC), and the drive's own limit checks
+(Gen3 position limits in 0x607D, velocity and acceleration over the interpolation period 0x60C2;
+a violating command is refused, recorded and answered with an EMCY), and its following-error
+monitoring as CiA 402 has
 it (|target - actual| beyond the window 0x6065 for the time-out 0x6066: statusword bit 13, fault,
 EMCY 0x8611).
 
@@ -248,6 +250,7 @@ class Drive:
         self.params = None
         self.state = SWITCH_ON_DISABLED
         self.position = position
+        self.moved_at = time.monotonic()  # when `position` was last brought up to date
         self.target = round(position * COUNTS_PER_RAD)
         self.history = [self.target, self.target]  # the two previous applied targets
         self.new_target = None  # the target (counts) applied since the last SYNC
@@ -305,6 +308,7 @@ class Drive:
         if index == 0x6041:
             return self.statusword()
         if index == 0x6064:
+            self.advance()
             return round(self.position * COUNTS_PER_RAD)
         return None
 
@@ -406,6 +410,7 @@ class Drive:
         elif cw & 0x0F == 0x0F:  # enable operation
             if s in (SWITCHED_ON, QUICK_STOP_ACTIVE):
                 # CSP holds where the joint is until the first new target
+                self.advance()
                 self.target = round(self.position * COUNTS_PER_RAD)
                 self.history = [self.target, self.target]
                 self.put(0x607A, self.target)
@@ -472,9 +477,22 @@ class Drive:
         if (0x607A, 0) in decoded:
             self.new_target = decoded[(0x607A, 0)]
 
+    def advance(self):
+        """The joint model, first order in time: in operation enabled (and not lagging by
+        injection) the joint moves toward its target with the time constant --tau, between
+        SYNCs too; in any other state it holds."""
+        now = time.monotonic()
+        dt, self.moved_at = now - self.moved_at, now
+        if self.state == OPERATION_ENABLED and not self.arm.lagging():
+            k = 1.0 - math.exp(-dt / self.arm.args.tau)
+            self.position += (self.target / COUNTS_PER_RAD - self.position) * k
+
     def on_sync(self, can_id, data, timestamp):
         if not self.operational():
             return
+        # Where the joint got to, following the last target, by this SYNC: what the TPDO
+        # reports; the new target applies from here on.
+        self.advance()
         if self.pending is not None:
             self.apply(*self.pending)
             self.pending = None
@@ -490,8 +508,6 @@ class Drive:
                 self.history = [self.history[1], counts]
                 self.target = counts
         self.new_target = None
-        if self.state == OPERATION_ENABLED and not arm.lagging():
-            self.position += (self.target / COUNTS_PER_RAD - self.position) * arm.follow(period)
         if self.state == OPERATION_ENABLED and mode == MODE_CSP:
             self.watch_following_error(period, *following)
         if self.id == FAULTY_NODE:
@@ -586,9 +602,6 @@ class MockArm:
     def lagging(self):
         n = self.args.lag_after_syncs
         return n is not None and self.syncs >= n
-
-    def follow(self, period):
-        return 1.0 - math.exp(-period / self.args.tau)
 
     def boot(self):
         """Power-on: every node sends its boot-up message and enters pre-operational."""

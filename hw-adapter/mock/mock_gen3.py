@@ -9,8 +9,10 @@ here from Kinova's wire format.
 Listens on 127.0.0.1 on a free TCP and a free UDP port (or --tcp-port / --udp-port) and prints
 `PORTS <tcp> <udp>` as its first line. Serves one client: a session per link (CreateSession with
 --user / --password), KeepAlive, CloseSession, ClearFaults, SetServoingMode, ApplyEmergencyStop,
-RefreshFeedback and Refresh. Seven actuators track their position commands (first order, time
-constant --tau-ms, one step of --period-ms per command).
+RefreshFeedback and Refresh. Seven actuators follow their last position command with a
+first-order lag in time (time constant --tau-ms): they keep moving between commands, and a
+feedback reports where they are when it is sent; an arm in fault, in emergency stop, out of
+low-level servoing or stopped for inactivity holds where it is.
 
 Refuses what a real arm refuses, with an error frame, and for a cyclic command with an actuator
 fault (fault bank A bit 0 of the actuator concerned, in every later Feedback, until ClearFaults):
@@ -24,7 +26,9 @@ Fault injection, counted in Refresh commands received in low-level servoing (1 i
 --silent-at N (no answer to anything from the Nth on), --late-at N with --late-ms D (every answer
 from the Nth on sent D ms late), --fault-at N (actuator 3 reports a fault in the Nth answer on),
 --drop-session-at N (both sessions forgotten: the Nth Refresh and every later request answered
-with INVALID_SESSION).
+with INVALID_SESSION). A slow network path: --udp-delay-ms D handles every UDP request after a
+delay drawn from [0, D] ms (--seed), in arrival order, so that a TCP request sent after it can
+be handled first.
 
 Every request and event is recorded and written, as JSON lines, to --record at exit, with
 time.monotonic() stamps (one clock for every process on the machine). The mock exits when its
@@ -32,11 +36,13 @@ client closes the TCP connection, on SIGTERM, or after --max-seconds.
 """
 
 import argparse
+import collections
 import gc
 import heapq
 import json
 import math
 import os
+import random
 import select
 import signal
 import socket
@@ -113,9 +119,11 @@ class Gen3:
     def __init__(self, args):
         self.args = args
         self.period = args.period_ms / 1000.0
-        self.alpha = 1.0 - math.exp(-args.period_ms / args.tau_ms)
+        self.tau = args.tau_ms / 1000.0
         self.position = [math.degrees(q) % 360.0 for q in args.initial]
-        self.command = list(self.position)
+        self.command = list(self.position)  # the last position command taken
+        self.goal = list(self.position)  # where the actuators head
+        self.moved_at = time.monotonic()
         self.faults = [0] * JOINTS
         self.mode = SINGLE_LEVEL
         self.estopped = False
@@ -194,11 +202,14 @@ class Gen3:
                 body = b""
             elif uid == APPLY_EMERGENCY_STOP:
                 self.estopped = True
+                self.hold()
                 self.record("estop", link=link, uid=uid)
                 body = b""
             elif uid == SET_SERVOING_MODE:
                 info = Base_pb2.ServoingModeInformation.FromString(payload)
                 self.mode = info.servoing_mode
+                if self.mode != LOW_LEVEL:
+                    self.hold()
                 self.last_frame_id = None
                 self.record("servoing", mode=self.mode)
                 body = b""
@@ -229,7 +240,21 @@ class Gen3:
                     session_inactivity_ms=info.session_inactivity_timeout)
         return b""
 
+    def advance(self):
+        """Moves every actuator toward its goal for the time passed since the last call."""
+        now = time.monotonic()
+        k = 1.0 - math.exp(-(now - self.moved_at) / self.tau) if self.tau > 0 else 1.0
+        self.moved_at = now
+        for j in range(JOINTS):
+            self.position[j] += k * wrap180(self.goal[j] - self.position[j])
+
+    def hold(self):
+        """The actuators stop where they are."""
+        self.advance()
+        self.goal = list(self.position)
+
     def feedback(self, frame_id):
+        self.advance()
         fb = BaseCyclic_pb2.Feedback(frame_id=frame_id)
         for j in range(JOINTS):
             a = fb.actuators.add()
@@ -254,6 +279,8 @@ class Gen3:
         def refuse(code, sub, why, actuators=()):
             for j in actuators:
                 self.faults[j] |= 1
+            if any(self.faults):
+                self.hold()
             self.record_refresh(payload, answer="refused", why=why)
             raise Refusal(code, sub, why)
 
@@ -288,12 +315,14 @@ class Gen3:
                            % (j + 1, speed), [j])
         if any(self.faults):
             # In fault the arm holds; the answer still reports where it is and its faults.
+            self.hold()
             self.record_refresh(payload, answer="fault")
         else:
             self.last_frame_id = c.frame_id
+            self.advance()
             for j in range(JOINTS):
                 self.command[j] = pos[j]
-                self.position[j] += self.alpha * wrap180(pos[j] - self.position[j])
+                self.goal[j] = pos[j]
             self.record_refresh(payload, answer="late" if self.late else "ok")
         return self.feedback(c.frame_id).SerializeToString()
 
@@ -304,6 +333,7 @@ class Gen3:
             limit = self.inactivity[link]
             if self.sessions[link] and limit and now - self.last_rx[link] > limit:
                 self.motion_stopped = "no frame on %s for %.3f s" % (link, now - self.last_rx[link])
+                self.hold()
                 self.record("inactivity_stop", link=link)
 
     def write_record(self):
@@ -328,8 +358,9 @@ def main():
     p.add_argument("--user", default="admin")
     p.add_argument("--password", default="admin")
     p.add_argument("--period-ms", type=float, default=1.0,
-                   help="the client's control period: one actuator step per command")
-    p.add_argument("--tau-ms", type=float, default=5.0)
+                   help="the client's control period, for the velocity check of each command")
+    p.add_argument("--tau-ms", type=float, default=5.0,
+                   help="time constant of the actuators' first-order lag behind their command")
     p.add_argument("--record")
     p.add_argument("--max-seconds", type=float, default=600.0)
     p.add_argument("--silent-at", type=int, default=0)
@@ -337,6 +368,9 @@ def main():
     p.add_argument("--late-ms", type=float, default=0.0)
     p.add_argument("--fault-at", type=int, default=0)
     p.add_argument("--drop-session-at", type=int, default=0)
+    p.add_argument("--udp-delay-ms", type=float, default=0.0,
+                   help="handle each UDP request after a delay drawn from [0, D] ms, in order")
+    p.add_argument("--seed", type=int, default=0, help="of the UDP delays")
     args = p.parse_args()
     args.initial = [float(x) for x in args.initial.split(",")]
     if len(args.initial) != JOINTS:
@@ -376,9 +410,22 @@ def main():
         elif conn is not None:
             conn.sendall(MAGIC + struct.pack(">I", len(data)) + data)
 
+    rng = random.Random(args.seed)
+    udp_in = collections.deque()  # (due, bytes, peer): UDP requests on a slow path
+
+    def handle_udp(data, peer):
+        f = Frame_pb2.Frame.FromString(data)
+        answer("udp", peer, arm.handle("udp", f.header, f.payload))
+
+    def handle_due_udp(until):
+        while udp_in and udp_in[0][0] <= until:
+            _, data, peer = udp_in.popleft()
+            handle_udp(data, peer)
+
     try:
         while not stop and time.monotonic() < deadline:
             now = time.monotonic()
+            handle_due_udp(now)
             while arm.pending and arm.pending[0][0] <= now:
                 _, _, link, peer, data = heapq.heappop(arm.pending)
                 send(link, peer, data)
@@ -386,6 +433,8 @@ def main():
             timeout = 0.05
             if arm.pending:
                 timeout = max(0.0, min(timeout, arm.pending[0][0] - now))
+            if udp_in:
+                timeout = max(0.0, min(timeout, udp_in[0][0] - now))
             socks = [listener, udp] + ([conn] if conn is not None else [])
             try:
                 ready, _, _ = select.select(socks, [], [], timeout)
@@ -404,8 +453,11 @@ def main():
                         data, peer = udp.recvfrom(65536)
                     except BlockingIOError:
                         break
-                    f = Frame_pb2.Frame.FromString(data)
-                    answer("udp", peer, arm.handle("udp", f.header, f.payload))
+                    if args.udp_delay_ms > 0:
+                        due = time.monotonic() + rng.uniform(0.0, args.udp_delay_ms) / 1000.0
+                        udp_in.append((max(due, udp_in[-1][0]) if udp_in else due, data, peer))
+                    else:
+                        handle_udp(data, peer)
             if conn is not None and conn in ready:
                 chunk = conn.recv(65536)
                 if not chunk:
@@ -413,6 +465,10 @@ def main():
                     conn.close()
                     conn = None
                     if had_client:
+                        # Requests still on the slow path arrive all the same.
+                        if udp_in:
+                            time.sleep(max(0.0, udp_in[-1][0] - time.monotonic()))
+                            handle_due_udp(udp_in[-1][0])
                         break
                     continue
                 rx += chunk

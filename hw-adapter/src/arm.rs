@@ -1,23 +1,20 @@
-//! One arm on its own bus: seven CiA 402 drives, joint k at node k+1. Start-up ([`setup`]: SDO
+//! One arm on its own bus: seven CiA 402 drives, joint k at node k+1. Start-up (`setup`: SDO
 //! configuration and read-back, NMT start, enable), one control cycle (RPDO per joint, then
 //! SYNC), feedback bookkeeping (TPDO, heartbeat, EMCY), and the stop sequences.
 
 mod setup;
+mod stop;
 
 pub use setup::SetupOverride;
 
-/// Per joint, the range (bus counts) an arm's commands stay in.
-pub type Span = [(i32, i32); JOINTS];
-
-use crate::canopen::{self, Emcy, Message, NmtCommand, SdoReply};
+use crate::canopen::{self, Emcy, Message, SdoReply};
 use crate::cia402::{self, counts_to_rad};
-use crate::executor::{ExecConfig, Fault};
 use crate::frame::CanFrame;
-use crate::interpolate::Command;
+use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::plan::JOINTS;
+use crate::run::{Command, CycleFault, ExecConfig, Fault, Measured, Span, JOINTS};
 use crate::transport::{Transport, TransportError};
-use crate::watchdog::{CycleAccount, CycleFault, MAX_MISSED_CYCLES};
+use crate::watchdog::CycleAccount;
 use std::time::{Duration, Instant};
 
 /// CANopen node id of joint `j` (0-based).
@@ -36,14 +33,6 @@ struct NodeState {
     /// measured (feedback that arrives late is no following error).
     answered_target: Option<i32>,
     emcy: Option<Emcy>,
-}
-
-/// A breach of the accounting as a fault of the node (source j is joint j).
-pub(crate) fn answer_fault(fault: CycleFault) -> Fault {
-    Fault::Answer {
-        node: node_id(fault.source()),
-        fault,
-    }
 }
 
 /// The frames of one control cycle: an RPDO1 per joint (target, controlword), then SYNC; with a
@@ -67,7 +56,18 @@ pub fn cycle_frames(cmd: &Command, controlword: u16) -> Vec<(CanFrame, String)> 
     frames
 }
 
+/// The stop frames sent so far, awaiting the drives' answers.
+#[derive(Clone, Copy, Debug, Default)]
+struct StopSent {
+    /// The stop's SYNC: its cycle in the accounting and what it applied.
+    sync: Option<(u64, &'static str)>,
+    /// When NMT stop was sent.
+    nmt_stop: Option<Instant>,
+}
+
+/// One arm of seven CiA 402 drives on its own bus, as the executor drives it (see the module).
 pub struct ArmBus {
+    /// The arm's name.
     pub name: String,
     transport: Box<dyn Transport>,
     /// Origin of the log's time stamps.
@@ -83,9 +83,17 @@ pub struct ArmBus {
     /// The first answer the accounting found late.
     late: Option<CycleFault>,
     sdo_reply: Option<(u8, SdoReply)>,
+    /// Tests only: one start-up SDO write changed on purpose.
+    setup_override: Option<SetupOverride>,
+    /// The stop frames sent, awaiting the drives' answers (`stop`).
+    stop: StopSent,
+    /// The longest wait for the drives' answers to the stop frames.
+    stop_wait: Duration,
 }
 
 impl ArmBus {
+    /// The link for arm `name` on `transport`, for a run with `cfg`; frames go to `log`,
+    /// stamped from `clock`. Sends nothing yet.
     pub fn new(
         name: String,
         transport: Box<dyn Transport>,
@@ -101,29 +109,46 @@ impl ArmBus {
             log,
             frames_sent: 0,
             nodes: [NodeState::default(); JOINTS],
-            // The executor refuses settings out of range before any bus is set up.
-            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
-                .expect("m clamped into its range"),
+            account: CycleAccount::watching(JOINTS, &cfg.watch),
             late: None,
             sdo_reply: None,
+            setup_override: None,
+            stop: StopSent::default(),
+            stop_wait: cfg
+                .watch
+                .heartbeat_consumer_time()
+                .max(cfg.feedback_timeout),
         }
     }
 
+    /// Tests only: one start-up SDO write changed on purpose ([`SetupOverride`]).
+    pub(crate) fn with_setup_override(mut self, o: SetupOverride) -> Self {
+        self.setup_override = Some(o);
+        self
+    }
+
+    /// Sends one frame (waiting at most [`ExecConfig::send_timeout`] for room) and logs it
+    /// with its meaning `what`; a SYNC opens a cycle in the accounting.
     pub fn send(&mut self, frame: &CanFrame, what: String) -> Result<(), TransportError> {
         self.transport.send(frame, self.send_timeout)?;
         if frame.id() == canopen::SYNC_ID {
             self.account.sent_cycle((Instant::now(), None));
         }
         self.frames_sent += 1;
+        self.note(&frame.to_string(), &what);
+        Ok(())
+    }
+
+    /// Writes a line about `frame` (candump style) to the command log, if there is one.
+    fn note(&self, frame: &str, what: &str) {
         if let Some(log) = &self.log {
             log.write(&LogEntry {
                 t: self.clock.elapsed().as_secs_f64(),
                 arm: &self.name,
                 frame: frame.to_string(),
-                what: &what,
+                what,
             });
         }
-        Ok(())
     }
 
     /// Starts counting SYNC answers afresh: from here, every SYNC sent is owed a TPDO1 by every
@@ -184,7 +209,7 @@ impl ArmBus {
         target: &Command,
     ) -> Result<f64, Fault> {
         if let Some(fault) = self.late {
-            return Err(answer_fault(fault));
+            return Err(Fault::answer(fault));
         }
         let consumer_time = cfg.watch.heartbeat_consumer_time();
         let mut worst: f64 = 0.0;
@@ -260,7 +285,7 @@ impl ArmBus {
     /// cycle is due (a node that has not answered SYNC k by then, with k + m the next, is a
     /// fault).
     pub fn check_cycle(&self) -> Result<(), Fault> {
-        self.account.check_send().map_err(answer_fault)
+        self.account.check_send().map_err(Fault::answer)
     }
 
     /// The first cycle this arm's answers do not yet allow to be sent.
@@ -268,6 +293,7 @@ impl ArmBus {
         self.account.clear_until()
     }
 
+    /// Sends one control cycle: an RPDO1 per joint with `controlword`, then SYNC.
     pub fn send_cycle(&mut self, cmd: &Command, controlword: u16) -> Result<(), TransportError> {
         for (f, what) in cycle_frames(cmd, controlword) {
             self.send(&f, what)?;
@@ -277,47 +303,9 @@ impl ArmBus {
         }
         Ok(())
     }
-
-    /// Quick stop of every drive (controlword, applied at the SYNC), then NMT stop of every node.
-    /// Tries every frame even if one fails; returns the first failure.
-    pub fn quick_stop(&mut self, hold: &Command) -> Result<(), String> {
-        self.stop_with(hold, cia402::CW_QUICK_STOP, "quick stop")
-    }
-
-    /// Normal end: disable operation (the drives hold in "switched on"), then NMT stop.
-    pub fn finish(&mut self, hold: &Command) -> Result<(), String> {
-        self.stop_with(hold, cia402::CW_DISABLE_OPERATION, "disable operation")
-    }
-
-    fn stop_with(&mut self, hold: &Command, controlword: u16, why: &str) -> Result<(), String> {
-        let mut first_err = None;
-        let mut frames = cycle_frames(hold, controlword);
-        for (_, what) in frames.iter_mut() {
-            what.push_str(&format!(" ({why})"));
-        }
-        frames.push((
-            canopen::nmt(NmtCommand::Stop, 0),
-            "NMT stop all nodes".into(),
-        ));
-        for (f, what) in frames {
-            if let Err(e) = self.send(&f, what) {
-                first_err.get_or_insert(e.to_string());
-            }
-        }
-        first_err.map_or(Ok(()), Err)
-    }
-
-    /// After a failed start-up elsewhere: stop this arm's nodes without moving.
-    pub fn abort(&mut self) -> Result<(), String> {
-        self.send(
-            &canopen::nmt(NmtCommand::Stop, 0),
-            "NMT stop all nodes (start-up aborted)".into(),
-        )
-        .map_err(|e| e.to_string())
-    }
 }
 
-impl crate::link::ArmLink for ArmBus {
+impl ArmLink for ArmBus {
     fn name(&self) -> &str {
         &self.name
     }
@@ -341,6 +329,18 @@ impl crate::link::ArmLink for ArmBus {
 
     fn poll(&mut self) -> Result<(), String> {
         ArmBus::poll(self).map_err(|e| e.to_string())
+    }
+
+    fn measured(&self) -> Option<Measured> {
+        let mut positions = [0.0; JOINTS];
+        for (p, n) in positions.iter_mut().zip(&self.nodes) {
+            *p = counts_to_rad(n.tpdo?.0);
+        }
+        let answered = (0..JOINTS).filter_map(|j| self.account.owed(j)).min();
+        Some(Measured {
+            positions,
+            cycle: answered.and_then(|o| o.checked_sub(1)),
+        })
     }
 
     fn check_feedback(
@@ -374,5 +374,9 @@ impl crate::link::ArmLink for ArmBus {
 
     fn abort(&mut self) -> Result<(), String> {
         ArmBus::abort(self)
+    }
+
+    fn leave(&mut self) -> Result<Vec<String>, String> {
+        Ok(self.confirm_stop())
     }
 }

@@ -5,10 +5,8 @@
 
 use crate::canopen::{self, Message, NMT_STATE_OPERATIONAL, SYNC_ID};
 use crate::cia402;
-use crate::executor::Fault;
 use crate::frame::CanFrame;
-use crate::plan::JOINTS;
-use crate::watch::WatchSettings;
+use crate::run::{Fault, WatchSettings, JOINTS};
 use std::collections::VecDeque;
 use std::path::Path;
 
@@ -19,6 +17,7 @@ pub struct Logged {
     pub t: f64,
     /// Sent by the host (`R` at the mock), else by a drive (`T`).
     pub from_host: bool,
+    /// The frame.
     pub frame: CanFrame,
 }
 

@@ -1,10 +1,29 @@
 //! CANopen CiA 301 framing: NMT, SYNC, SDO expedited download and upload (with the abort codes),
 //! PDO, heartbeat and EMCY.
 //! Predefined connection set: the COB-ID of each service is its function code plus the node id.
+//!
+//! ```
+//! use omcbsa_hw::canopen::{self, Message, NmtCommand, SdoValue};
+//! use omcbsa_hw::CanFrame;
+//!
+//! // Write mode of operation 8 (cyclic synchronous position) to node 3: COB-ID 0x603.
+//! let f = canopen::sdo_download(3, 0x6060, 0, SdoValue::U8(8));
+//! assert_eq!(f.to_string(), "603#2F60600008000000");
+//! assert_eq!(canopen::nmt(NmtCommand::Start, 0).to_string(), "000#0100");
+//! assert_eq!(canopen::sync().to_string(), "080#");
+//! // A heartbeat of node 5, operational.
+//! let hb = CanFrame::new(0x705, &[0x05]).unwrap();
+//! assert_eq!(
+//!     canopen::decode(&hb),
+//!     Message::Heartbeat { node: 5, state: canopen::NMT_STATE_OPERATIONAL }
+//! );
+//! ```
 
 use crate::frame::CanFrame;
 
+/// COB-ID of NMT commands.
 pub const NMT_ID: u16 = 0x000;
+/// COB-ID of SYNC.
 pub const SYNC_ID: u16 = 0x080;
 const EMCY_BASE: u16 = 0x080;
 const TPDO1_BASE: u16 = 0x180;
@@ -16,17 +35,24 @@ const HEARTBEAT_BASE: u16 = 0x700;
 /// NMT command specifiers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NmtCommand {
+    /// Start remote node: to operational (PDOs flow).
     Start = 0x01,
+    /// Stop remote node: to stopped (no PDOs, no SDOs).
     Stop = 0x02,
+    /// To pre-operational (SDOs, no PDOs).
     EnterPreOperational = 0x80,
 }
 
-/// NMT states as reported in heartbeats.
+/// NMT state boot-up, as a heartbeat reports it (the boot-up message).
 pub const NMT_STATE_BOOTUP: u8 = 0x00;
+/// NMT state stopped.
 pub const NMT_STATE_STOPPED: u8 = 0x04;
+/// NMT state operational.
 pub const NMT_STATE_OPERATIONAL: u8 = 0x05;
+/// NMT state pre-operational.
 pub const NMT_STATE_PRE_OPERATIONAL: u8 = 0x7F;
 
+/// The name of an NMT state, as messages write it ("unknown" for a value that is none).
 pub fn nmt_state_name(state: u8) -> &'static str {
     match state {
         NMT_STATE_BOOTUP => "boot-up",
@@ -47,18 +73,23 @@ pub fn nmt(cmd: NmtCommand, node: u8) -> CanFrame {
     frame(NMT_ID, &[cmd as u8, node])
 }
 
+/// A SYNC frame (no data): every drive applies its last target and answers with TPDO1.
 pub fn sync() -> CanFrame {
     frame(SYNC_ID, &[])
 }
 
-pub fn rpdo1(node: u8, data: &[u8]) -> CanFrame {
+/// RPDO1 to `node` with `data` (at most 8 bytes, checked at compile time).
+pub fn rpdo1<const N: usize>(node: u8, data: &[u8; N]) -> CanFrame {
+    const { assert!(N <= 8, "a CAN frame carries at most 8 bytes") };
     frame(RPDO1_BASE + u16::from(node), data)
 }
 
-/// COB-IDs of a node's first PDOs (for the PDO communication parameters).
+/// COB-ID of a node's RPDO1 (for the PDO communication parameters).
 pub fn rpdo1_cob_id(node: u8) -> u32 {
     u32::from(RPDO1_BASE + u16::from(node))
 }
+
+/// COB-ID of a node's TPDO1.
 pub fn tpdo1_cob_id(node: u8) -> u32 {
     u32::from(TPDO1_BASE + u16::from(node))
 }
@@ -66,9 +97,13 @@ pub fn tpdo1_cob_id(node: u8) -> u32 {
 /// A value written by SDO expedited download (1, 2 or 4 bytes, little endian on the bus).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SdoValue {
+    /// UNSIGNED8.
     U8(u8),
+    /// INTEGER8.
     I8(i8),
+    /// UNSIGNED16.
     U16(u16),
+    /// UNSIGNED32 (also INTEGER32 values, as their bits).
     U32(u32),
 }
 
@@ -163,53 +198,82 @@ pub fn sdo_abort_text(code: u32) -> &'static str {
 /// What a node said, decoded from a frame on the bus.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Message {
+    /// A heartbeat (or boot-up message).
     Heartbeat {
+        /// The node.
         node: u8,
+        /// Its NMT state (`NMT_STATE_*`).
         state: u8,
     },
+    /// An emergency message.
     Emcy(Emcy),
+    /// A node's TPDO1.
     Tpdo1 {
+        /// The node.
         node: u8,
+        /// The whole frame (its data decoded with the mapping written at set-up).
         data: CanFrame,
     },
+    /// A node's answer to an SDO request.
     SdoResponse {
+        /// The node.
         node: u8,
+        /// What it answered.
         reply: SdoReply,
     },
     /// Anything else (including our own traffic echoed by some adapters).
     Other,
 }
 
+/// An emergency message (EMCY, CiA 301).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Emcy {
+    /// The node that sent it.
     pub node: u8,
+    /// The error code (0: error reset, no error).
     pub code: u16,
+    /// The node's error register (0x1001).
     pub register: u8,
 }
 
+/// A node's answer to an SDO request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SdoReply {
+    /// A write (download) was done.
     DownloadAck {
+        /// The object written.
         index: u16,
+        /// Its sub-index.
         sub: u8,
     },
     /// Expedited upload: the first `len` bytes of `data` (little endian).
     Upload {
+        /// The object read.
         index: u16,
+        /// Its sub-index.
         sub: u8,
+        /// Its value's bytes.
         data: [u8; 4],
+        /// How many of them count.
         len: u8,
     },
+    /// The node refused the request ([`sdo_abort_text`] names the code).
     Abort {
+        /// The object of the request.
         index: u16,
+        /// Its sub-index.
         sub: u8,
+        /// The abort code.
         code: u32,
     },
+    /// An answer this client does not speak (segmented transfers, block transfers).
     Unexpected {
+        /// Its command byte.
         command: u8,
     },
 }
 
+/// What a frame from the bus says (frames of no node, and our own, are [`Message::Other`]).
 pub fn decode(f: &CanFrame) -> Message {
     let id = f.id();
     let d = f.data();

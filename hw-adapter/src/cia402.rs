@@ -6,10 +6,26 @@
 //! rounding error of a command (≤ 0.05 µrad) far below the 1e-6 rad tolerance of the tests, and
 //! its effect on a second difference at 500 Hz (≤ 2 counts / T² = 0.05 rad/s²) inside the
 //! margin the executor keeps below the acceleration limits.
+//!
+//! ```
+//! use omcbsa_hw::cia402::{self, counts_to_rad, rad_to_counts};
+//!
+//! assert_eq!(rad_to_counts(0.25), Some(2_500_000));
+//! assert_eq!(counts_to_rad(-10), -1e-6);
+//! assert_eq!(rad_to_counts(300.0), None); // beyond ±214.7 rad: not on the bus
+//! // RPDO1: target position, then the controlword, little endian.
+//! let payload = cia402::rpdo1_payload(2_500_000, cia402::CW_ENABLE_OPERATION);
+//! assert_eq!(payload, [0xA0, 0x25, 0x26, 0x00, 0x0F, 0x00]);
+//! assert_eq!(cia402::parse_tpdo1(&payload), Some((2_500_000, 0x000F)));
+//! // 2 ms as the interpolation time period 0x60C2: 2 x 10^-3 s.
+//! let period = std::time::Duration::from_millis(2);
+//! assert_eq!(cia402::interpolation_time_period(period), Some((2, -3)));
+//! ```
 
 use crate::canopen::{rpdo1_cob_id, tpdo1_cob_id, SdoValue, SYNC_ID};
 use std::time::Duration;
 
+/// Bus counts per radian.
 pub const COUNTS_PER_RAD: f64 = 1e7;
 
 /// The largest joint value (rad, either sign) the bus encodes: `i32::MAX` counts. Problem and
@@ -17,35 +33,48 @@ pub const COUNTS_PER_RAD: f64 = 1e7;
 /// constant), so that a solution that validates is one the bus can carry.
 pub const MAX_POSITION_RAD: f64 = i32::MAX as f64 / COUNTS_PER_RAD;
 
+/// Device type (CiA 301): the profile number in the low 16 bits.
 pub const DEVICE_TYPE: u16 = 0x1000;
+/// COB-ID of the SYNC the drive consumes (CiA 301).
 pub const COB_ID_SYNC: u16 = 0x1005;
+/// Controlword.
 pub const CONTROLWORD: u16 = 0x6040;
+/// Statusword.
 pub const STATUSWORD: u16 = 0x6041;
+/// Mode of operation asked for.
 pub const MODES_OF_OPERATION: u16 = 0x6060;
+/// Mode of operation in effect.
 pub const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
+/// Position actual value (counts).
 pub const POSITION_ACTUAL: u16 = 0x6064;
+/// Target position (counts).
 pub const TARGET_POSITION: u16 = 0x607A;
 /// Software position limit: sub 1 minimum, sub 2 maximum (counts).
 pub const SOFTWARE_POSITION_LIMIT: u16 = 0x607D;
 /// Following error window (counts, u32; 0xFFFFFFFF switches the check off) and time-out (ms,
 /// u16): the drive faults once |target - actual| has stayed beyond the window that long.
 pub const FOLLOWING_ERROR_WINDOW: u16 = 0x6065;
+/// Following error time-out (ms): see [`FOLLOWING_ERROR_WINDOW`].
 pub const FOLLOWING_ERROR_TIME_OUT: u16 = 0x6066;
-/// EMCY error code of a following error (CiA 402).
-pub const EMCY_FOLLOWING_ERROR: u16 = 0x8611;
+pub use crate::run::EMCY_FOLLOWING_ERROR;
 /// Interpolation time period: sub 1 value, sub 2 index (the period is value * 10^index s).
 pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
+/// Heartbeat producer time, ms (CiA 301).
 pub const HEARTBEAT_PRODUCER_TIME: u16 = 0x1017;
 const RPDO1_COMM: u16 = 0x1400;
+/// RPDO1 mapping parameter (CiA 301).
 pub const RPDO1_MAPPING: u16 = 0x1600;
 const TPDO1_COMM: u16 = 0x1800;
+/// TPDO1 mapping parameter (CiA 301).
 pub const TPDO1_MAPPING: u16 = 0x1A00;
 
+/// Mode of operation: cyclic synchronous position.
 pub const MODE_CSP: u8 = 8;
 
 /// The device profile number in the low 16 bits of the device type (0x1000).
 const DEVICE_PROFILE_402: u32 = 402;
 
+/// Whether a device type (0x1000) names a CiA 402 drive.
 pub fn is_cia402_device(device_type: u32) -> bool {
     device_type & 0xFFFF == DEVICE_PROFILE_402
 }
@@ -61,9 +90,11 @@ pub fn interpolation_time_period(period: Duration) -> Option<(u8, i8)> {
     })
 }
 
-/// Controlword commands of the CiA 402 state machine.
+/// Controlword: shutdown (to "ready to switch on").
 pub const CW_SHUTDOWN: u16 = 0x0006;
+/// Controlword: switch on (to "switched on").
 pub const CW_SWITCH_ON: u16 = 0x0007;
+/// Controlword: enable operation (the drive follows its targets).
 pub const CW_ENABLE_OPERATION: u16 = 0x000F;
 /// Disable operation: the drive holds position in "switched on".
 pub const CW_DISABLE_OPERATION: u16 = 0x0007;
@@ -77,6 +108,7 @@ pub const SW_FOLLOWING_ERROR: u16 = 0x2000;
 const SW_STATE_MASK: u16 = 0x006F;
 const SW_OPERATION_ENABLED: u16 = 0x0027;
 
+/// Whether a statusword says "operation enabled".
 pub fn operation_enabled(statusword: u16) -> bool {
     statusword & SW_STATE_MASK == SW_OPERATION_ENABLED
 }
@@ -87,8 +119,16 @@ pub fn rad_to_counts(rad: f64) -> Option<i32> {
     (rad.abs() <= MAX_POSITION_RAD).then(|| (rad * COUNTS_PER_RAD).round() as i32)
 }
 
+/// Bus counts as rad.
 pub fn counts_to_rad(counts: i32) -> f64 {
     f64::from(counts) / COUNTS_PER_RAD
+}
+
+/// A following-error window of `rad` as written to 0x6065: counts, rounded up (below
+/// 0xFFFFFFFF, which would switch the drive's check off).
+pub fn window_counts(rad: f64) -> u32 {
+    // Far below u32::MAX counts for any joint speed within the limits.
+    (rad * COUNTS_PER_RAD).ceil().min(f64::from(u32::MAX - 1)) as u32
 }
 
 /// PDO mapping entry: object index, sub-index, length in bits.
@@ -206,6 +246,19 @@ mod tests {
         assert_eq!(interpolation_time_period(Duration::ZERO), None);
         assert!(is_cia402_device(0x0002_0192));
         assert!(!is_cia402_device(0x0000_0191));
+    }
+
+    #[test]
+    fn following_error_windows_in_counts() {
+        let w = crate::WatchSettings::default();
+        // 0.5 rad/s x 2 x 14 ms = 14 mrad; a joint at rest gets the smallest window, 1 mrad
+        let period = Duration::from_millis(4);
+        assert_eq!(
+            window_counts(w.following_error_window(0.5, period)),
+            140_000
+        );
+        assert_eq!(window_counts(w.following_error_window(0.0, period)), 10_000);
+        assert_eq!(window_counts(1e9), u32::MAX - 1);
     }
 
     #[test]

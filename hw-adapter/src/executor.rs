@@ -1,352 +1,83 @@
 //! The executor: validates, interpolates, starts every arm together (one thread per bus),
 //! streams, watches the feedback, and on any fault quick-stops every arm.
+//!
+//! Two arms of simulated CiA 402 drives on in-process buses ([`crate::sim::can`]) follow a plan,
+//! then one of them faults in a second run and both are stopped:
+//!
+//! ```
+//! use omcbsa_hw::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
+//! use omcbsa_hw::{ArmPlan, ExecConfig, ExecError, Executor, Fault, Plan, PlanValidator};
+//! use omcbsa_hw::{WatchSettings, JOINTS};
+//! use std::time::Duration;
+//!
+//! struct Accept;
+//! impl PlanValidator for Accept {
+//!     fn validate(&self, _: &Plan) -> Result<(), String> { Ok(()) }
+//! }
+//!
+//! let start = [0.0; JOINTS];
+//! let plan = Plan {
+//!     dt: 0.25,
+//!     arms: ["left", "right"]
+//!         .map(|name| ArmPlan {
+//!             name: name.into(),
+//!             joint_path: vec![start, [0.01; JOINTS], [0.02; JOINTS], [0.02; JOINTS]],
+//!         })
+//!         .into(),
+//! };
+//! let cfg = ExecConfig {
+//!     // Doc-tests run side by side with the compiler on a busy machine: a generous period
+//!     // and 10 cycles of slack for an answer keep a descheduled simulator from faulting.
+//!     period: Duration::from_millis(10),
+//!     watch: WatchSettings { missed_cycles: 10, ..WatchSettings::default() },
+//!     realtime_priority: None,
+//!     ..ExecConfig::default()
+//! };
+//! let limits = omcbsa_hw::testing::fleet_limits(2);
+//!
+//! let (left, left_bus) = CanSim::spawn(CanSimOptions::at(start));
+//! let (right, right_bus) = CanSim::spawn(CanSimOptions::at(start));
+//! let arms = vec![("left".to_string(), left_bus), ("right".to_string(), right_bus)];
+//! let report = Executor::new(plan.clone(), limits.clone(), arms, cfg.clone())?.run(&Accept)?;
+//! // Within the limits as planned: 0.75 s at 10 ms, then the hold on the last waypoint.
+//! assert_eq!((report.time_scale, report.cycles), (1.0, 76));
+//! let taken = left.finish().commands;
+//! assert_eq!(taken.len(), report.cycles + cfg.settle_cycles);
+//! assert_eq!(taken.last(), Some(&[200_000; JOINTS])); // 0.02 rad
+//! right.finish();
+//!
+//! // The right arm's node 3 reports a fault at its 20th SYNC: both arms are stopped.
+//! let faulty = CanSimOptions { fault: Some((20, Injected::FaultBit)), ..CanSimOptions::at(start) };
+//! let (left, left_bus) = CanSim::spawn(CanSimOptions::at(start));
+//! let (right, right_bus) = CanSim::spawn(faulty);
+//! let arms = vec![("left".to_string(), left_bus), ("right".to_string(), right_bus)];
+//! let Err(ExecError::Fault(report)) = Executor::new(plan, limits, arms, cfg)?.run(&Accept) else {
+//!     panic!("the fault must stop the run")
+//! };
+//! assert_eq!(report.arm, "right");
+//! assert!(matches!(report.fault, Fault::DriveState { node: FAULTY_NODE, .. }));
+//! for sim in [left, right] {
+//!     let seen = sim.finish();
+//!     assert!(seen.stopped.is_some());
+//!     assert_eq!(seen.commands_after_stop, 0);
+//! }
+//! # Ok::<(), ExecError>(())
+//! ```
 
-use crate::arm::{cycle_frames, SetupOverride, Span};
+use crate::arm::cycle_frames;
 use crate::cia402;
 use crate::interpolate::{peak_speeds, plan_generator};
-use crate::link::ArmPort;
-use crate::live::{self, RunInfo, StreamHandle};
+use crate::live::{self, ProgressFn, RunInfo, StreamHandle};
 use crate::log::LogEntry;
-use crate::plan::{ArmLimits, Plan, PlanValidator, JOINTS};
+use crate::plan::{ArmLimits, Plan, PlanValidator};
+use crate::port::ArmPort;
+use crate::run::{ArmReport, ExecConfig, ExecError, Progress, Report, Span, JOINTS};
 use crate::stream::Generator;
-use crate::watch::WatchSettings;
-use crate::watchdog::CycleFault;
-use std::fmt;
-use std::path::PathBuf;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-/// Every arm sends its stop frames within this many control periods of a fault's detection.
-/// The arms stream in lockstep (no arm sends cycle k+1 before every arm has sent cycle k), so no
-/// arm sends more than one further cycle after the cycle in which a fault was detected; each
-/// arm thread looks at the shared fault flag at least every `FAULT_POLL` while it waits, so
-/// its stop follows within a fraction of a period, preemption by the OS aside.
-pub const STOP_BOUND_PERIODS: u32 = 3;
-
-#[derive(Clone, Debug)]
-pub struct ExecConfig {
-    /// Control period (default 2 ms = 500 Hz).
-    pub period: Duration,
-    /// Interpolate and check everything, write the log of what would be sent, send nothing.
-    pub dry_run: bool,
-    /// Where to write the command log (JSON lines).
-    pub log_path: Option<PathBuf>,
-    pub sdo_timeout: Duration,
-    /// Time the drives get, after enabling, to report "operation enabled" by TPDO and heartbeat.
-    pub startup_timeout: Duration,
-    /// Fault detection: per-cycle accounting, heartbeat, following error ([`WatchSettings`]).
-    pub watch: WatchSettings,
-    /// Backstops on the wall clock, behind the per-cycle accounting: a SYNC unanswered for
-    /// longer is a fault, and so is an arm that keeps the others waiting longer on the common
-    /// schedule (its thread stalled, its bus full).
-    pub feedback_timeout: Duration,
-    /// Largest allowed distance of an arm's start position from the plan's first waypoint, rad.
-    pub start_tolerance: f64,
-    /// Largest wait for room on a bus when sending one frame.
-    pub send_timeout: Duration,
-    /// Cycles holding the final position, feedback still watched, before the drives are disabled.
-    pub settle_cycles: usize,
-    /// Online execution: the most motion a push may queue ahead of the fixed waypoint (each
-    /// push is checked cycle by cycle over its whole tail while the stream waits).
-    pub online_horizon: Duration,
-    /// `SCHED_FIFO` priority (1 to 99) asked for the arm threads while they stream; `None`
-    /// keeps normal scheduling. Refused (no `CAP_SYS_NICE`), the run goes on at normal
-    /// priority and [`Report::realtime`] says why.
-    pub realtime_priority: Option<u8>,
-    /// Tests only: one start-up SDO write changed on purpose ([`SetupOverride`]).
-    #[doc(hidden)]
-    pub setup_override: Option<SetupOverride>,
-}
-
-impl Default for ExecConfig {
-    fn default() -> Self {
-        Self {
-            period: Duration::from_millis(2),
-            dry_run: false,
-            log_path: None,
-            sdo_timeout: Duration::from_millis(100),
-            startup_timeout: Duration::from_secs(1),
-            watch: WatchSettings::default(),
-            feedback_timeout: Duration::from_millis(50),
-            start_tolerance: 1e-3,
-            send_timeout: Duration::from_millis(2),
-            settle_cycles: 50,
-            online_horizon: Duration::from_secs(20),
-            realtime_priority: Some(50),
-            setup_override: None,
-        }
-    }
-}
-
-/// What went wrong on an arm while streaming.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Fault {
-    Emcy {
-        node: u8,
-        code: u16,
-        register: u8,
-    },
-    HeartbeatLost {
-        node: u8,
-        silent_for: Duration,
-    },
-    NmtState {
-        node: u8,
-        state: &'static str,
-    },
-    FeedbackLost {
-        node: u8,
-        silent_for: Duration,
-    },
-    /// The per-cycle accounting: a SYNC unanswered by its deadline, or answered late.
-    Answer {
-        node: u8,
-        fault: CycleFault,
-    },
-    DriveState {
-        node: u8,
-        statusword: u16,
-    },
-    FollowingError {
-        node: u8,
-        actual: f64,
-        target: f64,
-    },
-    /// The runtime limit check refused a command (it was not sent).
-    CommandRefused(String),
-    /// The arm answered with an error frame (Kortex): what it refused, and why.
-    ArmRefused(String),
-    /// An actuator, or the base, reports a fault in the cyclic feedback (Kortex; joint 0: the base).
-    ActuatorFault {
-        joint: u8,
-        bank_a: u32,
-        bank_b: u32,
-    },
-    Bus(String),
-}
-
-impl fmt::Display for Fault {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let silent = |d: &Duration| {
-            if *d == Duration::MAX {
-                "never heard".to_string()
-            } else {
-                format!("silent for {d:?}")
-            }
-        };
-        match self {
-            Fault::Emcy {
-                node,
-                code,
-                register,
-            } => {
-                write!(
-                    f,
-                    "node {node} sent EMCY error code {code:#06x}{} (error register {register:#04x})",
-                    match *code {
-                        cia402::EMCY_FOLLOWING_ERROR => ", following error beyond its window",
-                        _ => "",
-                    }
-                )
-            }
-            Fault::HeartbeatLost { node, silent_for } => {
-                write!(f, "node {node} heartbeat lost ({})", silent(silent_for))
-            }
-            Fault::NmtState { node, state } => {
-                write!(f, "node {node} left the operational state ({state})")
-            }
-            Fault::FeedbackLost { node, silent_for } => {
-                write!(
-                    f,
-                    "node {node} position feedback (TPDO) missing ({})",
-                    silent(silent_for)
-                )
-            }
-            Fault::Answer { node, fault } => write!(f, "node {node}: {fault}"),
-            Fault::DriveState { node, statusword } => {
-                write!(
-                    f,
-                    "node {node} drive not in operation enabled (statusword {statusword:#06x})"
-                )
-            }
-            Fault::FollowingError {
-                node,
-                actual,
-                target,
-            } => write!(
-                f,
-                "node {node} following error {:.4} rad (actual {actual:.4}, target {target:.4})",
-                (target - actual).abs()
-            ),
-            Fault::CommandRefused(e) => write!(f, "command refused by the limit check: {e}"),
-            Fault::ArmRefused(e) => write!(f, "{e}"),
-            Fault::ActuatorFault {
-                joint: 0,
-                bank_a,
-                bank_b,
-            } => write!(
-                f,
-                "the base reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
-            ),
-            Fault::ActuatorFault {
-                joint,
-                bank_a,
-                bank_b,
-            } => write!(
-                f,
-                "actuator {joint} reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
-            ),
-            Fault::Bus(e) => write!(f, "bus error: {e}"),
-        }
-    }
-}
-
-/// How one arm was stopped after a fault.
-#[derive(Clone, Debug)]
-pub struct ArmStop {
-    pub arm: String,
-    /// Control cycles streamed before the stop.
-    pub cycles_sent: usize,
-    /// From the fault's detection to this arm's last stop frame.
-    pub latency: Duration,
-    /// A stop frame that could not be sent.
-    pub error: Option<String>,
-}
-
-#[derive(Clone, Debug)]
-pub struct FaultReport {
-    pub arm: String,
-    pub fault: Fault,
-    /// Control cycle in which the fault was detected.
-    pub cycle: usize,
-    pub stops: Vec<ArmStop>,
-    /// The promised bound on every stop latency.
-    pub bound: Duration,
-}
-
-impl fmt::Display for FaultReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(
-            f,
-            "fault on arm {:?} at cycle {}: {}",
-            self.arm, self.cycle, self.fault
-        )?;
-        write!(f, "quick stop of every arm (bound {:?}):", self.bound)?;
-        for s in &self.stops {
-            write!(
-                f,
-                "\n  {}: stopped {:?} after detection, {} cycles streamed",
-                s.arm, s.latency, s.cycles_sent
-            )?;
-            if let Some(e) = &s.error {
-                write!(f, ", stop frame failed: {e}")?;
-            }
-        }
-        Ok(())
-    }
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum ExecError {
-    #[error("invalid plan: {0}")]
-    InvalidPlan(String),
-    #[error("invalid watchdog settings: {0}")]
-    Settings(String),
-    #[error("arms and buses do not match: {0}")]
-    Buses(String),
-    #[error("refusing to start: the plan does not validate: {0}")]
-    Refused(String),
-    #[error("refusing to start: {0}")]
-    Limits(String),
-    #[error("start-up failed, no motion command was sent: {}", .0.iter().map(|(a, e)| format!("arm {a:?}: {e}")).collect::<Vec<_>>().join("; "))]
-    Startup(Vec<(String, String)>),
-    #[error("{0}")]
-    Fault(Box<FaultReport>),
-    #[error("cannot write the command log {path}: {error}")]
-    Log {
-        path: PathBuf,
-        error: std::io::Error,
-    },
-}
-
-#[derive(Clone, Debug)]
-pub struct ArmReport {
-    pub name: String,
-    pub cycles_sent: usize,
-    pub max_following_error: f64,
-}
-
-#[derive(Clone, Debug)]
-pub struct Report {
-    pub dry_run: bool,
-    pub period: Duration,
-    /// Uniform slow-down applied to the plan (1 = as planned).
-    pub time_scale: f64,
-    /// Control cycles of the trajectory (without the settle cycles).
-    pub cycles: usize,
-    pub frames_sent: usize,
-    pub arms: Vec<ArmReport>,
-    /// Largest delay of a cycle behind its schedule.
-    pub max_lateness: Duration,
-    /// Online execution: times the queue ran dry and the arms held.
-    pub holds: usize,
-    /// The arm threads' scheduling: `Ok` under the asked-for real-time priority (or none
-    /// asked), else why it was refused.
-    pub realtime: Result<(), String>,
-}
-
-impl fmt::Display for Report {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mode = if self.dry_run { "dry run" } else { "executed" };
-        write!(
-            f,
-            "{mode}: {} arms, {} cycles at {:?} ({:.3} s), {} frames",
-            self.arms.len(),
-            self.cycles,
-            self.period,
-            self.cycles as f64 * self.period.as_secs_f64(),
-            self.frames_sent
-        )?;
-        if self.time_scale > 1.0 {
-            write!(
-                f,
-                "\nplan slowed down {:.3}x to stay within velocity/acceleration limits",
-                self.time_scale
-            )?;
-        }
-        for a in &self.arms {
-            write!(
-                f,
-                "\n  {}: {} cycles, max following error {:.2e} rad",
-                a.name, a.cycles_sent, a.max_following_error
-            )?;
-        }
-        if self.holds > 0 {
-            write!(
-                f,
-                "\nthe queue ran dry {} times (the arms held)",
-                self.holds
-            )?;
-        }
-        if !self.dry_run {
-            write!(f, "\nlargest cycle lateness {:?}", self.max_lateness)?;
-            if let Err(why) = &self.realtime {
-                write!(f, "\nstreamed at normal priority: {why}")?;
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Progress of one arm, passed to the progress callback about every 0.1 s of streaming.
-#[derive(Clone, Debug)]
-pub struct Progress<'a> {
-    pub arm: &'a str,
-    pub cycle: usize,
-    pub cycles: usize,
-}
-
-pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
-
+/// Streams a plan to its arms, all together: see the module. Built with [`Executor::new`]
+/// (offline, the whole plan known) or started with [`Executor::online`] (segments pushed while
+/// the arms move).
 pub struct Executor {
     plan: Plan,
     /// One table per plan arm, in plan order.
@@ -403,6 +134,8 @@ impl Executor {
         })
     }
 
+    /// Calls `f` about every 0.1 s of streaming, per arm (from the arms' threads: keep it
+    /// short).
     pub fn on_progress(mut self, f: impl Fn(Progress) + Send + Sync + 'static) -> Self {
         self.progress = Some(Box::new(f));
         self
@@ -438,17 +171,8 @@ impl Executor {
             spans,
             speeds: peak_speeds(&self.plan, timing.step_time),
         };
-        let progress = self.progress;
-        live::start(
-            names,
-            generator,
-            self.buses,
-            self.config,
-            progress,
-            true,
-            info,
-        )?
-        .finish()
+        let arms = names.into_iter().zip(self.buses).collect();
+        launch(generator, arms, self.config, self.progress, true, info)?.finish()
     }
 
     /// Online execution: starts every arm holding still at its start configuration and returns
@@ -493,7 +217,7 @@ impl Executor {
             } else {
                 1
             });
-        let buses = arms.into_iter().map(|a| a.2.into()).collect();
+        let ports = arms.into_iter().map(|(n, _, p)| (n, p.into())).collect();
         // Online segments are not known in advance: they may use the joints' whole range.
         let span = |l: &ArmLimits| -> Span {
             std::array::from_fn(|j| match l[j].position {
@@ -508,8 +232,33 @@ impl Executor {
             // Likewise their speeds: up to the joints' limits.
             speeds: limits.iter().map(|l| l.map(|j| j.velocity)).collect(),
         };
-        live::start(names, generator, buses, config, None, false, info)
+        launch(generator, ports, config, None, false, info)
     }
+}
+
+/// Opens the command log, makes each port's link and starts streaming (the arms as the
+/// generator's, in order).
+fn launch(
+    generator: Generator,
+    arms: Vec<(String, ArmPort)>,
+    config: ExecConfig,
+    progress: Option<ProgressFn>,
+    finishing: bool,
+    info: RunInfo,
+) -> Result<StreamHandle, ExecError> {
+    let log = crate::log::open(config.log_path.as_deref())?;
+    let clock = Instant::now();
+    let links = (arms.into_iter())
+        .map(|(name, port)| port.into_link(name, clock, &config, log.clone()))
+        .collect();
+    Ok(live::start(
+        generator,
+        links,
+        (config, log),
+        progress,
+        finishing,
+        info,
+    ))
 }
 
 /// The dry run: every cycle computed and checked as in a real run, and logged if asked,
@@ -520,7 +269,7 @@ fn dry_run(
     config: &ExecConfig,
     time_scale: f64,
 ) -> Result<Report, ExecError> {
-    let log = live::open_log(config)?;
+    let log = crate::log::open(config.log_path.as_deref())?;
     let period = config.period.as_secs_f64();
     let mut out = vec![[0; JOINTS]; names.len()];
     let mut frames_sent = 0;
@@ -545,7 +294,7 @@ fn dry_run(
             }
         }
         if tick.holding {
-            live::finish_log(log)?;
+            crate::log::finish(log)?;
             let cycles = tick.cycle as usize + 1;
             return Ok(Report {
                 dry_run: true,
@@ -562,6 +311,7 @@ fn dry_run(
                     .collect(),
                 max_lateness: Duration::ZERO,
                 holds: 0,
+                halted: false,
                 realtime: Ok(()),
             });
         }

@@ -2,12 +2,12 @@
 //! tests): the CAN mock (`mock.rs`, SLCAN ptys) or the Kortex mock Gen3 (`mock_gen3.rs`, loopback
 //! TCP and UDP), started, connected, and their records checked, the same way for both.
 
-use crate::interpolate::Command;
-use crate::link::{ArmPort, ArmPorts};
 use crate::mock::{self, MockArm, MockArmOptions};
 use crate::mock_gen3::{self, MockGen3};
-use crate::plan::{JointLimits, JOINTS};
+use crate::plan::JointLimits;
+use crate::port::{ArmPort, ArmPorts};
 use crate::record;
+use crate::run::{Command, JOINTS};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -58,7 +58,9 @@ impl MockKind {
 
 /// Running mock arms, one per arm; killed when dropped.
 pub enum Fleet {
+    /// CAN mocks.
     Can(Vec<MockArm>),
+    /// Kortex mocks.
     Kortex(Vec<MockGen3>),
 }
 

@@ -5,6 +5,17 @@ use std::fmt;
 /// Largest 11-bit CAN identifier.
 pub const MAX_STANDARD_ID: u16 = 0x7FF;
 
+/// A classic CAN frame, checked at construction.
+///
+/// ```
+/// use omcbsa_hw::CanFrame;
+///
+/// let f = CanFrame::new(0x18B, &[1, 2, 0xA0]).unwrap();
+/// assert_eq!((f.id(), f.data()), (0x18B, &[1, 2, 0xA0][..]));
+/// assert_eq!(f.to_string(), "18B#0102A0");
+/// assert!(CanFrame::new(0x800, &[]).is_none()); // not an 11-bit id
+/// assert!(CanFrame::new(0x100, &[0; 9]).is_none()); // more than 8 bytes
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub struct CanFrame {
     id: u16,
@@ -28,10 +39,12 @@ impl CanFrame {
         })
     }
 
+    /// The 11-bit identifier.
     pub fn id(&self) -> u16 {
         self.id
     }
 
+    /// The payload (0 to 8 bytes).
     pub fn data(&self) -> &[u8] {
         &self.data[..usize::from(self.len)]
     }

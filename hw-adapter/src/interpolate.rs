@@ -7,17 +7,16 @@
 //! plan's `dt` is too short for the velocity or acceleration limits, the whole plan (every arm
 //! alike, so the arms stay coordinated) is slowed down uniformly.
 
-use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
-use crate::plan::{ArmLimits, JointLimits, Plan, JOINTS};
+use crate::plan::{ArmLimits, Plan};
+use crate::run::{Command, JOINTS};
+use crate::spline::segment;
 use crate::stream::{Generator, PushError};
 
 /// The fraction of each velocity and acceleration limit the interpolation aims for; the rest
 /// absorbs the rounding of commands to bus counts (see `cia402`).
 pub const LIMIT_MARGIN: f64 = 0.9;
 
-/// Commands of one arm for one control cycle, in bus counts.
-pub type Command = [i32; JOINTS];
-
+/// Every command of a plan, collected (see [`interpolate`]).
 #[derive(Clone, Debug)]
 pub struct Trajectory {
     /// Control period, s.
@@ -26,78 +25,6 @@ pub struct Trajectory {
     pub time_scale: f64,
     /// Per arm (in plan order), one command per control cycle, the first at the first waypoint.
     pub commands: Vec<Vec<Command>>,
-}
-
-/// One cubic Hermite segment on u ∈ [0, 1]; tangents are per segment (rad per segment).
-#[derive(Clone, Copy)]
-pub(crate) struct Segment {
-    pub p0: f64,
-    pub p1: f64,
-    pub m0: f64,
-    pub m1: f64,
-}
-
-impl Segment {
-    pub fn position(&self, u: f64) -> f64 {
-        let (u2, u3) = (u * u, u * u * u);
-        (2.0 * u3 - 3.0 * u2 + 1.0) * self.p0
-            + (u3 - 2.0 * u2 + u) * self.m0
-            + (-2.0 * u3 + 3.0 * u2) * self.p1
-            + (u3 - u2) * self.m1
-    }
-
-    /// Largest |dp/du| on the segment: the derivative is a quadratic, so the maximum is at an
-    /// end or at the vertex.
-    fn max_slope(&self) -> f64 {
-        let d = self.p1 - self.p0;
-        let a = -6.0 * d + 3.0 * self.m0 + 3.0 * self.m1;
-        let b = 6.0 * d - 4.0 * self.m0 - 2.0 * self.m1;
-        let slope = |u: f64| a * u * u + b * u + self.m0;
-        let mut m = slope(0.0).abs().max(slope(1.0).abs());
-        if a != 0.0 {
-            let v = -b / (2.0 * a);
-            if (0.0..=1.0).contains(&v) {
-                m = m.max(slope(v).abs());
-            }
-        }
-        m
-    }
-
-    /// Largest |d²p/du²|: the second derivative is linear, so it is at an end.
-    fn max_curvature(&self) -> f64 {
-        let d = self.p1 - self.p0;
-        let at0 = 6.0 * d - 4.0 * self.m0 - 2.0 * self.m1;
-        let at1 = -6.0 * d + 2.0 * self.m0 + 4.0 * self.m1;
-        at0.abs().max(at1.abs())
-    }
-}
-
-/// The tangent at a waypoint between slopes `a` (from the previous waypoint) and `b` (to the
-/// next): their harmonic mean, or zero where the path turns (Fritsch–Butland).
-pub(crate) fn fritsch_butland(a: f64, b: f64) -> f64 {
-    if a * b <= 0.0 {
-        0.0
-    } else {
-        2.0 * a * b / (a + b)
-    }
-}
-
-/// Segment `i` (waypoint `i` to `i + 1`) of joint `j` of `path`, at rest at both ends.
-fn segment(path: &[[f64; JOINTS]], j: usize, i: usize) -> Segment {
-    let p = |k: usize| path[k][j];
-    let tangent = |k: usize| {
-        if k == 0 || k + 1 == path.len() {
-            0.0
-        } else {
-            fritsch_butland(p(k) - p(k - 1), p(k + 1) - p(k))
-        }
-    };
-    Segment {
-        p0: p(i),
-        p1: p(i + 1),
-        m0: tangent(i),
-        m1: tangent(i + 1),
-    }
 }
 
 /// The smallest uniform slow-down `s` that keeps every joint of every path (waypoints `dt`
@@ -145,6 +72,7 @@ pub fn peak_speeds(plan: &Plan, step_time: f64) -> Vec<[f64; JOINTS]> {
 /// the last waypoint, and the resulting time per step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Timing {
+    /// The uniform slow-down (1 = as planned).
     pub time_scale: f64,
     /// Seconds per step (the plan's dt times `time_scale`).
     pub step_time: f64,
@@ -217,7 +145,24 @@ pub fn plan_generator(
 
 /// Every command of `plan` (whose shape must be valid) interpolated to `period`, slowed down if
 /// needed, from the first waypoint to the last: the commands the executor streams, collected
-/// (for checks and tests; the executor itself never holds them all).
+/// (for checks and tests; the executor itself never holds them all: memory here grows with
+/// the plan's duration).
+///
+/// ```
+/// use omcbsa_hw::interpolate::interpolate;
+/// use omcbsa_hw::{ArmPlan, Plan, JOINTS};
+///
+/// // 0.5 rad in 0.1 s is far beyond 0.8727 rad/s: the plan is slowed down to fit.
+/// let plan = Plan {
+///     dt: 0.1,
+///     arms: vec![ArmPlan { name: "a".into(), joint_path: vec![[0.0; JOINTS], [0.5; JOINTS]] }],
+/// };
+/// let t = interpolate(&plan, &omcbsa_hw::testing::fleet_limits(1), 0.002)?;
+/// assert!(t.time_scale > 10.0);
+/// let cmds = &t.commands[0];
+/// assert_eq!((cmds[0][0], cmds[cmds.len() - 1][0]), (0, 5_000_000)); // 0 to 0.5 rad, in counts
+/// # Ok::<(), String>(())
+/// ```
 pub fn interpolate(plan: &Plan, limits: &[ArmLimits], period: f64) -> Result<Trajectory, String> {
     let (mut generator, timing) = plan_generator(plan, limits, period)?;
     let mut commands = vec![Vec::new(); plan.arms.len()];
@@ -238,68 +183,11 @@ pub fn interpolate(plan: &Plan, limits: &[ArmLimits], period: f64) -> Result<Tra
     })
 }
 
-/// Checks a run of commands sent one period apart, from rest at the first, with
-/// [`check_command`]: the first failure, with its cycle.
-pub fn check_commands<'a>(
-    limits: &ArmLimits,
-    cmds: impl IntoIterator<Item = &'a Command>,
-    period: f64,
-) -> Result<(), (usize, String)> {
-    let mut prev: Option<[Command; 2]> = None;
-    for (k, cmd) in cmds.into_iter().enumerate() {
-        let [p2, p1] = *prev.get_or_insert([*cmd; 2]);
-        check_command(limits, &p2, &p1, cmd, period).map_err(|e| (k, e))?;
-        prev = Some([p1, *cmd]);
-    }
-    Ok(())
-}
-
-/// Checks `cmd` against the position limits, and the velocity and acceleration it implies after
-/// the two previous commands `prev2`, `prev1` sent one period apart.
-pub fn check_command(
-    limits: &[JointLimits; JOINTS],
-    prev2: &Command,
-    prev1: &Command,
-    cmd: &Command,
-    period: f64,
-) -> Result<(), String> {
-    for (j, l) in limits.iter().enumerate() {
-        let q = counts_to_rad(cmd[j]);
-        if let Some((lo, hi)) = l.position {
-            if !(lo..=hi).contains(&q) {
-                return Err(format!(
-                    "joint {}: position {q} rad outside [{lo}, {hi}]",
-                    j + 1
-                ));
-            }
-        }
-        // In i64: commands span the whole i32 range.
-        let (c, p1, p2) = (i64::from(cmd[j]), i64::from(prev1[j]), i64::from(prev2[j]));
-        let v = (c - p1) as f64 / COUNTS_PER_RAD / period;
-        if v.abs() > l.velocity {
-            return Err(format!(
-                "joint {}: velocity {v:.4} rad/s exceeds the limit {}",
-                j + 1,
-                l.velocity
-            ));
-        }
-        let a = (c - 2 * p1 + p2) as f64 / COUNTS_PER_RAD / (period * period);
-        if a.abs() > l.acceleration {
-            return Err(format!(
-                "joint {}: acceleration {a:.4} rad/s² exceeds the limit {}",
-                j + 1,
-                l.acceleration
-            ));
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cia402::rad_to_counts;
-    use crate::plan::ArmPlan;
+    use crate::cia402::{counts_to_rad, rad_to_counts};
+    use crate::plan::{check_command, ArmPlan, JointLimits};
 
     fn one_arm(dt: f64, path: Vec<[f64; JOINTS]>) -> Plan {
         Plan {
@@ -315,24 +203,6 @@ mod tests {
         (0..n)
             .map(|i| std::array::from_fn(|j| 0.4 * ((i as f64) * 0.7 + j as f64).sin()))
             .collect()
-    }
-
-    #[test]
-    fn hermite_passes_through_waypoints_with_continuous_slope() {
-        let path: Vec<[f64; JOINTS]> = [0.0, 1.0, 1.5, 0.5].map(|v| [v; JOINTS]).to_vec();
-        let segs: Vec<Segment> = (0..3).map(|i| segment(&path, 0, i)).collect();
-        for w in segs.windows(2) {
-            assert_eq!(w[0].position(1.0), w[1].position(0.0));
-            assert_eq!(w[0].m1, w[1].m0);
-        }
-        assert_eq!(segs[0].m0, 0.0);
-        assert_eq!(segs[2].m1, 0.0);
-        // turning point at waypoint 2: zero tangent, no overshoot past 1.5
-        assert_eq!(segs[1].m1, 0.0);
-        let top = (0..=100)
-            .map(|i| segs[1].position(i as f64 / 100.0))
-            .fold(f64::MIN, f64::max);
-        assert!(top <= 1.5);
     }
 
     #[test]
@@ -427,20 +297,5 @@ mod tests {
         assert!(slowed.time_scale > fast.time_scale);
         let e = timing(&plan, &[wide], 0.002).unwrap_err();
         assert!(e.contains("1 tables of joint limits for 2 arms"), "{e}");
-    }
-
-    #[test]
-    fn check_command_names_the_broken_limit() {
-        let l = crate::testing::arm_limits();
-        let z = [0; JOINTS];
-        let mut c = z;
-        c[0] = 20_000; // 2 mrad in 2 ms = 1 rad/s
-        let e = check_command(&l, &z, &z, &c, 0.002).unwrap_err();
-        assert!(e.contains("joint 1: velocity"), "{e}");
-        c[0] = 10; // 1e-6 rad: 0.25 rad/s² from rest
-        assert!(check_command(&l, &z, &z, &c, 0.002).is_ok());
-        c[0] = 100; // 2.5 rad/s²
-        let e = check_command(&l, &z, &z, &c, 0.002).unwrap_err();
-        assert!(e.contains("joint 1: acceleration"), "{e}");
     }
 }

@@ -2,26 +2,61 @@
 //! (CANopen CiA 301 / CiA 402 cyclic synchronous position, one bus per arm) or over Ethernet
 //! with Kinova's Kortex protocol, all arms behind one loop.
 //!
-//! - [`link`]: [`link::ArmLink`], one arm as the loop drives it, CAN or Kortex.
-//! - [`transport`]: the [`Transport`] trait and its SLCAN, SocketCAN and in-process mock buses.
-//! - [`canopen`], [`cia402`]: the protocol.
-//! - [`kortex`]: Kortex messages, framing, sessions, and the Gen3 as a [`link::ArmLink`].
-//! - [`interpolate`]: waypoints to control-rate commands within joint limits.
-//! - [`stream`]: the frame generator: commands cycle by cycle from a queue of waypoints that
+//! The layers, each depending only on those below it:
+//! - [`run`]: the vocabulary of a run (units, settings, faults, reports); it imports nothing
+//!   else of the crate. [`plan`]: the executor's input and the limit check of a command.
+//! - [`spline`], [`stream`], [`interpolate`]: waypoints to control-rate commands within joint
+//!   limits; the frame generator computes them cycle by cycle from a queue of waypoints that
 //!   may be replaced while the arms move.
-//! - [`executor`]: [`Executor`]: validation gate, start-up, streaming, fault handling, log.
-//! - [`fleet`]: mock arms of either kind, started and checked alike.
-//! - [`mock_gen3`]: spawns the Python mock Gen3 on Kortex and reads what it received.
-//! - [`mock`]: spawns the Python mock arm (test side, also used by `omcbsa demo`); [`record`]:
-//!   what a mock received, checked against the streamed trajectory; [`buslog`]: the mocks' bus
-//!   logs (candump), and fault reaction times measured from them.
-//! - [`testing`]: joint limits for tests and examples run without the host.
-//! - [`priority`]: real-time scheduling of the arm threads.
-//! - [`watch`]: the fault-detection settings of a run; [`watchdog`]: per-cycle accounting of the answers to each cycle, independent of the transport.
+//! - [`watchdog`]: per-cycle accounting of the answers to each cycle, whatever the transport.
+//! - [`link`]: the [`link::ArmLink`] trait, one arm as the loop drives it. Its two
+//!   implementations: [`arm`] (CiA 402 drives on a CAN bus: [`transport`], [`canopen`],
+//!   [`cia402`]) and [`kortex`] (messages, framing, sessions, the Gen3).
+//! - [`live`]: the loop, one thread per arm in lockstep; [`port`]: what a caller hands in per
+//!   arm ([`port::ArmUrl`]: where an arm is) and the link made of it; [`executor`]:
+//!   [`Executor`], which composes them: validation gate, start-up, streaming, fault handling,
+//!   log.
+//! - [`cell`]: arms streamed together while a policy runs: start, push chunks, status, stop.
+//! - Test side: [`mock`] and [`mock_gen3`] start the Python mock arms, [`fleet`] either kind
+//!   alike, [`record`] and [`buslog`] check what they received; [`sim`]: simulated arms in
+//!   process, at the default rates; [`testing`] holds joint limits for tests and examples run
+//!   without the host.
+//! - [`priority`]: real-time scheduling of the arm threads; [`log`]: the command log.
+//!
+//! A dry run computes and checks every command of a plan without any arm:
+//!
+//! ```
+//! use omcbsa_hw::{ArmPlan, ExecConfig, Executor, Plan, PlanValidator, JOINTS};
+//!
+//! struct Accept;
+//! impl PlanValidator for Accept {
+//!     fn validate(&self, _: &Plan) -> Result<(), String> { Ok(()) }
+//! }
+//!
+//! let path = |to: f64| vec![[0.0; JOINTS], [to; JOINTS], [to; JOINTS]];
+//! let plan = Plan {
+//!     dt: 0.5,
+//!     arms: vec![
+//!         ArmPlan { name: "left".into(), joint_path: path(0.02) },
+//!         ArmPlan { name: "right".into(), joint_path: path(-0.02) },
+//!     ],
+//! };
+//! let cfg = ExecConfig { dry_run: true, ..ExecConfig::default() };
+//! let limits = omcbsa_hw::testing::fleet_limits(2);
+//! let no_ports: Vec<(String, omcbsa_hw::ArmPort)> = Vec::new();
+//! let report = Executor::new(plan, limits, no_ports, cfg)?.run(&Accept)?;
+//! assert_eq!(report.time_scale, 1.0); // within the limits as planned
+//! // 1 s of motion at 2 ms, then the hold on the last waypoint.
+//! assert_eq!(report.cycles, 501);
+//! assert_eq!(report.frames_sent, 2 * 501 * (JOINTS + 1)); // an RPDO per joint and a SYNC
+//! # Ok::<(), omcbsa_hw::ExecError>(())
+//! ```
+#![deny(missing_docs)]
 
 pub mod arm;
 pub mod buslog;
 pub mod canopen;
+pub mod cell;
 pub mod cia402;
 pub mod executor;
 pub mod fleet;
@@ -34,18 +69,25 @@ pub mod log;
 pub mod mock;
 pub mod mock_gen3;
 pub mod plan;
+pub mod port;
 pub mod priority;
 pub mod record;
+pub mod run;
+pub mod sim;
+pub mod spline;
 pub mod stream;
 pub mod testing;
 pub mod transport;
-pub mod watch;
 pub mod watchdog;
 
-pub use executor::{ExecConfig, ExecError, Executor, Fault, FaultReport, Report};
+pub use executor::Executor;
 pub use frame::CanFrame;
 pub use live::{Event, StreamHandle, StreamProgress};
-pub use plan::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
+pub use plan::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator};
+pub use port::{ArmPort, ArmPorts};
+pub use run::{
+    ArmReport, ArmState, ArmStatus, ArmStop, Command, CycleFault, ExecConfig, ExecError, Fault,
+    FaultReport, Measured, Progress, Report, Span, WatchSettings, JOINTS, STOP_BOUND_PERIODS,
+};
 pub use stream::PushError;
 pub use transport::{Transport, TransportError};
-pub use watch::WatchSettings;

@@ -1,16 +1,19 @@
 //! The command log: every frame the executor sends (or, in a dry run, would send), as JSON
 //! lines, written as the frames go out (nothing is kept in memory).
 
+use crate::run::ExecError;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
+/// One line of the log: one frame.
 #[derive(Clone, Debug, Serialize)]
 pub struct LogEntry<'a> {
     /// Seconds since the executor started (planned time in a dry run).
     pub t: f64,
+    /// The arm it was sent to.
     pub arm: &'a str,
     /// `candump` style, e.g. `201#809698000F00`.
     pub frame: String,
@@ -24,7 +27,10 @@ struct Sink {
     error: Option<std::io::Error>,
 }
 
-/// A log file shared by the arm threads; lines are in the order the frames were sent.
+/// A log file shared by the arm threads; lines are in the order the frames were sent. Nothing
+/// is kept in memory beyond the file's buffer. When a write fails (the disk is full), the
+/// later lines are dropped and [`LogSink::finish`] returns the first error: the run goes on,
+/// and reports it at its end.
 #[derive(Clone)]
 pub struct LogSink {
     path: PathBuf,
@@ -32,6 +38,7 @@ pub struct LogSink {
 }
 
 impl LogSink {
+    /// Creates (or truncates) the file at `path`.
     pub fn create(path: &Path) -> std::io::Result<Self> {
         Ok(Self {
             path: path.to_path_buf(),
@@ -42,10 +49,12 @@ impl LogSink {
         })
     }
 
+    /// The file's path.
     pub fn path(&self) -> &Path {
         &self.path
     }
 
+    /// Writes one line (after a failed write: nothing).
     pub fn write(&self, entry: &LogEntry) {
         let mut s = self.sink.lock().unwrap_or_else(|p| p.into_inner());
         if s.error.is_none() {
@@ -65,5 +74,27 @@ impl LogSink {
             Some(e) => Err(e),
             None => s.out.flush(),
         }
+    }
+}
+
+/// The log at `path`, created (`None`: no log).
+pub(crate) fn open(path: Option<&Path>) -> Result<Option<LogSink>, ExecError> {
+    path.map(|path| {
+        LogSink::create(path).map_err(|error| ExecError::Log {
+            path: path.to_path_buf(),
+            error,
+        })
+    })
+    .transpose()
+}
+
+/// Flushes `log`: the first error of the whole log as the run's error.
+pub(crate) fn finish(log: Option<LogSink>) -> Result<(), ExecError> {
+    match log {
+        Some(log) => log.finish().map_err(|error| ExecError::Log {
+            path: log.path().to_path_buf(),
+            error,
+        }),
+        None => Ok(()),
     }
 }

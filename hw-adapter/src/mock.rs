@@ -33,12 +33,19 @@ pub fn venv_python() -> Result<PathBuf, String> {
     }
 }
 
+/// Whether the venv of `python` holds the Kortex mock's message code that setup_venv.sh
+/// generates.
+pub fn proto_code_ready(python: &Path) -> bool {
+    (python.parent().and_then(Path::parent))
+        .is_some_and(|venv| venv.join("kortex-proto").join("Frame_pb2.py").exists())
+}
+
 /// The venv's python, first creating the venv with `hw-adapter/mock/setup_venv.sh` if it is
 /// missing, or lacks the Kortex mock's generated message code (the script's output goes to
 /// this process's output).
 pub fn ensure_venv() -> Result<PathBuf, String> {
     if let Ok(python) = venv_python() {
-        if crate::mock_gen3::proto_code_ready(&python) {
+        if proto_code_ready(&python) {
             return Ok(python);
         }
     }
@@ -57,6 +64,7 @@ pub fn ensure_venv() -> Result<PathBuf, String> {
     venv_python()
 }
 
+/// How a mock arm is started.
 #[derive(Clone, Debug)]
 pub struct MockArmOptions {
     /// Joint positions at power-on, rad.
@@ -70,10 +78,11 @@ pub struct MockArmOptions {
 }
 
 /// Executor settings for the mocks: the command line's defaults (the same fault detection,
-/// [`crate::WatchSettings::default`]) but for the control period, 4 ms: seven `canopen` nodes
-/// per arm in Python cost about 0.5 ms of CPU per cycle, so three mocks at 500 Hz alone would
-/// need most of the machine (real drives have their own processors). Detection bounds are in
-/// periods, so they hold at any period.
+/// [`crate::WatchSettings::default`]) but for the control period, [`MOCK_PERIOD`] (10 ms):
+/// seven `canopen` nodes per arm in Python cost about 0.5 ms of CPU per cycle, so three mocks
+/// at 500 Hz alone would need most of the machine (real drives have their own processors).
+/// Detection bounds are in periods, so they hold at any period; [`crate::sim`] shows them at
+/// the default rates.
 pub fn exec_config() -> ExecConfig {
     ExecConfig {
         period: MOCK_PERIOD,
@@ -86,9 +95,11 @@ pub const MOCK_PERIOD: Duration = Duration::from_millis(10);
 
 /// A running mock arm; killed when dropped.
 pub struct MockArm {
+    /// The arm's name.
     pub name: String,
     /// The pseudo-terminal to open as an SLCAN adapter.
     pub pty: String,
+    /// Where it writes its record at exit.
     pub record: Option<PathBuf>,
     child: Child,
 }

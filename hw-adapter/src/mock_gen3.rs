@@ -4,10 +4,11 @@
 //! the command line's fault detection at a 10 ms period): the commands it took, checked against the streamed trajectory, and
 //! how soon every arm was stopped after a fault's first sign.
 
-use crate::interpolate::{check_commands, Command};
 use crate::kortex::{self, Connection, Credentials, KortexSpec};
+use crate::plan::check_commands;
 use crate::plan::{JointLimits, JOINTS};
 use crate::record::{self, TOLERANCE};
+use crate::run::Command;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -21,12 +22,6 @@ pub fn script_path() -> PathBuf {
         .join("mock_gen3.py")
 }
 
-/// Whether the venv of `python` holds the message code setup_venv.sh generates.
-pub fn proto_code_ready(python: &Path) -> bool {
-    (python.parent().and_then(Path::parent))
-        .is_some_and(|venv| venv.join("kortex-proto").join("Frame_pb2.py").exists())
-}
-
 /// The mocks' user and password (the password is one no log may show).
 pub fn credentials() -> Credentials {
     Credentials {
@@ -35,10 +30,15 @@ pub fn credentials() -> Credentials {
     }
 }
 
+/// A running mock Gen3; killed when dropped.
 pub struct MockGen3 {
+    /// The arm's name.
     pub name: String,
+    /// Its TCP port on 127.0.0.1.
     pub tcp_port: u16,
+    /// Its UDP port on 127.0.0.1.
     pub udp_port: u16,
+    /// Where it writes its record at exit.
     pub record: PathBuf,
     child: Child,
 }
@@ -104,6 +104,7 @@ impl MockGen3 {
         format!("kortex:127.0.0.1:{}:{}", self.tcp_port, self.udp_port)
     }
 
+    /// Opens a connection to it (with the mocks' [`credentials`]).
     pub fn connect(&self) -> Result<Connection, String> {
         Connection::open(&KortexSpec::parse(&self.spec())?, &credentials())
     }

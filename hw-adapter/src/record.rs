@@ -3,8 +3,8 @@
 //! it to confirm what the arms were actually sent.
 
 use crate::cia402::{counts_to_rad, CW_DISABLE_OPERATION, CW_ENABLE_OPERATION};
-use crate::interpolate::{check_commands, Command};
-use crate::plan::{JointLimits, JOINTS};
+use crate::plan::{check_commands, JointLimits};
+use crate::run::{Command, JOINTS};
 use serde_json::Value;
 use std::path::Path;
 
@@ -35,7 +35,9 @@ pub fn kinds(record: &[Value], kind: &str) -> usize {
 pub struct Target {
     /// SYNCs the mock had received before it.
     pub sync: u64,
+    /// The target, counts.
     pub counts: i32,
+    /// The controlword that came with it.
     pub controlword: u16,
 }
 

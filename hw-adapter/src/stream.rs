@@ -17,8 +17,9 @@
 //! and resumes smoothly when a later push extends the queue.
 
 use crate::cia402::rad_to_counts;
-use crate::interpolate::{check_command, fritsch_butland, Command, Segment};
-use crate::plan::{ArmLimits, JOINTS};
+use crate::plan::{check_command, ArmLimits};
+use crate::run::{Command, JOINTS};
+use crate::spline::{fritsch_butland, Segment};
 use std::collections::VecDeque;
 
 /// One arm's queue and its frozen part.
@@ -51,48 +52,111 @@ pub struct Tick {
 /// Why a push was refused; the queue is unchanged.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PushError {
+    /// Not one list of waypoints per arm.
     #[error("expected waypoints for {expected} arms, got {got}")]
-    Arms { expected: usize, got: usize },
-    #[error("arm {arm}: {got} waypoints, arm 0 has {expected}: all arms share one time grid")]
-    Lengths {
-        arm: usize,
+    Arms {
+        /// Arms of the stream.
         expected: usize,
+        /// Lists given.
         got: usize,
     },
+    /// The arms' lists differ in length.
+    #[error("arm {arm}: {got} waypoints, arm 0 has {expected}: all arms share one time grid")]
+    Lengths {
+        /// The first arm whose list differs from arm 0's.
+        arm: usize,
+        /// Arm 0's length.
+        expected: usize,
+        /// This arm's.
+        got: usize,
+    },
+    /// No waypoints.
     #[error("a segment needs at least one waypoint")]
     Empty,
+    /// A NaN or infinite joint value.
     #[error("arm {arm} waypoint {step} joint {joint}: not a finite number")]
     NotFinite {
+        /// The arm.
         arm: usize,
+        /// The waypoint's step.
         step: usize,
+        /// The joint, from 1.
         joint: usize,
     },
+    /// The push starts at a step the arms are already executing toward (or past).
     #[error(
         "start step {start} is already fixed: the arms are executing toward step {fixed}, \
          so a segment may start at step {} at the earliest", fixed + 1
     )]
-    AlreadyFixed { start: usize, fixed: usize },
+    AlreadyFixed {
+        /// The push's first step.
+        start: usize,
+        /// The last fixed step.
+        fixed: usize,
+    },
+    /// The push starts after the queue's end plus one.
     #[error("start step {start} leaves a gap: the queue ends at step {end}")]
-    Gap { start: usize, end: usize },
+    Gap {
+        /// The push's first step.
+        start: usize,
+        /// The queue's last step.
+        end: usize,
+    },
+    /// The push would queue more than the stream allows ahead of the fixed step.
     #[error("the queue would reach step {end}, {steps} steps ahead of step {fixed}; at most {max} steps may be queued")]
     TooLong {
+        /// The last step it would queue.
         end: usize,
+        /// Steps ahead of the fixed one.
         steps: usize,
+        /// The last fixed step.
         fixed: usize,
+        /// The most allowed.
         max: usize,
     },
+    /// The stream has stopped (a fault, or its end): nothing more is taken.
     #[error("the stream has stopped: {0}")]
     Stopped(String),
+    /// A command the new tail leads to breaks a limit.
     #[error("arm {arm}, step {step} (cycle {cycle}): {error}")]
     Limits {
+        /// The arm.
         arm: usize,
+        /// The step being executed when it would.
         step: usize,
+        /// The cycle it would be sent in.
         cycle: u64,
+        /// The broken limit.
         error: String,
     },
 }
 
 /// Commands for every arm, one control cycle at a time. See the module documentation.
+///
+/// Memory: the queued waypoints (from the one the arms move from to the end), bounded by
+/// [`Generator::with_max_queued`]; a push costs one pass over its whole new tail.
+///
+/// ```
+/// use omcbsa_hw::stream::Generator;
+/// use omcbsa_hw::cia402::counts_to_rad;
+/// use omcbsa_hw::JOINTS;
+///
+/// let limits = omcbsa_hw::testing::fleet_limits(1);
+/// // One arm at rest at 0, steps of 0.5 s, cycles of 2 ms.
+/// let mut g = Generator::new(&[[0.0; JOINTS]], &limits, 0.002, 0.5)?;
+/// g.push(1, &[&[[0.05; JOINTS], [0.1; JOINTS]]])?;
+/// let mut out = [[0; JOINTS]];
+/// let mut cycles = 0;
+/// while !g.next(&mut out)?.holding {
+///     cycles += 1;
+/// }
+/// // Two steps of 0.5 s at 2 ms, and the arm holds at the last waypoint.
+/// assert_eq!(cycles, 500);
+/// assert!((counts_to_rad(out[0][0]) - 0.1).abs() < 1e-7);
+/// // Step 2 is where the arms hold: a push may start at step 3 at the earliest.
+/// assert!(g.push(2, &[&[[0.0; JOINTS]]]).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Generator {
     period: f64,
@@ -197,6 +261,7 @@ impl Generator {
         self
     }
 
+    /// Arms streamed.
     pub fn arms(&self) -> usize {
         self.tracks.len()
     }
@@ -220,6 +285,7 @@ impl Generator {
         }
     }
 
+    /// Whether the arms hold (at [`Generator::fixed`]) rather than move.
     pub fn holding(&self) -> bool {
         self.holding
     }

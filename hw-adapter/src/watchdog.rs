@@ -13,74 +13,30 @@
 //! Counting cycles rather than wall-clock time makes the bound m periods at any period, and
 //! tells a silent source from a host that is itself late (no cycle sent, nothing owed).
 //! Memory is bounded: the records of the last m + 1 cycles sent and one counter per source.
+//!
+//! ```
+//! use omcbsa_hw::watchdog::{CycleAccount, CycleFault};
+//!
+//! // Two drives, m = 2; each cycle's record is its number.
+//! let mut account = CycleAccount::new(2, 2)?;
+//! account.sent_cycle(0);
+//! account.answer_next(0).unwrap(); // drive 0 answers cycle 0; drive 1 stays silent
+//! account.check_send().unwrap();
+//! account.sent_cycle(1); // cycle 1 = 0 + m - 1: still allowed
+//! assert_eq!(account.clear_until(), 2);
+//! // Cycle 2 = 0 + m is due and drive 1 still owes cycle 0: a fault, before cycle 2 is sent.
+//! let fault = account.check_send().unwrap_err();
+//! assert_eq!(fault, CycleFault::Missing { source: 1, cycle: 0, next: 2 });
+//! // An answer that comes after cycle k + m was sent is late.
+//! account.sent_cycle(2);
+//! assert!(matches!(account.answer_next(1), Err(CycleFault::Late { cycle: 0, .. })));
+//! # Ok::<(), String>(())
+//! ```
 
 use std::collections::VecDeque;
-use std::fmt;
 
-/// The default `m`: an answer may lag its cycle by up to two periods (one for the source to
-/// answer, one for jitter).
-pub const DEFAULT_MISSED_CYCLES: u32 = 2;
-/// The largest `m` accepted: beyond it the accounting no longer bounds a reaction usefully.
-pub const MAX_MISSED_CYCLES: u32 = 1000;
-
-/// A breach of the accounting, naming the source (its index) and the cycle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CycleFault {
-    /// `source` had not answered `cycle` when cycle `next` (= `cycle` + m or later) was due.
-    Missing {
-        source: usize,
-        cycle: u64,
-        next: u64,
-    },
-    /// `source`'s answer to `cycle` arrived after cycle `last_sent` (>= `cycle` + m) was sent.
-    Late {
-        source: usize,
-        cycle: u64,
-        last_sent: u64,
-    },
-    /// `source` answered `cycle`, which has not been sent (the source or the link is confused).
-    Unsent {
-        source: usize,
-        cycle: u64,
-        sent: u64,
-    },
-}
-
-impl CycleFault {
-    pub fn source(&self) -> usize {
-        match *self {
-            CycleFault::Missing { source, .. }
-            | CycleFault::Late { source, .. }
-            | CycleFault::Unsent { source, .. } => source,
-        }
-    }
-}
-
-/// Says what happened with "source N" standing for the source; callers name it (a node, an
-/// actuator) in their own messages.
-impl fmt::Display for CycleFault {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            CycleFault::Missing { cycle, next, .. } => write!(
-                f,
-                "no answer to cycle {cycle} when cycle {next} was due ({} periods)",
-                next - cycle
-            ),
-            CycleFault::Late {
-                cycle, last_sent, ..
-            } => write!(
-                f,
-                "answer to cycle {cycle} arrived after cycle {last_sent} was sent ({} periods \
-                 stale)",
-                last_sent - cycle
-            ),
-            CycleFault::Unsent { cycle, sent, .. } => write!(
-                f,
-                "answer to cycle {cycle}, which was never sent ({sent} cycles sent)"
-            ),
-        }
-    }
-}
+use crate::run::WatchSettings;
+pub use crate::run::{CycleFault, DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
 
 /// The accounting of one link (one bus, one UDP peer) with its sources; `T` is what the caller
 /// keeps about each cycle sent (e.g. when, and the targets sent), handed back with the answer
@@ -105,12 +61,23 @@ impl<T> CycleAccount<T> {
                 "missed cycles must be within [1, {MAX_MISSED_CYCLES}], got {missed}"
             ));
         }
-        Ok(Self {
+        Ok(Self::with_missed(sources, missed))
+    }
+
+    /// The account of a link with `sources` sources under `watch`'s `m`
+    /// ([`WatchSettings::missed_cycles`], clamped into its range: a run refuses settings out
+    /// of range before any link is set up).
+    pub fn watching(sources: usize, watch: &WatchSettings) -> Self {
+        Self::with_missed(sources, watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
+    }
+
+    fn with_missed(sources: usize, missed: u32) -> Self {
+        Self {
             missed: u64::from(missed),
             sent: 0,
             records: VecDeque::with_capacity(missed as usize + 1),
             owed: vec![0; sources],
-        })
+        }
     }
 
     /// `m`: the periods an answer may lag its cycle.

@@ -4,9 +4,9 @@
 mod common;
 
 use common::*;
-use omcbsa_hw::link::ArmPorts;
 use omcbsa_hw::plan::{Plan, PlanValidator};
 use omcbsa_hw::transport::{self, mock::MockTransport};
+use omcbsa_hw::ArmPorts;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Transport};
 use std::sync::Mutex;
 

@@ -1,5 +1,5 @@
 //! The fault matrix against three Python mock arms, with the command line's default watchdog
-//! settings (`mock::exec_config`: `WatchSettings::default()`, at the mocks' 4 ms period): a
+//! settings (`mock::exec_config`: `WatchSettings::default()`, at the mocks' 10 ms period): a
 //! fault on node 3 of one arm of three, raised by the mock's own flags through the drives'
 //! CANopen stack: EMCY, statusword fault bit, NMT stop, silence, answers late by 2, 5, 10 and
 //! 50 periods, lost heartbeat, and joint lag caught by the drives' own following-error window
@@ -16,8 +16,8 @@ mod common;
 use common::*;
 use omcbsa_hw::buslog::{self, first_sign, quick_stop_time, targets_after_stop, Logged};
 use omcbsa_hw::cia402::{CW_QUICK_STOP, EMCY_FOLLOWING_ERROR};
-use omcbsa_hw::executor::STOP_BOUND_PERIODS;
 use omcbsa_hw::mock::bus_log_path;
+use omcbsa_hw::STOP_BOUND_PERIODS;
 use omcbsa_hw::{ExecError, Executor, Fault, FaultReport};
 use serde_json::Value;
 use std::sync::Mutex;
@@ -258,7 +258,16 @@ fn nmt_stop_of_a_drive_stops_every_arm() {
 
 #[test]
 fn arm_that_stops_answering_stops_every_arm() {
-    check(silence());
+    let (report, seen) = run_with_fault(&silence());
+    assert_all_stopped(&report, &seen);
+    // Its drives answer neither the quick stop's SYNC nor NMT stop: the stop says so.
+    let right = report.stops.iter().find(|s| s.arm == "right").unwrap();
+    let unanswered = right.unanswered.join("\n");
+    assert!(
+        unanswered.contains("no TPDO1 from node 1, 2, 3, 4, 5, 6, 7"),
+        "{unanswered}"
+    );
+    assert!(unanswered.contains("reporting \"stopped\""), "{unanswered}");
 }
 
 #[test]

@@ -14,7 +14,7 @@ use omcbsa_hw::kortex::proto::{self, base, base_cyclic};
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::mock_gen3::{self, MockGen3};
 use omcbsa_hw::watchdog::CycleFault;
-use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, Plan, WatchSettings};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, FaultReport, Plan, WatchSettings};
 use prost::Message;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -101,9 +101,9 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let _ = std::fs::remove_file(log);
 }
 
-/// Runs the 3-arm plan with `flags` on the second arm's mock; returns the fault and, per arm,
-/// how it was stopped, measured from the mocks' records.
-fn fault_run(tag: &str, flags: &[&str]) -> (Fault, Vec<mock_gen3::Stop>) {
+/// Runs the 3-arm plan with `flags` on the second arm's mock; returns the fault report and,
+/// per arm, how it was stopped, measured from the mocks' records.
+fn fault_run(tag: &str, flags: &[&str]) -> (FaultReport, Vec<mock_gen3::Stop>) {
     let _one = serial();
     let plan = three_arm_plan(8);
     let cfg = exec_config();
@@ -131,7 +131,7 @@ fn fault_run(tag: &str, flags: &[&str]) -> (Fault, Vec<mock_gen3::Stop>) {
     let stops = (records.iter())
         .map(|r| mock_gen3::stop_after(r, sign).unwrap_or_else(|e| panic!("{e}")))
         .collect();
-    (report.fault, stops)
+    (*report, stops)
 }
 
 fn assert_stopped_within_3_cycles(stops: &[mock_gen3::Stop]) {
@@ -148,7 +148,8 @@ fn assert_stopped_within_3_cycles(stops: &[mock_gen3::Stop]) {
 
 #[test]
 fn a_mock_that_goes_silent_stops_every_arm_within_3_cycles() {
-    let (fault, stops) = fault_run("silent", &["--silent-at=100"]);
+    let (report, stops) = fault_run("silent", &["--silent-at=100"]);
+    let fault = report.fault.clone();
     assert!(
         matches!(
             fault,
@@ -160,12 +161,29 @@ fn a_mock_that_goes_silent_stops_every_arm_within_3_cycles() {
         "{fault}"
     );
     assert_stopped_within_3_cycles(&stops);
+    // The silent arm confirms none of its stop, and says so; the others confirm all of it.
+    for s in &report.stops {
+        let unanswered = s.unanswered.join("\n");
+        if s.arm == "right" {
+            for rpc in [
+                "BaseCyclic.Refresh",
+                "Base.ApplyEmergencyStop",
+                "Base.SetServoingMode",
+                "Session.CloseSession",
+            ] {
+                assert!(unanswered.contains(rpc), "{rpc} missing from {unanswered}");
+            }
+        } else {
+            assert!(unanswered.is_empty(), "{}: {unanswered}", s.arm);
+        }
+    }
 }
 
 #[test]
 fn a_mock_that_answers_5_periods_late_stops_every_arm_within_3_cycles() {
     let late = format!("--late-ms={}", 5 * exec_config().period.as_millis());
-    let (fault, stops) = fault_run("late", &["--late-at=100", &late]);
+    let (report, stops) = fault_run("late", &["--late-at=100", &late]);
+    let fault = report.fault;
     assert!(
         matches!(
             fault,
@@ -181,7 +199,8 @@ fn a_mock_that_answers_5_periods_late_stops_every_arm_within_3_cycles() {
 
 #[test]
 fn an_actuator_fault_stops_every_arm_within_3_cycles() {
-    let (fault, stops) = fault_run("actuator", &["--fault-at=100"]);
+    let (report, stops) = fault_run("actuator", &["--fault-at=100"]);
+    let fault = report.fault;
     assert_eq!(
         fault,
         Fault::ActuatorFault {
@@ -195,7 +214,8 @@ fn an_actuator_fault_stops_every_arm_within_3_cycles() {
 
 #[test]
 fn a_session_lost_mid_run_stops_every_arm() {
-    let (fault, stops) = fault_run("session", &["--drop-session-at=100"]);
+    let (report, stops) = fault_run("session", &["--drop-session-at=100"]);
+    let fault = report.fault;
     let Fault::ArmRefused(why) = &fault else {
         panic!("{fault}")
     };
@@ -337,4 +357,89 @@ fn the_mock_stops_motion_when_its_connection_inactivity_timeout_passes() {
     drop((tcp, udp));
     let record = mock.finish().unwrap();
     assert!(record.iter().any(|e| e["event"] == "inactivity_stop"));
+}
+
+/// The order of the leaving frames as the mock handled them: no Refresh after the last
+/// SetServoingMode(SINGLE_LEVEL_SERVOING), which came after the last Refresh. Returns the
+/// number of Refresh commands handled.
+fn assert_no_refresh_after_the_mode_change(run: usize, record: &[Value]) -> usize {
+    let single = (record.iter())
+        .rposition(|e| e["event"] == "servoing" && e["mode"] == 2)
+        .unwrap_or_else(|| panic!("run {run}: no SetServoingMode(SINGLE_LEVEL_SERVOING)"));
+    let after: Vec<&Value> = (record[single..].iter())
+        .filter(|e| e["event"] == "refresh")
+        .collect();
+    assert!(
+        after.is_empty(),
+        "run {run}: Refresh handled after the mode change: {after:?}"
+    );
+    record.iter().filter(|e| e["event"] == "refresh").count()
+}
+
+/// Kortex shutdown in order: 20 runs in a row on a mock Gen3 that handles every UDP request
+/// after a random delay of up to 2 periods (a slow network path, so that a mode change sent on
+/// TCP right after the last Refresh would overtake it). Even runs end normally, odd runs stop
+/// on an actuator fault (ApplyEmergencyStop first); in every run the mock handles no Refresh
+/// after the mode change.
+#[test]
+fn no_refresh_reaches_the_arm_after_the_mode_change_in_20_runs_with_udp_delayed_2_periods() {
+    let _one = serial();
+    let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
+    let plan = three_arm_plan(4);
+    let one_arm = Plan {
+        dt: plan.dt,
+        arms: vec![plan.arms[0].clone()],
+    };
+    let cfg = ExecConfig {
+        settle_cycles: 5,
+        // About the order of the leaving frames, not the watchdog: answers up to 2 periods
+        // late, and a Python mock descheduled on a shared machine, within 6 missed cycles.
+        watch: WatchSettings {
+            missed_cycles: 6,
+            ..WatchSettings::default()
+        },
+        ..exec_config()
+    };
+    let delay = format!("--udp-delay-ms={}", 2 * cfg.period.as_millis());
+    let mut refreshes = 0;
+    let mut ended = [0; 2];
+    for run in 0..20 {
+        let mut flags = vec![delay.clone(), format!("--seed={run}")];
+        if run % 2 == 1 {
+            flags.push("--fault-at=20".into());
+        }
+        let arms = vec![(one_arm.arms[0].name.clone(), one_arm.arms[0].joint_path[0])];
+        let mocks = Fleet::spawn(
+            MockKind::Kortex,
+            &python,
+            cfg.period,
+            &arms,
+            |n| record_path(&format!("order{run}"), n),
+            &[flags],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let ports = mocks.ports().unwrap();
+        let limits = omcbsa_hw::testing::fleet_limits(1);
+        let result = Executor::new(one_arm.clone(), limits, ports, cfg.clone())
+            .unwrap()
+            .run(&AcceptAll);
+        // Both ways of leaving, whichever way the run ended: a watchdog stop (the machine
+        // holding a mock up) leaves by the quick stop too.
+        match (run % 2, &result) {
+            (0, Ok(_)) => ended[0] += 1,
+            (_, Err(ExecError::Fault(r)))
+                if matches!(r.fault, Fault::ActuatorFault { .. } | Fault::Answer { .. }) =>
+            {
+                assert!(r.stops.iter().all(|s| s.error.is_none()), "run {run}: {r}");
+                ended[1] += 1;
+            }
+            _ => panic!("run {run}: {result:?}"),
+        }
+        refreshes += assert_no_refresh_after_the_mode_change(run, &records(mocks)[0]);
+    }
+    println!(
+        "20 runs ({} ended normally, {} by a quick stop), {refreshes} Refresh commands, none \
+         after the mode change",
+        ended[0], ended[1]
+    );
 }

@@ -8,9 +8,9 @@
 mod common;
 
 use common::*;
-use omcbsa_hw::interpolate::{min_time_scale, Command};
+use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::record::check_followed;
-use omcbsa_hw::stream::Generator;
+use omcbsa_hw::Command;
 use omcbsa_hw::{Event, ExecConfig, Executor, PushError, StreamHandle, WatchSettings, JOINTS};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -21,13 +21,6 @@ static SERIAL: Mutex<()> = Mutex::new(());
 const DT: f64 = 0.1;
 
 type Path = Vec<[f64; JOINTS]>;
-
-/// A push as the stream applied it: start step, per-arm waypoints, cycle.
-struct Pushed {
-    start: usize,
-    waypoints: Vec<Path>,
-    cycle: u64,
-}
 
 struct Online {
     _one_at_a_time: MutexGuard<'static, ()>,
@@ -129,24 +122,8 @@ impl Online {
         let limits = omcbsa_hw::testing::arm_limits();
         let period = cfg.period.as_secs_f64();
         let fleet = vec![limits; self.starts.len()];
-        let mut g = Generator::new(&self.starts, &fleet, period, DT * self.time_scale).unwrap();
-        let mut out = vec![[0; JOINTS]; self.starts.len()];
-        let mut cmds: Vec<Vec<Command>> = vec![Vec::new(); self.starts.len()];
-        let mut step = |g: &mut Generator| {
-            let tick = g.next(&mut out).unwrap();
-            for (c, o) in cmds.iter_mut().zip(&out) {
-                c.push(*o);
-            }
-            tick
-        };
-        for p in &self.pushed {
-            while g.cycle() < p.cycle {
-                step(&mut g);
-            }
-            let slices: Vec<&[[f64; JOINTS]]> = p.waypoints.iter().map(|w| w.as_slice()).collect();
-            g.push(p.start, &slices).unwrap();
-        }
-        while !step(&mut g).holding {}
+        let step_time = DT * self.time_scale;
+        let cmds = replay(&self.starts, &fleet, period, step_time, &self.pushed);
         assert_eq!(report.cycles, cmds[0].len());
         for (mock, arm) in self.mocks.into_iter().zip(&cmds) {
             let name = mock.name.clone();

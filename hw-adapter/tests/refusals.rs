@@ -1,5 +1,5 @@
 //! The drives refuse what a real CiA 402 drive refuses, and the executor stops for it: a start-up
-//! SDO write changed on purpose (`ExecConfig::setup_override`) is answered by the mock drive's
+//! SDO write changed on purpose (`ArmPort::CanSetupOverride`) is answered by the mock drive's
 //! CANopen stack with an SDO abort, and the executor refuses to start, naming the arm, the node,
 //! the object and the abort code, with no drive of any arm enabled. (The hand-written mock these
 //! drives replaced stored any write to any object of any size, so each of these passed.)
@@ -10,7 +10,7 @@ use common::*;
 use omcbsa_hw::arm::SetupOverride;
 use omcbsa_hw::canopen::SdoValue;
 use omcbsa_hw::cia402;
-use omcbsa_hw::{ExecConfig, ExecError, Executor};
+use omcbsa_hw::{ArmPort, ExecError, Executor};
 use serde_json::Value;
 use std::sync::Mutex;
 
@@ -23,12 +23,17 @@ fn refused(tag: &str, change: SetupOverride) -> (String, Vec<(String, Vec<Value>
     let _one_at_a_time = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let plan = three_arm_plan(4);
     let mocks = spawn_arms(&plan, tag, &[]);
-    let cfg = ExecConfig {
-        setup_override: Some(change),
-        ..mock_config()
-    };
+    let ports: Vec<(String, ArmPort)> = (open_buses(&mocks).into_iter())
+        .map(|(name, bus)| {
+            let port = match name.as_str() {
+                "right" => ArmPort::CanSetupOverride(bus, change.clone()),
+                _ => ArmPort::Can(bus),
+            };
+            (name, port)
+        })
+        .collect();
     let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
-    let exec = Executor::new(plan, limits, open_buses(&mocks), cfg).unwrap();
+    let exec = Executor::new(plan, limits, ports, mock_config()).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err();
     let text = e.to_string();
     assert!(matches!(e, ExecError::Startup(_)), "{text}");
@@ -69,7 +74,6 @@ fn assert_none_enabled(records: &[(String, Vec<Value>)]) {
 
 fn change(node: u8, index: u16, sub: u8, value: SdoValue) -> SetupOverride {
     SetupOverride {
-        arm: "right".into(),
         node,
         index,
         sub,

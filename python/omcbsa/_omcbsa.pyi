@@ -109,7 +109,7 @@ class Report:
 
 def plan(
     problem: Problem,
-    planner: str = "omcbsa",
+    planner: Optional[str] = None,
     timeout: float = 5.0,
     assignment: Optional[Sequence[Optional[int]]] = None,
     preferred: bool = False,
@@ -177,7 +177,7 @@ class Embodier:
         obstacles: Optional[Sequence[Mapping[str, Any]]] = None,
         tolerance: Optional[Tuple[float, float]] = None,
         model: Optional[Union[str, Sequence[str]]] = None,
-        planner: str = "omcbsa",
+        planner: Optional[str] = None,
         chunk_timeout: float = 1.0,
         max_chunk_len: int = 64,
         assignment: Optional[Sequence[Optional[int]]] = None,

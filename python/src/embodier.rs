@@ -12,7 +12,8 @@ use pyo3::types::PyDict;
 use crate::convert::{field_error, flat, input_error};
 use crate::guard;
 use crate::problem::{
-    check, problem_document, robots_value, rule, to_python, ModelArg, Problem, DOF,
+    check, planner_kind, problem_document, robots_value, rule, to_python, ModelArg, Problem,
+    DOF,
 };
 use omcbsa::load;
 
@@ -137,7 +138,7 @@ impl Embodier {
 impl Embodier {
     #[new]
     #[pyo3(signature = (setup=None, *, bases=None, initial=None, dt=None, tcp=None,
-        obstacles=None, tolerance=None, model=None, planner="omcbsa",
+        obstacles=None, tolerance=None, model=None, planner=None,
         chunk_timeout=1.0, max_chunk_len=64, assignment=None, preferred=false,
         reassign=false, axis_weight=omcbsa::online::AXIS_WEIGHT))]
     #[allow(clippy::too_many_arguments)]
@@ -151,7 +152,7 @@ impl Embodier {
         obstacles: Option<&Bound<'_, PyAny>>,
         tolerance: Option<(f64, f64)>,
         model: Option<ModelArg>,
-        planner: &str,
+        planner: Option<&str>,
         chunk_timeout: f64,
         max_chunk_len: usize,
         assignment: Option<Vec<Option<usize>>>,
@@ -160,7 +161,7 @@ impl Embodier {
         axis_weight: f64,
     ) -> PyResult<Embodier> {
         let options = OnlineOptions {
-            planner: planner.to_string(),
+            planner: planner_kind(py, planner)?,
             chunk_timeout_s: chunk_timeout,
             max_chunk_len,
             assignment: rule(assignment, preferred),

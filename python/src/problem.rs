@@ -10,10 +10,8 @@ use omcbsa::assignment::AssignmentRule;
 use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
-use omcbsa::planners::{
-    self as planners, load_problem, plan_assigned, Capacities, InputOrPlanError, PlannerKind,
-    Storage,
-};
+use omcbsa::planners::{self as planners, PlannerKind, Pools};
+use omcbsa::plan::{load_problem, plan_assigned, InputOrPlanError};
 use omcbsa::validate::validate as check_solution;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
@@ -508,11 +506,11 @@ impl Solution {
 /// arm takes which hand; with `preferred=True` it is only tried first, and the planner
 /// chooses freely in the time left when it has no plan.
 #[pyfunction]
-#[pyo3(signature = (problem, planner="omcbsa", timeout=5.0, assignment=None, preferred=false))]
+#[pyo3(signature = (problem, planner=None, timeout=5.0, assignment=None, preferred=false))]
 pub fn plan(
     py: Python<'_>,
     problem: &Problem,
-    planner: &str,
+    planner: Option<&str>,
     timeout: f64,
     assignment: Option<Vec<Option<usize>>>,
     preferred: bool,
@@ -524,7 +522,7 @@ pub fn plan(
             format!("must be a positive number of seconds, got {timeout}"),
         ));
     }
-    let kind = planners::parse(planner).map_err(|e| field_error(py, "planner", e))?;
+    let kind = planner_kind(py, planner)?;
     let file = &problem.file;
     let rule = rule(assignment, preferred);
     match py.detach(|| guard("plan", || plan_with_pools(file, kind, timeout, &rule)))? {
@@ -534,9 +532,14 @@ pub fn plan(
     }
 }
 
-/// The planner's pools, kept from call to call with the horizon they fit: allocating them
-/// (tens of MB) costs more than planning a small problem.
-static POOLS: Mutex<Option<(usize, Storage)>> = Mutex::new(None);
+/// The planner named `name` (the default planner when `None`), or an error at `planner`.
+pub fn planner_kind(py: Python<'_>, name: Option<&str>) -> PyResult<PlannerKind> {
+    name.map_or(Ok(PlannerKind::DEFAULT), planners::parse)
+        .map_err(|e| field_error(py, "planner", e))
+}
+
+/// The planner's pools, kept from call to call (see [`Pools`]).
+static POOLS: Mutex<Option<Pools>> = Mutex::new(None);
 
 /// Plans in the kept pools; a call made while another thread plans gets pools of its
 /// own.
@@ -546,17 +549,13 @@ fn plan_with_pools(
     timeout: f64,
     rule: &AssignmentRule,
 ) -> Result<SolutionFile, InputOrPlanError> {
-    let Ok(mut slot) = POOLS.try_lock() else {
-        let problem = load_problem(file)?;
-        let mut storage = Storage::new(Capacities::default(), problem.horizon());
-        return plan_assigned(&mut storage, file, &problem, planner, timeout, rule);
-    };
     let problem = load_problem(file)?;
     let h = problem.horizon();
-    if !matches!(&*slot, Some((fits, _)) if *fits >= h) {
-        *slot = None; // the old pools go before the new ones are made
-    }
-    let (_, storage) = slot.get_or_insert_with(|| (h, Storage::new(Capacities::default(), h)));
+    let Ok(mut slot) = POOLS.try_lock() else {
+        let mut own = Pools::default();
+        return plan_assigned(own.for_horizon(h), file, &problem, planner, timeout, rule);
+    };
+    let storage = slot.get_or_insert_with(Pools::default).for_horizon(h);
     plan_assigned(storage, file, &problem, planner, timeout, rule)
 }
 

@@ -3,23 +3,16 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use omcbsa::planners::{Capacities, Storage, WallClock};
-use omcbsa_core::planner::{Stats, Status};
+use omcbsa_core::planner::{Stats, Status, Until};
 use omcbsa_core::problem::Problem;
 use omcbsa_tests::{core_problem, elbow_swing_problem, facing_pair_problem};
 
 fn run(storage: &mut Storage, planner: &str, problem: &Problem<7>) -> Stats {
-    let mut stats = Stats::default();
-    let (status, _) = storage
-        .solve_core(
-            omcbsa::planners::parse(planner).expect("known"),
-            problem,
-            &WallClock::start(),
-            60.0,
-            &mut stats,
-        )
-        .expect("planner");
-    assert_eq!(status, Status::Solved);
-    stats
+    let clock = WallClock::start();
+    let kind = omcbsa::planners::parse(planner).expect("known");
+    let ran = (storage.solve_core(kind, problem, Until::new(&clock, 60.0))).expect("planner");
+    assert_eq!(ran.status, Status::Solved);
+    ran.stats
 }
 
 fn bench(c: &mut Criterion) {

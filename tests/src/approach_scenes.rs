@@ -4,7 +4,8 @@
 use omcbsa::format::ProblemFile;
 use omcbsa::planners::DOF;
 use omcbsa_core::approach::{
-    check_starts, plan_approach, ApproachError, ApproachParams, ApproachStorage, Method,
+    check_starts, plan_approach, ApproachError, ApproachParams, ApproachQuery, ApproachStorage,
+    Method,
 };
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::problem::Problem;
@@ -41,17 +42,17 @@ pub fn approach(
     };
     let cap = 1024;
     let mut out = vec![[0.0; DOF]; cap * n];
-    let params = ApproachParams::default();
-    let a = plan_approach::<KinovaGen3, DOF>(
+    let q = ApproachQuery {
         problem,
-        goals,
-        1,
-        &params,
-        rrt_samples,
-        &mut storage,
-        &NoDeadline,
-        &mut out,
-    )?;
+        plan: goals,
+        horizon: 1,
+        params: ApproachParams {
+            rrt_samples,
+            ..ApproachParams::default()
+        },
+        deadline: &NoDeadline,
+    };
+    let a = plan_approach::<KinovaGen3, DOF>(&q, &mut storage, &mut out)?;
     Ok((
         a.method,
         (0..n)

@@ -4,7 +4,8 @@
 
 use omcbsa::format::{ProblemFile, SolutionFile};
 use omcbsa::load;
-use omcbsa::planners::{plan_file, DOF};
+use omcbsa::plan::plan_file;
+use omcbsa::planners::DOF;
 use omcbsa::validate::validate;
 use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::nalgebra::{Rotation3, Vector3};
@@ -177,6 +178,8 @@ pub fn witness_is_valid(
     obstacles: &[omcbsa_core::geometry::Obstacle],
     dt: f64,
 ) -> bool {
+    use omcbsa_core::motion::MOTION_STEP;
+    use omcbsa_core::problem::Robot;
     use omcbsa_core::search::{OtherArm, OthersMode, Validity};
     (0..bases.len()).all(|i| {
         let others: Vec<OtherArm<'_, DOF>> = (0..i)
@@ -187,17 +190,9 @@ pub fn witness_is_valid(
                 path: &paths[k],
             })
             .collect();
-        let v = Validity::<KinovaGen3, DOF>::new(
-            0,
-            bases[i],
-            Tool::NONE,
-            obstacles,
-            &others,
-            OthersMode::Avoid,
-            &[],
-            dt,
-            omcbsa_core::motion::MOTION_STEP,
-        );
+        let robot = Robot::at(0, bases[i]);
+        let v = Validity::<KinovaGen3, DOF>::new(&robot, obstacles, dt, MOTION_STEP)
+            .with_others(&others, OthersMode::Avoid);
         let p = &paths[i];
         (0..p.len()).all(|t| {
             v.state(&p[t], t).is_some()
@@ -215,8 +210,9 @@ pub fn witness_is_valid(
 /// scene.
 pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> {
     use omcbsa_core::kinematics::null_space_basis;
+    use omcbsa_core::motion::MOTION_STEP;
     use omcbsa_core::problem::Robot;
-    use omcbsa_core::search::{OthersMode, Validity};
+    use omcbsa_core::search::Validity;
     let mut rng = omcbsa_core::rng::Rng::new(seed);
     let base = frame([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
     let q0: [f64; DOF] = std::array::from_fn(|i| HOME[i] + rng.uniform(-0.6, 0.6));
@@ -224,17 +220,7 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
     let (_, j) = KinovaGen3::jacobian(&p0[0]);
     let n = *null_space_basis::<DOF>(&j).first()?;
     let shifted: [f64; DOF] = std::array::from_fn(|i| p0[0][i] + 0.8 * n[i]);
-    let free = Validity::<KinovaGen3, DOF>::new(
-        0,
-        base,
-        Tool::NONE,
-        &[],
-        &[],
-        OthersMode::Avoid,
-        &[],
-        0.2,
-        omcbsa_core::motion::MOTION_STEP,
-    );
+    let free = Validity::<KinovaGen3, DOF>::new(&Robot::at(0, base), &[], 0.2, MOTION_STEP);
     let traj: omcbsa_core::problem::Trajectory = p0.iter().map(KinovaGen3::fk).collect();
     let robot = Robot {
         model: 0,

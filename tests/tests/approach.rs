@@ -5,7 +5,7 @@
 //! such scenes exist among the first seeds and that every one found is solved.
 
 use omcbsa::format::Status as FileStatus;
-use omcbsa::planners::plan_file;
+use omcbsa::plan::plan_file;
 use omcbsa_core::approach::{ApproachParams, Method};
 use omcbsa_tests::approach_scenes::{approach, crossing_scene, hold_problem, post_scene, TUCKED};
 use omcbsa_tests::{core_problem, frame, plan_and_validate, tool};
@@ -92,7 +92,7 @@ fn a_start_in_collision_is_bad_input_naming_the_robot_and_what_it_touches() {
         )],
     );
     let err = match plan_file(&file, omcbsa::planners::PlannerKind::OmCbsa, 5.0) {
-        Err(omcbsa::planners::InputOrPlanError::Input(e)) => e.to_string(),
+        Err(omcbsa::plan::InputOrPlanError::Input(e)) => e.to_string(),
         other => panic!("expected an input error, got {other:?}"),
     };
     assert!(err.contains("robots[0].initial"), "{err}");

@@ -6,7 +6,7 @@ use omcbsa::demo::{box_flip, run_on_mock_arms, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::online::policy::RETRACT;
-use omcbsa::planners::plan_file;
+use omcbsa::plan::plan_file;
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, script_path, venv_python, MockArm, MockArmOptions};
 use omcbsa_hw::{Executor, Transport};

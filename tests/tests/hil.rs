@@ -8,7 +8,7 @@
 use omcbsa::demo::{box_flip, run_on_mock_arms_watched, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
-use omcbsa::planners::plan_file;
+use omcbsa::plan::plan_file;
 use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, venv_python};

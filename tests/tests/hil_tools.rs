@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 use omcbsa::demo::{gripper, run_on_mock_arms};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::{ProblemFile, SolutionFile, Status};
-use omcbsa::planners::plan_file;
+use omcbsa::plan::plan_file;
 use omcbsa::planners::DOF;
 use omcbsa_core::collision::ArmPose;
 use omcbsa_core::ik::{ik_multi_start, IkParams, MultiStart};

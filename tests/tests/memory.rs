@@ -6,7 +6,7 @@ use std::cell::Cell;
 
 use omcbsa::planners::PlannerKind;
 use omcbsa::planners::{Capacities, Storage, WallClock};
-use omcbsa_core::planner::{Stats, Status};
+use omcbsa_core::planner::{Status, Until};
 use omcbsa_tests::*;
 
 /// Counts allocations of the current thread while counting is on.
@@ -87,11 +87,10 @@ fn planning_allocates_nothing_in_a_small_stack() {
             let mut results = Vec::with_capacity(PlannerKind::BENCH.len());
             for name in PlannerKind::BENCH {
                 let clock = WallClock::start();
-                let mut stats = Stats::default();
-                let (r, n) =
-                    allocations(|| storage.solve_core(name, &problem, &clock, 5.0, &mut stats));
-                let status = r.expect("known planner").0;
-                results.push((name, status, n, stats));
+                let until = Until::new(&clock, 5.0);
+                let (r, n) = allocations(|| storage.solve_core(name, &problem, until));
+                let ran = r.expect("known planner");
+                results.push((name, ran.status, n, ran.stats));
             }
             results
         })
@@ -120,17 +119,11 @@ fn storage_is_reusable() {
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
     let mut first = None;
     for _ in 0..3 {
-        let mut stats = Stats::default();
-        let (status, _) = storage
-            .solve_core(
-                PlannerKind::OmegaAstar,
-                &problem,
-                &WallClock::start(),
-                5.0,
-                &mut stats,
-            )
+        let clock = WallClock::start();
+        let ran = (storage.solve_core(PlannerKind::OmegaAstar, &problem, Until::new(&clock, 5.0)))
             .expect("planner");
-        assert_eq!(status, Status::Solved);
+        let stats = ran.stats;
+        assert_eq!(ran.status, Status::Solved);
         assert_eq!(
             *first.get_or_insert(stats),
             stats,
@@ -151,11 +144,11 @@ fn refinement_allocates_nothing() {
         .spawn(move || {
             let mut storage = Storage::new(Capacities::default(), problem.horizon());
             [PlannerKind::OmCbsa, PlannerKind::PpSingle].map(|name| {
-                let mut stats = Stats::default();
                 let clock = WallClock::start();
-                let (r, n) =
-                    allocations(|| storage.solve_core(name, &problem, &clock, 60.0, &mut stats));
-                (name, r.expect("known planner").0, n, stats.level)
+                let until = Until::new(&clock, 60.0);
+                let (r, n) = allocations(|| storage.solve_core(name, &problem, until));
+                let ran = r.expect("known planner");
+                (name, ran.status, n, ran.stats.level)
             })
         })
         .expect("spawn");
@@ -202,10 +195,10 @@ fn online_chunks_allocate_nothing() {
                 }
                 for name in [PlannerKind::OmCbsa, PlannerKind::Pp] {
                     let clock = WallClock::start();
-                    let mut stats = Stats::default();
-                    let (r, n) =
-                        allocations(|| storage.solve_core(name, chunk, &clock, 5.0, &mut stats));
-                    let (status, assignment) = r.expect("known planner");
+                    let until = Until::new(&clock, 5.0);
+                    let (r, n) = allocations(|| storage.solve_core(name, chunk, until));
+                    let ran = r.expect("known planner");
+                    let (status, assignment) = (ran.status, ran.assignment);
                     results.push((
                         name,
                         start,
@@ -238,7 +231,9 @@ fn online_chunks_allocate_nothing() {
 /// arms stand.
 #[test]
 fn the_approach_allocates_nothing() {
-    use omcbsa_core::approach::{plan_approach, ApproachParams, ApproachStorage, Method};
+    use omcbsa_core::approach::{
+        plan_approach, ApproachParams, ApproachQuery, ApproachStorage, Method,
+    };
     use omcbsa_core::model::KinovaGen3;
     use omcbsa_core::search::NoDeadline;
     let (file, goals) = (0..400)
@@ -251,31 +246,31 @@ fn the_approach_allocates_nothing() {
             let (mut tree, mut parent, mut waypoints) =
                 (vec![[0.0; 7]; 8192], vec![0u32; 4096], vec![[0.0; 7]; 1024]);
             let mut out = vec![[0.0; 7]; 2048];
-            let params = ApproachParams::default();
+            let params = ApproachParams {
+                rrt_samples: ApproachParams::default().rrt_samples * 64,
+                ..ApproachParams::default()
+            };
             let (rrt, n_rrt) = allocations(|| {
                 let mut st = ApproachStorage {
                     tree: &mut tree,
                     parent: &mut parent,
                     waypoints: &mut waypoints,
                 };
-                plan_approach::<KinovaGen3, 7>(
-                    &problem,
-                    &goals,
-                    1,
-                    &params,
-                    params.rrt_samples * 64,
-                    &mut st,
-                    &NoDeadline,
-                    &mut out,
-                )
+                let q = ApproachQuery {
+                    problem: &problem,
+                    plan: &goals,
+                    horizon: 1,
+                    params,
+                    deadline: &NoDeadline,
+                };
+                plan_approach::<KinovaGen3, 7>(&q, &mut st, &mut out)
             });
             let mut storage = Storage::new(Capacities::default(), problem.horizon());
             let runs = [PlannerKind::OmCbsa, PlannerKind::Pp, PlannerKind::PpSingle].map(|name| {
-                let mut stats = Stats::default();
                 let clock = WallClock::start();
-                let (r, n) =
-                    allocations(|| storage.solve_core(name, &problem, &clock, 30.0, &mut stats));
-                (name, r.expect("known planner").0, n)
+                let until = Until::new(&clock, 30.0);
+                let (r, n) = allocations(|| storage.solve_core(name, &problem, until));
+                (name, r.expect("known planner").status, n)
             });
             (rrt.map(|a| a.method), n_rrt, runs)
         })

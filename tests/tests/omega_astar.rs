@@ -3,7 +3,7 @@
 use omcbsa::format::Status;
 use omcbsa::planners::DOF;
 use omcbsa_core::model::KinovaGen3;
-use omcbsa_core::search::{OthersMode, Validity};
+use omcbsa_core::search::Validity;
 use omcbsa_core::tracking::{track, Steps};
 use omcbsa_tests::*;
 
@@ -20,13 +20,8 @@ fn omega_astar_swings_the_elbow_where_ik_tracking_fails() {
         let problem = core_problem(&file);
         let robot = problem.robots[0];
         let valid = Validity::<KinovaGen3, DOF>::new(
-            0,
-            robot.base,
-            robot.tool,
+            &robot,
             &problem.obstacles,
-            &[],
-            OthersMode::Avoid,
-            &[],
             problem.dt,
             omcbsa_core::motion::MOTION_STEP,
         );
@@ -96,24 +91,19 @@ fn resample(file: &omcbsa::format::ProblemFile, k: usize) -> omcbsa::format::Pro
 #[test]
 fn fifty_hz_swings_the_elbow_as_five_hz_does() {
     use omcbsa::planners::{Capacities, Storage, WallClock};
-    use omcbsa_core::planner::{Stats, Status as CoreStatus};
+    use omcbsa_core::planner::{Status as CoreStatus, Until};
     use omcbsa_core::problem::Start;
     let solve = |file: &omcbsa::format::ProblemFile, initial: [f64; DOF]| {
         let mut problem = core_problem(file);
         problem.robots[0].initial = Some(initial);
         problem.robots[0].start = Start::AtInitial;
         let mut storage = Storage::new(Capacities::default(), problem.horizon());
-        let mut stats = Stats::default();
-        let (status, _) = storage
-            .solve_core(
-                omcbsa::planners::PlannerKind::OmegaAstar,
-                &problem,
-                &WallClock::start(),
-                10.0,
-                &mut stats,
-            )
+        let clock = WallClock::start();
+        let kind = omcbsa::planners::PlannerKind::OmegaAstar;
+        let ran = storage
+            .solve_core(kind, &problem, Until::new(&clock, 10.0))
             .unwrap();
-        (status, stats)
+        (ran.status, ran.stats)
     };
     let mut checked = 0;
     for seed in [42, 54, 63, 71, 88] {

@@ -11,7 +11,7 @@ use omcbsa_core::motion::{
     motions_conflict_posed, motions_contact, near_point, ArmMotion, CONFIRM, CONTACT_SAMPLES,
     MOTION_STEP,
 };
-use omcbsa_core::planner::{Clock, NoClock, Stats, Status};
+use omcbsa_core::planner::{Clock, NoClock, Status, Until};
 use omcbsa_core::reach::UNREACHABLE;
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
@@ -58,17 +58,9 @@ fn the_plan_does_not_depend_on_the_clock() {
     let problem = core_problem(&level0_miss());
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
     let mut run = |clock: &dyn Clock, planner: &str| {
-        let mut stats = Stats::default();
-        let (status, assignment) = storage
-            .solve_core(
-                omcbsa::planners::parse(planner).expect("known"),
-                &problem,
-                clock,
-                1e6,
-                &mut stats,
-            )
-            .expect("planner");
-        (status, assignment, stats)
+        let kind = omcbsa::planners::parse(planner).expect("known");
+        let ran = (storage.solve_core(kind, &problem, Until::new(clock, 1e6))).expect("planner");
+        (ran.status, ran.assignment, ran.stats)
     };
     for planner in ["omcbsa", "pp-single"] {
         let still = run(&NoClock, planner);
@@ -185,17 +177,10 @@ fn no_constraint_tree_node_with_conflicts_is_dropped() {
             continue;
         };
         let problem = core_problem(&file);
-        let mut stats = Stats::default();
-        let (status, _) = storage
-            .solve_core(
-                omcbsa::planners::PlannerKind::OmCbsa,
-                &problem,
-                &NoClock,
-                1e6,
-                &mut stats,
-            )
-            .expect("planner");
-        assert_eq!(status, Status::Solved, "seed {seed}");
+        let kind = omcbsa::planners::PlannerKind::OmCbsa;
+        let ran = (storage.solve_core(kind, &problem, Until::new(&NoClock, 1e6))).expect("planner");
+        let stats = ran.stats;
+        assert_eq!(ran.status, Status::Solved, "seed {seed}");
         assert_eq!(stats.unbranched_nodes, 0, "seed {seed}: {stats:?}");
         branched += stats.conflicts_resolved;
     }

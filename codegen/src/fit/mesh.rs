@@ -114,7 +114,7 @@ const OFF_CHAIN_STEP: f64 = 0.005;
 ///
 /// With `ends`, the chain runs from the base link to the tool frame, and the geometry of links
 /// off it (a gripper's fingers) is added to the chain link they hang from; a prismatic joint
-/// between them is placed at both ends of its range and every [`OFF_CHAIN_STEP`] between, so
+/// between them is placed at both ends of its range and every `OFF_CHAIN_STEP` (5 mm) between, so
 /// the capsules hold the fingers wherever they are. Without `ends`, every URDF link with
 /// geometry is its own.
 pub fn link_meshes(

@@ -9,8 +9,8 @@ use parry3d_f64::math::Vec3;
 use parry3d_f64::query::PointQuery;
 use parry3d_f64::shape::TriMesh;
 
-use super::capsule::Capsule;
 use super::mesh::Mesh;
+use super::shape::Capsule;
 
 type V3 = Vector3<f64>;
 

@@ -13,23 +13,36 @@ use crate::tool::Tool;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Touch {
     /// Joint `joint` is outside the model's limits (or not a number).
-    JointLimit { joint: usize },
+    JointLimit {
+        /// The joint (0-based).
+        joint: usize,
+    },
     /// Obstacle `index` of the problem.
-    Obstacle { index: usize },
+    Obstacle {
+        /// Index into the problem's obstacles.
+        index: usize,
+    },
     /// Two of its own capsules (indices into the arm's capsules: the model's
     /// `Model::CAPSULES`, then its tool's).
     Itself {
+        /// One capsule.
         capsule: usize,
+        /// The other.
         other_capsule: usize,
     },
     /// Robot `robot`.
-    Robot { robot: usize },
+    Robot {
+        /// Index into the problem's robots.
+        robot: usize,
+    },
 }
 
 /// A robot whose configuration is not free.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Blocked {
+    /// The robot (index into the problem's robots).
     pub robot: usize,
+    /// What it touches.
     pub touch: Touch,
 }
 

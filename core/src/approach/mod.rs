@@ -25,133 +25,27 @@
 //! Memory: [`ApproachStorage`] is the caller's. A tree node costs `robots * D * 8 + 4` bytes;
 //! a full tree ends that search as a spent sample budget does (the budget is the lesser of the
 //! two).
+//!
+//! [`plan_approach`] has a runnable example; [`crate::embody`] runs the approach after a
+//! planner, trying other starts until one can be reached.
 
 mod fleet;
 mod orders;
+mod query;
 mod rrt;
 mod timing;
 mod via;
 
 pub use fleet::{Blocked, Touch};
+pub use query::{Approach, ApproachError, ApproachParams, ApproachQuery, ApproachStorage, Method};
 
 use crate::model::Models;
 use crate::pp::{identity, next_permutation};
 use crate::problem::{Problem, MAX_ROBOTS};
-use crate::search::Deadline;
 
 use fleet::Fleet;
 use orders::Bridges;
-use rrt::Miss;
-
-/// Tunables of the approach.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ApproachParams {
-    /// Share of each joint's velocity limit the approach may use (0 < speed <= 1).
-    pub speed: f64,
-    /// Share of each joint's acceleration limit ([`Model::ACCELERATION`](crate::model::Model::ACCELERATION)) the approach may
-    /// use (0: no acceleration limit).
-    pub acceleration: f64,
-    /// See [`crate::search::OmegaParams::motion_step`].
-    pub motion_step: f64,
-    /// Whether the arms may take their straight bridges one at a time, in any order, when
-    /// they cannot all move together.
-    pub ordered: bool,
-    /// Most priority orders tried one arm at a time with RRT-Connect per arm, before
-    /// RRT-Connect on the composite space.
-    pub rrt_orders: usize,
-    /// RRT-Connect's longest edge, in seconds of motion at full speed. A motion check costs
-    /// far less than in proportion to its length (the sweeps bisect, and a far-away motion is
-    /// one check), so long edges reach as far with fewer nodes and checks.
-    pub rrt_step: f64,
-    /// RRT-Connect's samples in a first attempt ([`crate::embody`] doubles it on each retry).
-    pub rrt_samples: u32,
-    /// Seed of RRT-Connect's samples.
-    pub seed: u64,
-    /// Radius (joint space, rad) around a start whose approach failed in which
-    /// [`crate::embody`] keeps the planner from choosing its next start.
-    pub exclusion_radius: f64,
-}
-
-impl Default for ApproachParams {
-    fn default() -> Self {
-        ApproachParams {
-            speed: 0.9,
-            acceleration: 1.0,
-            motion_step: crate::motion::MOTION_STEP,
-            ordered: true,
-            rrt_orders: 6,
-            rrt_step: 0.5,
-            rrt_samples: 400,
-            seed: 0x0a99_7a0c,
-            exclusion_radius: 0.5,
-        }
-    }
-}
-
-/// How the approach was found.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Method {
-    /// Nothing to do: every arm stands where its plan begins.
-    #[default]
-    None,
-    /// All arms together along their straight bridges.
-    Together,
-    /// One arm at a time along its straight bridge.
-    Ordered,
-    /// One arm at a time, each along an RRT-Connect path around the others standing.
-    OrderedRrt,
-    /// RRT-Connect on the composite space, shortcut.
-    Rrt,
-}
-
-impl Method {
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::None => "none",
-            Method::Together => "together",
-            Method::Ordered => "ordered",
-            Method::OrderedRrt => "ordered-rrt",
-            Method::Rrt => "rrt-connect",
-        }
-    }
-}
-
-/// An approach written to the caller's buffer.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Approach {
-    /// Configurations per robot (`A`).
-    pub len: usize,
-    pub method: Method,
-}
-
-/// Why no approach was written.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ApproachError {
-    /// A robot's `initial` is outside its limits or collides.
-    Start(Blocked),
-    /// The approach needs `needed` configurations per robot; the buffer holds `capacity`.
-    TooLong { needed: usize, capacity: usize },
-    /// No planner found an approach within its budget. The first motion the arms moving
-    /// together failed on: robot `robot`'s, against robot `other` or obstacles / itself.
-    Blocked { robot: usize, other: Option<usize> },
-    /// The deadline passed.
-    Timeout,
-    /// A buffer of [`ApproachStorage`] is full; the message names it.
-    OutOfMemory(&'static str),
-    /// The problem or the buffers do not fit (robots, paths).
-    Invalid(&'static str),
-}
-
-/// Caller storage of the approach planners.
-pub struct ApproachStorage<'a, const D: usize> {
-    /// RRT-Connect's two trees: `robots` configurations per node, half the nodes per tree.
-    pub tree: &'a mut [[f64; D]],
-    /// Each node's parent (at least as many as the nodes `tree` holds).
-    pub parent: &'a mut [u32],
-    /// The approach's waypoints, `robots` configurations each: at least `robots + 1` of them
-    /// (the one-at-a-time orders), and as many as the longest RRT-Connect path kept.
-    pub waypoints: &'a mut [[f64; D]],
-}
+use rrt::{Connect, Miss};
 
 /// The first robot whose `initial` is outside its limits or touches an obstacle, itself or
 /// another robot's `initial`. Robots without `initial` are left out.
@@ -209,23 +103,75 @@ impl<const D: usize> Ends<D> {
     }
 }
 
-/// Plans the approach of every robot of `problem` from its `initial` (a robot without one
-/// starts where its path does) to its path's first configuration, `paths[i * h]` for a horizon
-/// `h`: straight together, one at a time, one at a time with RRT-Connect per arm, then
-/// RRT-Connect on the composite space, with `samples` samples.
-/// Writes robot `i`'s approach to `out[i * cap..i * cap + A]` with `cap = out.len() / robots`.
-#[allow(clippy::too_many_arguments)]
+/// Plans the approach of every robot of the query's problem from its `initial` to its path's
+/// first configuration: straight together, one at a time, one at a time with RRT-Connect per
+/// arm, then RRT-Connect on the composite space, with `q.params.rrt_samples` samples. Writes
+/// robot `i`'s approach to `out[i * cap..i * cap + A]` with `cap = out.len() / robots`.
+///
+/// A buffer too short for the approach is [`ApproachError::TooLong`] (nothing truncated), a
+/// full [`ApproachStorage`] [`ApproachError::OutOfMemory`], a start that collides
+/// [`ApproachError::Start`]. A Gen3 standing upright, whose plan begins bent forward:
+///
+/// ```
+/// use omcbsa_core::approach::{plan_approach, ApproachError, ApproachParams, ApproachQuery};
+/// use omcbsa_core::approach::{ApproachStorage, Method};
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::problem::{Problem, Robot};
+/// use omcbsa_core::search::NoDeadline;
+///
+/// let mut problem = Problem::<7>::new(0.1);
+/// let mut gen3 = Robot::at(0, Frame::IDENTITY);
+/// gen3.initial = Some([0.0; 7]);
+/// problem.robots.push(gen3).unwrap();
+/// // The plan (2 steps) the approach leads to.
+/// let bent = [0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0];
+/// let plan = [bent, bent];
+/// let query = ApproachQuery {
+///     problem: &problem,
+///     plan: &plan,
+///     horizon: 2,
+///     params: ApproachParams::default(),
+///     deadline: &NoDeadline,
+/// };
+/// // RRT-Connect's trees (robots configurations a node), their parents, and waypoints
+/// // (robots configurations each, at least robots + 1 of them).
+/// let mut tree = [[0.0; 7]; 64];
+/// let mut parent = [0u32; 64];
+/// let mut waypoints = [[0.0; 7]; 16];
+/// let mut storage = ApproachStorage {
+///     tree: &mut tree,
+///     parent: &mut parent,
+///     waypoints: &mut waypoints,
+/// };
+///
+/// let mut out = [[0.0; 7]; 64];
+/// let approach = plan_approach::<KinovaGen3, 7>(&query, &mut storage, &mut out).unwrap();
+/// assert_eq!(approach.method, Method::Together);
+/// // From `initial` through the approach to the plan, within 90 % of every joint's speed
+/// // limit (`ApproachParams::speed`).
+/// let a = approach.len;
+/// let mut last = [0.0; 7];
+/// for q in out[..a].iter().chain([&bent]) {
+///     for j in 0..7 {
+///         assert!((q[j] - last[j]).abs() <= 0.9 * KinovaGen3::VELOCITY[j] * problem.dt + 1e-12);
+///     }
+///     last = *q;
+/// }
+///
+/// // Too short a buffer is refused, not truncated.
+/// let mut short = [[0.0; 7]; 4];
+/// match plan_approach::<KinovaGen3, 7>(&query, &mut storage, &mut short) {
+///     Err(ApproachError::TooLong { needed, capacity: 4 }) => assert_eq!(needed, a),
+///     other => panic!("{other:?}"),
+/// }
+/// ```
 pub fn plan_approach<M: Models<D>, const D: usize>(
-    problem: &Problem<D>,
-    paths: &[[f64; D]],
-    h: usize,
-    params: &ApproachParams,
-    samples: u32,
+    q: &ApproachQuery<'_, D>,
     storage: &mut ApproachStorage<'_, D>,
-    deadline: &dyn Deadline,
     out: &mut [[f64; D]],
 ) -> Result<Approach, ApproachError> {
-    let ends = Ends::new(problem, paths, h)?;
+    let (problem, params) = (q.problem, &q.params);
+    let ends = Ends::new(problem, q.plan, q.horizon)?;
     let mut fleet = Fleet::<M, D>::new(problem, params.motion_step);
     let n = fleet.n;
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
@@ -268,7 +214,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
         }
         return timed(moving + 1, Method::Ordered, storage, out);
     }
-    if deadline.expired() {
+    if q.deadline.expired() {
         return Err(ApproachError::Timeout);
     }
     // One arm at a time, each around the others standing (a detour or RRT-Connect in its own
@@ -276,6 +222,12 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     // slow. First the order with the fewest blocked bridges, then others in turn.
     let mut best = [0u8; MAX_ROBOTS];
     let mut order = identity(n);
+    let composite = Connect {
+        start: starts,
+        goal: goals,
+        free: u32::MAX,
+        seed: params.seed,
+    };
     for attempt in 0..params.rrt_orders {
         let this = if attempt == 0 {
             best = bridges.fewest_blocked(&fleet);
@@ -291,35 +243,14 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
             }
             &order[..n]
         };
-        let m = one_at_a_time(
-            &mut fleet,
-            &mut bridges,
-            starts,
-            goals,
-            this,
-            params,
-            samples,
-            storage,
-            deadline,
-        )?;
-        if let Some(m) = m {
+        if let Some(m) = one_at_a_time(&mut fleet, &mut bridges, &composite, this, q, storage)? {
             return timed(m, Method::OrderedRrt, storage, out);
         }
         if attempt > 0 && !next_permutation(&mut order[..n]) {
             break;
         }
     }
-    match rrt::connect(
-        &fleet,
-        starts,
-        goals,
-        u32::MAX,
-        params,
-        samples,
-        params.seed,
-        storage,
-        deadline,
-    ) {
+    match rrt::connect(&fleet, &composite, params, storage, q.deadline) {
         Ok(m) => timed(m, Method::Rrt, storage, out),
         Err(Miss::Budget) => Err(ApproachError::Blocked { robot, other }),
         Err(Miss::Failed(e)) => Err(e),
@@ -327,19 +258,14 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
 }
 
 /// The robots whose approach fails even with the other arms out of the way (RRT-Connect with
-/// `samples` samples for that arm alone), as a bit set. Ok(0): each arm alone can make it.
-#[allow(clippy::too_many_arguments)]
+/// `q.params.rrt_samples` samples for that arm alone), as a bit set. Ok(0): each arm alone
+/// can make it.
 pub fn blocked_alone<M: Models<D>, const D: usize>(
-    problem: &Problem<D>,
-    paths: &[[f64; D]],
-    h: usize,
-    params: &ApproachParams,
-    samples: u32,
+    q: &ApproachQuery<'_, D>,
     storage: &mut ApproachStorage<'_, D>,
-    deadline: &dyn Deadline,
 ) -> Result<u32, ApproachError> {
-    let ends = Ends::new(problem, paths, h)?;
-    let all = Fleet::<M, D>::new(problem, params.motion_step);
+    let ends = Ends::new(q.problem, q.plan, q.horizon)?;
+    let all = Fleet::<M, D>::new(q.problem, q.params.motion_step);
     let n = all.n;
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
     let mut blocked = 0u32;
@@ -348,17 +274,13 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
         if alone.motion_blocked(starts, goals).is_none() {
             continue;
         }
-        match rrt::connect(
-            &alone,
-            starts,
-            goals,
-            1 << i,
-            params,
-            samples,
-            params.seed,
-            storage,
-            deadline,
-        ) {
+        let ask = Connect {
+            start: starts,
+            goal: goals,
+            free: 1 << i,
+            seed: q.params.seed,
+        };
+        match rrt::connect(&alone, &ask, &q.params, storage, q.deadline) {
             Ok(_) => {}
             Err(Miss::Budget) => blocked |= 1 << i,
             Err(Miss::Failed(e)) => return Err(e),
@@ -367,22 +289,19 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
     Ok(blocked)
 }
 
-/// Moves the arms to their goals one at a time in `order`, each along its straight bridge or,
-/// when that is blocked, a detour through a via configuration or an RRT-Connect path of that
-/// arm alone around the others standing.
+/// Moves the arms to their goals (`ends.goal`, from `ends.start`) one at a time in `order`,
+/// each along its straight bridge or, when that is blocked, a detour through a via
+/// configuration or an RRT-Connect path of that arm alone around the others standing.
 /// Writes the waypoints and returns how many; `None` when some arm's path was not found.
-#[allow(clippy::too_many_arguments)]
 fn one_at_a_time<M: Models<D>, const D: usize>(
     fleet: &mut Fleet<'_, M, D>,
     bridges: &mut Bridges<'_, D>,
-    starts: &[[f64; D]],
-    goals: &[[f64; D]],
+    ends: &Connect<'_, D>,
     order: &[u8],
-    params: &ApproachParams,
-    samples: u32,
+    q: &ApproachQuery<'_, D>,
     st: &mut ApproachStorage<'_, D>,
-    deadline: &dyn Deadline,
 ) -> Result<Option<usize>, ApproachError> {
+    let (starts, goals, params) = (ends.start, ends.goal, &q.params);
     let n = fleet.n;
     st.waypoints[..n].copy_from_slice(starts);
     let (mut m, mut done) = (1, 0u32);
@@ -415,18 +334,13 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
             parent: &mut *st.parent,
             waypoints: &mut st.waypoints[from..],
         };
-        let seed = params.seed ^ (r as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        let path = rrt::connect(
-            fleet,
-            &at[..n],
-            &target[..n],
-            1 << r,
-            params,
-            samples,
-            seed,
-            &mut sub,
-            deadline,
-        );
+        let ask = Connect {
+            start: &at[..n],
+            goal: &target[..n],
+            free: 1 << r,
+            seed: params.seed ^ (r as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+        };
+        let path = rrt::connect(fleet, &ask, params, &mut sub, q.deadline);
         match path {
             Ok(k) => m += k - 1,
             Err(Miss::Budget) => return Ok(None),

@@ -32,7 +32,7 @@ use crate::rng::Rng;
 use crate::search::Deadline;
 
 use super::fleet::Fleet;
-use super::{ApproachError, ApproachParams, ApproachStorage};
+use super::query::{ApproachError, ApproachParams, ApproachStorage};
 
 /// How an RRT-Connect search ended without a path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -113,22 +113,27 @@ fn distance<M: Models<D>, const D: usize>(
     d
 }
 
-/// Plans from `start` to `goal` (composite, `fleet.n` robots each) and writes the shortcut
-/// path's waypoints, start and goal included, to `st.waypoints`. Returns how many. Only the
-/// robots in the bit set `free` are sampled; the others keep their start (they are still
-/// checked, as obstacles when `start` and `goal` agree on them).
-#[allow(clippy::too_many_arguments)]
+/// One RRT-Connect search: its ends (composite, `fleet.n` robots each), the robots it moves
+/// (a bit set) and its samples' seed.
+pub(super) struct Connect<'a, const D: usize> {
+    pub start: &'a [[f64; D]],
+    pub goal: &'a [[f64; D]],
+    /// Only these robots are sampled; the others keep their start (they are still checked,
+    /// as obstacles when `start` and `goal` agree on them).
+    pub free: u32,
+    pub seed: u64,
+}
+
+/// Plans from `ask.start` to `ask.goal` with `params.rrt_samples` samples and writes the
+/// shortcut path's waypoints, start and goal included, to `st.waypoints`. Returns how many.
 pub(super) fn connect<M: Models<D>, const D: usize>(
     fleet: &Fleet<'_, M, D>,
-    start: &[[f64; D]],
-    goal: &[[f64; D]],
-    free: u32,
+    ask: &Connect<'_, D>,
     params: &ApproachParams,
-    samples: u32,
-    seed: u64,
     st: &mut ApproachStorage<'_, D>,
     deadline: &dyn Deadline,
 ) -> Result<usize, Miss> {
+    let (start, goal, free) = (ask.start, ask.goal, ask.free);
     let n = fleet.n;
     // The arms not sampled stand where they start in every node: placed once.
     let fleet = &mut fleet.standing(start, free);
@@ -145,10 +150,10 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
     let fail = Miss::Failed;
     trees.push(0, start, u32::MAX)?;
     trees.push(1, goal, u32::MAX)?;
-    let mut rng = Rng::new(seed);
+    let mut rng = Rng::new(ask.seed);
     let mut sample = [[0.0; D]; MAX_ROBOTS];
     let mut grow = 0;
-    for _ in 0..samples {
+    for _ in 0..params.rrt_samples {
         if deadline.expired() {
             return Err(fail(ApproachError::Timeout));
         }

@@ -9,7 +9,7 @@ use core::f64::consts::PI;
 
 use crate::model::Models;
 
-use super::{ApproachError, ApproachParams};
+use super::query::{ApproachError, ApproachParams};
 
 /// Samples (`dt` apart) the composite segment `a -> b` needs under the cosine profile: its
 /// largest step is `pi / 2N` of the distance and its largest second difference

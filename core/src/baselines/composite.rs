@@ -9,14 +9,17 @@ use crate::collision::ArmPose;
 use crate::ik::{ik_multi_start, MultiStart};
 use crate::model::{Frame, Models};
 use crate::motion::{motions_collide, ArmMotion};
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{
+    Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
+};
 use crate::pp::Orders;
 use crate::problem::{Problem, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{
-    manifold_moves, Deadline, OmegaParams, OpenEntry, OpenList, OthersMode, Validity, MAX_MOVES,
+    manifold_moves, Deadline, OmegaParams, OpenEntry, OpenList, Validity, MAX_MOVES,
 };
 
+/// Tunables of composite A*.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CompositeParams {
     /// ε, w_h, IK settings and motion checks as in Ω-A*.
@@ -60,13 +63,48 @@ impl<const D: usize> Default for CompositeNode<D> {
     }
 }
 
+/// Composite A* over the caller's storage: joint-state nodes (about 500 bytes each for
+/// `D = 7`, whatever the number of robots) and an OPEN list. A full pool ends planning with
+/// `Status::OutOfMemory` naming it. It chooses every start and the assignment itself
+/// ([`crate::planner::Takes::FreeOnly`]).
+///
+/// ```
+/// use omcbsa_core::baselines::{CompositeAstar, CompositeNode, CompositeParams};
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+/// use omcbsa_core::problem::{Problem, Robot, Trajectory};
+/// use omcbsa_core::search::OpenEntry;
+///
+/// const H: usize = 3;
+/// let mut problem = Problem::<7>::new(0.1);
+/// problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
+/// let hand = KinovaGen3::fk(&[0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0]);
+/// problem.trajectories.push(Trajectory::from_slice(&[hand; H]).unwrap()).unwrap();
+///
+/// let mut nodes = [CompositeNode::<7>::default(); 64];
+/// let mut open = [OpenEntry::default(); 64];
+/// let mut planner = CompositeAstar::new(CompositeParams::default(), &mut nodes, &mut open);
+/// let mut paths = [[0.0; 7]; H];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
+/// assert_eq!(req.out.assignment[0], Some(0));
+///
+/// // Too few nodes for even the start states: the pool is named, nothing panics.
+/// let (mut one, mut open) = ([CompositeNode::<7>::default(); 1], [OpenEntry::default(); 1]);
+/// let mut small = CompositeAstar::new(CompositeParams::default(), &mut one, &mut open);
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// let status = Planner::<KinovaGen3, 7>::solve(&mut small, &mut req);
+/// assert_eq!(status, Status::OutOfMemory("composite A* node pool"));
+/// ```
 pub struct CompositeAstar<'a, const D: usize> {
+    /// Its settings.
     pub params: CompositeParams,
     nodes: &'a mut [CompositeNode<D>],
     open: &'a mut [OpenEntry],
 }
 
 impl<'a, const D: usize> CompositeAstar<'a, D> {
+    /// A planner over the caller's node pool and OPEN list.
     pub fn new(
         params: CompositeParams,
         nodes: &'a mut [CompositeNode<D>],
@@ -81,35 +119,27 @@ impl<'a, const D: usize> CompositeAstar<'a, D> {
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
-    fn name(&self) -> &'static str {
-        PlannerKind::CompositeAstar.name()
+    const TAKES: Takes = Takes::FreeOnly;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::CompositeAstar
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let problem = req.problem;
         let mut search = Search::<M, D> {
             pr: problem,
             p: &self.params,
             nodes: &mut *self.nodes,
             used: 0,
             open: OpenList::new(&mut *self.open),
-            h,
+            h: h.get(),
             n: problem.robots.len(),
-            deadline: Until { clock, at: timeout },
-            stats,
+            deadline: req.until,
+            stats: &mut req.stats,
             _m: core::marker::PhantomData,
         };
-        search.run(out)
+        search.run(&mut req.out)
     }
 }
 
@@ -151,19 +181,8 @@ impl<M: Models<D>, const D: usize> Search<'_, M, D> {
     }
 
     fn validity(&self, r: usize) -> Validity<'_, M, D> {
-        let robot = &self.pr.robots[r];
-        Validity::new(
-            robot.model,
-            robot.base,
-            robot.tool,
-            &self.pr.obstacles,
-            &[],
-            OthersMode::Avoid,
-            &[],
-            self.pr.dt,
-            self.p.low.motion_step,
-        )
-        .excluding(robot.excluded)
+        let (robot, pr) = (&self.pr.robots[r], self.pr);
+        Validity::new(robot, &pr.obstacles, pr.dt, self.p.low.motion_step)
     }
 
     fn target(&self, r: usize, j: usize, t: usize) -> Frame {

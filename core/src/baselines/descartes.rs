@@ -6,19 +6,22 @@
 
 use crate::ik::{ik, IkParams};
 use crate::model::{Frame, Models};
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{Horizon, Planner, PlannerKind, Request, Stats, Status, Takes, Until};
 use crate::pp::Orders;
-use crate::problem::{Problem, Robot, Trajectory, MAX_ROBOTS};
+use crate::problem::{Robot, Trajectory, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::{Deadline, OtherArm, OthersMode, Validity};
 
+/// Tunables of PP-Descartes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DescartesParams {
-    /// IK samples per pose (roadmap layer width).
+    /// IK samples per pose (roadmap layer width), 1 to 65535.
     pub samples: usize,
+    /// The IK projection's settings.
     pub ik: IkParams,
     /// See [`crate::search::OmegaParams::motion_step`].
     pub motion_step: f64,
+    /// Seed of the random IK seeds.
     pub seed: u64,
 }
 
@@ -33,43 +36,76 @@ impl Default for DescartesParams {
     }
 }
 
-/// Roadmap storage: `samples * H` entries each.
+/// Roadmap storage: `samples * H` entries each (`samples * H * (8 D + 10) + 2 H` bytes in
+/// all). Shorter buffers end planning with `Status::OutOfMemory("Descartes roadmap
+/// storage")` before anything is searched.
 pub struct DescartesStorage<'a, const D: usize> {
+    /// The samples, layer after layer.
     pub layers: &'a mut [[f64; D]],
+    /// Each sample's cost to come (joint-space path length).
     pub cost: &'a mut [f64],
+    /// Each sample's predecessor in the previous layer.
     pub parent: &'a mut [u16],
     /// Valid samples per layer (H entries).
     pub width: &'a mut [u16],
 }
 
+/// PP-Descartes over the caller's roadmap storage. It chooses every start and the assignment
+/// itself ([`crate::planner::Takes::FreeOnly`]).
+///
+/// ```
+/// use omcbsa_core::baselines::{Descartes, DescartesParams, DescartesStorage};
+/// use omcbsa_core::model::{Frame, KinovaGen3, Model};
+/// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
+/// use omcbsa_core::problem::{Problem, Robot, Trajectory};
+///
+/// const H: usize = 3;
+/// const SAMPLES: usize = 4;
+/// let mut problem = Problem::<7>::new(0.1);
+/// problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
+/// let hand = KinovaGen3::fk(&[0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0]);
+/// problem.trajectories.push(Trajectory::from_slice(&[hand; H]).unwrap()).unwrap();
+///
+/// // A roadmap of SAMPLES IK solutions per pose.
+/// let mut layers = [[0.0; 7]; SAMPLES * H];
+/// let (mut cost, mut parent, mut width) = ([0.0; SAMPLES * H], [0; SAMPLES * H], [0; H]);
+/// let st = DescartesStorage {
+///     layers: &mut layers,
+///     cost: &mut cost,
+///     parent: &mut parent,
+///     width: &mut width,
+/// };
+/// let params = DescartesParams { samples: SAMPLES, ..DescartesParams::default() };
+/// let mut planner = Descartes::new(params, st);
+/// let mut paths = [[0.0; 7]; H];
+/// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
+/// assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
+/// for q in req.out.path(0, H) {
+///     assert!((KinovaGen3::fk(q).pos - hand.pos).norm() <= problem.tolerance.position);
+/// }
+/// ```
 pub struct Descartes<'a, const D: usize> {
+    /// Its settings.
     pub params: DescartesParams,
     st: DescartesStorage<'a, D>,
 }
 
 impl<'a, const D: usize> Descartes<'a, D> {
+    /// A planner over the caller's roadmap storage.
     pub fn new(params: DescartesParams, st: DescartesStorage<'a, D>) -> Self {
         Descartes { params, st }
     }
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
-    fn name(&self) -> &'static str {
-        PlannerKind::Descartes.name()
+    const TAKES: Takes = Takes::FreeOnly;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::Descartes
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         let k = self.params.samples;
         if k == 0 || k > u16::MAX as usize {
             return Status::InvalidProblem("Descartes samples per pose must be 1..=65535");
@@ -82,14 +118,13 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
         {
             return Status::OutOfMemory("Descartes roadmap storage");
         }
-        let deadline = Until { clock, at: timeout };
         let n = problem.robots.len();
         let mut orders = Orders::new(n, problem.trajectories.len(), true);
         loop {
-            if deadline.expired() {
+            if req.until.expired() {
                 return Status::Timeout;
             }
-            if self.attempt::<M>(problem, h, &orders, &deadline, out, stats) {
+            if self.attempt::<M>(req, h, &orders) {
                 return Status::Solved;
             }
             if !orders.advance() {
@@ -100,15 +135,15 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Descartes<'_, D> {
 }
 
 impl<const D: usize> Descartes<'_, D> {
+    /// Plans every robot in turn in the priority order and assignment `orders` is at.
     fn attempt<M: Models<D>>(
         &mut self,
-        problem: &Problem<D>,
+        req: &mut Request<'_, D>,
         h: usize,
         orders: &Orders,
-        deadline: &Until<'_>,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
     ) -> bool {
+        let (problem, deadline) = (req.problem, &req.until);
+        let (out, stats) = (&mut req.out, &mut req.stats);
         let n = problem.robots.len();
         for (rank, &r) in orders.order[..n].iter().enumerate() {
             let r = r as usize;
@@ -124,17 +159,12 @@ impl<const D: usize> Descartes<'_, D> {
                 });
             }
             let valid = Validity::<M, D>::new(
-                robot.model,
-                robot.base,
-                robot.tool,
+                &robot,
                 &problem.obstacles,
-                &others,
-                OthersMode::Avoid,
-                &[],
                 problem.dt,
                 self.params.motion_step,
             )
-            .excluding(robot.excluded);
+            .with_others(&others, OthersMode::Avoid);
             stats.low_level_calls += 1;
             let traj = orders.trajectory_of(r);
             let end = match traj {

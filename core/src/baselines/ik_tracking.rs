@@ -5,20 +5,23 @@
 
 use crate::ik::IkParams;
 use crate::model::Models;
-use crate::planner::{open, Clock, Planner, PlannerKind, Solution, Stats, Status, Takes, Until};
+use crate::planner::{Horizon, Planner, PlannerKind, Request, Status, Takes};
 use crate::pp::Orders;
-use crate::problem::{Problem, MAX_ROBOTS};
+use crate::problem::MAX_ROBOTS;
 use crate::rng::Rng;
 use crate::search::{Deadline, OtherArm, OthersMode, Validity};
 use crate::tracking::{track, Steps};
 
+/// Tunables of the IK-tracking baseline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IkTrackingParams {
     /// First-pose seeds tried per robot (the first is `initial` when given).
     pub seeds: u32,
+    /// The IK projection's settings.
     pub ik: IkParams,
     /// See [`crate::search::OmegaParams::motion_step`].
     pub motion_step: f64,
+    /// Seed of the random first-pose seeds.
     pub seed: u64,
 }
 
@@ -33,36 +36,32 @@ impl Default for IkTrackingParams {
     }
 }
 
+/// The IK-tracking baseline: no storage beyond the request's, no search; fast and myopic. It
+/// chooses every start and the assignment itself, so it refuses a problem with a robot whose
+/// start or trajectory is fixed ([`crate::planner::Takes::FreeOnly`]). The
+/// [`crate::planner`] module's example runs it.
 pub struct IkTracking {
+    /// Its settings.
     pub params: IkTrackingParams,
 }
 
 impl<M: Models<D>, const D: usize> Planner<M, D> for IkTracking {
-    fn name(&self) -> &'static str {
-        PlannerKind::IkTracking.name()
+    const TAKES: Takes = Takes::FreeOnly;
+
+    fn kind(&self) -> PlannerKind {
+        PlannerKind::IkTracking
     }
 
-    fn solve(
-        &mut self,
-        problem: &Problem<D>,
-        clock: &dyn Clock,
-        timeout: f64,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
-    ) -> Status {
-        let h = match open::<M, D>(problem, out, Takes::FreeOnly, stats) {
-            Ok(h) => h,
-            Err(s) => return s,
-        };
-        let deadline = Until { clock, at: timeout };
+    fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
+        let (problem, h) = (req.problem, h.get());
         // Every assignment once; the priority order is always the robots' order.
         let n = problem.robots.len();
         let mut orders = Orders::new(n, problem.trajectories.len(), true);
         loop {
-            if deadline.expired() {
+            if req.until.expired() {
                 return Status::Timeout;
             }
-            if self.attempt::<M, D>(problem, h, &orders, &deadline, out, stats) {
+            if self.attempt::<M, D>(req, h, &orders) {
                 return Status::Solved;
             }
             if !orders.next_assignment() {
@@ -73,15 +72,15 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for IkTracking {
 }
 
 impl IkTracking {
+    /// Tracks every robot in turn under the assignment `orders` is at.
     fn attempt<M: Models<D>, const D: usize>(
         &self,
-        problem: &Problem<D>,
+        req: &mut Request<'_, D>,
         h: usize,
         orders: &Orders,
-        deadline: &Until<'_>,
-        out: &mut Solution<'_, D>,
-        stats: &mut Stats,
     ) -> bool {
+        let (problem, deadline) = (req.problem, &req.until);
+        let (out, stats) = (&mut req.out, &mut req.stats);
         for r in 0..problem.robots.len() {
             let robot = problem.robots[r];
             let (done, rest) = out.paths.split_at_mut(r * h);
@@ -95,17 +94,12 @@ impl IkTracking {
                 });
             }
             let valid = Validity::<M, D>::new(
-                robot.model,
-                robot.base,
-                robot.tool,
+                &robot,
                 &problem.obstacles,
-                &others,
-                OthersMode::Avoid,
-                &[],
                 problem.dt,
                 self.params.motion_step,
             )
-            .excluding(robot.excluded);
+            .with_others(&others, OthersMode::Avoid);
             let path = &mut rest[..h];
             stats.low_level_calls += 1;
             let ok = match orders.trajectory_of(r) {

@@ -5,7 +5,9 @@ use nalgebra::Vector3;
 /// The box `min..=max` in world axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// The least corner, metres.
     pub min: Vector3<f64>,
+    /// The greatest corner, metres.
     pub max: Vector3<f64>,
 }
 
@@ -25,6 +27,7 @@ impl Aabb {
         }
     }
 
+    /// The smallest box around both.
     #[inline]
     pub fn union(&self, other: &Aabb) -> Aabb {
         Aabb {
@@ -53,6 +56,7 @@ impl Aabb {
         libm::sqrt(x * x + y * y + z * z)
     }
 
+    /// Whether `p` lies in the box, boundary included.
     #[inline]
     pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
         (0..3).all(|i| self.min[i] <= p[i] && p[i] <= self.max[i])

@@ -9,11 +9,14 @@ use super::Contact;
 /// All points within `radius` of the segment `a`-`b` (a sphere when `a == b`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Capsule {
+    /// The axis.
     pub segment: Segment,
+    /// Radius, metres.
     pub radius: f64,
 }
 
 impl Capsule {
+    /// The capsule of radius `radius` around the segment `a`-`b`.
     pub const fn new(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> Capsule {
         Capsule {
             segment: Segment::new(a, b),
@@ -21,6 +24,7 @@ impl Capsule {
         }
     }
 
+    /// The smallest axis-aligned box around the capsule.
     #[inline]
     pub fn aabb(&self) -> Aabb {
         let s = &self.segment;
@@ -52,6 +56,7 @@ impl Capsule {
         super::contact(d2, self.radius + other.radius, margin)
     }
 
+    /// Whether `p` lies in the capsule, boundary included.
     #[inline]
     pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
         self.segment.distance2_to_point(p) <= self.radius * self.radius

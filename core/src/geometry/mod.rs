@@ -6,9 +6,43 @@
 //! Intersection tests take a `margin` (>= 0): they report a hit when the shapes come closer
 //! than `margin` or meet, so that a swept motion can be checked conservatively at a few
 //! configurations.
+//!
+//! Every query is closed-form: a fixed number of flops, no iteration to convergence, no
+//! memory. Lengths are in metres. The queries expect finite coordinates: the loaders and
+//! planners refuse NaN and infinite input before any query runs.
+//!
+//! ```
+//! use omcbsa_core::geometry::{Capsule, Obstacle, Segment, Shape};
+//! use omcbsa_core::model::Frame;
+//! use omcbsa_core::nalgebra::Vector3;
+//!
+//! // Two capsules of radius 0.1 whose axes cross 0.15 m apart: they overlap by 5 cm.
+//! let a = Capsule::new(Vector3::new(-1.0, 0.0, 0.0), Vector3::new(1.0, 0.0, 0.0), 0.1);
+//! let b = Capsule::new(Vector3::new(0.0, -1.0, 0.15), Vector3::new(0.0, 1.0, 0.15), 0.1);
+//! assert!((a.signed_distance(&b) + 0.05).abs() < 1e-12);
+//! assert!(a.hits(&b, 0.0));
+//! let inside = a.witness(&b).unwrap();
+//! assert!(a.contains_point(&inside) && b.contains_point(&inside));
+//!
+//! // The closest points of the two axes.
+//! let (s, t) = a.segment.closest_params(&b.segment);
+//! assert!((s - 0.5).abs() < 1e-12 && (t - 0.5).abs() < 1e-12);
+//! let gap = Segment::new(a.segment.at(s), b.segment.at(t));
+//! assert!(((gap.b - gap.a).norm() - 0.15).abs() < 1e-12);
+//!
+//! // A 20 cm cube on the floor, 0.3 m from the first capsule's axis.
+//! let cube = Obstacle {
+//!     shape: Shape::Box { half_extents: [0.1, 0.1, 0.1] },
+//!     pose: Frame { pos: Vector3::new(0.0, 0.0, -0.4), ..Frame::IDENTITY },
+//! };
+//! assert!((cube.distance_to_capsule(&a) - 0.2).abs() < 1e-12);
+//! assert!(!cube.hits_capsule(&a, 0.15) && cube.hits_capsule(&a, 0.25));
+//! assert!(cube.aabb().contains_point(&Vector3::new(0.05, 0.0, -0.35)));
+//! ```
 
 mod aabb;
 mod capsule;
+pub mod lanes;
 mod segment;
 mod solid;
 
@@ -36,16 +70,38 @@ use solid::Want;
 /// An obstacle shape, in its own frame (capsule and cylinder axes along local z).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
-    Box { half_extents: [f64; 3] },
-    Sphere { radius: f64 },
-    Capsule { radius: f64, half_length: f64 },
-    Cylinder { radius: f64, half_length: f64 },
+    /// A box centred on the frame's origin, aligned with its axes.
+    Box {
+        /// Half of the box's size along x, y and z, metres.
+        half_extents: [f64; 3],
+    },
+    /// A ball centred on the frame's origin.
+    Sphere {
+        /// Radius, metres.
+        radius: f64,
+    },
+    /// The points within `radius` of the local z axis from `-half_length` to `half_length`.
+    Capsule {
+        /// Radius, metres.
+        radius: f64,
+        /// Half the axis' length, metres.
+        half_length: f64,
+    },
+    /// A solid cylinder about the local z axis, flat ends at `z = ±half_length`.
+    Cylinder {
+        /// Radius, metres.
+        radius: f64,
+        /// Half the length, metres.
+        half_length: f64,
+    },
 }
 
 /// A shape placed in the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Obstacle {
+    /// The shape, in its own frame.
     pub shape: Shape,
+    /// Where the shape's frame is in the world.
     pub pose: Frame,
 }
 
@@ -79,6 +135,7 @@ impl Obstacle {
         }
     }
 
+    /// Whether `p` (world frame) lies in the obstacle, boundary included.
     pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
         let local = self.local_point(p);
         match self.shape {

@@ -5,21 +5,25 @@ use nalgebra::Vector3;
 /// Below this, `|d1 x d2|^2 / (|d1|^2 |d2|^2)` (the squared sine of the angle between two
 /// segments) counts as parallel. Solving the 2x2 system there would amplify rounding; on the
 /// other side the solve loses at most `1e-32 / 1e-14` of the squared distance.
-const PARALLEL_SIN2: f64 = 1e-14;
+pub(super) const PARALLEL_SIN2: f64 = 1e-14;
 
 /// The segment from `a` to `b` (a point when `a == b`), parametrised as `a + t (b - a)`,
 /// `t` in `[0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
+    /// The start (`t = 0`).
     pub a: Vector3<f64>,
+    /// The end (`t = 1`).
     pub b: Vector3<f64>,
 }
 
 impl Segment {
+    /// The segment from `a` to `b`.
     pub const fn new(a: Vector3<f64>, b: Vector3<f64>) -> Segment {
         Segment { a, b }
     }
 
+    /// The point `a + t (b - a)` (any `t`; the segment is `0..=1`).
     #[inline]
     pub fn at(&self, t: f64) -> Vector3<f64> {
         self.a + (self.b - self.a) * t

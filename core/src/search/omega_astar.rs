@@ -1,4 +1,4 @@
-//! Ω-A*_single and multi-goal Ω-A* (Shaoul, Li, Likhachev), with the additions:
+//! Ω-A*_single and multi-goal Ω-A* (Shaoul, Li, Likhachev), with additions to the paper's:
 //! joint velocity limits between consecutive states, swept-motion checks, point constraints
 //! and assignment constraints from the high level, and bounded memory.
 //!
@@ -13,137 +13,30 @@ use core::cell::Cell;
 
 use crate::collision::ArmPose;
 use crate::geometry::Obstacle;
-use crate::ik::{ik, IkParams};
-use crate::kinematics::{axis_separation, null_space_basis};
+use crate::ik::ik;
+use crate::kinematics::{axis_separation, null_space_basis, twist, SpeedMap};
+use nalgebra::Vector6;
+
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
-use crate::tool::Tool;
 
+use super::constraints::{OtherArm, OthersMode, PointConstraint};
+use super::params::OmegaParams;
 use super::validity::Validity;
 use super::workspace::{Met, Node, StateKey, Workspace};
 use super::{Deadline, OpenEntry};
-
-/// Tunables of Ω-A*. The defaults are the paper's (`ε = 0.2`, `w_h = 10`, `w_c = 0.1`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct OmegaParams {
-    /// Null-space step.
-    pub epsilon: f64,
-    /// Weight of the heuristic (steps left).
-    pub w_h: f64,
-    /// Weight of the collision count.
-    pub w_c: f64,
-    /// Weight of the cost of coming near two collinear joint axes: each step adds `w_a`
-    /// times how far [`axis_separation`] is below `axis_margin`. 0 (the paper's) leaves it
-    /// out; online planning, which cannot see the hand's motion beyond a chunk, uses it so
-    /// that the null space keeps the arm away from configurations it could not leave fast
-    /// enough.
-    pub w_a: f64,
-    /// Separation (see [`axis_separation`]) below which `w_a` counts.
-    pub axis_margin: f64,
-    /// Most valid IK solutions of the first pose put in OPEN per trajectory.
-    pub start_solutions: usize,
-    /// Most random IK seeds tried per trajectory to find them.
-    pub start_attempts: u32,
-    /// Grid size (rad) of the duplicate detection on `q`: two states of one step and
-    /// trajectory in the same cell are one state. The paper leaves it open; on the benchmark
-    /// suite 0.6 rad (three null-space steps) kept Ω-CBSA's success rate and cut its mean time
-    /// 3x against 0.1 rad, whose finer lattice makes the searches that must fail (children
-    /// with no path under their constraints) far longer; 0.8 began to lose problems.
-    pub resolution: f64,
-    /// Largest displacement (m) of any point of the arm between two checked configurations
-    /// of a motion; the checks inflate the links by half of it, so they are conservative.
-    pub motion_step: f64,
-    pub ik: IkParams,
-    /// Seed of the random IK seeds.
-    pub seed: u64,
-}
-
-/// The step (s) the null-space step and the duplicate grid are tuned for: the benchmark
-/// suite's.
-pub const REFERENCE_DT: f64 = 0.2;
-
-impl OmegaParams {
-    /// These settings for steps of `dt` s. Below [`REFERENCE_DT`], the null-space step and the
-    /// duplicate grid shrink in proportion, so that the search moves along the null space at
-    /// the same speed (rad/s) whatever the rate: at 50 Hz, 0.2 rad would be seven times what a
-    /// Gen3 joint may move in a step, every null-space move would break the velocity limit,
-    /// and only the IK projection would be left (IK tracking). Longer steps keep the settings.
-    pub fn at_step(&self, dt: f64) -> OmegaParams {
-        let s = dt / REFERENCE_DT;
-        // Negated so that NaN keeps the settings (the planners refuse such a dt anyway).
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(s > 0.0 && s < 1.0) {
-            return *self;
-        }
-        OmegaParams {
-            epsilon: self.epsilon * s,
-            resolution: self.resolution * s,
-            ..*self
-        }
-    }
-}
-
-impl Default for OmegaParams {
-    fn default() -> Self {
-        OmegaParams {
-            epsilon: 0.2,
-            w_h: 10.0,
-            w_c: 0.1,
-            w_a: 0.0,
-            axis_margin: 0.5,
-            start_solutions: 16,
-            start_attempts: 96,
-            resolution: 0.6,
-            motion_step: crate::motion::MOTION_STEP,
-            ik: IkParams::default(),
-            seed: 0x5eed,
-        }
-    }
-}
-
-/// Another robot's path: a moving obstacle.
-#[derive(Clone, Copy, Debug)]
-pub struct OtherArm<'a, const D: usize> {
-    /// Its model, an index into the planner's [`crate::model::Models`].
-    pub model: u8,
-    pub base: Frame,
-    pub tool: Tool,
-    /// One configuration per step.
-    pub path: &'a [[f64; D]],
-}
-
-/// How the other robots' paths count.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OthersMode {
-    /// Collisions are allowed and counted in `c` (Ω-CBSA's low level).
-    Count,
-    /// Collisions are forbidden (prioritised planning).
-    Avoid,
-}
-
-/// "This robot may not come within `margin` of `p` at step `t`" (`segment == false`), or at
-/// the instant `t + s` of its motion from step `t` to `t + 1` (`segment == true`; the robot
-/// is then at `q_t + s (q_{t+1} - q_t)`). Constraints at one instant, not over a whole
-/// motion, so that the two children of a conflict are mutually disjunctive (see
-/// [`crate::motion::motions_contact`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointConstraint {
-    pub t: u16,
-    pub segment: bool,
-    /// Fraction of the step (`segment` constraints only).
-    pub s: f64,
-    pub p: [f64; 3],
-    pub margin: f64,
-}
 
 /// What IK gave for one start seed, remembered across the searches of one planning run (see
 /// [`Query::starts`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum StartIk<const D: usize> {
+    /// Not tried yet.
     #[default]
     Unknown,
+    /// IK found no answer from this seed.
     Failed,
+    /// IK's answer from this seed.
     Solved([f64; D]),
 }
 
@@ -186,6 +79,7 @@ impl<'a, const D: usize> StartCache<'a, D> {
 /// One low-level planning request.
 #[derive(Clone, Copy)]
 pub struct Query<'a, const D: usize> {
+    /// The robot: its model, base, tool, start, fixed assignment and excluded starts.
     pub robot: Robot<D>,
     /// All trajectories of the problem (same length H).
     pub trajectories: &'a [Trajectory],
@@ -194,10 +88,16 @@ pub struct Query<'a, const D: usize> {
     /// Whether holding `robot.initial` for the whole horizon is an answer (tried only when no
     /// allowed trajectory can be tracked).
     pub hold: bool,
+    /// The fixed obstacles.
     pub obstacles: &'a [Obstacle],
+    /// The other robots' paths (moving obstacles): fewer than
+    /// [`MAX_ROBOTS`](crate::problem::MAX_ROBOTS), each of at least H configurations.
     pub others: &'a [OtherArm<'a, D>],
+    /// Whether meeting the other robots is forbidden or counted.
     pub others_mode: OthersMode,
+    /// Where the robot may not be (Ω-CBSA's constraints on it).
     pub points: &'a [PointConstraint],
+    /// Time between steps, s.
     pub dt: f64,
     /// This robot's start-seed IK answers, kept across its searches in one planning run: a
     /// trajectory's seeds are the same in every search, so a replan (under one more
@@ -210,7 +110,9 @@ pub struct Query<'a, const D: usize> {
 /// Counters of one search.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SearchStats {
+    /// States expanded.
     pub expansions: u32,
+    /// States generated (stored in the workspace).
     pub generated: u32,
 }
 
@@ -244,6 +146,8 @@ const CHECK_EVERY: u32 = 32;
 /// Most successors one state can have: the projection and `±ε` along up to three null-space
 /// directions.
 pub const MAX_MOVES: usize = 7;
+// A node's moves are checked as one batch.
+const _: () = assert!(MAX_MOVES <= crate::lanes::LANES);
 
 /// The candidate successors of `q` on the manifold of `target` (before any validity check):
 /// the IK projection `q'` of `q`, then `IK(target, q' ± ε n)` for each null-space basis
@@ -280,16 +184,55 @@ pub fn manifold_moves<M: Models<D>, const D: usize>(
     n
 }
 
-/// The step cost of `q` nearing two collinear joint axes (see [`OmegaParams::w_a`]).
-pub fn axes_cost<M: Models<D>, const D: usize>(model: u8, q: &[f64; D], p: &OmegaParams) -> f64 {
-    if p.w_a <= 0.0 {
+/// The cost a step to `q` adds besides its length: `q` nearing two collinear joint axes
+/// ([`OmegaParams::w_a`]), the joints' speed headroom for the hand's `twist` there (base
+/// frame; [`OmegaParams::w_v`]) and their reserve for any motion of the tool
+/// ([`OmegaParams::w_r`]). 0 when every weight is.
+pub fn step_cost<M: Models<D>, const D: usize>(
+    model: u8,
+    q: &[f64; D],
+    twist: &Vector6<f64>,
+    p: &OmegaParams,
+) -> f64 {
+    if p.w_a <= 0.0 && p.w_v <= 0.0 && p.w_r <= 0.0 {
         return 0.0;
     }
-    let (_, jac) = M::jacobian(model, q);
-    p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0)
+    let (tool, jac) = M::jacobian(model, q);
+    let mut cost = 0.0;
+    if p.w_a > 0.0 {
+        cost += p.w_a * (p.axis_margin - axis_separation::<D>(&jac)).max(0.0);
+    }
+    if p.w_v <= 0.0 && p.w_r <= 0.0 {
+        return cost;
+    }
+    // A step the joints cannot take at all is refused elsewhere; here it only costs most.
+    let over = |ratio: f64| (ratio.min(2.0) - p.speed_margin).max(0.0);
+    let Some(map) = SpeedMap::new(&jac, M::velocity(model)) else {
+        return cost + over(f64::INFINITY) * (p.w_v + 6.0 * p.w_r);
+    };
+    if p.w_v > 0.0 {
+        cost += p.w_v * over(map.ratio(twist));
+    }
+    if p.w_r > 0.0 {
+        // Translating along, and turning about, each of the tool's axes.
+        let (linear, angular) = p.reserve_speed;
+        for axis in 0..3 {
+            let a = tool.rot.column(axis);
+            for (l, w) in [(linear, 0.0), (0.0, angular)] {
+                let reference = Vector6::new(a.x * l, a.y * l, a.z * l, a.x * w, a.y * w, a.z * w);
+                cost += p.w_r * over(map.ratio(&reference));
+            }
+        }
+    }
+    cost
 }
 
 /// Runs Ω-A* and writes the path (one configuration per step) to `out[..H]`.
+///
+/// Bad queries are [`SearchError::InvalidQuery`] with the reason (no or ragged trajectories,
+/// more than 32 of them, `out` shorter than H, a start or hold at `initial` without one); a
+/// full workspace [`SearchError::OutOfMemory`]; the deadline is looked at every 32
+/// expansions. The [`crate::search`] module's documentation has a runnable example.
 pub fn plan<M: Models<D>, const D: usize>(
     query: &Query<'_, D>,
     params: &OmegaParams,
@@ -394,18 +337,9 @@ struct Ctx<'q, 'a, M, const D: usize> {
 
 impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
     fn new(q: &'q Query<'a, D>, p: &'q OmegaParams, h: usize) -> Self {
-        let valid = Validity::new(
-            q.robot.model,
-            q.robot.base,
-            q.robot.tool,
-            q.obstacles,
-            q.others,
-            q.others_mode,
-            q.points,
-            q.dt,
-            p.motion_step,
-        )
-        .excluding(q.robot.excluded);
+        let valid = Validity::new(&q.robot, q.obstacles, q.dt, p.motion_step)
+            .with_others(q.others, q.others_mode)
+            .with_points(q.points);
         Ctx {
             q,
             p,
@@ -617,11 +551,20 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let mut moves = [[0.0; D]; MAX_MOVES];
         let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
-        for q in &moves[..n] {
-            if !self.valid.step_within_limits(&node.q, q) {
-                continue;
-            }
-            let Some(met) = self.valid.state_met(q, t1) else {
+        let motion = self.twist_at(node.j as usize, t1);
+        // The moves within the velocity limits, checked as one batch.
+        let mut within = [[0.0; D]; MAX_MOVES];
+        let mut m = 0;
+        for q in moves[..n]
+            .iter()
+            .filter(|q| self.valid.step_within_limits(&node.q, q))
+        {
+            within[m] = *q;
+            m += 1;
+        }
+        let states = self.valid.states_met(&within[..m], t1);
+        for (q, state) in within[..m].iter().zip(states) {
+            let Some(met) = state else {
                 continue;
             };
             let dist2: f64 = (0..D)
@@ -629,7 +572,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
                 .sum();
             let child = Node {
                 q: *q,
-                g: node.g + libm::sqrt(dist2) + self.axes_cost(q),
+                g: node.g + libm::sqrt(dist2) + self.step_cost(q, &motion),
                 parent: index,
                 t: t1 as u16,
                 c: node.c.saturating_add(met.count_ones() as u16),
@@ -644,8 +587,20 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         Ok(())
     }
 
-    fn axes_cost(&self, q: &[f64; D]) -> f64 {
-        axes_cost::<M, D>(self.q.robot.model, q, self.p)
+    fn step_cost(&self, q: &[f64; D], motion: &Vector6<f64>) -> f64 {
+        step_cost::<M, D>(self.q.robot.model, q, motion, self.p)
+    }
+
+    /// The hand's twist at step `t` of trajectory `j` (towards step `t + 1`; the last step's
+    /// motion continues past the end), in the base frame. Zero unless the speed headroom is
+    /// weighed.
+    fn twist_at(&self, j: usize, t: usize) -> Vector6<f64> {
+        let h = self.q.trajectories[j].len();
+        if self.p.w_v <= 0.0 || h < 2 {
+            return Vector6::zeros();
+        }
+        let t = t.min(h - 2);
+        twist(&self.target(j, t), &self.target(j, t + 1), self.q.dt)
     }
 
     /// Inserts a generated state, or improves the stored one in its cell (or takes the cell

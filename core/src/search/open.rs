@@ -4,8 +4,11 @@
 /// sooner), then by node index (so ties break the same way on every run).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct OpenEntry {
+    /// The priority (lowest first): cost to come plus the weighted heuristic.
     pub f: f64,
+    /// Step index (deeper first among equal `f`).
     pub t: u32,
+    /// Index of the node (or constraint-tree node) in its pool.
     pub node: u32,
 }
 
@@ -23,24 +26,43 @@ impl OpenEntry {
 }
 
 /// A binary heap of [`OpenEntry`] in a slice it does not own. Push fails when the slice is full.
+/// `O(log n)` a push or pop, no allocation.
+///
+/// ```
+/// use omcbsa_core::search::{OpenEntry, OpenList};
+///
+/// let mut storage = [OpenEntry::default(); 2];
+/// let mut open = OpenList::new(&mut storage);
+/// assert!(open.push(OpenEntry { f: 2.0, t: 0, node: 0 }));
+/// assert!(open.push(OpenEntry { f: 1.0, t: 0, node: 1 }));
+/// // Full: refused, nothing changed.
+/// assert!(!open.push(OpenEntry { f: 0.5, t: 0, node: 2 }));
+/// assert_eq!(open.pop().map(|e| e.node), Some(1));
+/// assert_eq!(open.pop().map(|e| e.node), Some(0));
+/// assert!(open.pop().is_none() && open.is_empty());
+/// ```
 pub struct OpenList<'a> {
     items: &'a mut [OpenEntry],
     len: usize,
 }
 
 impl<'a> OpenList<'a> {
+    /// An empty list over `items`, which bounds how many entries it holds.
     pub fn new(items: &'a mut [OpenEntry]) -> Self {
         OpenList { items, len: 0 }
     }
 
+    /// Entries held.
     pub fn len(&self) -> usize {
         self.len
     }
 
+    /// Whether it holds no entry.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
+    /// Forgets every entry; `O(1)`.
     pub fn clear(&mut self) {
         self.len = 0;
     }
@@ -65,6 +87,7 @@ impl<'a> OpenList<'a> {
         true
     }
 
+    /// Takes the first entry (least `f`, then deepest `t`, then least `node`).
     pub fn pop(&mut self) -> Option<OpenEntry> {
         if self.len == 0 {
             return None;

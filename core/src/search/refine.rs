@@ -1,5 +1,5 @@
 //! Refinement levels: when a planner exhausts its search space at one resolution it goes on at
-//! a finer one, until the deadline or the finest level is exhausted too (issue #12).
+//! a finer one, until the deadline or the finest level is exhausted too.
 //!
 //! Level 0 is the caller's [`OmegaParams`]; every later level draws more start states from
 //! more IK seeds (the first seeds are the same, so their IK answers are reused from the
@@ -7,13 +7,25 @@
 //! sweep (links inflated by 2.5 mm, then 1.25 mm, instead of 5 mm), and the last one also
 //! takes smaller null-space steps. The schedule counts levels, not time, so it is
 //! deterministic. The numbers come from the problems level 0 missed: 64 start states from up
-//! to 2,000 seeds and a grid of 0.05 rad solved the ones measured in the issue; the levels
+//! to 2,000 seeds and a grid of 0.05 rad solved the ones measured; the levels
 //! between reach the easier ones sooner. The finer sweeps come from the refinement family
 //! (`omcbsa gen-bench --refine`), whose fixtures stand 2 to 5 cm from the witness: there the
 //! 5 mm inflation turns passes a few millimetres apart into conflicts that no branching
 //! removes. Level 0 keeps the coarse sweep, which is a quarter cheaper on the suite.
+//!
+//! ```
+//! use omcbsa_core::search::refine::{level_params, LEVELS};
+//! use omcbsa_core::search::OmegaParams;
+//!
+//! let base = OmegaParams::default();
+//! assert_eq!(level_params(&base, 0), base);
+//! let finest = level_params(&base, LEVELS - 1);
+//! assert!(finest.resolution < base.resolution && finest.start_attempts > base.start_attempts);
+//! // Past the last level: the last.
+//! assert_eq!(level_params(&base, LEVELS + 3), finest);
+//! ```
 
-use super::OmegaParams;
+use super::params::OmegaParams;
 
 /// The reason planners report when every level was exhausted.
 pub const EXHAUSTED: &str = "every refinement level was searched without a plan";

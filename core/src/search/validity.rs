@@ -3,31 +3,82 @@
 
 use core::cell::RefCell;
 
-use crate::collision::ArmPose;
+use crate::collision::{ArmLanes, ArmPose};
 use crate::geometry::Obstacle;
+use crate::lanes::{lanes_of, F64s, Mask, LANES, WIDE};
 use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, near_point, ArmMotion};
-use crate::problem::{StartExclusions, MAX_ROBOTS};
+use crate::problem::{Robot, StartExclusions, MAX_ROBOTS};
 use crate::tool::Tool;
 
+use super::constraints::{OtherArm, OthersMode, PointConstraint};
 use super::workspace::Met;
-use super::{OtherArm, OthersMode, PointConstraint};
 
-/// Everything that constrains one robot's states and motions.
+/// Everything that constrains one robot's states and motions. It keeps the arm's last
+/// placing and the other robots' placings at the last two steps asked for (a few tens of KB:
+/// keep it off a very small stack); a check places at most the arm and those robots, and
+/// allocates nothing.
+///
+/// ```
+/// use omcbsa_core::model::{Frame, KinovaGen3};
+/// use omcbsa_core::motion::MOTION_STEP;
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::problem::Robot;
+/// use omcbsa_core::search::{OtherArm, OthersMode, PointConstraint, Validity};
+/// use omcbsa_core::tool::Tool;
+///
+/// let robot = Robot::at(0, Frame::IDENTITY);
+/// let (up, forward) = ([0.0; 7], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+/// // Alone, 0.1 s steps: a Gen3 joint may move 0.14 rad a step.
+/// let alone = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP);
+/// assert_eq!(alone.state(&forward, 0), Some(0));
+/// assert!(!alone.step_within_limits(&up, &forward));
+/// // Out of joint 2's limits (±2.24 rad): refused.
+/// assert_eq!(alone.state(&[0.0, 2.5, 0.0, 0.0, 0.0, 0.0, 0.0], 0), None);
+///
+/// // Another Gen3 standing upright 0.6 m ahead, over two steps.
+/// let path = [up, up];
+/// let other_base = Frame { pos: Vector3::new(0.6, 0.0, 0.0), ..Frame::IDENTITY };
+/// let others = [OtherArm { model: 0, base: other_base, tool: Tool::NONE, path: &path }];
+/// let counting = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP)
+///     .with_others(&others, OthersMode::Count);
+/// assert_eq!(counting.state(&forward, 1), Some(1)); // one collision, counted
+/// let avoiding = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP)
+///     .with_others(&others, OthersMode::Avoid);
+/// assert_eq!(avoiding.state(&forward, 1), None);
+/// assert_eq!(avoiding.state(&up, 1), Some(0));
+///
+/// // A point constraint: not within 1 cm of a point on the upright arm's axis at step 0.
+/// let p = [0.0, 0.0, 0.6];
+/// let keep_off = [PointConstraint { t: 0, segment: false, s: 0.0, p, margin: 0.01 }];
+/// let constrained = Validity::<KinovaGen3, 7>::new(&robot, &[], 0.1, MOTION_STEP)
+///     .with_points(&keep_off);
+/// assert_eq!(constrained.state(&up, 0), None);
+/// assert_eq!(constrained.state(&up, 1), Some(0));
+/// ```
 pub struct Validity<'q, M, const D: usize> {
     /// The robot's model, an index into `M`.
     pub model: u8,
+    /// The robot's base frame in the world.
     pub base: Frame,
+    /// What the robot carries.
     pub tool: Tool,
+    /// The fixed obstacles.
     pub obstacles: &'q [Obstacle],
+    /// The other robots' paths (fewer than [`MAX_ROBOTS`], each covering every step asked
+    /// about: a shorter one panics).
     pub others: &'q [OtherArm<'q, D>],
+    /// Whether meeting the other robots is forbidden or counted.
     pub others_mode: OthersMode,
+    /// Where the robot may not be, at a step or an instant of a motion.
     pub points: &'q [PointConstraint],
+    /// Time between consecutive steps, s.
+    pub dt: f64,
     /// Largest joint change between consecutive steps (velocity limit times dt).
     pub step_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
     pub motion_step: f64,
-    /// Configurations refused at step 0 ([`Validity::excluding`]).
+    /// Configurations refused at step 0 (the robot's [`Robot::excluded`]).
     pub excluded: StartExclusions<D>,
     /// The other robots' link capsules at the two steps asked for last (`usize::MAX`: none
     /// yet): every successor of one expansion is checked at the same steps, so this saves all
@@ -35,47 +86,52 @@ pub struct Validity<'q, M, const D: usize> {
     others_at: RefCell<[(usize, [ArmPose; MAX_ROBOTS]); 2]>,
     /// Where [`Validity::state`] places the robot.
     mine: RefCell<ArmPose>,
+    /// Where [`Validity::states_met`] places the robot.
+    batch: RefCell<ArmLanes>,
     _model: core::marker::PhantomData<M>,
 }
 
 impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        model: u8,
-        base: Frame,
-        tool: Tool,
-        obstacles: &'q [Obstacle],
-        others: &'q [OtherArm<'q, D>],
-        others_mode: OthersMode,
-        points: &'q [PointConstraint],
-        dt: f64,
-        motion_step: f64,
-    ) -> Self {
+    /// The checker of `robot` (its model, base, tool and excluded starts) among `obstacles`,
+    /// its steps `dt` apart and its motions checked every `motion_step`
+    /// ([`super::OmegaParams::motion_step`]); no other robots and no point constraints until
+    /// [`Validity::with_others`] and [`Validity::with_points`] add them.
+    pub fn new(robot: &Robot<D>, obstacles: &'q [Obstacle], dt: f64, motion_step: f64) -> Self {
         let mut step_limit = [0.0; D];
-        for (s, v) in step_limit.iter_mut().zip(M::velocity(model).iter()) {
+        for (s, v) in step_limit.iter_mut().zip(M::velocity(robot.model).iter()) {
             *s = v * dt;
         }
         Validity {
-            model,
-            base,
-            tool,
+            model: robot.model,
+            base: robot.base,
+            tool: robot.tool,
             obstacles,
-            others,
-            others_mode,
-            points,
+            others: &[],
+            others_mode: OthersMode::Avoid,
+            points: &[],
+            dt,
             step_limit,
             motion_step,
-            excluded: StartExclusions::NONE,
+            excluded: robot.excluded,
             others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
             mine: RefCell::new(ArmPose::EMPTY),
+            batch: RefCell::new(ArmLanes::EMPTY),
             _model: core::marker::PhantomData,
         }
     }
 
-    /// The same checker refusing `excluded`'s configurations at step 0 (a robot's
-    /// [`crate::problem::Robot::excluded`]).
-    pub fn excluding(self, excluded: StartExclusions<D>) -> Self {
-        Validity { excluded, ..self }
+    /// The same checker with the other robots' paths, avoided or counted (`mode`).
+    pub fn with_others(self, others: &'q [OtherArm<'q, D>], mode: OthersMode) -> Self {
+        Validity {
+            others,
+            others_mode: mode,
+            ..self
+        }
+    }
+
+    /// The same checker with point constraints.
+    pub fn with_points(self, points: &'q [PointConstraint]) -> Self {
+        Validity { points, ..self }
     }
 
     /// Places the other robots at step `t` in the cache (slot `t % 2`) unless already there.
@@ -97,6 +153,14 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
         f(&cache[t % 2].1[..self.others.len()])
     }
 
+    /// Whether every joint of `q` is within its limits (NaN is not).
+    fn within_limits(&self, q: &[f64; D]) -> bool {
+        let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
+        (q.iter())
+            .zip(M::lower(self.model).iter().zip(M::upper(self.model)))
+            .all(within)
+    }
+
     /// Whether no joint moves faster than its velocity limit from `a` to `b`.
     pub fn step_within_limits(&self, a: &[f64; D], b: &[f64; D]) -> bool {
         (0..D).all(|i| libm::fabs(b[i] - a[i]) <= self.step_limit[i])
@@ -110,20 +174,23 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
 
     /// [`Validity::state`] telling which other robots (bit `k`: `others[k]`) it meets.
     pub fn state_met(&self, q: &[f64; D], t: usize) -> Option<Met> {
-        // Written so that NaN is refused too.
-        let within = |(v, (lo, hi)): (&f64, (&f64, &f64))| *v >= *lo && *v <= *hi;
-        if !q
-            .iter()
-            .zip(M::lower(self.model).iter().zip(M::upper(self.model)))
-            .all(within)
-        {
+        self.state_met_in(q, t, &mut self.mine.borrow_mut())
+    }
+
+    /// [`Validity::state`], placing the robot in `pose` (which then holds it at `q` when the
+    /// check got that far: always when it passes), for a caller that checks a motion from or
+    /// to `q` next ([`Validity::motion_posed`]).
+    pub fn state_in(&self, q: &[f64; D], t: usize, pose: &mut ArmPose) -> Option<u16> {
+        self.state_met_in(q, t, pose).map(|m| m.count_ones() as u16)
+    }
+
+    fn state_met_in(&self, q: &[f64; D], t: usize, pose: &mut ArmPose) -> Option<Met> {
+        if !self.within_limits(q) {
             return None;
         }
         if t == 0 && self.excluded.excludes(q) {
             return None;
         }
-        let mut mine = self.mine.borrow_mut();
-        let pose = &mut *mine;
         pose.place::<M, D>(self.model, &self.base, &self.tool, q);
         if pose.obstacle_hit(self.obstacles, 0.0).is_some() || pose.self_hit(0.0).is_some() {
             return None;
@@ -145,6 +212,67 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             }
             Some(met)
         })
+    }
+
+    /// [`Validity::state_met`] of each of `qs` (at most [`LANES`]), placed and checked
+    /// together where the build's SIMD makes a batch pay ([`WIDE`]), else one at a time: the
+    /// same answers.
+    pub fn states_met(&self, qs: &[[f64; D]], t: usize) -> [Option<Met>; LANES] {
+        let mut out = [None; LANES];
+        let qs = &qs[..qs.len().min(LANES)];
+        if !WIDE {
+            for (o, q) in out.iter_mut().zip(qs) {
+                *o = self.state_met(q, t);
+            }
+            return out;
+        }
+        self.states_met_batched(qs, t)
+    }
+
+    /// [`Validity::states_met`] as one batch whatever the build (what it does on a [`WIDE`]
+    /// one).
+    pub fn states_met_batched(&self, qs: &[[f64; D]], t: usize) -> [Option<Met>; LANES] {
+        let mut out = [None; LANES];
+        let qs = &qs[..qs.len().min(LANES)];
+        let Some(last) = qs.len().checked_sub(1) else {
+            return out;
+        };
+        let live = (qs.iter().enumerate())
+            .filter(|(_, q)| self.within_limits(q) && !(t == 0 && self.excluded.excludes(q)))
+            .fold(0, |m: Mask, (k, _)| m | 1 << k);
+        if live == 0 {
+            return out;
+        }
+        let mut guard = self.batch.borrow_mut();
+        let batch = &mut *guard;
+        let q = core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| qs[k.min(last)][j])));
+        batch.place_lanes::<M, D>(self.model, &self.base, &self.tool, &q, live, u32::MAX);
+        batch.keep(!batch.obstacle_hits(self.obstacles, 0.0));
+        batch.keep(!batch.self_hits(0.0));
+        for pc in self.points {
+            if !pc.segment && pc.t as usize == t {
+                for k in lanes_of(batch.lanes()) {
+                    if near_point(&batch.pose(k), &pc.p, pc.margin) {
+                        batch.keep(!(1 << k));
+                    }
+                }
+            }
+        }
+        let mut met = [0; LANES];
+        self.with_others_at(t, |theirs| {
+            for (o, other) in theirs.iter().enumerate() {
+                let hit = batch.arm_hits_pose(other, 0.0);
+                if self.others_mode == OthersMode::Avoid {
+                    batch.keep(!hit);
+                } else {
+                    lanes_of(hit).for_each(|k| met[k] |= 1 << o);
+                }
+            }
+        });
+        for k in lanes_of(batch.lanes()) {
+            out[k] = Some(met[k]);
+        }
+        out
     }
 
     /// Checks the straight joint-space motion `a -> b` from step `t` to `t + 1` (see

@@ -7,12 +7,34 @@
 //! count. When the node pool or the OPEN list is full the search stops with
 //! `SearchError::OutOfMemory`; the workspace is reset at the start of every search, so it can
 //! be reused at once.
+//!
+//! ```
+//! use omcbsa_core::search::{Node, OpenEntry, Slot, Workspace, WorkspaceBuffers, WorkspaceError};
+//!
+//! // On a host, one buffer each (a `Vec` would do as well).
+//! let mut nodes = [Node::<7>::default(); 64];
+//! let mut open = [OpenEntry::default(); 128];
+//! let mut table = [Slot::default(); 128];
+//! let ws = Workspace::new(&mut nodes, &mut open, &mut table).unwrap();
+//! assert_eq!((ws.capacity(), ws.used()), (64, 0));
+//!
+//! // In one value, e.g. a `static` on a microcontroller.
+//! let mut buffers = WorkspaceBuffers::<7, 64, 128>::new();
+//! assert!(buffers.workspace().is_ok());
+//!
+//! // The table must be a power of two larger than the node pool.
+//! let mut small = WorkspaceBuffers::<7, 64, 64>::new();
+//! assert_eq!(small.workspace().err(), Some(WorkspaceError::TableCapacity));
+//! let mut none = WorkspaceBuffers::<7, 0, 1>::new();
+//! assert_eq!(none.workspace().err(), Some(WorkspaceError::NodeCapacity));
+//! ```
 
 use super::open::{OpenEntry, OpenList};
 
 /// A search state `(q, t, j)` and its bookkeeping.
 #[derive(Clone, Copy, Debug)]
 pub struct Node<const D: usize> {
+    /// The configuration.
     pub q: [f64; D],
     /// Cost to come.
     pub g: f64,
@@ -24,6 +46,7 @@ pub struct Node<const D: usize> {
     pub c: u16,
     /// Trajectory index.
     pub j: u8,
+    /// Expanded already.
     pub closed: bool,
     /// Whether the motion from the parent has been checked (and counted in `c`): Ω-A* checks
     /// it only when the state is popped.
@@ -71,7 +94,7 @@ pub struct Slot {
 pub enum WorkspaceError {
     /// The node buffer is empty or holds more than `u32::MAX - 1` nodes.
     NodeCapacity,
-    /// The table's length must be a power of two at least the node count.
+    /// The table's length must be a power of two larger than the node count.
     TableCapacity,
 }
 
@@ -87,6 +110,9 @@ pub struct Workspace<'a, const D: usize> {
 }
 
 impl<'a, const D: usize> Workspace<'a, D> {
+    /// A workspace over the caller's buffers: `nodes` (not empty), `open` (the OPEN list;
+    /// twice the nodes is ample) and `table` (a power of two larger than `nodes`). Clears
+    /// the table.
     pub fn new(
         nodes: &'a mut [Node<D>],
         open: &'a mut [OpenEntry],
@@ -95,7 +121,9 @@ impl<'a, const D: usize> Workspace<'a, D> {
         if nodes.is_empty() || nodes.len() >= u32::MAX as usize {
             return Err(WorkspaceError::NodeCapacity);
         }
-        if !table.len().is_power_of_two() || table.len() < nodes.len() {
+        // Larger than the node pool: a lookup stops at an empty slot, so a full table would
+        // loop for ever once every node is stored.
+        if !table.len().is_power_of_two() || table.len() <= nodes.len() {
             return Err(WorkspaceError::TableCapacity);
         }
         // The buffers may come from an earlier workspace whose slots carry epochs this one
@@ -212,14 +240,19 @@ impl<const D: usize> StateKey<D> {
 }
 
 /// Buffers for a [`Workspace`] of `N` nodes, for callers that want them in one value (a
-/// `static` on a microcontroller). `T` must be a power of two `>= N`.
+/// `static` on a microcontroller). `T` must be a power of two `> N`. About `N * 100 + T * 8`
+/// bytes: large ones belong in static or boxed storage, not on a small stack.
 pub struct WorkspaceBuffers<const D: usize, const N: usize, const T: usize> {
+    /// The node arena.
     pub nodes: [Node<D>; N],
+    /// The OPEN list's storage.
     pub open: [OpenEntry; N],
+    /// The duplicate-detection table.
     pub table: [Slot; T],
 }
 
 impl<const D: usize, const N: usize, const T: usize> WorkspaceBuffers<D, N, T> {
+    /// Cleared buffers.
     pub fn new() -> Self {
         WorkspaceBuffers {
             nodes: [Node::default(); N],
@@ -228,6 +261,7 @@ impl<const D: usize, const N: usize, const T: usize> WorkspaceBuffers<D, N, T> {
         }
     }
 
+    /// A workspace over these buffers (see [`Workspace::new`] for the errors).
     pub fn workspace(&mut self) -> Result<Workspace<'_, D>, WorkspaceError> {
         Workspace::new(&mut self.nodes, &mut self.open, &mut self.table)
     }

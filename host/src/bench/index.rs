@@ -15,8 +15,8 @@ use crate::suite::SuiteEntry;
 use crate::validate::Report;
 use crate::view::{self, Assets};
 
+use super::error::Error;
 use super::results::Row;
-use super::Error;
 
 pub const INDEX_FILE: &str = "index.html";
 const VIEWS_DIR: &str = "views";

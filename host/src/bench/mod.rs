@@ -9,9 +9,13 @@
 //!   `.svg` and `.png`.
 //! - `index.html`: the summary with the plots, and every problem with a page to view it.
 //!
+//! A suite entry with an `assignment` (a problem set that says which arm goes where) is planned
+//! under it, and a plan with another assignment counts as invalid.
+//!
 //! The planners are reached through [`Solver`], so the runner is tested with fake planners and
 //! anyone can bench their own planner on the suite.
 
+mod error;
 mod index;
 mod plots;
 mod quality;
@@ -30,29 +34,34 @@ use rayon::prelude::*;
 
 use omcbsa_core::problem::Problem;
 
+use crate::assignment::AssignmentRule;
 use crate::format::{ProblemFile, SolutionFile, Status};
-use crate::planners::{Capacities, Storage};
+use crate::plan::{plan_loaded, InputOrPlanError};
 use crate::suite::{self, SuiteEntry};
 use crate::{load, validate};
 
+pub use error::Error;
 pub use quality::{path_quality, PathQuality};
 pub use results::{csv_header, csv_line, Row};
 pub use summary::{Cell, Spread, Summary};
 
 use crate::models::{Fleet, DOF};
-use crate::planners::{self, PlannerKind};
+use crate::planners::{self, PlannerKind, Pools};
 /// `--quick` runs every this-many-th problem of the suite...
 pub const QUICK_STRIDE: usize = 15;
 /// ... with at most this timeout, so that all six planners finish in under two minutes.
 pub const QUICK_TIMEOUT_S: f64 = 1.0;
 /// The results file in the output directory.
 pub const RESULTS_FILE: &str = "results.csv";
+/// The summary table in the output directory.
 pub const SUMMARY_FILE: &str = "summary.md";
 /// Stack of the worker threads: planners keep their fixed-size workspaces on it.
 pub(crate) const WORKER_STACK: usize = 16 << 20;
 
 /// Runs one planner on one problem: the problem as read and as loaded, and the timeout.
 pub trait Solver: Sync {
+    /// Plans `file` (loaded as `problem`) with the planner called `planner` within
+    /// `timeout_s` seconds; `Err` when the run could not happen.
     fn solve(
         &self,
         planner: &str,
@@ -77,8 +86,10 @@ where
     }
 }
 
+/// How `omcbsa bench` runs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchOptions {
+    /// Planner names, run in this order.
     pub planners: Vec<String>,
     /// Per run, seconds.
     pub timeout_s: f64,
@@ -126,52 +137,24 @@ impl BenchOptions {
 /// What a benchmark run did.
 #[derive(Clone, Debug)]
 pub struct BenchReport {
+    /// Where the results were written.
     pub out_dir: PathBuf,
-    /// Runs made now, and runs found in `results.csv` from before.
+    /// Runs made now.
     pub runs: usize,
+    /// Runs found in `results.csv` from before (not run again).
     pub resumed: usize,
     /// Over every row of `results.csv`.
     pub summary: Summary,
+    /// `summary.md`.
     pub summary_path: PathBuf,
+    /// `results.csv`.
     pub results_path: PathBuf,
+    /// The plots drawn (SVG and PNG).
     pub plots: Vec<PathBuf>,
     /// Why the plots were not drawn, if they were not (the rest was still written).
     pub plot_error: Option<String>,
     /// `index.html`: the summary, the plots and a 3D view of every problem.
     pub index: PathBuf,
-}
-
-#[derive(Debug)]
-pub enum Error {
-    Suite(suite::Error),
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    Csv {
-        path: PathBuf,
-        message: String,
-    },
-    Options(String),
-}
-
-impl std::fmt::Display for Error {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Error::Suite(e) => e.fmt(f),
-            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            Error::Csv { path, message } => write!(f, "{}: {message}", path.display()),
-            Error::Options(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for Error {}
-
-impl From<suite::Error> for Error {
-    fn from(e: suite::Error) -> Self {
-        Error::Suite(e)
-    }
 }
 
 /// Benchmarks the planners of `omcbsa plan` and the baselines ([`PlannerKind`]) on a suite.
@@ -184,14 +167,14 @@ pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, E
         suite_dir,
         opts,
         &move |name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64| {
-            solve_with_planners(name, file, problem, timeout_s, approach)
+            plan_one(name, file, problem, timeout_s, approach)
         },
     )
 }
 
 thread_local! {
     /// Each worker's planner pools, made at its first run and reused: they are large.
-    static STORAGE: RefCell<Option<Storage>> = const { RefCell::new(None) };
+    static POOLS: RefCell<Pools> = RefCell::new(Pools::default());
 }
 
 /// One run of a built-in planner (as [`run_bench`] makes it) on the problem of `entry`,
@@ -207,32 +190,34 @@ pub fn run_builtin(
 ) -> Result<(Row, Option<SolutionFile>), String> {
     planners::parse_bench(planner)?;
     let solver = move |name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64| {
-        solve_with_planners(name, file, problem, timeout_s, approach)
+        plan_one(name, file, problem, timeout_s, approach)
     };
     Ok(run_text(entry, text, source, planner, timeout_s, &solver))
 }
 
-/// Runs one of the built-in planners with this thread's pools.
-fn solve_with_planners(
+/// One run of `omcbsa bench`: planner `name` on one problem, in this thread's pools, through
+/// the path `omcbsa plan` takes ([`crate::plan::plan_loaded`]: validated before it is
+/// reported), with or without the approach from where the arms stand.
+pub fn plan_one(
     name: &str,
     file: &ProblemFile,
     problem: &Problem<7>,
     timeout_s: f64,
     approach: bool,
 ) -> Result<SolutionFile, String> {
-    STORAGE.with(|cell| {
-        let mut slot = cell.borrow_mut();
-        let storage =
-            slot.get_or_insert_with(|| Storage::new(Capacities::default(), MAX_BENCH_HORIZON));
+    POOLS.with(|cell| {
+        let mut pools = cell.borrow_mut();
+        let storage = pools.for_horizon(problem.horizon());
         storage.with_approach = approach;
-        storage
-            .solve(planners::parse(name)?, problem, timeout_s)
-            .map(|outcome| outcome.to_solution_file(file, name))
+        // The path `omcbsa plan` takes, validation included.
+        plan_loaded(storage, file, problem, planners::parse(name)?, timeout_s).map_err(
+            |e| match e {
+                InputOrPlanError::Input(e) => e.to_string(),
+                InputOrPlanError::Plan(e) => e,
+            },
+        )
     })
 }
-
-/// Longest horizon the worker pools are sized for (the suite's longest is 40 steps).
-const MAX_BENCH_HORIZON: usize = 64;
 
 /// [`run_bench`] with any planners behind `solver`.
 pub fn run_bench_with(
@@ -455,13 +440,22 @@ fn run_text(
     let mut row = blank_row(entry, planner, timeout_s);
     let loaded = load::parse_problem(text)
         .and_then(|file| load::problem::<Fleet, DOF>(&file).map(|p| (file, Box::new(p))));
-    let (file, problem) = match loaded {
+    let (file, mut problem) = match loaded {
         Ok(x) => x,
         Err(e) => {
             row.message = format!("{source}: {}", e.to_string().replace('\n', "; "));
             return (row, None);
         }
     };
+    // A problem set that says which arm goes where is planned under that assignment.
+    let rule = (entry.assignment.clone()).map_or(AssignmentRule::Free, AssignmentRule::Fixed);
+    let (robots, hands) = (problem.robots.len(), problem.trajectories.len());
+    if let Err(e) = rule.check("assignment", robots, hands) {
+        let e = e.to_string().replace('\n', "; ");
+        row.message = format!("{}: {}: {e}", suite::INDEX_FILE, entry.name);
+        return (row, None);
+    }
+    AssignmentRule::apply(rule.list(), &mut problem);
     let start = Instant::now();
     let outcome = catch_unwind(AssertUnwindSafe(|| {
         solver.solve(planner, &file, &problem, timeout_s)
@@ -501,6 +495,14 @@ fn run_text(
     row.success = report.is_valid();
     if !report.is_valid() {
         row.message = report.summary();
+    } else if let Some(fixed) = (entry.assignment.as_ref()).filter(|f| **f != solution.assignment)
+    {
+        row.valid = Some(false);
+        row.success = false;
+        row.message = format!(
+            "the plan's assignment {:?} is not the fixed {fixed:?}",
+            solution.assignment
+        );
     } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
         row.set_quality(&path_quality::<Fleet, DOF>(
             &problem,

@@ -7,21 +7,30 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::error::Error;
 use super::quality::PathQuality;
-use super::Error;
 
 /// One run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Row {
+    /// The problem's name.
     pub problem: String,
+    /// Its motion family.
     pub family: String,
+    /// Its layout of arms.
     pub layout: String,
+    /// Robots in the problem.
     pub robots: usize,
+    /// Trajectories in the problem.
     pub trajectories: usize,
+    /// Steps of every trajectory.
     #[serde(rename = "H")]
     pub horizon: usize,
+    /// Whether the suite holds a witness solution for it.
     pub known_solvable: bool,
+    /// The planner's name.
     pub planner: String,
+    /// The run's time limit, s.
     pub timeout_s: f64,
     /// The planner's status, or `error` when the run could not happen or the planner failed.
     pub status: String,
@@ -38,17 +47,25 @@ pub struct Row {
     /// Path quality of a successful run's plan (see [`super::quality::PathQuality`]); empty
     /// for the other runs, and for figures that do not apply.
     pub path_length_rad: Option<f64>,
+    /// Fastest joint speed as a fraction of that joint's limit (1: at the limit).
     pub max_speed_frac: Option<f64>,
+    /// Largest joint acceleration as a fraction of that joint's limit.
     pub max_accel_frac: Option<f64>,
+    /// Least distance between two arms over the steps, metres (negative: overlap).
     pub min_arm_clearance_m: Option<f64>,
+    /// Least distance between an arm and an obstacle over the steps, metres.
     pub min_obstacle_clearance_m: Option<f64>,
+    /// Ω-A*'s cost `g` of the paths, summed over the tracking robots.
     pub path_cost: Option<f64>,
     /// The approach from `initial` to the plan (solved runs): configurations per robot,
     /// seconds of motion, planning time (included in `time_s`), and how it was found
     /// (`none`, `together`, `ordered`, `rrt-connect`).
     pub approach_steps: Option<u64>,
+    /// Seconds of the approach's motion.
     pub approach_duration_s: Option<f64>,
+    /// Milliseconds spent planning the approach.
     pub approach_time_ms: Option<f64>,
+    /// How the approach was found.
     pub approach_method: String,
     /// Planner runs: more than 1 when starts were excluded because no approach reached them.
     pub planner_runs: Option<u64>,
@@ -67,6 +84,7 @@ impl Row {
         self.path_cost = Some(q.path_cost);
     }
 
+    /// The row's key: (problem, planner). A resumed run skips the keys already there.
     pub fn key(&self) -> (&str, &str) {
         (&self.problem, &self.planner)
     }

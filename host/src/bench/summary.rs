@@ -13,10 +13,15 @@ use crate::suite::Family;
 /// values.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spread {
+    /// How many values.
     pub n: usize,
+    /// Their mean.
     pub mean: f64,
+    /// Their sample standard deviation.
     pub std_dev: f64,
+    /// The smallest.
     pub min: f64,
+    /// The largest.
     pub max: f64,
 }
 
@@ -58,10 +63,13 @@ impl Spread {
 /// One planner over one group of problems (one arm count, or all).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cell {
+    /// Runs.
     pub runs: usize,
+    /// Successful runs (solved and valid).
     pub successes: usize,
     /// Runs and successes on problems known to be solvable.
     pub solvable_runs: usize,
+    /// Successes among `solvable_runs`.
     pub solvable_successes: usize,
     /// Planning times of the successful runs, seconds, sorted.
     pub times: Vec<f64>,
@@ -107,10 +115,12 @@ impl Cell {
         ratio(self.successes, self.runs)
     }
 
+    /// Successes over runs on problems known to be solvable (0 without such runs).
     pub fn solvable_success_rate(&self) -> f64 {
         ratio(self.solvable_successes, self.solvable_runs)
     }
 
+    /// Median planning time of the successful runs, s.
     pub fn median(&self) -> Option<f64> {
         let n = self.times.len();
         match n {
@@ -120,6 +130,7 @@ impl Cell {
         }
     }
 
+    /// Mean planning time of the successful runs, s.
     pub fn mean(&self) -> Option<f64> {
         (!self.times.is_empty()).then(|| self.times.iter().sum::<f64>() / self.times.len() as f64)
     }
@@ -317,6 +328,7 @@ impl Summary {
         }
     }
 
+    /// The cell of `planner` on problems of `robots` arms (`None`: all problems).
     pub fn cell(&self, planner: &str, robots: Option<usize>) -> Option<&Cell> {
         self.cells.get(&(planner.to_string(), robots))
     }

@@ -8,9 +8,9 @@ use std::time::Duration;
 use omcbsa::error::InputError;
 use omcbsa::execute::CheckedSolution;
 use omcbsa::load;
-use omcbsa_hw::executor::Progress;
 use omcbsa_hw::kortex::Credentials;
-use omcbsa_hw::link::{self, ArmPorts};
+use omcbsa_hw::port::{self, ArmPorts};
+use omcbsa_hw::Progress;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report};
 
 use super::watch::WatchArgs;
@@ -83,7 +83,7 @@ fn parse_arm(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
         // The spec is checked here, so that a dry run accepts only arms a live run could reach.
         Some((name, spec)) if !name.is_empty() && !spec.is_empty() => {
-            link::check_spec(spec).map(|()| (name.to_string(), spec.to_string()))
+            port::check_spec(spec).map(|()| (name.to_string(), spec.to_string()))
         }
         _ => Err(format!(
             "expected NAME=SPEC (e.g. left=slcan:/dev/ttyACM0 or left=kortex:192.168.1.10), \
@@ -117,7 +117,7 @@ pub fn run(args: &Args) -> ExitCode {
             Err(e) => return bad_input(e),
         };
         for (name, spec) in &args.arms {
-            match link::open(spec, &credentials) {
+            match port::open(spec, &credentials) {
                 Ok(p) => ports.push((name.clone(), p)),
                 Err(e) => return bad_input(format!("arm {name:?}: {e}")),
             }

@@ -11,6 +11,7 @@ pub mod execute;
 pub mod fk;
 pub mod gen_bench;
 pub mod ik;
+pub mod import;
 mod lines;
 pub mod online;
 pub mod plan;

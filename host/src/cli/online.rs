@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use omcbsa::online::run::{run_on_mock_arms, RunOutcome, RunScript};
+use omcbsa::planners::{self, PlannerKind};
 use omcbsa::view::write_html;
 use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::Event;
@@ -26,8 +27,8 @@ pub struct Args {
     #[arg(long, default_value_t = 12)]
     chunks: usize,
     /// Planner per chunk: omcbsa or pp.
-    #[arg(long, default_value = "omcbsa")]
-    planner: String,
+    #[arg(long, default_value_t = PlannerKind::DEFAULT, value_parser = planners::parse)]
+    planner: PlannerKind,
     /// Make this chunk arrive late (after the queue ran dry).
     #[arg(long)]
     late_chunk: Option<usize>,
@@ -64,7 +65,7 @@ fn online(args: &Args) -> Result<ExitCode, ExitCode> {
         transport: args.transport.into(),
         ..RunScript::default()
     };
-    script.options.planner = args.planner.clone();
+    script.options.planner = args.planner;
     print(format_args!(
         "online: box flip policy, {} chunks of {} poses every {} poses, 3 mock arms",
         script.chunks, script.policy.chunk_len, script.policy.stride

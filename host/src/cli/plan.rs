@@ -5,7 +5,8 @@ use std::process::ExitCode;
 
 use omcbsa::format::Status;
 use omcbsa::load;
-use omcbsa::planners::{self, plan_file, InputOrPlanError, PlannerKind};
+use omcbsa::plan::{plan_file, InputOrPlanError};
+use omcbsa::planners::{self, PlannerKind};
 
 use super::{bad_input, negative, note, positive_seconds, print, InputLimit};
 
@@ -21,7 +22,7 @@ pub struct Args {
     output: Option<PathBuf>,
     /// omcbsa, pp, pp-single, ik-tracking, descartes, composite-astar, or omega-astar (one
     /// robot only).
-    #[arg(long, default_value = "omcbsa", value_parser = planners::parse,
+    #[arg(long, default_value_t = PlannerKind::DEFAULT, value_parser = planners::parse,
           long_help = format!("The planner:\n{}", planners::descriptions()))]
     planner: PlannerKind,
     /// Planning time limit, seconds.

@@ -18,10 +18,13 @@ use crate::planners::{Capacities, Storage};
 /// Timings of one arm count.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ArmsRow {
+    /// Robots in the problems.
     pub arms: usize,
+    /// Problems of this arm count.
     pub problems: usize,
     /// Planning times of the later chunks, s, and how many were attempted.
     pub chunks: Vec<f64>,
+    /// Later chunks attempted.
     pub attempted: usize,
     /// Planning times of the first chunks, s (solved ones).
     pub first: Vec<f64>,
@@ -29,13 +32,18 @@ pub struct ArmsRow {
     pub whole: Vec<f64>,
 }
 
-/// The `q`-quantile of sorted `v` (nearest rank), in ms.
-pub fn quantile_ms(v: &[f64], q: f64) -> f64 {
+/// The `q`-quantile of sorted `v` (nearest rank); NaN when `v` is empty.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
     let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len());
-    1e3 * v[k - 1]
+    v[k - 1]
+}
+
+/// [`quantile`] of seconds, in ms.
+pub fn quantile_ms(v: &[f64], q: f64) -> f64 {
+    1e3 * quantile(v, q)
 }
 
 /// Runs the benchmark on the suite in `dir` for each arm count of `arms`, until at least
@@ -67,7 +75,7 @@ pub fn bench_online(
             let text = load::read_text(&dir.join(&entry.file)).map_err(|e| e.to_string())?;
             let file = load::parse_problem(&text).map_err(|e| e.to_string())?;
             let problem = load::problem::<Fleet, DOF>(&file).map_err(|e| e.to_string())?;
-            let outcome = whole.solve(crate::planners::parse(&options.planner)?, &problem, 5.0)?;
+            let outcome = whole.solve(options.planner, &problem, 5.0)?;
             if outcome.status != omcbsa_core::planner::Status::Solved {
                 continue;
             }
@@ -139,7 +147,7 @@ pub fn table(rows: &[ArmsRow]) -> String {
     s
 }
 
-/// How the policy's chunks reach the [`Embodier`] in [`bench_episodes`].
+/// How the policy's chunks reach the [`Embodier`] in [`run_episode`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Chunking {
     /// Poses per hand in a chunk.
@@ -155,7 +163,9 @@ pub struct Chunking {
 /// One episode's result.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EpisodeRun {
+    /// Chunks pushed.
     pub chunks: usize,
+    /// Chunks planned.
     pub planned: usize,
     /// Planning times of the chunks after the first, s (planned ones).
     pub later: Vec<f64>,
@@ -163,8 +173,15 @@ pub struct EpisodeRun {
     pub first: Option<f64>,
     /// Chunks planned by a recovery (see `super::Recovery`).
     pub recovered: usize,
-    /// Every chunk planned and the whole sent timeline valid under the validator.
+    /// Every chunk planned, every pose tracked in order (none dropped) and the whole sent
+    /// timeline valid under the validator.
     pub embodied: bool,
+    /// Chunks the Embodier slowed ([`super::Recovery::TimeScaled`]).
+    pub scaled: usize,
+    /// How far the arms were behind the policy at the episode's last step, s.
+    pub lag_s: f64,
+    /// The episode's duration at the policy's rate, s.
+    pub duration_s: f64,
     /// The first error, as the Embodier gave it.
     pub error: Option<String>,
 }
@@ -203,6 +220,7 @@ pub fn run_episode(
         match e.push_chunk(start as u64, &hands) {
             Ok(r) => {
                 run.recovered += usize::from(r.recovery.is_some());
+                run.scaled += usize::from(r.recovery == Some(super::Recovery::TimeScaled));
                 // A chunk whose first poses were dropped (an approach after a hold) is not
                 // embodied.
                 if r.dropped == 0 {
@@ -211,7 +229,6 @@ pub fn run_episode(
                     run.error
                         .get_or_insert(format!("step {start}: {} poses dropped", r.dropped));
                 }
-                record.chunk(start as u64, &hands, r.dropped);
                 match run.first {
                     None => run.first = Some(r.planning_time_s),
                     Some(_) => run.later.push(r.planning_time_s),
@@ -231,8 +248,22 @@ pub fn run_episode(
         start += chunking.stride;
     }
     record.send(&e, e.end());
+    run.duration_s = steps as f64 * episode.setup.dt;
+    run.lag_s = e.lag_s(steps.saturating_sub(1) as u64);
     let windows = record.windows(&episode.setup, &e, omcbsa_core::problem::MAX_STEPS - 1);
     let mut valid = !windows.is_empty();
+    match record.check_order() {
+        Ok(order) if order.dropped == 0 => {}
+        Ok(order) => {
+            run.error
+                .get_or_insert(format!("{} steps dropped by catch-ups", order.dropped));
+            valid = false;
+        }
+        Err(e) => {
+            run.error.get_or_insert(e);
+            valid = false;
+        }
+    }
     for (problem, solution) in &windows {
         let core = load::problem::<Fleet, DOF>(problem).map_err(|e| e.to_string())?;
         let report = crate::validate::validate::<Fleet, DOF>(problem, &core, solution);
@@ -248,18 +279,35 @@ pub fn run_episode(
 /// The results of one arm count and chunking.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EpisodeRow {
+    /// Robots in the episodes.
     pub arms: usize,
+    /// How the episodes were cut into chunks (`None`: whole).
     pub chunking: Option<Chunking>,
+    /// Episodes run.
     pub episodes: usize,
+    /// Episodes whose every chunk was planned.
     pub embodied: usize,
+    /// Chunks pushed.
     pub chunks: usize,
+    /// Chunks planned.
     pub planned: usize,
+    /// Chunks planned by a recovery ([`crate::online::Recovery`]).
     pub recovered: usize,
+    /// Episodes with a hand pose that no arm reaches ([`super::reach::out_of_reach`]; run
+    /// all the same, and not embodied).
+    pub out_of_reach: usize,
+    /// Planning times of the chunks after the first, s.
     pub later: Vec<f64>,
+    /// Planning times of the first chunks, s.
     pub first: Vec<f64>,
+    /// Chunks slowed by time scaling.
+    pub scaled: usize,
+    /// Per episode, the arms' lag at its end as a share of its duration.
+    pub lags: Vec<f64>,
 }
 
 impl EpisodeRow {
+    /// Counts one episode's result in.
     pub fn add(&mut self, run: &EpisodeRun) {
         self.episodes += 1;
         self.embodied += usize::from(run.embodied);
@@ -268,14 +316,17 @@ impl EpisodeRow {
         self.recovered += run.recovered;
         self.later.extend(&run.later);
         self.first.extend(run.first);
+        self.scaled += run.scaled;
+        self.lags
+            .push(run.lag_s / run.duration_s.max(f64::MIN_POSITIVE));
     }
 }
 
 /// The rows as a markdown table (`None` chunking: the reference, whole windows).
 pub fn episode_table(rows: &[EpisodeRow]) -> String {
     let mut s = String::from(
-        "| arms | chunks (len / stride) | episodes | embodied | chunks | planned | recovered | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
-         |---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| arms | chunks (len / stride) | episodes | out of reach | embodied | chunks | planned | recovered | time-scaled | lag p50 / max (% of episode) | p50 (ms) | p99 (ms) | max (ms) | first chunk p50 (ms) |\n\
+         |---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|\n",
     );
     for r in rows {
         let mut later = r.later.clone();
@@ -287,15 +338,21 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
             .map_or("whole windows (reference)".to_string(), |c| {
                 format!("{} / {} (lead {})", c.len, c.stride, c.lead)
             });
+        let mut lags = r.lags.clone();
+        lags.sort_by(f64::total_cmp);
         s += &format!(
-            "| {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {} | {} | {} | {:.1} % | {} | {:.1} % | {} | {} | {:.2} / {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
             r.arms,
             chunking,
             r.episodes,
+            r.out_of_reach,
             100.0 * r.embodied as f64 / r.episodes.max(1) as f64,
             r.chunks,
             100.0 * r.planned as f64 / r.chunks.max(1) as f64,
             r.recovered,
+            r.scaled,
+            100.0 * quantile(&lags, 0.5),
+            100.0 * quantile(&lags, 1.0),
             quantile_ms(&later, 0.5),
             quantile_ms(&later, 0.99),
             quantile_ms(&later, 1.0),
@@ -303,4 +360,69 @@ pub fn episode_table(rows: &[EpisodeRow]) -> String {
         );
     }
     s
+}
+
+/// The chunking and options of the reference: each episode planned whole, in windows of
+/// `MAX_STEPS - 1` poses, 5 s per window (as `omcbsa plan` would be given).
+pub fn whole_windows(options: &OnlineOptions) -> (OnlineOptions, Chunking) {
+    let len = omcbsa_core::problem::MAX_STEPS - 1;
+    let options = OnlineOptions {
+        max_chunk_len: len,
+        chunk_timeout_s: 5.0,
+        capacities: Capacities::default(),
+        ..options.clone()
+    };
+    let chunking = Chunking {
+        len,
+        stride: len,
+        lead: 0,
+    };
+    (options, chunking)
+}
+
+/// Runs `episodes` (of `arms` arms) through the Embodier with `chunking`, and each also in
+/// whole windows when `reference` ([`whole_windows`]): the online row and the reference's.
+/// `note` gets, per episode, the first error of a run that did not embody it and whether a
+/// pose is out of every arm's reach.
+pub fn bench_episodes(
+    episodes: impl Iterator<Item = super::bimanual::Episode>,
+    arms: usize,
+    options: &OnlineOptions,
+    chunking: Chunking,
+    reference: bool,
+    note: &mut dyn FnMut(&str),
+) -> Result<(EpisodeRow, EpisodeRow), String> {
+    let (whole_options, whole) = whole_windows(options);
+    let mut online = EpisodeRow {
+        arms,
+        chunking: Some(chunking),
+        ..EpisodeRow::default()
+    };
+    let mut reference_row = EpisodeRow {
+        arms,
+        ..EpisodeRow::default()
+    };
+    for ep in episodes {
+        let context = |e: String| format!("{}: {e}", ep.name);
+        let far = super::reach::out_of_reach(&ep).map_err(context)?;
+        if let Some(far) = far {
+            note(&format!(
+                "{}: hand {} is out of every arm's reach at step {}",
+                ep.name, far.hand, far.step
+            ));
+        }
+        let mut rows = vec![(&mut online, options, chunking, "")];
+        if reference {
+            rows.push((&mut reference_row, &whole_options, whole, " (reference)"));
+        }
+        for (row, options, chunking, label) in rows {
+            let run = run_episode(&ep, options, chunking).map_err(context)?;
+            if let Some(err) = run.error.as_ref().filter(|_| !run.embodied) {
+                note(&format!("{}{label}: {err}", ep.name));
+            }
+            row.add(&run);
+            row.out_of_reach += usize::from(far.is_some());
+        }
+    }
+    Ok((online, reference_row))
 }

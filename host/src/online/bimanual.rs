@@ -36,7 +36,7 @@ use omcbsa_core::problem::{Assigned, MAX_STEPS};
 
 /// The benchmark's control rate, Hz, for which the keyframes' steps are written.
 const BASE_HZ: f64 = 50.0;
-/// Steps of an episode at [`BASE_HZ`].
+/// Steps of an episode at `BASE_HZ` (50 Hz).
 pub const EPISODE_STEPS: usize = 420;
 /// The two facing arms stand this far from the table's centre.
 const FACING_X: f64 = 0.6;
@@ -54,7 +54,9 @@ const DRAWS: usize = 64;
 /// One episode: where the arms stand, and every hand's pose at every step.
 #[derive(Clone, Debug)]
 pub struct Episode {
+    /// The episode's name.
     pub name: String,
+    /// Where the arms stand and what is around them.
     pub setup: Setup,
     /// `hands[j][k]`: hand `j` at policy step `k`.
     pub hands: Vec<Vec<Pose>>,
@@ -63,13 +65,17 @@ pub struct Episode {
 /// Which scripted task.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Task {
+    /// One hand picks a cube from the table and another takes it over at a meeting point.
     Transfer,
+    /// One hand picks a socket, the other a peg, and they bring them together.
     Insertion,
 }
 
 impl Task {
+    /// Every task.
     pub const ALL: [Task; 2] = [Task::Transfer, Task::Insertion];
 
+    /// The task's name (`transfer`, `insertion`).
     pub fn name(self) -> &'static str {
         match self {
             Task::Transfer => "transfer",
@@ -197,7 +203,8 @@ fn bases(arms: usize) -> Vec<Frame> {
     .collect()
 }
 
-fn tcp() -> Frame {
+/// Where the Gen3's fingertips are in its tool frame (the flange).
+pub(super) fn tcp() -> Frame {
     Frame {
         rot: Rotation3::identity().into_inner(),
         pos: v3(0.0, 0.0, TCP_LENGTH),
@@ -345,7 +352,8 @@ fn witnessed(setup: &Setup, hands: &[Vec<Pose>], rng: &mut Rng) -> bool {
     })
 }
 
-fn table() -> crate::format::ObstacleSpec {
+/// The table the arms stand around, its top at z = 0.
+pub(super) fn table() -> crate::format::ObstacleSpec {
     obstacle_spec(&obstacle_box(
         "table",
         v3(0.0, 0.0, -0.02),

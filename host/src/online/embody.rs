@@ -21,7 +21,7 @@ impl Embodier {
         chunk_len: usize,
     ) -> Result<Vec<Vec<[f64; DOF]>>, OnlineError> {
         let mut errors = Errors::default();
-        if self.offset.is_some() {
+        if self.origin.is_some() {
             errors.push(
                 "embodier",
                 "has planned chunks already: an episode starts a run",

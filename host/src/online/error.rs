@@ -14,14 +14,19 @@ pub enum OnlineError {
     /// No arm can reach hand `hand`'s pose at policy step `step` (with the assignment fixed:
     /// not the arm holding that hand, `robot`).
     Unreachable {
+        /// The hand (index into the chunk's hands).
         hand: usize,
+        /// The policy step.
         step: u64,
+        /// The arm holding that hand, when the assignment is fixed.
         robot: Option<usize>,
     },
     /// The chunk starts at policy step `start_step`, but the arms have been sent everything up
     /// to step `committed_step` already: it came too late to replace that part.
     DeadlineMissed {
+        /// The chunk's first policy step.
         start_step: u64,
+        /// The last policy step already sent to the arms.
         committed_step: i64,
     },
     /// No plan for the chunk, and where it is blocked: following the hands from where the
@@ -29,15 +34,26 @@ pub enum OnlineError {
     /// step `step` because of `what` (out of reach, a joint limit, a joint's speed, a
     /// collision and with what).
     Blocked {
+        /// The chunk's first policy step.
         start_step: u64,
+        /// The blocked robot's name.
         robot: String,
+        /// Its index in the setup.
         robot_index: usize,
+        /// The hand it holds (`None`: it holds still).
         hand: Option<usize>,
+        /// The policy step it cannot reach.
         step: u64,
+        /// What stops it.
         what: String,
     },
     /// The planner ended without a plan for the chunk (`status`: no_solution, timeout, ...).
-    NotPlanned { start_step: u64, status: String },
+    NotPlanned {
+        /// The chunk's first policy step.
+        start_step: u64,
+        /// How the planner ended.
+        status: String,
+    },
     /// The first chunk was planned, but no approach from where the arms stand to its start
     /// was found.
     Approach(String),

@@ -21,30 +21,36 @@
 //! - Memory stays bounded however long the run: the plan before the last step sent to the
 //!   arms ([`Embodier::commit_until`]) is dropped.
 
+pub mod aloha;
 pub mod bench;
 pub mod bimanual;
+mod chunk;
 pub(crate) mod diagnose;
 mod embody;
 mod error;
 pub mod policy;
+pub mod reach;
 pub mod record;
 mod recover;
 pub mod run;
+mod scaling;
+mod timeline;
 
 pub use error::OnlineError;
+pub use timeline::Target;
+
+use timeline::Timeline;
 
 use omcbsa_core::approach::ApproachParams;
-use omcbsa_core::ik::{ik, ik_multi_start, MultiStart};
-use omcbsa_core::planner::{Stats, Status};
-use omcbsa_core::problem::{Assigned, Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
-use omcbsa_core::rng::Rng;
+use omcbsa_core::planner::Stats;
+use omcbsa_core::problem::{Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_STEPS};
 
-use crate::assignment::{self, nearest, AssignmentRule};
-use crate::error::{Errors, InputError};
+use crate::assignment::{nearest, AssignmentRule};
+use crate::error::Errors;
 use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
 use crate::models::Fleet;
-use crate::planners::{self, Capacities, PlannerKind, Storage, DOF};
+use crate::planners::{Capacities, PlannerKind, Storage, DOF};
 use crate::pose;
 
 /// Where the arms are and what is around them: everything of a problem but the hands' poses.
@@ -52,7 +58,9 @@ use crate::pose;
 pub struct Setup {
     /// Every robot needs `initial`: the arm's configuration when the run starts.
     pub robots: Vec<RobotSpec>,
+    /// Fixed obstacles.
     pub obstacles: Vec<ObstacleSpec>,
+    /// How closely the hands must be followed.
     pub tolerance: ToleranceSpec,
     /// Time between consecutive poses and configurations, s.
     pub dt: f64,
@@ -73,14 +81,15 @@ impl Setup {
 /// How chunks are planned.
 #[derive(Clone, Debug)]
 pub struct OnlineOptions {
-    /// `omcbsa` (Ω-CBSA) or `pp` (OM-PP-A*).
-    pub planner: String,
+    /// Ω-CBSA or OM-PP-A* (the planners that keep an assignment and start where the arms are).
+    pub planner: PlannerKind,
     /// Planning time allowed per chunk, s (the core's deadline).
     pub chunk_timeout_s: f64,
     /// Longest chunk (poses per hand) the storage is made for.
     pub max_chunk_len: usize,
     /// Most configurations of the approach to the first chunk.
     pub max_approach_len: usize,
+    /// The approach's settings (to the first chunk, and after a hold).
     pub approach: ApproachParams,
     /// Pool sizes of the planner (allocated once, in [`Embodier::new`]).
     pub capacities: Capacities,
@@ -99,18 +108,51 @@ pub struct OnlineOptions {
     /// chunk then needs a joint faster than its limit (bimanual transfer 013 at 50 Hz,
     /// 16-step chunks sent just in time). The cost makes the null space keep them apart.
     pub axis_weight: f64,
+    /// Weight of the joints' speed headroom in the chunks' plans
+    /// ([`omcbsa_core::search::OmegaParams::w_v`]): a step costs more the nearer the hand's
+    /// motion there (continued past the chunk's end) brings a joint to its speed limit, so
+    /// that a chunk leaves the arm where the hands' next motion can still be followed.
+    pub headroom_weight: f64,
+    /// Weight of the joints' reserve at a chunk's last pose, for any motion of the hands
+    /// ([`omcbsa_core::search::OmegaParams::w_r`]): a chunk ends where the hands can start
+    /// the next chunk's motion, whichever it is.
+    pub reserve_weight: f64,
+    /// When a chunk cannot be followed at the policy's rate, slow its timing (the hands'
+    /// path and the order of the poses kept) by the least factor that makes it feasible,
+    /// rather than stop: the arms lag behind the policy by the time added (reported per chunk
+    /// and in total). Off, such a chunk is recovered by a catch-up that drops poses.
+    pub time_scaling: bool,
 }
 
-/// [`OnlineOptions::axis_weight`] by default. `bench-online --family bimanual` at 50 Hz, 2
-/// arms, 16-step chunks just in time: weights from 0.5 to 8 embody all 40 episodes; 0.25 loses
-/// transfer 013 (the dead end this cost is for), 16 steers so hard that two others lose a
-/// wrist joint's speed. 4 is in the middle (log scale).
-pub const AXIS_WEIGHT: f64 = 4.0;
+/// [`OnlineOptions::axis_weight`] by default: none. On hand trajectories a real policy
+/// emits (`bench-online --family aloha-sim`), keeping the arm's joint axes apart turned it away
+/// from the straight wrist a fast wrist turn needs (two wrist joints sharing the turn); the
+/// headroom and the reserve below keep it ready instead.
+pub const AXIS_WEIGHT: f64 = 0.0;
+
+/// [`OnlineOptions::headroom_weight`] by default.
+pub const HEADROOM_WEIGHT: f64 = 2.0;
+
+/// [`OnlineOptions::reserve_weight`] by default.
+pub const RESERVE_WEIGHT: f64 = 1.0;
+
+impl OnlineOptions {
+    /// The horizon the planner needs: a chunk and the step before it, and room for time
+    /// scaling to add as many steps again.
+    fn horizon(&self) -> usize {
+        let chunk = self.max_chunk_len + 1;
+        if self.time_scaling {
+            (2 * chunk).min(MAX_STEPS)
+        } else {
+            chunk
+        }
+    }
+}
 
 impl Default for OnlineOptions {
     fn default() -> Self {
         OnlineOptions {
-            planner: "omcbsa".to_string(),
+            planner: PlannerKind::DEFAULT,
             chunk_timeout_s: 1.0,
             max_chunk_len: 64,
             max_approach_len: 1024,
@@ -122,6 +164,9 @@ impl Default for OnlineOptions {
             assignment: AssignmentRule::Free,
             reassign: false,
             axis_weight: AXIS_WEIGHT,
+            headroom_weight: HEADROOM_WEIGHT,
+            reserve_weight: RESERVE_WEIGHT,
+            time_scaling: true,
         }
     }
 }
@@ -136,7 +181,7 @@ pub struct ChunkReport {
     /// The chunk's first poses that no arm tracks (reached by an approach instead).
     pub dropped: usize,
     /// How the chunk was planned when it could not be from where the last chunk left the
-    /// arms (see [`recover`]): `None` when it could.
+    /// arms: `None` when it could.
     pub recovery: Option<Recovery>,
     /// Timeline index of the chunk's first pose: the plan from here on is new.
     pub index: usize,
@@ -144,7 +189,16 @@ pub struct ChunkReport {
     pub end: usize,
     /// Wall time of the planner call, s.
     pub planning_time_s: f64,
+    /// The planner's counters (of the last run that planned the chunk).
     pub stats: Stats,
+    /// How much slower than the policy's rate the chunk was timed: timeline steps over poses
+    /// (1 unless time-scaled).
+    pub time_factor: f64,
+    /// Seconds the arms fell behind the policy with this chunk (time scaling, a hold before a
+    /// catch-up), 0 when they kept up.
+    pub lag_s: f64,
+    /// Seconds the arms are behind the policy in all, at the chunk's last pose.
+    pub total_lag_s: f64,
 }
 
 /// How a chunk was planned that could not be from where the last chunk left the arms.
@@ -152,17 +206,23 @@ pub struct ChunkReport {
 pub enum Recovery {
     /// The part of the plan not yet sent was planned again with the chunk.
     ReplannedUnsent,
-    /// The arms hold at the plan's end and an approach reaches the chunk.
-    AfterHold,
+    /// The chunk's timing was slowed so that the arms can follow it
+    /// ([`OnlineOptions::time_scaling`]).
+    TimeScaled,
+    /// The arms hold where the plan is still unsent and an approach reaches the hands where
+    /// they will be, dropping the poses it cannot reach in time; tracking resumes there.
+    CaughtUp,
     /// A new assignment, from where the arms stand ([`OnlineOptions::reassign`]).
     Reassigned,
 }
 
 impl Recovery {
+    /// The recovery's name in reports and tables.
     pub fn name(self) -> &'static str {
         match self {
             Recovery::ReplannedUnsent => "replanned_unsent",
-            Recovery::AfterHold => "after_hold",
+            Recovery::TimeScaled => "time_scaled",
+            Recovery::CaughtUp => "caught_up",
             Recovery::Reassigned => "reassigned",
         }
     }
@@ -175,11 +235,55 @@ impl Recovery {
 /// ms with 0.6, 9.2 ms with 0.3 (README, "Online embodiment").
 const CHUNK_RESOLUTION: f64 = 0.3;
 
-/// Plans of a chunk after a hold (see `Embodier::chunk_after_hold`), each dropping the poses
-/// the approach before could not reach in time.
-const MAX_HOLD_TRIES: usize = 3;
-
-/// Plans policy chunks as they arrive (see the module documentation).
+/// Plans policy chunks as they arrive (see the module documentation). Its pools are
+/// allocated once, in [`Embodier::new`] ([`OnlineOptions::capacities`]); the plan kept is
+/// bounded by the chunk length and the approach, however long the run.
+///
+/// ```
+/// use omcbsa::format::{Pose, RobotSpec, ToleranceSpec};
+/// use omcbsa::online::{Embodier, OnlineOptions, Setup};
+/// use omcbsa_core::model::{KinovaGen3, Model};
+///
+/// // One Gen3 standing at Kinova's retract posture.
+/// let arm = RobotSpec {
+///     name: "arm".to_string(),
+///     model: "kinova_gen3".to_string(),
+///     base: Pose::IDENTITY,
+///     initial: Some(vec![0.0, 0.26, 3.14, -2.27, 0.0, 0.96, 1.57]),
+///     tcp: None,
+///     tool: None,
+/// };
+/// let setup = Setup {
+///     robots: vec![arm],
+///     obstacles: Vec::new(),
+///     tolerance: ToleranceSpec::default(),
+///     dt: 0.1,
+/// };
+/// let options = OnlineOptions { max_chunk_len: 8, ..OnlineOptions::default() };
+/// let mut embodier = Embodier::new(&setup, options).unwrap();
+///
+/// // The policy's hand, pointing down, rising 1 cm a step; chunks of 4 poses, 2 apart.
+/// let hand = |k: u64| Pose {
+///     position: [0.5, 0.0, 0.4 + 0.01 * k as f64],
+///     quat_xyzw: [1.0, 0.0, 0.0, 0.0],
+/// };
+/// let chunk = |start: u64| vec![(start..start + 4).map(hand).collect::<Vec<_>>()];
+///
+/// // The first chunk chooses the assignment and an approach from `initial`.
+/// let first = embodier.push_chunk(0, &chunk(0)).unwrap();
+/// assert_eq!(embodier.assignment(), Some(&[Some(0)][..]));
+/// assert_eq!(first.index, embodier.approach_len() + 1);
+///
+/// // The arms are sent the approach; the next chunk replaces the plan from step 2 on.
+/// embodier.commit_until(first.index);
+/// let second = embodier.push_chunk(2, &chunk(2)).unwrap();
+/// assert_eq!(embodier.timeline_index(2), Some(second.index));
+/// for k in 2..6 {
+///     let q = embodier.configuration(0, embodier.timeline_index(k).unwrap()).unwrap();
+///     let z = KinovaGen3::fk(&q).pos.z;
+///     assert!((z - (0.4 + 0.01 * k as f64)).abs() < 1e-3);
+/// }
+/// ```
 pub struct Embodier {
     robots: heapless::Vec<Robot<DOF>, MAX_ROBOTS>,
     /// The setup as a core problem without trajectories.
@@ -188,11 +292,11 @@ pub struct Embodier {
     setup: Setup,
     options: OnlineOptions,
     storage: Storage,
-    /// Per robot, its configurations from timeline index `window_start` on.
-    window: Vec<Vec<[f64; DOF]>>,
-    window_start: usize,
-    /// Timeline index of policy step 0 (set by the first chunk).
-    offset: Option<i64>,
+    /// Every robot's plan from the last configuration sent on, and what each index tracks.
+    timeline: Timeline,
+    /// Timeline index and policy step of the first chunk's first pose: where the arms would
+    /// be on every later step if they never fell behind.
+    origin: Option<(usize, u64)>,
     approach_len: usize,
     /// Per robot, the hand it holds, `None` when it holds still (set by the first chunk).
     assignment: Option<Vec<Option<usize>>>,
@@ -202,20 +306,56 @@ pub struct Embodier {
     /// arms (the latest chunk's where chunks overlap): what a re-plan tracks.
     policy: Vec<Vec<omcbsa_core::model::Frame>>,
     policy_start: u64,
+    /// The last chunk pushed was not planned: the arms finish the plan and hold, and the next
+    /// chunk may catch up with the hands.
+    missed: bool,
 }
 
 impl Embodier {
     /// Checks the setup (names the field that breaks a rule) and allocates every pool the
     /// planner will use.
+    ///
+    /// ```
+    /// use omcbsa::format::{Pose, RobotSpec, ToleranceSpec};
+    /// use omcbsa::online::{Embodier, OnlineError, OnlineOptions, Setup};
+    /// use omcbsa::planners::PlannerKind;
+    ///
+    /// let arm = RobotSpec {
+    ///     name: "arm".to_string(),
+    ///     model: "kinova_gen3".to_string(),
+    ///     base: Pose::IDENTITY,
+    ///     initial: None, // where the arm stands is needed online
+    ///     tcp: None,
+    ///     tool: None,
+    /// };
+    /// let setup = Setup {
+    ///     robots: vec![arm],
+    ///     obstacles: Vec::new(),
+    ///     tolerance: ToleranceSpec::default(),
+    ///     dt: 0.1,
+    /// };
+    /// // IK tracking cannot keep an assignment from chunk to chunk.
+    /// let planner = PlannerKind::IkTracking;
+    /// let options = OnlineOptions { planner, ..OnlineOptions::default() };
+    /// match Embodier::new(&setup, options) {
+    ///     Err(OnlineError::Input(e)) => {
+    ///         assert!(e.has("robots[0].initial", "missing"), "{e}");
+    ///         assert!(e.has("planner", "cannot plan online"), "{e}");
+    ///     }
+    ///     other => panic!("{:?}", other.err()),
+    /// }
+    /// ```
     pub fn new(setup: &Setup, options: OnlineOptions) -> Result<Embodier, OnlineError> {
         let mut errors = Errors::default();
-        if !matches!(
-            planners::parse(&options.planner),
-            Ok(PlannerKind::OmCbsa | PlannerKind::Pp)
-        ) {
+        if !matches!(options.planner, PlannerKind::OmCbsa | PlannerKind::Pp) {
             errors.push(
                 "planner",
-                format!("{:?} cannot plan online: use omcbsa or pp", options.planner),
+                format!(
+                    "{} cannot plan online: use {} or {}",
+                    options.planner,
+                    PlannerKind::OmCbsa,
+                    PlannerKind::Pp
+                ),
             );
         }
         if !(options.chunk_timeout_s.is_finite() && options.chunk_timeout_s > 0.0) {
@@ -223,6 +363,14 @@ impl Embodier {
         }
         if !(options.axis_weight.is_finite() && options.axis_weight >= 0.0) {
             errors.push("axis_weight", "must be a finite number, 0 or more");
+        }
+        for (field, w) in [
+            ("headroom_weight", options.headroom_weight),
+            ("reserve_weight", options.reserve_weight),
+        ] {
+            if !(w.is_finite() && w >= 0.0) {
+                errors.push(field, "must be a finite number, 0 or more");
+            }
         }
         if options.max_chunk_len == 0 || options.max_chunk_len >= MAX_STEPS {
             errors.push(
@@ -257,10 +405,12 @@ impl Embodier {
         crate::approach::check_initial::<Fleet, DOF>(&file, &problem)?;
         problem.trajectories.clear();
         let robots = problem.robots.clone();
-        let mut storage = Storage::new(options.capacities, options.max_chunk_len + 1);
+        let mut storage = Storage::new(options.capacities, options.horizon());
         storage.cbs_params.low.resolution = CHUNK_RESOLUTION;
         // Ω-A* and the warm start (`tracking::Steps::Steered`) weigh the axes' separation.
         storage.cbs_params.low.w_a = options.axis_weight;
+        storage.cbs_params.low.w_v = options.headroom_weight;
+        storage.cbs_params.low.w_r = options.reserve_weight;
         storage.approach_params = options.approach;
         Ok(Embodier {
             robots,
@@ -269,14 +419,14 @@ impl Embodier {
             setup: setup.clone(),
             options,
             storage,
-            window: Vec::new(),
-            window_start: 0,
-            offset: None,
+            timeline: Timeline::default(),
+            origin: None,
             approach_len: 0,
             assignment: None,
             committed: 0,
             policy: Vec::new(),
             policy_start: 0,
+            missed: false,
         })
     }
 
@@ -296,30 +446,62 @@ impl Embodier {
         self.approach_len
     }
 
-    /// The timeline index of policy step `step`, once the first chunk fixed it.
+    /// The timeline index of policy step `step`, once the first chunk placed the steps (a
+    /// step not planned yet: as many indices after the last one planned as steps).
     pub fn timeline_index(&self, step: u64) -> Option<usize> {
-        let i = self.offset? + step as i64;
-        usize::try_from(i).ok()
+        self.origin?;
+        self.timeline.index_of(step)
     }
 
     /// Timeline index one past the plan's last configuration (0 before the first chunk).
     pub fn end(&self) -> usize {
-        self.window_start + self.window.first().map_or(0, Vec::len)
+        self.timeline.end()
     }
 
     /// Robot `robot`'s configuration at timeline index `index`, if still kept; past the
     /// plan's end, the last one (the arm holds there).
     pub fn configuration(&self, robot: usize, index: usize) -> Option<[f64; DOF]> {
-        let path = self.window.get(robot)?;
-        let k = index.checked_sub(self.window_start)?;
-        path.get(k.min(path.len().checked_sub(1)?)).copied()
+        self.timeline.configuration(robot, index)
     }
 
     /// Robot `robot`'s planned configurations from timeline index `from` to the plan's end.
     pub fn planned(&self, robot: usize, from: usize) -> &[[f64; DOF]] {
-        let path = self.window.get(robot).map_or(&[][..], Vec::as_slice);
-        let k = from.saturating_sub(self.window_start).min(path.len());
-        &path[k..]
+        self.timeline.planned(robot, from)
+    }
+
+    /// What the hands track at timeline index `index` (a policy pose, a point between two of
+    /// a time-scaled chunk, or nothing), while it is kept.
+    pub fn target(&self, index: usize) -> Target {
+        self.timeline.target(index)
+    }
+
+    /// Every hand's pose to track at timeline index `index` (in the world frame), `None` where
+    /// the hands are free (the approach, a hold) or the poses are no longer kept.
+    pub fn target_poses(&self, index: usize) -> Option<Vec<omcbsa_core::model::Frame>> {
+        let Target::Pose { step, frac } = self.timeline.target(index) else {
+            return None;
+        };
+        let k = usize::try_from(step.checked_sub(self.policy_start)?).ok()?;
+        self.policy
+            .iter()
+            .map(|poses| {
+                let a = poses.get(k)?;
+                Some(if frac > 0.0 {
+                    timeline::between(a, poses.get(k + 1)?, frac)
+                } else {
+                    *a
+                })
+            })
+            .collect()
+    }
+
+    /// Seconds the arms are behind the policy at policy step `step` (time scaling, holds).
+    pub fn lag_s(&self, step: u64) -> f64 {
+        let (Some((i0, s0)), Some(i)) = (self.origin, self.timeline_index(step)) else {
+            return 0.0;
+        };
+        let on_time = i0 as i64 + step as i64 - s0 as i64;
+        (i as i64 - on_time).max(0) as f64 * self.setup.dt
     }
 
     /// The arms were sent the plan up to (not including) timeline index `index`: a chunk may no
@@ -327,17 +509,7 @@ impl Embodier {
     /// next chunk starts from).
     pub fn commit_until(&mut self, index: usize) {
         self.committed = self.committed.max(index);
-        let keep_from = self
-            .committed
-            .saturating_sub(1)
-            .min(self.end().saturating_sub(1));
-        let drop = keep_from.saturating_sub(self.window_start);
-        if drop > 0 {
-            self.window.iter_mut().for_each(|p| {
-                p.drain(..drop);
-            });
-            self.window_start += drop;
-        }
+        self.timeline.forget_before(self.committed);
         self.forget_sent_poses();
     }
 
@@ -352,7 +524,7 @@ impl Embodier {
         hands: &[Vec<Pose>],
     ) -> Result<ChunkReport, OnlineError> {
         let frames = self.check_chunk(hands)?;
-        match self.offset {
+        match self.origin {
             None => self.first_chunk(start_step, &frames),
             Some(_) => self.next_chunk(start_step, &frames),
         }
@@ -444,18 +616,23 @@ impl Embodier {
                 self.options.max_approach_len
             )));
         }
-        self.window = (0..n)
-            .map(|i| {
-                let mut w = Vec::with_capacity(1 + a + h);
-                w.push(self.robots[i].initial.unwrap_or(outcome.joint_paths[i][0]));
-                w.extend_from_slice(&approach[i]);
-                w.extend_from_slice(&outcome.joint_paths[i]);
-                w
-            })
+        let initial: Vec<[f64; DOF]> = (0..n)
+            .map(|i| self.robots[i].initial.unwrap_or(outcome.joint_paths[i][0]))
             .collect();
-        self.window_start = 0;
+        let paths: Vec<Vec<[f64; DOF]>> = (0..n)
+            .map(|i| [&approach[i][..], &outcome.joint_paths[i][..]].concat())
+            .collect();
+        let targets: Vec<Target> = std::iter::repeat_n(Target::Free, a)
+            .chain((0..h as u64).map(|k| Target::Pose {
+                step: start_step + k,
+                frac: 0.0,
+            }))
+            .collect();
+        self.timeline = Timeline::new(&initial);
+        let paths: Vec<&[[f64; DOF]]> = paths.iter().map(Vec::as_slice).collect();
+        self.timeline.replace_from(1, &paths, &targets);
         self.approach_len = a;
-        self.offset = Some((a + 1) as i64 - start_step as i64);
+        self.origin = Some((a + 1, start_step));
         self.assignment = Some(outcome.assignment.clone());
         self.remember(start_step, hands);
         Ok(ChunkReport {
@@ -466,6 +643,9 @@ impl Embodier {
             end: self.end(),
             planning_time_s: outcome.planning_time_s,
             stats: outcome.stats,
+            time_factor: 1.0,
+            lag_s: 0.0,
+            total_lag_s: 0.0,
         })
     }
 
@@ -474,16 +654,16 @@ impl Embodier {
         start_step: u64,
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
-        let index = self.offset.unwrap_or(0) + start_step as i64;
+        let index = self.timeline_index(start_step).unwrap_or(0);
         // The chunk's first step must not be sent yet; the one before it (its start) may be.
-        if index < self.committed as i64 || index <= self.window_start as i64 {
+        if index < self.committed || index <= self.timeline.start() {
             return Err(OnlineError::DeadlineMissed {
                 start_step,
-                committed_step: self.committed as i64 - 1 - self.offset.unwrap_or(0),
+                committed_step: self.sent_step(),
             });
         }
-        let index = index as usize;
         let clock = std::time::Instant::now();
+        let lag_before = self.lag_s(start_step);
         // Lookahead: the poses an earlier chunk sent past this one's end are planned too.
         let longer = self.with_sent_tail(start_step, hands);
         let first = match &longer {
@@ -494,10 +674,12 @@ impl Embodier {
         };
         let mut planned = first.clone();
         // A dead end where the last chunk left the arms: re-plan from where they are now.
-        let ways: [(Recovery, bool); 3] = [
+        let ways: [(Recovery, bool); 4] = [
             (Recovery::ReplannedUnsent, true),
-            // The arms hold, too far from the chunk for one step: an approach may reach it.
-            (Recovery::AfterHold, index > self.end()),
+            (Recovery::TimeScaled, self.options.time_scaling),
+            // The arms hold (the plan ran out, or the last chunk was not planned): an approach
+            // catches up with the hands, at the cost of this chunk's first poses.
+            (Recovery::CaughtUp, self.missed || index >= self.end()),
             (Recovery::Reassigned, self.options.reassign),
         ];
         for (way, allowed) in ways {
@@ -506,7 +688,8 @@ impl Embodier {
             }
             planned = match way {
                 Recovery::ReplannedUnsent => self.replan_unsent(start_step, index, hands),
-                Recovery::AfterHold => self.chunk_after_hold(start_step, index, hands),
+                Recovery::TimeScaled => self.time_scaled(start_step, index, hands),
+                Recovery::CaughtUp => self.catch_up(start_step, index, hands),
                 Recovery::Reassigned => self.reassign(start_step, index, hands),
             }
             .map(|r| ChunkReport {
@@ -515,251 +698,23 @@ impl Embodier {
             });
         }
         // The error of the plain try names where the chunk is blocked.
+        self.missed = planned.is_err();
         let mut report = planned.or(first)?;
         self.remember(start_step, hands);
+        let last = start_step + hands.first().map_or(0, |t| t.len() as u64).max(1) - 1;
+        report.total_lag_s = self.lag_s(last);
+        report.lag_s = (report.total_lag_s - lag_before).max(0.0);
         report.planning_time_s = clock.elapsed().as_secs_f64();
         Ok(report)
     }
 
-    /// Plans a chunk from the configurations the arms have one step before it (holding at
-    /// the plan's end when it starts later).
-    fn continue_from(
-        &mut self,
-        start_step: u64,
-        index: usize,
-        hands: &[Trajectory],
-    ) -> Result<ChunkReport, OnlineError> {
-        let pins: Vec<[f64; DOF]> = (0..self.robots.len())
-            .map(|i| self.configuration(i, index - 1).unwrap_or([0.0; DOF]))
-            .collect();
-        // Step 0 is where the arms are; its pose is not tracked (it repeats the first).
-        let trajectories = hands.iter().map(|t| {
-            let mut with_pin = Trajectory::new();
-            let _ = with_pin.push(t[0]);
-            t.iter().for_each(|f| {
-                let _ = with_pin.push(*f);
-            });
-            with_pin
-        });
-        let mut problem = self.problem(trajectories, Start::AtInitial, Some(&pins));
-        let outcome = self.solve(&mut problem, start_step)?;
-        let keep = index - self.window_start;
-        for (w, path) in self.window.iter_mut().zip(&outcome.joint_paths) {
-            // A chunk after the plan's end: the arms hold until it starts.
-            let last = *w.last().unwrap_or(&path[0]);
-            w.resize(keep, last);
-            w.extend_from_slice(&path[1..]);
-        }
-        Ok(ChunkReport {
-            start_step,
-            dropped: 0,
-            recovery: None,
-            index,
-            end: self.end(),
-            planning_time_s: outcome.planning_time_s,
-            stats: outcome.stats,
-        })
-    }
-
-    /// A chunk that starts after the plan's end (the policy was late and the arms hold at the
-    /// plan's last configuration) that cannot be reached in one step from the hold: planned
-    /// from where the arms hold with an approach, as the first chunk is (issue 22). The approach must end by
-    /// the chunk's first step; the chunk's first poses that it cannot reach in time are
-    /// dropped, as a late chunk's are, and the rest planned again.
-    fn chunk_after_hold(
-        &mut self,
-        start_step: u64,
-        index: usize,
-        hands: &[Trajectory],
-    ) -> Result<ChunkReport, OnlineError> {
-        let n = self.robots.len();
-        let end = self.end();
-        let hold: Vec<[f64; DOF]> = (0..n)
-            .map(|i| self.configuration(i, end - 1).unwrap_or([0.0; DOF]))
-            .collect();
-        let h = hands.first().map_or(0, |t| t.len());
-        let (mut skip, mut planning_time_s) = (0, 0.0);
-        // A few tries: each drops the poses the last approach could not reach in time.
-        for _ in 0..MAX_HOLD_TRIES {
-            if skip >= h {
-                break;
-            }
-            let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
-            let mut problem = self.problem(rest, Start::Sampled, Some(&hold));
-            let outcome = self.solve(&mut problem, start_step + skip as u64)?;
-            planning_time_s += outcome.planning_time_s;
-            let approach = outcome.approach.clone().unwrap_or_default();
-            let a = approach.first().map_or(0, Vec::len);
-            let first = index + skip;
-            if end + a > first {
-                // The approach is longer than the hold: drop what it cannot reach in time.
-                skip += end + a - first;
-                continue;
-            }
-            let keep = first - a - self.window_start;
-            for (i, w) in self.window.iter_mut().enumerate() {
-                w.resize(keep, hold[i]);
-                w.extend_from_slice(&approach[i]);
-                w.extend_from_slice(&outcome.joint_paths[i]);
-            }
-            // Unchanged unless it was planned free (`reassign`).
-            self.assignment = Some(outcome.assignment.clone());
-            return Ok(ChunkReport {
-                start_step: start_step + skip as u64,
-                dropped: skip,
-                recovery: None,
-                index: first,
-                end: self.end(),
-                planning_time_s,
-                stats: outcome.stats,
-            });
-        }
-        Err(OnlineError::NotPlanned {
-            start_step,
-            status: "the approach from where the arms hold takes longer than the chunk lasts"
-                .to_string(),
-        })
-    }
-
-    /// The core problem of a chunk: robots start as `start` (from `pins` when given) with the
-    /// assignment kept once chosen.
-    fn problem(
-        &self,
-        trajectories: impl Iterator<Item = Trajectory>,
-        start: Start,
-        pins: Option<&[[f64; DOF]]>,
-    ) -> Box<Problem<DOF>> {
-        // Boxed: a problem is hundreds of kilobytes, and a caller's thread may have a small
-        // stack.
-        let mut problem = Box::new(self.template.clone());
-        problem.trajectories = trajectories.collect();
-        problem.robots = (self.robots.iter().enumerate())
-            .map(|(i, r)| Robot {
-                initial: pins.map_or(r.initial, |p| Some(p[i])),
-                start,
-                assigned: match &self.assignment {
-                    None => Assigned::Free,
-                    Some(a) => a[i].map_or(Assigned::Hold, |j| Assigned::Track(j as u8)),
-                },
-                ..*r
-            })
-            .collect();
-        problem
-    }
-
-    fn solve(
-        &mut self,
-        problem: &mut Problem<DOF>,
-        start_step: u64,
-    ) -> Result<crate::planners::Outcome, OnlineError> {
-        self.solve_under(problem, start_step, &AssignmentRule::Free)
-    }
-
-    /// [`Embodier::solve`] with the robots' assignment set by `rule` (a checked one); `Free`
-    /// keeps the problem's.
-    fn solve_under(
-        &mut self,
-        problem: &mut Problem<DOF>,
-        start_step: u64,
-        rule: &AssignmentRule,
-    ) -> Result<crate::planners::Outcome, OnlineError> {
-        let timeout = self.options.chunk_timeout_s;
-        let kind = planners::parse(&self.options.planner)
-            .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
-        let outcome = match rule {
-            AssignmentRule::Free => self.storage.solve(kind, problem, timeout),
-            // Kept in the problem, where the diagnosis below sees it too.
-            AssignmentRule::Fixed(list) => {
-                AssignmentRule::apply(Some(list), problem);
-                self.storage.solve(kind, problem, timeout)
-            }
-            AssignmentRule::Preferred(_) => {
-                assignment::solve(&mut self.storage, kind, problem, rule, timeout)
-            }
-        }
-        .map_err(|e| OnlineError::Input(InputError::one("planner", e)))?;
-        if outcome.status == Status::Solved {
-            return Ok(outcome);
-        }
-        if let Some(e) = self.unreachable(problem, start_step) {
-            return Err(e);
-        }
-        let first = usize::from(problem.robots.first().map(|r| r.start) == Some(Start::AtInitial));
-        let assigned = (problem.robots.iter()).all(|r| r.assigned != Assigned::Free);
-        if assigned {
-            if let Some(b) = diagnose::first_blocking::<Fleet, DOF>(problem, first, &self.setup) {
-                return Err(OnlineError::Blocked {
-                    start_step,
-                    robot: self.names[b.robot].clone(),
-                    robot_index: b.robot,
-                    hand: b.hand,
-                    step: start_step + (b.step - first) as u64,
-                    what: b.what,
-                });
-            }
-        }
-        let status = match outcome.status {
-            Status::Solved => unreachable!("handled above"),
-            Status::NoSolution => "no plan exists in the search space".to_string(),
-            Status::Timeout => format!(
-                "not planned within the chunk timeout of {} s",
-                self.options.chunk_timeout_s
-            ),
-            Status::OutOfMemory(pool) => format!("{pool} is full"),
-            Status::InvalidProblem(why) => why.to_string(),
-        };
-        Err(OnlineError::NotPlanned { start_step, status })
-    }
-
-    /// The first hand pose (earliest step) that no arm allowed to take the hand can reach:
-    /// IK from the previous step's answer, else from random seeds.
-    fn unreachable(&self, problem: &Problem<DOF>, start_step: u64) -> Option<OnlineError> {
-        let pinned = problem.robots.first()?.start == Start::AtInitial;
-        let first = usize::from(pinned);
-        let h = problem.horizon();
-        let mut last: Vec<Vec<Option<[f64; DOF]>>> =
-            vec![vec![None; self.robots.len()]; problem.trajectories.len()];
-        let ik_params = Default::default();
-        let multi = MultiStart {
-            attempts: 32,
-            ..MultiStart::default()
-        };
-        for k in first..h {
-            for (j, traj) in problem.trajectories.iter().enumerate() {
-                let fixed = problem
-                    .robots
-                    .iter()
-                    .position(|r| r.assigned == Assigned::Track(j as u8));
-                let mut reached = false;
-                for (i, r) in problem.robots.iter().enumerate() {
-                    if fixed.is_some_and(|f| f != i) {
-                        continue;
-                    }
-                    let target = r.base.inverse().compose(&traj[k]).compose(&r.tcp.inverse());
-                    let seed = last[j][i].or(r.initial);
-                    let mut q =
-                        seed.and_then(|s| ik::<Fleet, DOF>(r.model, &target, &s, &ik_params).ok());
-                    if q.is_none() {
-                        let mut rng = Rng::new(0x0e1b ^ (k as u64) << 8 ^ j as u64);
-                        let mut out = [[0.0; DOF]; 1];
-                        if let Ok(1) = ik_multi_start::<Fleet, DOF>(
-                            r.model, &target, &ik_params, &multi, &mut rng, &mut out,
-                        ) {
-                            q = Some(out[0]);
-                        }
-                    }
-                    last[j][i] = q;
-                    reached |= q.is_some();
-                }
-                if !reached {
-                    return Some(OnlineError::Unreachable {
-                        hand: j,
-                        step: start_step + (k - first) as u64,
-                        robot: fixed,
-                    });
-                }
-            }
-        }
-        None
+    /// The last policy step sent to the arms (for messages).
+    fn sent_step(&self) -> i64 {
+        let sent = self.committed.saturating_sub(1);
+        (0..=sent)
+            .rev()
+            .take_while(|&i| i >= self.timeline.start())
+            .find_map(|i| self.timeline.target(i).exact_step())
+            .map_or(-1, |s| s as i64)
     }
 }

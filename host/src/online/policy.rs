@@ -33,6 +33,7 @@ pub struct BoxFlipPolicy {
     pub stride: usize,
     /// Largest offset of the box in one chunk, per axis, metres.
     pub jitter: f64,
+    /// Seed of the box's jitter.
     pub seed: u64,
 }
 
@@ -50,6 +51,7 @@ impl Default for BoxFlipPolicy {
 /// One chunk as the policy emits it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Chunk {
+    /// The policy step of the chunk's first pose.
     pub start_step: u64,
     /// `hands[j][k]`: hand `j` at policy step `start_step + k`.
     pub hands: Vec<Vec<Pose>>,

@@ -1,12 +1,12 @@
 //! What an online run sent to the arms, as a problem and solution file pair the validator
 //! checks whole: the timeline from `initial` through the approach and every chunk, against
-//! the poses of the last chunk that covered each step.
-
-use std::collections::BTreeMap;
+//! what each index tracked when it was sent (the poses of the last chunk that covered it, or
+//! points between two of them where a chunk was time-scaled), and the order of the policy's
+//! poses along it ([`RunRecord::check_order`]).
 
 use serde_json::Map;
 
-use super::{Embodier, Setup};
+use super::{Embodier, Setup, Target};
 use crate::format::{
     joint_paths_value, Pose, ProblemFile, SolutionFile, Status, TrajectorySpec, PROBLEM_FORMAT,
     SOLUTION_FORMAT,
@@ -17,30 +17,32 @@ use omcbsa_core::model::{Frame, Models};
 
 use crate::models::{Fleet, ModelKind};
 
-/// Records the sent timeline and the poses it tracks, as the run goes.
+/// Records the sent timeline and what it tracks, as the run goes.
 #[derive(Clone, Debug, Default)]
 pub struct RunRecord {
     /// Per robot, every configuration sent, from timeline index 0.
     pub sent: Vec<Vec<[f64; DOF]>>,
-    /// Per policy step, every hand's pose (the latest chunk's).
-    poses: BTreeMap<u64, Vec<Pose>>,
+    /// Per index sent, what it tracked, and every hand's pose there (none where the hands
+    /// were free: the approach, a hold).
+    targets: Vec<(Target, Option<Vec<Pose>>)>,
+}
+
+/// How the policy's poses lie along a sent timeline ([`RunRecord::check_order`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Order {
+    /// Policy steps reached exactly, in order.
+    pub reached: usize,
+    /// Policy steps passed over by a catch-up (not tracked).
+    pub dropped: usize,
 }
 
 impl RunRecord {
-    /// Keeps the poses of a chunk that was planned (they replace older ones), but for its
-    /// first `dropped` ones, which no arm tracks (see `ChunkReport::dropped`).
-    pub fn chunk(&mut self, start_step: u64, hands: &[Vec<Pose>], dropped: usize) {
-        for k in dropped..hands.first().map_or(0, Vec::len) {
-            let at: Vec<Pose> = hands.iter().map(|h| h[k]).collect();
-            self.poses.insert(start_step + k as u64, at);
-        }
-    }
-
-    /// Records the embodier's plan up to (not including) timeline index `until` as sent; call
-    /// before [`Embodier::commit_until`] forgets it.
+    /// Records the embodier's plan up to (not including) timeline index `until` as sent, with
+    /// what it tracks; call before [`Embodier::commit_until`] forgets it.
     pub fn send(&mut self, embodier: &Embodier, until: usize) {
         let n = embodier.robot_names().len();
         self.sent.resize(n, Vec::new());
+        let from = self.sent.first().map_or(0, Vec::len);
         for (i, sent) in self.sent.iter_mut().enumerate() {
             while sent.len() < until {
                 match embodier.configuration(i, sent.len()) {
@@ -49,6 +51,52 @@ impl RunRecord {
                 }
             }
         }
+        let to = self.sent.first().map_or(0, Vec::len);
+        for index in from..to {
+            let poses = (embodier.target_poses(index))
+                .map(|frames| frames.iter().map(pose::from_frame).collect());
+            let target = match poses {
+                Some(_) => embodier.target(index),
+                None => Target::Free,
+            };
+            self.targets.push((target, poses));
+        }
+    }
+
+    /// Checks that the policy's poses were tracked in order along what was sent: each index
+    /// after the first pose tracks the same step further on, or the next step; a later step
+    /// only after indices where the hands were free (a catch-up, which drops the steps it
+    /// passes over). The error names the first index out of order.
+    pub fn check_order(&self) -> Result<Order, String> {
+        let mut order = Order::default();
+        let mut last: Option<(u64, f64)> = None;
+        let mut free_since = false;
+        for (index, (target, _)) in self.targets.iter().enumerate() {
+            let Target::Pose { step, frac } = *target else {
+                free_since = true;
+                continue;
+            };
+            match last {
+                None => {}
+                Some((s, f)) if step == s && frac > f => {}
+                Some((s, _)) if step == s + 1 && (frac == 0.0 || free_since) => {}
+                Some((s, _)) if step > s + 1 && free_since => {
+                    order.dropped += (step - s - 1) as usize;
+                }
+                Some((s, f)) => {
+                    return Err(format!(
+                        "timeline index {index} tracks step {step} + {frac:.3} after step \
+                         {s} + {f:.3}: the policy's poses are not tracked in order"
+                    ))
+                }
+            }
+            if frac == 0.0 {
+                order.reached += 1;
+            }
+            last = Some((step, frac));
+            free_since = false;
+        }
+        Ok(order)
     }
 
     /// Where the robot holding hand `j` put its tool centre point at timeline index `index`
@@ -106,7 +154,6 @@ impl RunRecord {
 
     /// Steps of the path sent (after the approach), once any was.
     fn tracked(&self, embodier: &Embodier) -> Option<usize> {
-        self.poses.first_key_value()?;
         let sent = self.sent.first()?.len();
         sent.checked_sub(embodier.approach_len() + 1)
             .filter(|&h| h > 0)
@@ -120,9 +167,10 @@ impl RunRecord {
         embodier: &Embodier,
         steps: std::ops::Range<usize>,
     ) -> (ProblemFile, SolutionFile) {
-        let first = *self.poses.first_key_value().map_or(&0, |(k, _)| k);
         let a = embodier.approach_len();
-        let hands = self.poses.values().next().map_or(0, Vec::len);
+        let hands = embodier
+            .assignment()
+            .map_or(0, |a| a.iter().flatten().count());
         let name = format!("online_run_{}", steps.start);
         let from = a + 1 + steps.start;
         let mut robots = setup.robots.clone();
@@ -139,13 +187,13 @@ impl RunRecord {
             trajectories: (0..hands)
                 .map(|j| TrajectorySpec {
                     name: format!("hand_{j}"),
-                    // A step no chunk gave a pose for (a late chunk's dropped steps, a hold
-                    // and the approach after it) tracks where the plan put the hand.
+                    // An index that tracked no pose (a hold and the approach after it)
+                    // tracks where the plan put the hand.
                     poses: steps
                         .clone()
-                        .map(|k| match self.poses.get(&(first + k as u64)) {
-                            Some(p) => p[j],
-                            None => self.planned_hand(setup, embodier, j, a + 1 + k),
+                        .map(|k| match self.targets.get(a + 1 + k) {
+                            Some((_, Some(p))) => p[j],
+                            _ => self.planned_hand(setup, embodier, j, a + 1 + k),
                         })
                         .collect(),
                 })

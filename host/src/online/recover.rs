@@ -4,17 +4,25 @@
 //! 1. [`Embodier::replan_unsent`]: the part of the plan not yet sent is planned again, with
 //!    the new chunk, from the last configuration sent, over the poses the policy sent for
 //!    it. The arms are not stopped; only what they have not been sent changes.
-//! 2. The arms hold where the plan ends and an approach reaches the chunk
-//!    (`Embodier::chunk_after_hold`, in the module above).
-//! 3. With [`super::OnlineOptions::reassign`], a new assignment from where the arms stand
+//! 2. With [`super::OnlineOptions::time_scaling`], the chunk slowed until the arms can follow
+//!    it (`super::scaling`).
+//! 3. The arms hold where the plan is still unsent and an approach reaches the hands where
+//!    they will be ([`Embodier::catch_up`]); the poses it cannot reach in time are dropped,
+//!    and tracking resumes from there.
+//! 4. With [`super::OnlineOptions::reassign`], a new assignment from where the arms stand
 //!    ([`Embodier::reassign`]).
 //!
 //! An error leaves the plan as it was, so the next chunk is tried afresh: one failed chunk
 //! does not fail every later one.
 
-use omcbsa_core::problem::Trajectory;
+use omcbsa_core::problem::{Start, Trajectory};
 
+use super::timeline::Target;
 use super::{ChunkReport, Embodier, OnlineError};
+use crate::models::DOF;
+
+/// Plans of a catch-up, each dropping the poses the approach before could not reach in time.
+const MAX_CATCH_UP_TRIES: usize = 4;
 
 impl Embodier {
     /// Keeps the poses of a planned chunk that starts at policy step `start_step` (replacing
@@ -41,8 +49,10 @@ impl Embodier {
     /// Drops the poses of steps already sent to the arms (the last one sent stays: a re-plan
     /// starts there).
     pub(super) fn forget_sent_poses(&mut self) {
-        let Some(offset) = self.offset else { return };
-        let sent_step = self.committed as i64 - 1 - offset;
+        if self.origin.is_none() {
+            return;
+        }
+        let sent_step = self.sent_step();
         let drop = (sent_step - self.policy_start as i64)
             .clamp(0, self.policy.first().map_or(0, Vec::len) as i64);
         if drop > 0 {
@@ -94,26 +104,32 @@ impl Embodier {
         index: usize,
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
-        let offset = self.offset.unwrap_or(0);
         let h = hands.first().map_or(0, |t| t.len());
-        // The first step that may change: not sent, not before the kept plan or the poses.
-        let earliest = [
+        let none_left = || OnlineError::NotPlanned {
+            start_step,
+            status: "nothing before the chunk is left unsent to plan again".to_string(),
+        };
+        // The first index that may change: not sent, not the first kept, and within the
+        // planner's horizon with the chunk and the pinned step.
+        let lowest = [
             self.committed,
-            self.window_start + 1,
-            usize::try_from(offset + self.policy_start as i64).unwrap_or(usize::MAX),
-            // The storage's horizon: the chunk and the steps before it, plus the pinned step.
+            self.timeline.start() + 1,
             (index + h + 1).saturating_sub(self.options.max_chunk_len),
         ]
         .into_iter()
         .max()
         .unwrap_or(index);
-        if earliest >= index || index > self.end() {
-            return Err(OnlineError::NotPlanned {
-                start_step,
-                status: "nothing before the chunk is left unsent to plan again".to_string(),
-            });
+        if lowest >= index || index > self.end() {
+            return Err(none_left());
         }
-        let from_step = (earliest as i64 - offset) as u64;
+        // From an index that reaches a policy pose kept (not a point a time-scaled chunk
+        // inserted, not a hold).
+        let (earliest, from_step) = (lowest..index)
+            .find_map(|i| {
+                let step = self.timeline.target(i).exact_step()?;
+                (step >= self.policy_start && step < start_step).then_some((i, step))
+            })
+            .ok_or_else(none_left)?;
         let back = (start_step - from_step) as usize;
         let skip = (from_step - self.policy_start) as usize;
         let longer: Vec<Trajectory> = (self.policy.iter().zip(hands))
@@ -134,6 +150,77 @@ impl Embodier {
         self.continue_from(from_step, earliest, &longer)
     }
 
+    /// A chunk the arms cannot follow from where the plan leaves them: they hold where the
+    /// plan is still unsent (the first index not sent), and an approach, as the first
+    /// chunk's, takes them to the hands where they will be when it ends. The approach must
+    /// end by the pose it reaches; the chunk's first poses it cannot reach in time are
+    /// dropped (`dropped` in the report), and tracking resumes there.
+    pub(super) fn catch_up(
+        &mut self,
+        start_step: u64,
+        index: usize,
+        hands: &[Trajectory],
+    ) -> Result<ChunkReport, OnlineError> {
+        let n = self.robots.len();
+        let unsent = self.committed.max(self.timeline.start() + 1);
+        let hold: Vec<[f64; DOF]> = (0..n)
+            .map(|i| self.configuration(i, unsent - 1).unwrap_or([0.0; DOF]))
+            .collect();
+        let h = hands.first().map_or(0, |t| t.len());
+        let mut skip = unsent.saturating_sub(index);
+        let mut planning_time_s = 0.0;
+        for _ in 0..MAX_CATCH_UP_TRIES {
+            if skip >= h {
+                break;
+            }
+            let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
+            let mut problem = self.problem(rest, Start::Sampled, Some(&hold));
+            let outcome = self.solve(&mut problem, start_step + skip as u64)?;
+            planning_time_s += outcome.planning_time_s;
+            let approach = outcome.approach.clone().unwrap_or_default();
+            let a = approach.first().map_or(0, Vec::len);
+            let first = index + skip;
+            if unsent + a > first {
+                // Too late for these poses: aim further ahead, with some room, as a new
+                // start may need a longer approach.
+                skip += (unsent + a - first) + (unsent + a - first) / 4;
+                continue;
+            }
+            let paths: Vec<Vec<[f64; DOF]>> = (0..n)
+                .map(|i| [&approach[i][..], &outcome.joint_paths[i][..]].concat())
+                .collect();
+            let targets: Vec<Target> = std::iter::repeat_n(Target::Free, a)
+                .chain((0..(h - skip) as u64).map(|k| Target::Pose {
+                    step: start_step + skip as u64 + k,
+                    frac: 0.0,
+                }))
+                .collect();
+            let paths: Vec<&[[f64; DOF]]> = paths.iter().map(Vec::as_slice).collect();
+            // The unsent plan goes: the arms hold from `unsent` until the approach starts.
+            self.timeline.truncate(unsent);
+            self.timeline.replace_from(first - a, &paths, &targets);
+            // Unchanged unless it was planned free (`reassign`).
+            self.assignment = Some(outcome.assignment.clone());
+            return Ok(ChunkReport {
+                start_step: start_step + skip as u64,
+                dropped: skip,
+                recovery: None,
+                index: first,
+                end: self.end(),
+                planning_time_s,
+                stats: outcome.stats,
+                time_factor: 1.0,
+                lag_s: 0.0,
+                total_lag_s: 0.0,
+            });
+        }
+        Err(OnlineError::NotPlanned {
+            start_step,
+            status: "the approach from where the arms hold takes longer than the chunk lasts"
+                .to_string(),
+        })
+    }
+
     /// Plans the chunk with a new assignment from where the arms stand: the plan not yet sent
     /// is dropped, the arms hold at the last configuration sent, and an approach reaches the
     /// chunk (its first poses are dropped if the approach needs longer). The plan is left as
@@ -144,14 +231,9 @@ impl Embodier {
         index: usize,
         hands: &[Trajectory],
     ) -> Result<ChunkReport, OnlineError> {
-        let (window, assignment) = (self.window.clone(), self.assignment.take());
-        let keep = self.committed.max(self.window_start + 1) - self.window_start;
-        for w in &mut self.window {
-            w.truncate(keep);
-        }
-        let planned = self.chunk_after_hold(start_step, index, hands);
+        let assignment = self.assignment.take();
+        let planned = self.catch_up(start_step, index, hands);
         if planned.is_err() {
-            self.window = window;
             self.assignment = assignment;
         }
         planned

@@ -24,7 +24,9 @@ use crate::validate::{validate, Report as Validation};
 /// How the run goes.
 #[derive(Clone, Debug)]
 pub struct RunScript {
+    /// The policy that emits the chunks.
     pub policy: BoxFlipPolicy,
+    /// Chunks the policy emits.
     pub chunks: usize,
     /// A chunk arrives when the arms are this many steps before its first step.
     pub lead_steps: usize,
@@ -35,6 +37,7 @@ pub struct RunScript {
     /// Uniform slow-down over the first chunk's need (velocity and acceleration limits), for
     /// the room later chunks may need.
     pub time_margin: f64,
+    /// How the chunks are planned.
     pub options: OnlineOptions,
     /// Fault detection (the command line's watchdog options).
     pub watch: WatchSettings,
@@ -61,8 +64,11 @@ impl Default for RunScript {
 /// One push to the executor, as replayed afterwards.
 #[derive(Clone, Debug)]
 pub struct Push {
+    /// The control cycle at which the push was made.
     pub cycle: u64,
+    /// The timeline index the pushed waypoints start at.
     pub start: usize,
+    /// Per arm, the waypoints pushed.
     pub waypoints: Vec<Vec<[f64; JOINTS]>>,
 }
 
@@ -73,17 +79,22 @@ pub struct RunOutcome {
     pub latencies: Vec<f64>,
     /// Chunks that were not planned, with why.
     pub chunk_errors: Vec<(usize, OnlineError)>,
+    /// The executor's events (queue dry, resumed).
     pub events: Vec<Event>,
+    /// Every push, for replaying the stream.
     pub pushes: Vec<Push>,
+    /// The executor's report.
     pub exec: Report,
     /// Per arm, the cycles its mock received, all equal to the replayed stream to 1e-6 rad
     /// and within the limits.
     pub cycles: Vec<usize>,
     /// The whole sent timeline against the poses it tracked.
     pub validation: Validation,
+    /// Per robot, the hand it held (`None`: it held still).
     pub assignment: Vec<Option<usize>>,
     /// The whole sent timeline as a problem and solution pair (what `validation` checked).
     pub problem: ProblemFile,
+    /// The sent timeline as a solution file.
     pub solution: SolutionFile,
 }
 
@@ -102,7 +113,6 @@ pub fn run_on_mock_arms(
     let report = e
         .push_chunk(first.start_step, &first.hands)
         .map_err(|e| format!("chunk 0: {e}"))?;
-    rec.chunk(first.start_step, &first.hands, 0);
     let mut latencies = vec![report.planning_time_s];
     let n = e.robot_names().len();
     let kinds = (setup.robots.iter())
@@ -209,7 +219,6 @@ pub fn run_on_mock_arms(
         };
         match result {
             Ok(report) => {
-                rec.chunk(chunk.start_step, &chunk.hands, report.dropped);
                 latencies.push(report.planning_time_s);
                 push(&handle, &e, report.index.min(old_end), &mut pushes)?;
                 progress(&format!(
@@ -329,7 +338,7 @@ fn replay<'a>(
     step_time: f64,
     config: &'a omcbsa_hw::ExecConfig,
     limits: &'a [ArmLimits],
-) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::interpolate::Command>> + 'a, String> {
+) -> Result<impl Fn(usize) -> Vec<Vec<omcbsa_hw::Command>> + 'a, String> {
     let max_queued = (config.online_horizon.as_secs_f64() / step_time)
         .floor()
         .max(1.0);

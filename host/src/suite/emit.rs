@@ -363,6 +363,7 @@ fn witness(
         redraws: 0,
         stance: spec.stance.map(|s| s.name().to_string()),
         straight_bridge_collides: c.straight_bridge_collides,
+        assignment: None,
         witness: Some(format!("{WITNESS_DIR}/{}.json", spec.name)),
         witness_method: Some(method),
     };

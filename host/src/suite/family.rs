@@ -13,6 +13,7 @@ use super::layout::{self, obstacle_box, post, Layout, LayoutKind};
 use super::witness::Hand;
 use crate::models::ModelKind;
 
+/// The benchmark suite's motion families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
     /// Every hand moves right to left under a shelf.
@@ -31,7 +32,7 @@ pub enum Family {
     /// hand collides (see `standing`): the approach is the hard part.
     Approach,
     /// The random family's motions on a mixed fleet: the arms alternate between the models of
-    /// [`MIXED_MODELS`] (2 + 2 and 3 + 3).
+    /// `MIXED_MODELS` (2 + 2 and 3 + 3).
     Mixed,
 }
 
@@ -41,6 +42,7 @@ pub const MIXED_MODELS: [&str; 2] = ["kinova_gen3", "franka_panda"];
 const MIXED_LIFT: [f64; 2] = [0.0, 0.3];
 
 impl Family {
+    /// Every family, in the suite's order.
     pub const ALL: [Family; 8] = [
         Family::Sweep,
         Family::BoxFlip,
@@ -60,6 +62,7 @@ impl Family {
         })
     }
 
+    /// The family's name (`sweep`, `box_flip`, ...).
     pub fn name(self) -> &'static str {
         match self {
             Family::Sweep => "sweep",

@@ -11,11 +11,16 @@ use omcbsa_core::rng::Rng;
 use super::frames::{aligned, at, cos, heading, sin, v3, yaw, V3};
 use crate::models::ModelKind;
 
+/// How the arms of a problem stand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LayoutKind {
+    /// Side by side along a line.
     Row,
+    /// Two rows facing each other across the work area.
     FacingRows,
+    /// On a ring around the work area, facing its centre.
     Ring,
+    /// Two arms per torso, shoulder to shoulder.
     Torso,
 }
 

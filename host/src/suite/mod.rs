@@ -57,7 +57,7 @@ use serde::{Deserialize, Serialize};
 
 use omcbsa_core::rng::Rng;
 
-pub use family::Family;
+pub use family::{Family, MIXED_MODELS};
 pub use layout::LayoutKind;
 pub use refine_family::{gen_refine, RefineOptions};
 pub use standing::Stance;
@@ -81,6 +81,7 @@ const MIXED_SAMPLES: u64 = 256;
 /// Seeds a problem is drawn from before it is left out.
 pub const MAX_DRAWS: u32 = 16;
 
+/// How `omcbsa gen-bench` generates the suite.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GenOptions {
     /// Seed of the whole suite.
@@ -105,12 +106,15 @@ impl Default for GenOptions {
 /// What [`gen_bench`] wrote.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GenReport {
+    /// Problems written.
     pub problems: usize,
+    /// Of them, those with a witness solution.
     pub known_solvable: usize,
     /// Problems drawn from a later seed than their first.
     pub redrawn: usize,
     /// Problems left out: no seed drew them.
     pub undrawn: Vec<String>,
+    /// Wall time of generation, s.
     pub seconds: f64,
 }
 
@@ -118,8 +122,11 @@ pub struct GenReport {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SuiteIndex {
+    /// The index's format string.
     pub format: String,
+    /// The seed of the whole suite.
     pub seed: u64,
+    /// Every problem.
     pub problems: Vec<SuiteEntry>,
     /// Problems no seed drew (see the module's docs), left out.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -139,13 +146,19 @@ pub struct Undrawn {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SuiteEntry {
+    /// The problem's name.
     pub name: String,
     /// The problem file, relative to the suite directory.
     pub file: String,
+    /// Its motion family.
     pub family: String,
+    /// Its layout of arms.
     pub layout: String,
+    /// Robots in it.
     pub robots: usize,
+    /// Trajectories in it.
     pub trajectories: usize,
+    /// Steps of every trajectory.
     #[serde(rename = "H")]
     pub horizon: usize,
     /// Whether a validated witness solves it (every problem `gen-bench` writes has one).
@@ -174,18 +187,37 @@ pub struct SuiteEntry {
     /// the validator's checks, step by step as an approach).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub straight_bridge_collides: Option<bool>,
+    /// When the problem set says which arm goes where: `assignment[i]`, the trajectory robot
+    /// `i` tracks (`null`: it holds). `omcbsa bench` plans under it and counts a plan with any
+    /// other assignment as invalid. Absent, the planner chooses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub assignment: Option<Vec<Option<usize>>>,
 }
 
+/// Why the suite could not be generated or read.
 #[derive(Debug)]
 pub enum Error {
+    /// A file could not be read or written.
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the system said.
         source: std::io::Error,
     },
     /// A suite index that cannot be read.
-    Index { path: PathBuf, message: String },
+    Index {
+        /// The index file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// The generator made a problem it cannot stand behind (a bug, reported, not written).
-    Generation { problem: String, message: String },
+    Generation {
+        /// The problem's name.
+        problem: String,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 impl std::fmt::Display for Error {

@@ -5,7 +5,7 @@
 use std::cell::Cell;
 
 use omcbsa_core::baselines::{IkTracking, IkTrackingParams};
-use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status};
+use omcbsa_core::planner::{Clock, Planner, Request, Solution, Status, Until};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 
 use super::witness::{Arms, MOTION_STEP};
@@ -30,7 +30,6 @@ impl Clock for Ticks {
 /// solves `problem` within [`BUDGET`].
 pub fn ik_tracking_solves(problem: &Problem<DOF>) -> bool {
     let mut paths = vec![[0.0; DOF]; MAX_ROBOTS * problem.horizon()];
-    let mut out = Solution::new(&mut paths);
     let mut planner = IkTracking {
         params: IkTrackingParams {
             motion_step: MOTION_STEP,
@@ -38,13 +37,7 @@ pub fn ik_tracking_solves(problem: &Problem<DOF>) -> bool {
         },
     };
     let clock = Ticks(Cell::new(0));
-    let status = Planner::<Arms, DOF>::solve(
-        &mut planner,
-        problem,
-        &clock,
-        BUDGET as f64,
-        &mut out,
-        &mut Stats::default(),
-    );
-    status == Status::Solved
+    let until = Until::new(&clock, BUDGET as f64);
+    let mut req = Request::new(problem, until, Solution::new(&mut paths));
+    Planner::<Arms, DOF>::solve(&mut planner, &mut req) == Status::Solved
 }

@@ -1,4 +1,4 @@
-//! The refinement family (`omcbsa gen-bench --refine N`, issue #12): problems with a validated
+//! The refinement family (`omcbsa gen-bench --refine N`): problems with a validated
 //! witness on which Ω-CBSA's first refinement level finds no plan.
 //!
 //! Candidates come from the suite's own generator (every motion family, layout and arm count,
@@ -19,7 +19,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use omcbsa_core::collision::ArmPose;
-use omcbsa_core::planner::{NoClock, PlannerKind, Stats, Status};
+use omcbsa_core::planner::{NoClock, PlannerKind, Status, Until};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
 use super::emit::Generated;
@@ -30,6 +30,7 @@ use crate::load;
 use crate::models::DOF;
 use crate::planners::{Capacities, Storage};
 
+/// How `omcbsa gen-bench --refine` finds its problems.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefineOptions {
     /// Seed of the candidates (not the suite's, so the family shares no problem with it).
@@ -136,18 +137,11 @@ fn level0_misses(g: &Generated) -> Result<bool, Error> {
     }
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
     storage.cbs_params.levels = 1;
-    let mut stats = Stats::default();
-    let (status, _) = storage
-        .solve_core(
-            PlannerKind::OmCbsa,
-            &problem,
-            &NoClock,
-            f64::INFINITY,
-            &mut stats,
-        )
+    let ran = storage
+        .solve_core(PlannerKind::OmCbsa, &problem, Until::never(&NoClock))
         .map_err(|message| Error::Generation {
             problem: g.entry.name.clone(),
             message,
         })?;
-    Ok(status == Status::NoSolution && stats.reason == Some(LEVEL_CAP))
+    Ok(ran.status == Status::NoSolution && ran.stats.reason == Some(LEVEL_CAP))
 }

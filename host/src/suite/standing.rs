@@ -32,8 +32,10 @@ pub enum Stance {
 }
 
 impl Stance {
+    /// Every stance.
     pub const ALL: [Stance; 3] = [Stance::Tucked, Stance::Crossed, Stance::FarSide];
 
+    /// The stance's name (`tucked`, `crossed`, `far_side`).
     pub fn name(self) -> &'static str {
         match self {
             Stance::Tucked => "tucked",

@@ -2,7 +2,7 @@
 //! offline. It bundles three.js (MIT, `host/assets/three/`) and the meshes of the models
 //! drawn (from each model's folder, `view` in `robots/<model>/model.json`, with its licence
 //! in the page), and embeds the scene
-//! computed here with the planner's own model ([`scene`]): the page only places meshes at the
+//! computed here with the planner's own model (`scene.rs`): the page only places meshes at the
 //! link frames it is given, so what it draws is what the planner and the validator checked.
 //!
 //! The page exposes `window.omcbsaView` (`ready`, `error`, `arms()`, `steps`, `step()`,
@@ -55,8 +55,11 @@ use meshes::{ViewModel, VIEW_MODELS};
 pub enum ViewError {
     /// The problem file breaks the spec.
     Input(InputError),
+    /// A file could not be written.
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the system said.
         source: std::io::Error,
     },
     /// The scene could not be written as JSON.

@@ -15,9 +15,12 @@ use crate::validate::{Report, Violation};
 /// A frame as the page reads it: rotation columns (x, y, z axes), then the position.
 type FrameData = [f32; 12];
 
+/// Everything the page draws, as it reads it (JSON).
 #[derive(Serialize)]
 pub struct Scene<'a> {
+    /// The problem's name.
     pub name: &'a str,
+    /// Time between steps, s.
     pub dt: f64,
     /// Frames of the timeline: the approach's (`lead`), then the path's.
     pub steps: usize,
@@ -26,10 +29,13 @@ pub struct Scene<'a> {
     pub lead: usize,
     /// Absent when only the problem is shown.
     pub solution: Option<SolutionInfo<'a>>,
-    /// The models the robots use (every compiled one), indexed by [`RobotView::model`].
+    /// The models the robots use (every compiled one), indexed by `RobotView::model`.
     pub models: Vec<ModelView>,
+    /// Each robot: its name, model, base and timeline.
     pub robots: Vec<RobotView<'a>>,
+    /// Each hand trajectory.
     pub trajectories: Vec<TrajectoryView<'a>>,
+    /// The obstacles, as the file gives them.
     pub obstacles: &'a [ObstacleSpec],
 }
 

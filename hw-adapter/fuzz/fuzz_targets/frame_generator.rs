@@ -9,7 +9,8 @@
 
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
-use omcbsa_hw::interpolate::{check_command, Command};
+use omcbsa_hw::plan::check_command;
+use omcbsa_hw::Command;
 use omcbsa_hw::stream::Generator;
 use omcbsa_hw::{JointLimits, JOINTS};
 

@@ -10,26 +10,28 @@
 //!
 //! A drive's SDO abort ends the set-up with the node, the object and the abort code.
 
-use super::{node_id, ArmBus, NodeState, Span};
+use super::{node_id, ArmBus, NodeState};
 use crate::canopen::{self, NmtCommand, SdoReply, SdoValue};
 use crate::cia402::{self, counts_to_rad};
-use crate::executor::ExecConfig;
 use crate::frame::CanFrame;
-use crate::interpolate::Command;
-use crate::plan::JOINTS;
+use crate::run::{Command, ExecConfig, Span, JOINTS};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// A start-up SDO write changed on purpose, to show that the drives' refusals are handled: on
-/// arm `arm`, node `node`, the write to `index:sub` sends `value` instead (if the set-up has no
-/// write to that object, `value` is written to it first). For tests only.
+/// node `node` of the arm whose port carries it (`ArmPort::CanSetupOverride`), the write to
+/// `index:sub` sends `value` instead (if the set-up has no write to that object, `value` is
+/// written to it first). For tests only.
 #[doc(hidden)]
 #[derive(Clone, Debug, PartialEq)]
 pub struct SetupOverride {
-    pub arm: String,
+    /// The node whose set-up changes.
     pub node: u8,
+    /// The object written.
     pub index: u16,
+    /// Its sub-index.
     pub sub: u8,
+    /// The value written instead.
     pub value: SdoValue,
 }
 
@@ -147,12 +149,13 @@ impl ArmBus {
         for j in 0..JOINTS {
             let node = node_id(j);
             let window = cfg.watch.following_error_window(speed[j], cfg.period);
-            let following = (window, cfg.watch.following_error_timeout_ms);
+            let following = (
+                cia402::window_counts(window),
+                cfg.watch.following_error_timeout_ms,
+            );
             let mut writes =
                 cia402::startup_config(node, cfg.watch.heartbeat_ms, period, following);
-            if let Some(o) =
-                (cfg.setup_override.as_ref()).filter(|o| o.arm == self.name && o.node == node)
-            {
+            if let Some(o) = self.setup_override.as_ref().filter(|o| o.node == node) {
                 o.apply(&mut writes);
             }
             if stop.load(Ordering::SeqCst) {

@@ -8,24 +8,24 @@
 //!    the cycle its command_id names ([`cycle_of`]) by the per-cycle accounting ([`crate::watchdog`]: an
 //!    answer missing when cycle k + m is due, or more than m periods stale, is a fault);
 //!    KeepAlive on a link idle for more than [`KEEP_ALIVE_AFTER`];
-//! 4. leaving: SetServoingMode(SINGLE_LEVEL_SERVOING), then CloseSession on both links; after
-//!    a fault, ApplyEmergencyStop first.
+//! 4. leaving (`stop`): after a fault, ApplyEmergencyStop at once; then, once the last
+//!    Refresh is answered (or its wait is over), SetServoingMode(SINGLE_LEVEL_SERVOING), then
+//!    CloseSession on both links; every frame of it left unanswered is logged.
 //!
 //! The command log names each frame's rpc and message id; the CreateSession payload, which
 //! holds the credentials, is never logged.
+
+mod stop;
 
 use super::channel::Channel;
 use super::header::uid;
 use super::proto::{self, base, base_cyclic, common};
 use super::Connection;
-use crate::arm::{answer_fault, Span};
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
-use crate::executor::{ExecConfig, Fault};
-use crate::interpolate::Command;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::plan::JOINTS;
-use crate::watchdog::{CycleAccount, MAX_MISSED_CYCLES};
+use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS, MAX_MISSED_CYCLES};
+use crate::watchdog::CycleAccount;
 use prost::Message;
 use std::f64::consts::{PI, TAU};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -59,11 +59,54 @@ pub fn cycle_of(sent: u64, last: u16, frame: u32) -> Option<u64> {
 }
 
 /// Degrees from the wire, in radians on the turn nearest `near` (rad).
+///
+/// ```
+/// use omcbsa_hw::kortex::arm::{from_wire, wire_degrees};
+/// use omcbsa_hw::cia402::rad_to_counts;
+///
+/// // -1 rad goes out as 302.7 degrees, and comes back on the turn of the target.
+/// let deg = wire_degrees(rad_to_counts(-1.0).unwrap());
+/// assert!((deg - 302.704_2).abs() < 1e-3);
+/// assert!((from_wire(deg, -1.0) + 1.0).abs() < 1e-6);
+/// assert!((from_wire(deg, 5.0) - (std::f64::consts::TAU - 1.0)).abs() < 1e-6);
+/// ```
 pub fn from_wire(deg: f32, near: f64) -> f64 {
     let d = (f64::from(deg).to_radians() - near).rem_euclid(TAU);
     near + if d > PI { d - TAU } else { d }
 }
 
+/// The answers the stop waits for.
+#[derive(Clone, Copy, Debug)]
+struct StopAwaited {
+    /// The last Refresh sent: its message id, its frame_id, and whether an answer to it (an
+    /// error frame counts: the Refresh reached the arm) has come.
+    last_refresh: Option<(u16, u16, bool)>,
+    /// The message id of ApplyEmergencyStop, once sent.
+    estop: Option<u16>,
+    /// The longest wait for the last Refresh's answer: m + 1 periods, or the feedback time-out
+    /// if longer (an answer later than that is a fault anyway).
+    drain: Duration,
+}
+
+impl StopAwaited {
+    fn new(cfg: &ExecConfig) -> Self {
+        let m = cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES);
+        Self {
+            last_refresh: None,
+            estop: None,
+            drain: cfg.feedback_timeout.max(cfg.period * (m + 1)),
+        }
+    }
+
+    /// A UDP response with `message_id` was received.
+    fn answer_seen(&mut self, message_id: u16) {
+        if let Some((id, _, answered)) = &mut self.last_refresh {
+            *answered |= *id == message_id;
+        }
+    }
+}
+
+/// A Gen3 on Kortex as the executor drives it (see the module).
 pub struct KortexArm {
     name: String,
     conn: Connection,
@@ -82,9 +125,13 @@ pub struct KortexArm {
     /// Measured at start-up: where the seed command holds every actuator.
     measured: Option<[f32; JOINTS]>,
     low_level: bool,
+    /// What the stop waits for (`stop`).
+    stop: StopAwaited,
 }
 
 impl KortexArm {
+    /// The link for arm `name` over `conn`, for a run with `cfg`; frames go to `log`, stamped
+    /// from `clock`. Sends nothing yet.
     pub fn new(
         name: String,
         conn: Connection,
@@ -100,13 +147,12 @@ impl KortexArm {
             frames_sent: 0,
             rpc_timeout: cfg.sdo_timeout.max(Duration::from_millis(500)),
             frame_id: 0,
-            // The executor refuses settings out of range before any arm is set up.
-            account: CycleAccount::new(JOINTS, cfg.watch.missed_cycles.clamp(1, MAX_MISSED_CYCLES))
-                .expect("m clamped into its range"),
+            account: CycleAccount::watching(JOINTS, &cfg.watch),
             answered: None,
             fault: None,
             measured: None,
             low_level: false,
+            stop: StopAwaited::new(cfg),
         }
     }
 
@@ -275,35 +321,13 @@ impl KortexArm {
             targets = self
                 .account
                 .answer(j, c)
-                .map_err(answer_fault)?
+                .map_err(Fault::answer)?
                 .map(|(_, t)| *t);
         }
         if let Some(t) = targets {
             self.answered = Some((pos, t));
         }
         Ok(())
-    }
-
-    /// SetServoingMode(SINGLE_LEVEL_SERVOING) if in low-level servoing, then CloseSession on
-    /// both links; tries every step, returns the first failure.
-    fn leave(&mut self) -> Result<(), String> {
-        let mut first = None;
-        if self.low_level {
-            if let Err(e) = self.set_servoing(base::ServoingMode::SingleLevelServoing) {
-                first.get_or_insert(e);
-            }
-        }
-        for udp in [true, false] {
-            let link: &Channel = if udp { &self.conn.udp } else { &self.conn.tcp };
-            if link.session != 0 {
-                if let Err(e) = self.send(udp, uid::CLOSE_SESSION, &[], "leaving") {
-                    first.get_or_insert(e);
-                }
-            }
-        }
-        self.conn.tcp.session = 0;
-        self.conn.udp.session = 0;
-        first.map_or(Ok(()), Err)
     }
 }
 
@@ -372,6 +396,7 @@ impl ArmLink for KortexArm {
             }
         }
         while let Some(f) = self.conn.udp.recv()? {
+            self.stop.answer_seen(f.header.message_id);
             let answer = super::codec::response_payload(f)
                 .map_err(|e| Fault::ArmRefused(e.to_string()))
                 .and_then(|p| Self::feedback(&p));
@@ -383,6 +408,23 @@ impl ArmLink for KortexArm {
             }
         }
         self.keep_alive()
+    }
+
+    fn measured(&self) -> Option<Measured> {
+        let answered = (0..JOINTS).filter_map(|j| self.account.owed(j)).min();
+        let cycle = answered.and_then(|o| o.checked_sub(1));
+        match (&self.answered, self.measured) {
+            (Some((pos, targets)), _) => Some(Measured {
+                positions: std::array::from_fn(|j| from_wire(pos[j], counts_to_rad(targets[j]))),
+                cycle,
+            }),
+            // Before any cycle: where start-up measured it (degrees on the turn nearest 0).
+            (None, Some(deg)) => Some(Measured {
+                positions: deg.map(|d| from_wire(d, 0.0)),
+                cycle: None,
+            }),
+            (None, None) => None,
+        }
     }
 
     fn check_feedback(
@@ -414,7 +456,7 @@ impl ArmLink for KortexArm {
     }
 
     fn check_cycle(&self) -> Result<(), Fault> {
-        self.account.check_send().map_err(answer_fault)
+        self.account.check_send().map_err(Fault::answer)
     }
 
     fn clear_until(&self) -> u64 {
@@ -430,23 +472,30 @@ impl ArmLink for KortexArm {
         } else {
             String::new()
         };
-        self.send(true, uid::REFRESH, &payload, &what)?;
+        let id = self.send(true, uid::REFRESH, &payload, &what)?;
+        self.stop.last_refresh = Some((id, self.frame_id, false));
         self.account.sent_cycle(*cmd);
         Ok(())
     }
 
     fn quick_stop(&mut self, _hold: &Command) -> Result<(), String> {
-        let stop = self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop");
-        let left = self.leave();
-        stop.and(left).map(|_| ())
+        let id = self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop")?;
+        self.stop.estop = Some(id);
+        Ok(())
     }
 
+    /// Nothing to send: [`ArmLink::leave`] ends low-level servoing once the last command is
+    /// answered.
     fn finish(&mut self, _hold: &Command) -> Result<(), String> {
-        self.leave()
+        Ok(())
     }
 
     fn abort(&mut self) -> Result<(), String> {
-        self.leave()
+        Ok(())
+    }
+
+    fn leave(&mut self) -> Result<Vec<String>, String> {
+        KortexArm::leave(self)
     }
 }
 

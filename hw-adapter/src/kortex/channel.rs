@@ -17,6 +17,7 @@ enum Io {
     Udp(UdpSocket),
 }
 
+/// One link to an arm, TCP or UDP, non-blocking.
 pub struct Channel {
     io: Io,
     /// The arm's address, for messages.
@@ -31,6 +32,7 @@ pub struct Channel {
 }
 
 impl Channel {
+    /// Connects to the arm's TCP port (at most 2 s).
     pub fn tcp(addr: SocketAddr) -> Result<Self, String> {
         let stream = TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT)
             .map_err(|e| format!("cannot connect to {addr} (TCP): {e}"))?;
@@ -47,6 +49,7 @@ impl Channel {
         ))
     }
 
+    /// A UDP socket connected to the arm's UDP port.
     pub fn udp(addr: SocketAddr) -> Result<Self, String> {
         let local: SocketAddr = if addr.is_ipv4() {
             ([0, 0, 0, 0], 0).into()
@@ -71,6 +74,7 @@ impl Channel {
         }
     }
 
+    /// "TCP" or "UDP", for messages.
     pub fn kind(&self) -> &'static str {
         match self.io {
             Io::Tcp { .. } => "TCP",
@@ -132,7 +136,8 @@ impl Channel {
     }
 
     /// Calls an rpc and waits at most `timeout` for its response: its payload, or the error the
-    /// arm answered with. Other frames received meanwhile are kept for [`Channel::recv`].
+    /// arm answered with (no answer is an error too). Other frames received meanwhile are kept
+    /// for [`Channel::recv`].
     pub fn call(
         &mut self,
         function_uid: u32,
@@ -140,6 +145,24 @@ impl Channel {
         timeout: Duration,
     ) -> Result<(Header, Vec<u8>), String> {
         let id = self.send(function_uid, payload)?;
+        self.answer(id, timeout)?.ok_or_else(|| {
+            format!(
+                "the arm did not answer {} on {} {} within {timeout:?}",
+                uid::name(function_uid),
+                self.kind(),
+                self.addr
+            )
+        })
+    }
+
+    /// Waits at most `timeout` (zero: looks once) for the response to request `id`: its
+    /// payload, `None` if none came, or the error the arm answered with. Other frames received
+    /// meanwhile are kept for [`Channel::recv`].
+    pub fn answer(
+        &mut self,
+        id: u16,
+        timeout: Duration,
+    ) -> Result<Option<(Header, Vec<u8>)>, String> {
         let deadline = Instant::now() + timeout;
         let mut others = Vec::new();
         let result = loop {
@@ -150,23 +173,18 @@ impl Channel {
                 {
                     let h = f.header;
                     break codec::response_payload(f)
-                        .map(|p| (h, p))
+                        .map(|p| Some((h, p)))
                         .map_err(|e| e.to_string());
                 }
                 Ok(Some(f)) => others.push(f),
-                Ok(None) if Instant::now() >= deadline => {
-                    break Err(format!(
-                        "the arm did not answer {} on {} {} within {timeout:?}",
-                        uid::name(function_uid),
-                        self.kind(),
-                        self.addr
-                    ))
-                }
+                Ok(None) if Instant::now() >= deadline => break Ok(None),
                 Ok(None) => std::thread::sleep(CALL_POLL),
                 Err(e) => break Err(e),
             }
         };
-        self.stash.extend(others);
+        // Frames received while waiting come first, in order, before any later ones.
+        others.append(&mut self.stash);
+        self.stash = others;
         result
     }
 }

@@ -1,5 +1,21 @@
 //! Kortex framing: a UDP datagram is one serialized `Frame`; on TCP each frame is preceded by
 //! the 8-byte magic and its length (4 bytes, big endian). Error frames surface as [`KortexError`].
+//!
+//! ```
+//! use omcbsa_hw::kortex::codec::{decode_frame, encode_frame, tcp_framed, TcpDecoder};
+//! use omcbsa_hw::kortex::header::{uid, Header};
+//!
+//! let frame = encode_frame(Header::request(7, 1, uid::KEEP_ALIVE, 0), &[]);
+//! let back = decode_frame(&frame).unwrap(); // a UDP datagram is the frame alone
+//! assert_eq!((back.header.session_id, back.header.function_uid), (7, uid::KEEP_ALIVE));
+//! // On TCP, frames arrive in pieces of any size.
+//! let wire = tcp_framed(&frame);
+//! let mut rx = TcpDecoder::default();
+//! rx.push(&wire[..5]);
+//! assert_eq!(rx.next_frame().unwrap(), None);
+//! rx.push(&wire[5..]);
+//! assert_eq!(rx.next_frame().unwrap(), Some(back));
+//! ```
 
 use super::header::{FrameType, Header};
 use super::proto;
@@ -15,22 +31,35 @@ pub const MAX_FRAME: usize = (1 << 24) + 64;
 /// A frame, decoded: its header unpacked and its payload.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
+    /// The header, unpacked.
     pub header: Header,
+    /// The payload (a serialized message).
     pub payload: Vec<u8>,
 }
 
+/// Bytes that are no Kortex frame.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum CodecError {
+    /// A TCP frame does not start with the magic.
     #[error("not a Kortex TCP frame: expected the magic 07 78 45 74 52 6F 4B 07, got {0:02x?}")]
     Magic([u8; 8]),
+    /// A TCP frame's length is beyond any Kortex frame.
     #[error("a frame of {0} bytes is longer than any Kortex frame ({MAX_FRAME} bytes at most)")]
     TooLong(usize),
+    /// The bytes are no `Frame` message.
     #[error("cannot decode a Kortex frame: {0}")]
     Decode(String),
+    /// The frame has no header.
     #[error("the frame has no header")]
     NoHeader,
+    /// The header's payload length disagrees with the payload.
     #[error("the header says {header} payload bytes, the frame has {actual}")]
-    PayloadLength { header: u32, actual: usize },
+    PayloadLength {
+        /// The length the header gives.
+        header: u32,
+        /// The payload's length.
+        actual: usize,
+    },
 }
 
 /// A serialized frame with `header` (its payload length set from `payload`).
@@ -69,12 +98,15 @@ pub fn decode_frame(bytes: &[u8]) -> Result<Frame, CodecError> {
 }
 
 /// Reassembles TCP frames from reads of any size: a frame split across reads, or several in one.
+/// It holds the bytes not yet returned as frames: at most one frame ([`MAX_FRAME`]) and what
+/// was pushed after it, as [`TcpDecoder::next_frame`] refuses a longer one.
 #[derive(Default)]
 pub struct TcpDecoder {
     buf: Vec<u8>,
 }
 
 impl TcpDecoder {
+    /// Appends bytes read from the stream.
     pub fn push(&mut self, bytes: &[u8]) {
         self.buf.extend_from_slice(bytes);
     }
@@ -108,9 +140,13 @@ impl TcpDecoder {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("the arm refused {rpc}: {} ({}), {} ({}){}", error_name(*.code), .code, sub_error_name(*.sub_code), .sub_code, if .text.is_empty() { String::new() } else { format!(": {}", .text) })]
 pub struct KortexError {
+    /// The rpc refused (its name).
     pub rpc: &'static str,
+    /// Kinova.Api.ErrorCodes.
     pub code: u32,
+    /// Kinova.Api.SubErrorCodes.
     pub sub_code: u32,
+    /// The arm's own words.
     pub text: String,
 }
 

@@ -8,14 +8,20 @@ pub const HEADER_VERSION: u8 = 1;
 /// Frame types (frame_info bits 27-24).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FrameType {
+    /// A call.
     Request = 1,
+    /// The answer to a call (with the request's message id), or an error frame.
     Response = 3,
+    /// Sent by the arm unasked.
     Notification = 5,
+    /// A ping.
     Ping = 7,
+    /// The answer to a ping.
     Pong = 8,
 }
 
 impl FrameType {
+    /// The frame type of 4 bits of `frame_info`, if they name one.
     pub fn from_bits(bits: u8) -> Option<Self> {
         Some(match bits {
             1 => FrameType::Request,
@@ -30,13 +36,21 @@ impl FrameType {
 
 /// Function uids (service << 16 | rpc) of the rpcs omcbsa calls.
 pub mod uid {
+    /// Session.CreateSession.
     pub const CREATE_SESSION: u32 = 0x1_0001;
+    /// Session.CloseSession.
     pub const CLOSE_SESSION: u32 = 0x1_0002;
+    /// Session.KeepAlive.
     pub const KEEP_ALIVE: u32 = 0x1_0003;
+    /// Base.ApplyEmergencyStop.
     pub const APPLY_EMERGENCY_STOP: u32 = 0x2_0091;
+    /// Base.ClearFaults.
     pub const CLEAR_FAULTS: u32 = 0x2_0092;
+    /// Base.SetServoingMode.
     pub const SET_SERVOING_MODE: u32 = 0x2_0098;
+    /// BaseCyclic.Refresh: one cyclic command, answered by the feedback.
     pub const REFRESH: u32 = 0x3_0001;
+    /// BaseCyclic.RefreshFeedback: the feedback alone.
     pub const REFRESH_FEEDBACK: u32 = 0x3_0003;
 
     /// The rpc's name, for messages and logs.
@@ -59,16 +73,21 @@ pub mod uid {
 /// masks the excess off.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Header {
+    /// Header version (4 bits, [`HEADER_VERSION`]).
     pub version: u8,
     /// Raw frame type bits (4); [`FrameType::from_bits`] names them.
     pub frame_type: u8,
+    /// Device id (0: the base).
     pub device_id: u8,
     /// Error code (4 bits, Kinova.Api.ErrorCodes); non-zero in an error frame.
     pub error: u8,
     /// Sub-error code (12 bits, Kinova.Api.SubErrorCodes).
     pub sub_error: u16,
+    /// The session (0 before CreateSession has answered).
     pub session_id: u16,
+    /// Matches a response to its request ([`MessageIds`]).
     pub message_id: u16,
+    /// Service version (4 bits).
     pub service_version: u8,
     /// service << 16 | rpc (28 bits).
     pub function_uid: u32,
@@ -93,10 +112,12 @@ impl Header {
         }
     }
 
+    /// The frame type, if the bits name one.
     pub fn kind(&self) -> Option<FrameType> {
         FrameType::from_bits(self.frame_type)
     }
 
+    /// The header as sent: four fixed32 fields, bit-packed.
     pub fn pack(&self) -> proto::Header {
         proto::Header {
             frame_info: (u32::from(self.version & 0xF) << 28)
@@ -111,6 +132,7 @@ impl Header {
         }
     }
 
+    /// The fields of a header as received.
     pub fn unpack(h: &proto::Header) -> Self {
         Header {
             version: (h.frame_info >> 28) as u8,
@@ -139,6 +161,7 @@ impl MessageIds {
         Self { last }
     }
 
+    /// The next id.
     pub fn next_id(&mut self) -> u16 {
         self.last = if self.last == u16::MAX {
             1

@@ -5,7 +5,25 @@ use crate::frame::CanFrame;
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::time::Duration;
 
-/// One end of an in-process CAN bus; what one end sends, the other receives.
+/// One end of an in-process CAN bus; what one end sends, the other receives. Frames wait in
+/// an unbounded queue until the other end reads them (memory grows with what it leaves
+/// unread); once one end is dropped, the other's sends and receives are
+/// [`TransportError::Closed`].
+///
+/// ```
+/// use omcbsa_hw::transport::mock::MockTransport;
+/// use omcbsa_hw::{CanFrame, Transport, TransportError};
+/// use std::time::Duration;
+///
+/// let (mut host, mut drive) = MockTransport::pair("left");
+/// let sync = CanFrame::new(0x080, &[]).unwrap();
+/// host.send(&sync, Duration::ZERO)?;
+/// assert_eq!(drive.recv(Duration::from_millis(10))?, Some(sync));
+/// assert_eq!(drive.recv(Duration::ZERO)?, None); // nothing more: polls without waiting
+/// drop(host);
+/// assert!(matches!(drive.recv(Duration::ZERO), Err(TransportError::Closed { .. })));
+/// # Ok::<(), TransportError>(())
+/// ```
 pub struct MockTransport {
     name: String,
     tx: Sender<CanFrame>,

@@ -11,6 +11,7 @@ use serialport::SerialPort;
 use std::io::{ErrorKind, Read, Write};
 use std::time::{Duration, Instant};
 
+/// The bitrate `slcan:` buses are opened at, bit/s.
 pub const DEFAULT_BITRATE: u32 = 500_000;
 
 /// Time the adapter gets to acknowledge each set-up command.
@@ -87,6 +88,7 @@ pub fn decode(line: &[u8]) -> Result<Reply, String> {
     }
 }
 
+/// A CAN bus behind an SLCAN adapter on a serial line.
 pub struct SlcanTransport {
     name: String,
     port: Box<dyn SerialPort>,

@@ -6,12 +6,14 @@ use socketcan::{CanSocket, EmbeddedFrame, Id, Socket, StandardId};
 use std::io::ErrorKind;
 use std::time::Duration;
 
+/// A Linux SocketCAN interface.
 pub struct SocketCanTransport {
     name: String,
     socket: CanSocket,
 }
 
 impl SocketCanTransport {
+    /// Opens interface `iface` (it must be up).
     pub fn open(iface: &str) -> Result<Self, TransportError> {
         let name = format!("socketcan:{iface}");
         let socket = CanSocket::open(iface).map_err(|e| TransportError::Open {

@@ -9,8 +9,9 @@ pub use omcbsa_hw::mock::exec_config as mock_config;
 pub use omcbsa_hw::record::kinds;
 
 use omcbsa_hw::mock::{spawn_for_plan, venv_python, MockArm};
-use omcbsa_hw::plan::{ArmPlan, Plan, PlanValidator};
-use omcbsa_hw::Transport;
+use omcbsa_hw::plan::{ArmLimits, ArmPlan, Plan, PlanValidator};
+use omcbsa_hw::stream::Generator;
+use omcbsa_hw::{Command, Transport, JOINTS};
 
 pub const ARMS: [&str; 3] = ["left", "right", "middle"];
 
@@ -63,4 +64,41 @@ pub fn open_buses(mocks: &[MockArm]) -> Vec<(String, Box<dyn Transport>)> {
 /// The record of a mock, once it has exited.
 pub fn record_of(mock: MockArm) -> Vec<serde_json::Value> {
     mock.finish().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A push as the stream applied it: start step, per-arm waypoints, the cycle it applied at.
+pub struct Pushed {
+    pub start: usize,
+    pub waypoints: Vec<Vec<[f64; JOINTS]>>,
+    pub cycle: u64,
+}
+
+/// The commands a generator computes given the same pushes at the same cycles, from `starts`,
+/// through to the hold at the end of the last: per arm, one per cycle.
+pub fn replay(
+    starts: &[[f64; JOINTS]],
+    limits: &[ArmLimits],
+    period: f64,
+    step_time: f64,
+    pushes: &[Pushed],
+) -> Vec<Vec<Command>> {
+    let mut g = Generator::new(starts, limits, period, step_time).unwrap();
+    let mut out = vec![[0; JOINTS]; starts.len()];
+    let mut cmds: Vec<Vec<Command>> = vec![Vec::new(); starts.len()];
+    let mut step = |g: &mut Generator| {
+        let tick = g.next(&mut out).unwrap();
+        for (c, o) in cmds.iter_mut().zip(&out) {
+            c.push(*o);
+        }
+        tick
+    };
+    for p in pushes {
+        while g.cycle() < p.cycle {
+            step(&mut g);
+        }
+        let slices: Vec<&[[f64; JOINTS]]> = p.waypoints.iter().map(|w| w.as_slice()).collect();
+        g.push(p.start, &slices).unwrap();
+    }
+    while !step(&mut g).holding {}
+    cmds
 }

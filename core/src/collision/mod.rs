@@ -5,389 +5,68 @@
 //! Every check tests bounding boxes first (the whole arm's, then each capsule's) and runs the
 //! exact capsule query only on what is left. Checks return the first thing hit (an obstacle
 //! or capsule index), so a validator can say where; planners use `.is_some()`.
+//!
+//! Memory: an [`ArmPose`] is a fixed-size value (about 2 KB: [`MAX_POSE_CAPSULES`] capsules
+//! and their boxes); a model with more capsules or link frames than that does not compile
+//! (see [`crate::model::MAX_ARM_CAPSULES`]). Nothing allocates.
+//!
+//! Two Gen3s, the second 0.6 m in front of the first: upright they are clear; the first
+//! reaching forward runs into the second.
+//!
+//! ```
+//! use omcbsa_core::collision::ArmPose;
+//! use omcbsa_core::geometry::{Obstacle, Shape};
+//! use omcbsa_core::model::{Frame, KinovaGen3};
+//! use omcbsa_core::nalgebra::Vector3;
+//! use omcbsa_core::tool::Tool;
+//!
+//! let (upright, forward) = ([0.0; 7], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+//! let base_b = Frame { pos: Vector3::new(0.6, 0.0, 0.0), ..Frame::IDENTITY };
+//! let a = ArmPose::new::<KinovaGen3, 7>(0, &Frame::IDENTITY, &Tool::NONE, &upright);
+//! let b = ArmPose::new::<KinovaGen3, 7>(0, &base_b, &Tool::NONE, &upright);
+//! assert_eq!(a.arm_hit(&b, 0.0), None);
+//! // Their volumes are 0.6 m apart less the links' radii.
+//! assert!(a.clearance(&b) > 0.4 && a.clearance(&b) < 0.6);
+//!
+//! let reaching = ArmPose::new::<KinovaGen3, 7>(0, &Frame::IDENTITY, &Tool::NONE, &forward);
+//! let (i, j) = reaching.arm_hit(&b, 0.0).expect("the arms overlap");
+//! assert!(reaching.capsules()[i].hits(&b.capsules()[j], 0.0));
+//! // A point inside both arms: what Ω-CBSA branches on.
+//! let p = reaching.witness(&b, 0.0).unwrap();
+//! assert!(reaching.contains_point(&p) && b.contains_point(&p));
+//!
+//! // Against obstacles: the index of the first one hit; the arm's own links.
+//! let ball = Obstacle {
+//!     shape: Shape::Sphere { radius: 0.1 },
+//!     pose: Frame { pos: Vector3::new(0.0, 0.0, 0.8), ..Frame::IDENTITY },
+//! };
+//! let far = Obstacle { pose: Frame { pos: Vector3::new(2.0, 0.0, 0.8), ..ball.pose }, ..ball };
+//! assert_eq!(a.obstacle_hit(&[far, ball], 0.0), Some(1));
+//! assert_eq!(a.obstacle_hit(&[far], 0.0), None);
+//! assert_eq!(a.self_hit(0.0), None);
+//! ```
 
 use core::marker::PhantomData;
 
-use nalgebra::Vector3;
+mod batch;
+mod pose;
+mod rake;
 
-use crate::geometry::{Aabb, Capsule, Contact, Obstacle};
-use crate::model::{Frame, Model, Models};
+pub use batch::{ArmLanes, Boxes};
+use pose::bits;
+pub use pose::{ArmPose, MAX_POSE_CAPSULES};
+pub use rake::Placing;
+use rake::Rake;
+
+use crate::geometry::{Aabb, Contact, Obstacle};
+use crate::lanes::F64s;
+use crate::model::{Frame, Models};
 use crate::problem::MAX_OBSTACLES;
-use crate::tool::{Tool, MAX_TOOL_CAPSULES};
+use crate::tool::Tool;
 
-/// Most collision capsules one arm model may have. A model with more is refused when
-/// [`ArmPose::new`] is compiled for it (or for a fleet holding it), never truncated:
-///
-/// ```compile_fail
-/// use omcbsa_core::collision::{ArmPose, MAX_ARM_CAPSULES};
-/// use omcbsa_core::model::{Frame, LinkCapsule, Model};
-/// use omcbsa_core::nalgebra::SMatrix;
-///
-/// struct TooMany;
-/// impl Model<1> for TooMany {
-///     const NAME: &'static str = "too_many";
-///     const LINK_NAMES: &'static [&'static str] = &["base"];
-///     const JOINT_NAMES: [&'static str; 1] = ["j"];
-///     const LOWER: [f64; 1] = [-1.0];
-///     const UPPER: [f64; 1] = [1.0];
-///     const VELOCITY: [f64; 1] = [1.0];
-///     const ACCELERATION: [f64; 1] = [1.0];
-///     const CAPSULES: &'static [LinkCapsule] =
-///         &[LinkCapsule { link: 0, a: [0.0; 3], b: [0.0; 3], radius: 0.1 }; MAX_ARM_CAPSULES + 1];
-///     const SELF_PAIRS: &'static [(u8, u8)] = &[];
-///     const REACH: [f64; 1] = [1.0];
-///     fn fk(_: &[f64; 1]) -> Frame {
-///         Frame::IDENTITY
-///     }
-///     fn link_frames(_: &[f64; 1], out: &mut [Frame]) -> Frame {
-///         out[0] = Frame::IDENTITY;
-///         Frame::IDENTITY
-///     }
-///     fn jacobian(_: &[f64; 1]) -> (Frame, SMatrix<f64, 6, 1>) {
-///         (Frame::IDENTITY, SMatrix::zeros())
-///     }
-/// }
-///
-/// ArmPose::new::<TooMany, 1>(0, &Frame::IDENTITY, &omcbsa_core::tool::Tool::NONE, &[0.0]);
-/// ```
-pub const MAX_ARM_CAPSULES: usize = 16;
-/// Most capsules of one arm with its tool.
-pub const MAX_POSE_CAPSULES: usize = MAX_ARM_CAPSULES + MAX_TOOL_CAPSULES;
-/// Most link frames one arm model may have (a model with more does not compile).
-pub const MAX_LINK_FRAMES: usize = 16;
+pub use crate::model::{MAX_ARM_CAPSULES, MAX_LINK_FRAMES};
 /// Most configurations a [`Sweep`] checks; beyond that its margin grows instead.
 pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
-
-// Base-link capsules and capsule pairs are kept as bit sets.
-const _: () = assert!(MAX_POSE_CAPSULES <= u32::BITS as usize);
-
-/// Fails compilation (through [`ArmPose::new`] and [`Models::CHECKED`]) for a model an
-/// `ArmPose` cannot hold, or whose capsule and pair indices point nowhere, so that indexing
-/// with them cannot fail.
-pub(crate) const fn check_model<M: Model<D>, const D: usize>() {
-    assert!(
-        M::CAPSULES.len() <= MAX_ARM_CAPSULES,
-        "model has more than MAX_ARM_CAPSULES"
-    );
-    assert!(
-        M::LINK_NAMES.len() <= MAX_LINK_FRAMES,
-        "model has more than MAX_LINK_FRAMES"
-    );
-    let mut i = 0;
-    while i < M::CAPSULES.len() {
-        assert!(
-            (M::CAPSULES[i].link as usize) < M::LINK_NAMES.len(),
-            "capsule on no link"
-        );
-        i += 1;
-    }
-    let mut i = 0;
-    while i < M::SELF_PAIRS.len() {
-        let (a, b) = M::SELF_PAIRS[i];
-        let n = M::CAPSULES.len();
-        assert!(
-            (a as usize) < n && (b as usize) < n,
-            "self pair names no capsule"
-        );
-        i += 1;
-    }
-    let mut i = 0;
-    while i < M::TOOL_SELF_CAPSULES.len() {
-        assert!(
-            (M::TOOL_SELF_CAPSULES[i] as usize) < M::CAPSULES.len(),
-            "tool self capsule names no capsule"
-        );
-        i += 1;
-    }
-}
-
-/// An arm's collision capsules in the world at one configuration: the model's link capsules,
-/// then its tool's.
-#[derive(Clone, Copy, Debug)]
-pub struct ArmPose {
-    /// In the order of `Model::CAPSULES`, then the tool's; the first `len` are used.
-    capsules: [Capsule; MAX_POSE_CAPSULES],
-    boxes: [Aabb; MAX_POSE_CAPSULES],
-    len: usize,
-    /// How many of them are link capsules (the rest are the tool's).
-    links: usize,
-    /// Bit `i` set: capsule `i` is on the base link, which is mounted and so never checked
-    /// against obstacles.
-    on_base: u32,
-    self_pairs: &'static [(u8, u8)],
-    /// Link capsules every tool capsule is checked against (`Model::TOOL_SELF_CAPSULES`).
-    tool_self: &'static [u8],
-    /// Around all capsules, and around those off the base link.
-    aabb: Aabb,
-    moving_aabb: Aabb,
-}
-
-impl ArmPose {
-    /// An arm with no capsules: it collides with nothing.
-    pub const EMPTY: ArmPose = ArmPose {
-        capsules: [Capsule::new(
-            Vector3::new(0.0, 0.0, 0.0),
-            Vector3::new(0.0, 0.0, 0.0),
-            0.0,
-        ); MAX_POSE_CAPSULES],
-        boxes: [Aabb::EMPTY; MAX_POSE_CAPSULES],
-        len: 0,
-        links: 0,
-        on_base: 0,
-        self_pairs: &[],
-        tool_self: &[],
-        aabb: Aabb::EMPTY,
-        moving_aabb: Aabb::EMPTY,
-    };
-
-    /// The capsules of model `model` of `M` at configuration `q`, its base frame at `base` in
-    /// the world, carrying `tool`.
-    pub fn new<M: Models<D>, const D: usize>(
-        model: u8,
-        base: &Frame,
-        tool: &Tool,
-        q: &[f64; D],
-    ) -> ArmPose {
-        Self::new_only::<M, D>(model, base, tool, q, u32::MAX)
-    }
-
-    /// [`ArmPose::new`] with only the capsules whose bit is set in `only` placed (the boxes
-    /// around the arm are around those): the others are empty and meet nothing. A sweep that
-    /// has ruled most capsule pairs out places just the rest.
-    pub fn new_only<M: Models<D>, const D: usize>(
-        model: u8,
-        base: &Frame,
-        tool: &Tool,
-        q: &[f64; D],
-        only: u32,
-    ) -> ArmPose {
-        let mut pose = ArmPose::EMPTY;
-        pose.place_only::<M, D>(model, base, tool, q, only);
-        pose
-    }
-
-    /// [`ArmPose::new`] into this pose's storage: the same pose, without building a new one
-    /// (about 2 KB) for each placing in a loop.
-    pub fn place<M: Models<D>, const D: usize>(
-        &mut self,
-        model: u8,
-        base: &Frame,
-        tool: &Tool,
-        q: &[f64; D],
-    ) {
-        self.place_only::<M, D>(model, base, tool, q, u32::MAX);
-    }
-
-    /// [`ArmPose::new_only`] into this pose's storage. Capsules past the arm's count are left
-    /// as they are: nothing reads past `len`.
-    pub fn place_only<M: Models<D>, const D: usize>(
-        &mut self,
-        model: u8,
-        base: &Frame,
-        tool: &Tool,
-        q: &[f64; D],
-        only: u32,
-    ) {
-        const { M::CHECKED };
-        let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
-        let linked = &mut frames[..M::link_names(model).len()];
-        let flange = base.compose(&M::link_frames(model, q, linked));
-        // Into the world once per link, not once per capsule.
-        for f in linked.iter_mut() {
-            *f = base.compose(f);
-        }
-        let capsules = M::capsules(model);
-        let links = capsules.len();
-        self.len = links + tool.capsules().len();
-        self.links = links;
-        self.self_pairs = M::self_pairs(model);
-        self.tool_self = M::tool_self_capsules(model);
-        self.on_base = 0;
-        self.aabb = Aabb::EMPTY;
-        self.moving_aabb = Aabb::EMPTY;
-        let placed = capsules
-            .iter()
-            .map(|c| (frames[usize::from(c.link)], c.a, c.b, c.radius))
-            .chain((tool.capsules().iter()).map(|c| (flange, c.a, c.b, c.radius)));
-        for (i, (frame, a, b, radius)) in placed.enumerate() {
-            if only & (1 << i) == 0 {
-                self.capsules[i] = ArmPose::EMPTY.capsules[0];
-                self.boxes[i] = Aabb::EMPTY;
-                continue;
-            }
-            let capsule = Capsule::new(frame.apply(&a.into()), frame.apply(&b.into()), radius);
-            let aabb = capsule.aabb();
-            self.capsules[i] = capsule;
-            self.boxes[i] = aabb;
-            self.aabb = self.aabb.union(&aabb);
-            if i < links && capsules[i].link == 0 {
-                self.on_base |= 1 << i;
-            } else {
-                self.moving_aabb = self.moving_aabb.union(&aabb);
-            }
-        }
-    }
-
-    /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
-    pub fn capsules(&self) -> &[Capsule] {
-        &self.capsules[..self.len]
-    }
-
-    /// Which tool capsule capsule `i` is (`None`: a link capsule).
-    pub fn tool_capsule(&self, i: usize) -> Option<usize> {
-        (self.links..self.len).contains(&i).then(|| i - self.links)
-    }
-
-    /// Whether capsule `i` is on the base link (mounted, never checked against obstacles).
-    pub fn on_base(&self, i: usize) -> bool {
-        self.on_base & (1 << i) != 0
-    }
-
-    /// The self-collision pairs (capsule indices): the model's link pairs, then each tool
-    /// capsule with each link capsule it may hit.
-    fn self_pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        let links = self.self_pairs.iter().map(|&(a, b)| (a.into(), b.into()));
-        let tool = (self.links..self.len)
-            .flat_map(|t| self.tool_self.iter().map(move |&c| (t, usize::from(c))));
-        links.chain(tool)
-    }
-
-    /// Bounding box of the whole arm.
-    pub fn aabb(&self) -> &Aabb {
-        &self.aabb
-    }
-
-    /// Index of the first obstacle that a capsule off the base link comes closer to than
-    /// `margin` (or meets).
-    pub fn obstacle_hit(&self, obstacles: &[Obstacle], margin: f64) -> Option<usize> {
-        obstacles.iter().position(|o| {
-            let ob = o.aabb();
-            ob.near(&self.moving_aabb, margin)
-                && (0..self.len).any(|i| {
-                    !self.on_base(i)
-                        && self.boxes[i].near(&ob, margin)
-                        && o.hits_capsule(&self.capsules[i], margin)
-                })
-        })
-    }
-
-    /// The first of the self-collision pairs (capsule indices; a tool capsule comes first in
-    /// its pairs) closer than `margin`.
-    pub fn self_hit(&self, margin: f64) -> Option<(usize, usize)> {
-        self.self_pairs()
-            .find(|&(a, b)| self.pair_hits(a, self, b, margin))
-    }
-
-    /// Whether capsule `i` of this arm and capsule `j` of `other` (this arm too, for a self
-    /// pair) come closer than `margin`: their boxes first, then the capsules.
-    #[inline]
-    fn pair_hits(&self, i: usize, other: &ArmPose, j: usize, margin: f64) -> bool {
-        self.pair_contact(i, other, j, margin) != Contact::Clear
-    }
-
-    /// [`ArmPose::pair_hits`], telling a touch from a near miss.
-    #[inline]
-    fn pair_contact(&self, i: usize, other: &ArmPose, j: usize, margin: f64) -> Contact {
-        if self.boxes[i].near(&other.boxes[j], margin) {
-            self.capsules[i].contact(&other.capsules[j], margin)
-        } else {
-            Contact::Clear
-        }
-    }
-
-    /// Whether capsule `i` of the arm at `ends` and capsule `j` of `other` (the same arm, for
-    /// a self pair) may meet over a motion on which their points travel `travel` towards each
-    /// other in all: clearance falls by at most that from either end, so clearances at the
-    /// ends adding up to more rule contact out (`Clear`); overlapping at an end is a `Touch`.
-    /// Boxes first (a lower bound on the distance), then the capsules.
-    fn pair_contact_over(
-        ends: [&ArmPose; 2],
-        i: usize,
-        other: [&ArmPose; 2],
-        j: usize,
-        travel: f64,
-    ) -> Contact {
-        let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
-        if gap(0) + gap(1) > travel {
-            return Contact::Clear;
-        }
-        let clearance = |k: usize| ends[k].capsules[i].signed_distance(&other[k].capsules[j]);
-        let (c0, c1) = (clearance(0), clearance(1));
-        if c0 < 0.0 || c1 < 0.0 {
-            Contact::Touch
-        } else if c0 + c1 > travel {
-            Contact::Clear
-        } else {
-            Contact::Near
-        }
-    }
-
-    /// The first pair of capsules (this arm's, the other's), base links included, closer
-    /// than `margin`.
-    pub fn arm_hit(&self, other: &ArmPose, margin: f64) -> Option<(usize, usize)> {
-        if !self.aabb.near(&other.aabb, margin) {
-            return None;
-        }
-        (0..self.len)
-            .filter(|&i| self.boxes[i].near(&other.aabb, margin))
-            .find_map(|i| {
-                (0..other.len)
-                    .find(|&j| self.pair_hits(i, other, j, margin))
-                    .map(|j| (i, j))
-            })
-    }
-
-    /// A lower bound on the distance between the two arms' volumes (the smallest signed
-    /// distance of their capsule pairs; each pair's boxes first, which skip most of them).
-    pub fn clearance(&self, other: &ArmPose) -> f64 {
-        let whole = self.aabb.distance(&other.aabb);
-        if whole > 0.0 {
-            return whole;
-        }
-        let mut least = f64::INFINITY;
-        for (a, box_a) in self.capsules().iter().zip(&self.boxes) {
-            for (b, box_b) in other.capsules().iter().zip(&other.boxes) {
-                // Boxes apart by more than the least so far hold no closer pair; touching
-                // boxes may hold a deeper overlap.
-                if box_a.distance(box_b) <= least.max(0.0) {
-                    least = least.min(a.signed_distance(b));
-                }
-            }
-        }
-        least
-    }
-
-    /// Whether `p` lies in any link volume (base included).
-    pub fn contains_point(&self, p: &Vector3<f64>) -> bool {
-        self.aabb.contains_point(p) && self.capsules().iter().any(|c| c.contains_point(p))
-    }
-
-    /// A point inside both arms inflated by `margin / 2` each, when they come closer than
-    /// `margin` (inside both arms themselves for `margin = 0`): the witness of the most
-    /// deeply overlapping capsule pair (see [`Capsule::witness`]), so that a constraint keeping
-    /// one arm off it pushes the arms apart where they collide most.
-    pub fn witness(&self, other: &ArmPose, margin: f64) -> Option<Vector3<f64>> {
-        let grow = |c: &Capsule| Capsule {
-            radius: c.radius + 0.5 * margin,
-            ..*c
-        };
-        let mut deepest: Option<(f64, Vector3<f64>)> = None;
-        for (a, box_a) in self.capsules().iter().zip(&self.boxes) {
-            for (b, box_b) in other.capsules().iter().zip(&other.boxes) {
-                if !box_a.near(box_b, margin) {
-                    continue;
-                }
-                let depth = margin - a.signed_distance(b);
-                if depth > deepest.map_or(0.0, |(d, _)| d) {
-                    if let Some(p) = grow(a).witness(&grow(b)) {
-                        deepest = Some((depth, p));
-                    }
-                }
-            }
-        }
-        deepest.map(|(_, p)| p)
-    }
-}
 
 /// A straight joint-space motion of model `M` from `q0` to `q1`, split into `count` equal
 /// pieces. Moving joint `j` by `dq` moves no link point by more than `REACH[j] * |dq|`, so
@@ -412,6 +91,40 @@ impl ArmPose {
 /// the part of the motion, so it shrinks fast down the halves. An arm moving in its null
 /// space, its hand nearly still, moves its joints far but its hand capsules little, and the
 /// first bound alone counts every joint's turn at its full reach.
+///
+/// Cost: two placings of the arm for a motion far from everything, one more per split; the
+/// bisection's stack is bounded (about `log2(2 * MAX_SWEEP_CHECKS)` levels of a few arm
+/// poses). A Gen3 turning about its first joint past a ball it clears at both ends:
+///
+/// ```
+/// use omcbsa_core::collision::{sweeps_collide, ArmPose, Sweep};
+/// use omcbsa_core::geometry::{Obstacle, Shape};
+/// use omcbsa_core::model::{Frame, KinovaGen3};
+/// use omcbsa_core::nalgebra::Vector3;
+/// use omcbsa_core::tool::Tool;
+///
+/// let from = [-0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+/// let to = [0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+/// let sweep = Sweep::<KinovaGen3, 7>::new(0, &Tool::NONE, &from, &to, 0.01);
+/// // No point moves more than 1 cm within a piece, so the margin is at most 5 mm.
+/// assert!(sweep.margin() <= 0.005);
+/// // Joint 1 turns 1 rad, and no point of the arm is farther than 1.06 m from its axis.
+/// assert!(sweep.length() > 1.0 && sweep.length() < 1.06);
+///
+/// let base = Frame::IDENTITY;
+/// let ball = Obstacle {
+///     shape: Shape::Sphere { radius: 0.05 },
+///     pose: Frame { pos: Vector3::new(0.45, -0.02, 0.57), ..Frame::IDENTITY },
+/// };
+/// let [start, end] = sweep.ends(&base);
+/// assert!(start.obstacle_hit(&[ball], 0.0).is_none() && end.obstacle_hit(&[ball], 0.0).is_none());
+/// assert!(sweep.arm_collides(&base, &[ball]));
+///
+/// // Two arms moving at once: the second, 0.6 m ahead, stands still upright.
+/// let base_b = Frame { pos: Vector3::new(0.6, -0.02, 0.0), ..Frame::IDENTITY };
+/// let still = Sweep::<KinovaGen3, 7>::new(0, &Tool::NONE, &[0.0; 7], &[0.0; 7], 0.01);
+/// assert!(sweeps_collide(&sweep, &base, &still, &base_b));
+/// ```
 #[derive(Debug)]
 pub struct Sweep<M: Models<D>, const D: usize> {
     /// The arm's model, an index into `M`.
@@ -427,6 +140,8 @@ pub struct Sweep<M: Models<D>, const D: usize> {
     bow: [f64; MAX_POSE_CAPSULES],
     count: usize,
     tool: Tool,
+    /// How its checks place the arm between the ends.
+    placing: Placing,
     fleet: PhantomData<M>,
 }
 
@@ -476,17 +191,6 @@ fn rows_and_columns(pairs: &Pairs) -> (u32, u32) {
     })
 }
 
-/// The indices of the set bits of `m`, lowest first.
-fn bits(mut m: u32) -> impl Iterator<Item = usize> {
-    core::iter::from_fn(move || {
-        (m != 0).then(|| {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
-            i
-        })
-    })
-}
-
 impl<M: Models<D>, const D: usize> Sweep<M, D> {
     /// The motion of the arm of model `model` carrying `tool`, in pieces short enough that no point of it
     /// moves more than `max_disp` over one (so `margin <= max_disp / 2`), unless that takes
@@ -519,6 +223,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             bow: bows,
             count: 1,
             tool: *tool,
+            placing: Placing::default(),
             fleet: PhantomData,
         }
         // `as` saturates; NaN (from a NaN input) gives 0 and so one piece.
@@ -561,6 +266,12 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             count: count.clamp(1, MAX_SWEEP_CHECKS),
             ..self
         }
+    }
+
+    /// The same motion, its checks placing the arm between the ends as `placing` says (the
+    /// answers are the same; [`sweeps_collide`] goes by the first sweep's).
+    pub fn with_placing(self, placing: Placing) -> Self {
+        Sweep { placing, ..self }
     }
 
     /// Number of pieces.
@@ -649,8 +360,11 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 .filter(|&i| !e0.on_base(i))
                 .fold(0, |m, i| m | 1 << i);
         }
+        // Each self pair's travel, computed once for every part of the motion.
+        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
         for (a, b) in e0.self_pairs() {
             all.pairs[a] |= 1 << b;
+            pair_travel[a][b] = self.pair_travel(a, b);
         }
         let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
             let ends = [ends[0][0], ends[1][0]];
@@ -671,7 +385,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
             for (a, &row) in sus.pairs.iter().enumerate() {
                 for b in bits(row) {
-                    let t = (self.pair_travel(a, b) * width).min(reach[a] + reach[b]);
+                    let t = (pair_travel[a][b] * width).min(reach[a] + reach[b]);
                     match ArmPose::pair_contact_over(ends, a, ends, b, t) {
                         Contact::Touch => return Found::Touch,
                         Contact::Near => left.pairs[a] |= 1 << b,
@@ -681,21 +395,33 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
             Found::left(left.any(), left)
         };
-        let place = &mut |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
-            at[0].place_only::<M, D>(self.model, base, &self.tool, &self.at(s), sus.capsules());
+        let left = match check([[e0], [e1]], 1.0, &all) {
+            Found::Clear => return false,
+            Found::Touch => return true,
+            Found::Suspects(left) => left,
         };
-        match check([[e0], [e1]], 1.0, &all) {
-            Found::Clear => false,
-            Found::Touch => true,
-            Found::Suspects(left) => refine(
-                0,
-                2 * self.count,
-                2 * self.count,
-                [[e0], [e1]],
-                left,
-                place,
-                check,
-            ),
+        let halves = 2 * self.count;
+        let ends = [[e0], [e1]];
+        let single = |s: f64, sus: &Suspects, at: &mut [ArmPose; 1]| {
+            let q = self.at(s);
+            at[0].place_only::<M, D>(self.model, base, &self.tool, &q, sus.capsules());
+        };
+        match self.placing {
+            Placing::Single => {
+                let placer = &mut Single(single);
+                refine(0, halves, halves, ends, left, None, placer, check)
+            }
+            Placing::Rake => {
+                let place = |s: F64s, sus: &Suspects, rakes: &mut [Rake; 1]| {
+                    let (q0, dq, only) = (&self.q0, &self.dq, sus.capsules());
+                    rakes[0].place::<M, D>(self.model, base, &self.tool, q0, dq, s, only);
+                };
+                let pose = |rakes: &[Rake; 1], k: usize, sus: &Suspects, at: &mut [ArmPose; 1]| {
+                    rakes[0].pose(k, sus.capsules(), e0, &mut at[0]);
+                };
+                let placer = &mut Raked(place, pose, single);
+                refine(0, halves, halves, ends, left, None, placer, check)
+            }
         }
     }
 }
@@ -791,13 +517,31 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         }
         Found::left(left.iter().any(|&r| r != 0), left)
     };
-    let place = &mut |s: f64, pairs: &Pairs, at: &mut [ArmPose; 2]| {
+    let place = |s: f64, pairs: &Pairs, at: &mut [ArmPose; 2]| {
         let (rows, columns) = rows_and_columns(pairs);
         if !a_still {
             at[0].place_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
         }
         if !b_still {
             at[1].place_only::<B, DB>(b.model, base_b, &b.tool, &b.at(s), columns);
+        }
+    };
+    let rake = |s: F64s, pairs: &Pairs, rakes: &mut [Rake; 2]| {
+        let (rows, columns) = rows_and_columns(pairs);
+        if !a_still {
+            rakes[0].place::<A, DA>(a.model, base_a, &a.tool, &a.q0, &a.dq, s, rows);
+        }
+        if !b_still {
+            rakes[1].place::<B, DB>(b.model, base_b, &b.tool, &b.q0, &b.dq, s, columns);
+        }
+    };
+    let pose = |rakes: &[Rake; 2], k: usize, pairs: &Pairs, at: &mut [ArmPose; 2]| {
+        let (rows, columns) = rows_and_columns(pairs);
+        if !a_still {
+            rakes[0].pose(k, rows, a0, &mut at[0]);
+        }
+        if !b_still {
+            rakes[1].pose(k, columns, b0, &mut at[1]);
         }
     };
     // The rows and columns the filter above keeps, as the pairs in question.
@@ -816,7 +560,16 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         Found::Suspects(left) => {
             // Half pieces, as one arm's sweep.
             let halves = 2 * a.count.max(b.count);
-            refine(0, halves, halves, ends, left, place, check)
+            match a.placing {
+                Placing::Single => {
+                    let placer = &mut Single(place);
+                    refine(0, halves, halves, ends, left, None, placer, check)
+                }
+                Placing::Rake => {
+                    let placer = &mut Raked(rake, pose, place);
+                    refine(0, halves, halves, ends, left, None, placer, check)
+                }
+            }
         }
     }
 }
@@ -887,37 +640,129 @@ impl<S> Found<S> {
     }
 }
 
+/// Where [`refine`] gets the arms at the middle of a part of the motion.
+trait Placer<S, const K: usize> {
+    /// Placings made ahead for a part and the parts below it (see [`rake::RAKE_PARTS`]).
+    type Ahead;
+    /// Places ahead for the part `first..end` of `count`, `suspects` in question there (and
+    /// so no others below it).
+    fn ahead(&mut self, first: usize, end: usize, count: usize, suspects: &S) -> Self::Ahead;
+    /// The arms at `mid`, the middle of part `part` of `ahead`, for the suspects' capsules.
+    fn at(
+        &mut self,
+        ahead: &Self::Ahead,
+        part: usize,
+        mid: usize,
+        count: usize,
+        suspects: &S,
+        out: &mut [ArmPose; K],
+    );
+}
+
+/// One configuration at a time: `place(s, suspects, poses)` places the arms a fraction `s` of
+/// the way.
+struct Single<F>(F);
+
+impl<S, F: FnMut(f64, &S, &mut [ArmPose; K]), const K: usize> Placer<S, K> for Single<F> {
+    type Ahead = ();
+
+    fn ahead(&mut self, _: usize, _: usize, _: usize, _: &S) {}
+
+    fn at(&mut self, _: &(), _: usize, mid: usize, count: usize, sus: &S, out: &mut [ArmPose; K]) {
+        (self.0)(mid as f64 / count as f64, sus, out);
+    }
+}
+
+/// A rake ahead where it pays: `rake(s, suspects, rakes)` places the arms at the fractions
+/// `s` (a lane each), `pose(rakes, lane, suspects, poses)` reads a lane's; a part with fewer
+/// than [`rake::RAKE_MIN_SPLITS`] splits below it (a short motion) is placed one at a time
+/// by `place` (as [`Single`]), where a batch would cost more than the placings it holds.
+struct Raked<F, G, H>(F, G, H);
+
+impl<S, F, G, H, const K: usize> Placer<S, K> for Raked<F, G, H>
+where
+    F: FnMut(F64s, &S, &mut [Rake; K]),
+    G: FnMut(&[Rake; K], usize, &S, &mut [ArmPose; K]),
+    H: FnMut(f64, &S, &mut [ArmPose; K]),
+{
+    type Ahead = Option<[Rake; K]>;
+
+    fn ahead(&mut self, first: usize, end: usize, count: usize, sus: &S) -> Self::Ahead {
+        let (s, splits) = rake::rake_fractions(first, end, count);
+        (splits >= rake::RAKE_MIN_SPLITS).then(|| {
+            let mut rakes = [Rake::EMPTY; K];
+            (self.0)(s, sus, &mut rakes);
+            rakes
+        })
+    }
+
+    fn at(
+        &mut self,
+        rakes: &Self::Ahead,
+        part: usize,
+        mid: usize,
+        count: usize,
+        sus: &S,
+        out: &mut [ArmPose; K],
+    ) {
+        match rakes {
+            Some(rakes) => (self.1)(rakes, part, sus, out),
+            None => (self.2)(mid as f64 / count as f64, sus, out),
+        }
+    }
+}
+
 /// Whether some suspect still fails on a single one of parts `first..end` of `count` (of the
 /// motion), where `suspects` fail the check over them as a whole: places the arms (`K` of
-/// them) at the parts' middle boundary by `place(s, suspects, poses)` (for the suspects'
-/// capsules only) and checks each half between its end poses by `check(ends, width, suspects)`, `width`
-/// the half's share of the motion, which tells which suspects may meet inside it and whether
-/// one touches at an end; then the halves' halves, for those alone. A touch ends the search.
+/// them) at the parts' middle boundary (for the suspects' capsules only, by `placer`, which
+/// may have placed them ahead: `ahead` is where, and which of its parts this is) and checks
+/// each half between its end poses by `check(ends, width, suspects)`, `width` the half's
+/// share of the motion, which tells which suspects may meet inside it and whether one touches
+/// at an end; then the halves' halves, for those alone. A touch ends the search. The answer
+/// does not depend on how the placer places: every check reads the same poses.
 ///
-/// Cost: one placing per split. Stack: `K` [`ArmPose`]s (about 2.2 KB each) per level, at
-/// most `log2(2 * MAX_SWEEP_CHECKS)` levels.
-fn refine<S: Copy, const K: usize>(
+/// Cost: one placing per split (one rake per three levels). Stack: `K` [`ArmPose`]s (about
+/// 2.2 KB each) per level, and `K` rakes (about 7.8 KB each) per three, at most
+/// `log2(2 * MAX_SWEEP_CHECKS)` levels.
+#[allow(clippy::too_many_arguments)]
+fn refine<S: Copy, P: Placer<S, K>, const K: usize>(
     first: usize,
     end: usize,
     count: usize,
     ends: [[&ArmPose; K]; 2],
     suspects: S,
-    place: &mut impl FnMut(f64, &S, &mut [ArmPose; K]),
+    ahead: Option<(&P::Ahead, usize)>,
+    placer: &mut P,
     check: &mut impl FnMut([[&ArmPose; K]; 2], f64, &S) -> Found<S>,
 ) -> bool {
     if end - first <= 1 {
         return true;
     }
     let mid = (first + end) / 2;
+    let made;
+    let (ahead, part) = match ahead {
+        Some(placed) => placed,
+        None => {
+            made = placer.ahead(first, end, count, &suspects);
+            (&made, 0)
+        }
+    };
     let mut at = [ArmPose::EMPTY; K];
-    place(mid as f64 / count as f64, &suspects, &mut at);
+    placer.at(ahead, part, mid, count, &suspects, &mut at);
     let at: [&ArmPose; K] = core::array::from_fn(|k| &at[k]);
-    for (lo, hi, ends) in [(first, mid, [ends[0], at]), (mid, end, [at, ends[1]])] {
+    let halves = [
+        (2 * part + 1, first, mid, [ends[0], at]),
+        (2 * part + 2, mid, end, [at, ends[1]]),
+    ];
+    for (half, lo, hi, ends) in halves {
         let found = check(ends, (hi - lo) as f64 / count as f64, &suspects);
         let hit = match found {
             Found::Clear => false,
             Found::Touch => true,
-            Found::Suspects(left) => refine(lo, hi, count, ends, left, place, check),
+            Found::Suspects(left) => {
+                let below = (half < rake::RAKE_PARTS).then_some((ahead, half));
+                refine(lo, hi, count, ends, left, below, placer, check)
+            }
         };
         if hit {
             return true;

@@ -2,7 +2,7 @@
 //! `online` (the command line's defaults are [`WatchSettings::default`]) and by the tests that
 //! measure the reactions.
 //!
-//! - Per-cycle accounting ([`crate::watchdog`]): a drive that has not answered SYNC k when SYNC
+//! - Per-cycle accounting (`watchdog`): a drive that has not answered SYNC k when SYNC
 //!   k + m is due, or whose answer is more than m periods stale, is a fault.
 //! - Heartbeat: the producer time written into every drive (0x1017) and the consumer time
 //!   derived from it, `factor` times it (CiA 301 practice: 1.5 to 2).
@@ -16,13 +16,31 @@
 use std::fmt;
 use std::time::Duration;
 
-use crate::cia402::COUNTS_PER_RAD;
-use crate::watchdog::{DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
+/// The default `m`: an answer may lag its cycle by up to two periods (one for the source to
+/// answer, one for jitter).
+pub const DEFAULT_MISSED_CYCLES: u32 = 2;
+/// The largest `m` accepted: beyond it the accounting no longer bounds a reaction usefully.
+pub const MAX_MISSED_CYCLES: u32 = 1000;
 
 /// The smallest following-error window, rad: a joint at rest still has encoder noise and
 /// rounding, and a window of a few counts would fault on them.
 pub const MIN_FOLLOWING_ERROR_WINDOW: f64 = 1e-3;
 
+/// How faults are detected: see the module.
+///
+/// ```
+/// use omcbsa_hw::WatchSettings;
+/// use std::time::Duration;
+///
+/// let w = WatchSettings::default();
+/// assert!(w.check().is_ok());
+/// assert_eq!(w.heartbeat_consumer_time(), Duration::from_millis(150));
+/// // A joint at 0.5 rad/s streamed every 4 ms: 0.5 x 2 x (10 ms + 4 ms) = 14 mrad.
+/// let window = w.following_error_window(0.5, Duration::from_millis(4));
+/// assert!((window - 0.014).abs() < 1e-12);
+/// let bad = WatchSettings { missed_cycles: 0, ..w };
+/// assert!(bad.check().unwrap_err().contains("missed cycles"));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct WatchSettings {
     /// m: a drive that has not answered SYNC k when SYNC k + m is due is a fault.
@@ -59,13 +77,12 @@ impl WatchSettings {
         Duration::from_millis(u64::from(self.heartbeat_ms)).mul_f64(self.heartbeat_factor)
     }
 
-    /// The following-error window (0x6065, counts) of a joint whose commands move at up to
-    /// `speed` rad/s, streamed every `period`.
-    pub fn following_error_window(&self, speed: f64, period: Duration) -> u32 {
+    /// The following-error window (rad; written to a drive's 0x6065) of a joint whose commands
+    /// move at up to `speed` rad/s, streamed every `period`: at least
+    /// [`MIN_FOLLOWING_ERROR_WINDOW`].
+    pub fn following_error_window(&self, speed: f64, period: Duration) -> f64 {
         let trail = 2.0 * (self.drive_lag + period).as_secs_f64();
-        let rad = (speed.abs() * trail).max(MIN_FOLLOWING_ERROR_WINDOW);
-        // Far below u32::MAX counts for any joint speed within the limits.
-        (rad * COUNTS_PER_RAD).ceil().min(f64::from(u32::MAX - 1)) as u32
+        (speed.abs() * trail).max(MIN_FOLLOWING_ERROR_WINDOW)
     }
 
     /// Every setting within its range, or what is wrong with which.
@@ -135,9 +152,9 @@ mod tests {
         assert_eq!(w.heartbeat_consumer_time(), Duration::from_millis(150));
         let period = Duration::from_millis(4);
         // 0.5 rad/s x 2 x 14 ms = 14 mrad
-        assert_eq!(w.following_error_window(0.5, period), 140_000);
+        assert!((w.following_error_window(0.5, period) - 0.014).abs() < 1e-15);
         // a joint at rest gets the smallest window
-        assert_eq!(w.following_error_window(0.0, period), 10_000);
+        assert_eq!(w.following_error_window(0.0, period), 1e-3);
     }
 
     #[test]

@@ -1,0 +1,382 @@
+//! The batched kernel: an arm at [`LANES`] configurations at once ([`ArmLanes`]), its
+//! capsules and their boxes kept structure-of-arrays (one [`F64s`] per coordinate, a lane per
+//! configuration), and the checks of [`ArmPose`] over every lane: obstacles, self-collision
+//! and another arm, each lane left alone once it is known to hit.
+//!
+//! Lane `k` is, bit for bit, the [`ArmPose`] of configuration `k`: the generated kinematics
+//! run once over [`F64s`] ([`crate::model::Model::link_frames_lanes`]), and the placing here
+//! takes [`ArmPose::place_only`]'s operations in its order ([`FrameOf`]). The checks test the
+//! same boxes with the same comparisons in SIMD, then run the scalar exact query
+//! ([`Capsule::contact`], [`Obstacle::hits_capsule`]) on the few lanes whose boxes meet, so a
+//! lane hits exactly when the [`ArmPose`] check of its configuration does
+//! (`core/tests/batch.rs` checks it on random cases, hits and misses alike).
+
+use nalgebra::Vector3;
+
+use super::pose::{ArmPose, MAX_POSE_CAPSULES};
+pub(super) use crate::geometry::lanes::Point;
+use crate::geometry::lanes::Segments;
+use crate::geometry::{Aabb, Capsule, Obstacle};
+use crate::lanes::{lane, lanes_of, lt, max, min, F64s, Mask, ALL, LANES};
+use crate::model::{Frame, FrameOf, Models};
+use crate::tool::Tool;
+
+/// An axis-aligned box per lane, as [`Aabb`]: `min..=max`.
+#[derive(Clone, Copy, Debug)]
+pub struct Boxes {
+    /// The least corner.
+    pub min: Point,
+    /// The greatest corner.
+    pub max: Point,
+}
+
+impl Boxes {
+    /// [`Aabb::EMPTY`] in every lane.
+    pub const EMPTY: Boxes = Boxes {
+        min: [F64s::splat(f64::INFINITY); 3],
+        max: [F64s::splat(f64::NEG_INFINITY); 3],
+    };
+
+    /// `b` in every lane.
+    pub fn splat(b: &Aabb) -> Boxes {
+        Boxes {
+            min: core::array::from_fn(|i| F64s::splat(b.min[i])),
+            max: core::array::from_fn(|i| F64s::splat(b.max[i])),
+        }
+    }
+
+    /// [`Aabb::union`], lane by lane.
+    #[inline(always)]
+    fn union(&self, other: &Boxes) -> Boxes {
+        Boxes {
+            min: core::array::from_fn(|i| min(self.min[i], other.min[i])),
+            max: core::array::from_fn(|i| max(self.max[i], other.max[i])),
+        }
+    }
+
+    /// The lanes where [`Aabb::near`] holds.
+    #[inline(always)]
+    pub fn near(&self, other: &Boxes, margin: f64) -> Mask {
+        let m = F64s::splat(margin);
+        let mut near = ALL;
+        for i in 0..3 {
+            near &= lt(self.min[i], other.max[i] + m) & lt(other.min[i], self.max[i] + m);
+        }
+        near
+    }
+
+    /// Lane `k`'s box.
+    pub fn lane(&self, k: usize) -> Aabb {
+        Aabb {
+            min: Vector3::from_fn(|i, _| lane(self.min[i], k)),
+            max: Vector3::from_fn(|i, _| lane(self.max[i], k)),
+        }
+    }
+}
+
+/// An arm's collision capsules in the world at [`LANES`] configurations: lane `k` of every
+/// field is the [`ArmPose`] of configuration `k`.
+#[derive(Clone, Copy, Debug)]
+pub struct ArmLanes {
+    /// Per capsule (the model's, then the tool's), the ends of its axis.
+    a: [Point; MAX_POSE_CAPSULES],
+    b: [Point; MAX_POSE_CAPSULES],
+    radius: [f64; MAX_POSE_CAPSULES],
+    boxes: [Boxes; MAX_POSE_CAPSULES],
+    len: usize,
+    links: usize,
+    on_base: u32,
+    self_pairs: &'static [(u8, u8)],
+    tool_self: &'static [u8],
+    aabb: Boxes,
+    moving_aabb: Boxes,
+    /// The lanes holding a configuration; the others repeat one of them and are never
+    /// reported.
+    lanes: Mask,
+}
+
+impl ArmLanes {
+    /// No configuration.
+    pub const EMPTY: ArmLanes = ArmLanes {
+        a: [[F64s::splat(0.0); 3]; MAX_POSE_CAPSULES],
+        b: [[F64s::splat(0.0); 3]; MAX_POSE_CAPSULES],
+        radius: [0.0; MAX_POSE_CAPSULES],
+        boxes: [Boxes::EMPTY; MAX_POSE_CAPSULES],
+        len: 0,
+        links: 0,
+        on_base: 0,
+        self_pairs: &[],
+        tool_self: &[],
+        aabb: Boxes::EMPTY,
+        moving_aabb: Boxes::EMPTY,
+        lanes: 0,
+    };
+
+    /// The lanes holding a configuration.
+    pub fn lanes(&self) -> Mask {
+        self.lanes
+    }
+
+    /// Leaves only the lanes of `keep` to the checks (the others are never reported).
+    pub fn keep(&mut self, keep: Mask) {
+        self.lanes &= keep;
+    }
+
+    /// Places the arm of model `model` of `M`, its base frame at `base`, carrying `tool`, at
+    /// the configurations `qs` (at most [`LANES`]; lane `k` holds `qs[k]`), as
+    /// [`ArmPose::place`] each.
+    pub fn place<M: Models<D>, const D: usize>(
+        &mut self,
+        model: u8,
+        base: &Frame,
+        tool: &Tool,
+        qs: &[[f64; D]],
+    ) {
+        let n = qs.len().min(LANES);
+        let Some(last) = n.checked_sub(1) else {
+            self.lanes = 0;
+            return;
+        };
+        let q = core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| qs[k.min(last)][j])));
+        self.place_lanes::<M, D>(model, base, tool, &q, ((1u16 << n) - 1) as Mask, u32::MAX);
+    }
+
+    /// Places the arm at configuration `q` (lane `k` of each joint's [`F64s`] is
+    /// configuration `k`), the lanes `lanes` reported, only the capsules whose bit is set in
+    /// `only` placed: [`ArmPose::place_only`] lane by lane.
+    pub fn place_lanes<M: Models<D>, const D: usize>(
+        &mut self,
+        model: u8,
+        base: &Frame,
+        tool: &Tool,
+        q: &[F64s; D],
+        lanes: Mask,
+        only: u32,
+    ) {
+        self.len = M::capsules(model).len() + tool.capsules().len();
+        self.links = M::capsules(model).len();
+        self.self_pairs = M::self_pairs(model);
+        self.tool_self = M::tool_self_capsules(model);
+        self.on_base = 0;
+        self.aabb = Boxes::EMPTY;
+        self.moving_aabb = Boxes::EMPTY;
+        self.lanes = lanes;
+        for i in 0..self.len {
+            if only & (1 << i) == 0 {
+                (self.a[i], self.b[i]) = (ArmLanes::EMPTY.a[0], ArmLanes::EMPTY.b[0]);
+                self.radius[i] = 0.0;
+                self.boxes[i] = Boxes::EMPTY;
+            }
+        }
+        place_ends::<M, D>(model, base, tool, q, only, |i, a, b, radius, on_base| {
+            // `Capsule::aabb`.
+            let r = F64s::splat(radius);
+            let aabb = Boxes {
+                min: core::array::from_fn(|i| min(a[i], b[i]) - r),
+                max: core::array::from_fn(|i| max(a[i], b[i]) + r),
+            };
+            (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
+            self.boxes[i] = aabb;
+            self.aabb = self.aabb.union(&aabb);
+            if on_base {
+                self.on_base |= 1 << i;
+            } else {
+                self.moving_aabb = self.moving_aabb.union(&aabb);
+            }
+        });
+    }
+
+    /// The axes of capsule `i`.
+    #[inline(always)]
+    fn segments(&self, i: usize) -> Segments {
+        Segments {
+            a: self.a[i],
+            b: self.b[i],
+        }
+    }
+
+    /// Capsule `i` in lane `k`.
+    #[inline]
+    pub fn capsule(&self, i: usize, k: usize) -> Capsule {
+        let (a, b) = (&self.a[i], &self.b[i]);
+        Capsule::new(
+            Vector3::new(lane(a[0], k), lane(a[1], k), lane(a[2], k)),
+            Vector3::new(lane(b[0], k), lane(b[1], k), lane(b[2], k)),
+            self.radius[i],
+        )
+    }
+
+    /// Lane `k` as an [`ArmPose`].
+    pub fn pose(&self, k: usize) -> ArmPose {
+        let mut pose = ArmPose {
+            len: self.len,
+            links: self.links,
+            on_base: self.on_base,
+            self_pairs: self.self_pairs,
+            tool_self: self.tool_self,
+            aabb: self.aabb.lane(k),
+            moving_aabb: self.moving_aabb.lane(k),
+            ..ArmPose::EMPTY
+        };
+        for i in 0..self.len {
+            pose.capsules[i] = self.capsule(i, k);
+            pose.boxes[i] = self.boxes[i].lane(k);
+        }
+        pose
+    }
+
+    /// The lanes where a capsule off the base link comes closer to an obstacle than
+    /// `margin`: [`ArmPose::obstacle_hit`]`.is_some()`, lane by lane.
+    pub fn obstacle_hits(&self, obstacles: &[Obstacle], margin: f64) -> Mask {
+        let mut hit: Mask = 0;
+        for o in obstacles {
+            let ob = Boxes::splat(&o.aabb());
+            let near = ob.near(&self.moving_aabb, margin) & self.lanes & !hit;
+            if near == 0 {
+                continue;
+            }
+            for i in (0..self.len).filter(|&i| self.on_base & (1 << i) == 0) {
+                for k in lanes_of(self.boxes[i].near(&ob, margin) & near & !hit) {
+                    if o.hits_capsule(&self.capsule(i, k), margin) {
+                        hit |= 1 << k;
+                    }
+                }
+            }
+            if hit == self.lanes {
+                break;
+            }
+        }
+        hit
+    }
+
+    /// The lanes where a self-collision pair comes closer than `margin`:
+    /// [`ArmPose::self_hit`]`.is_some()`, lane by lane.
+    pub fn self_hits(&self, margin: f64) -> Mask {
+        let mut hit: Mask = 0;
+        let links = self.self_pairs.iter().map(|&(a, b)| (a.into(), b.into()));
+        let tool = (self.links..self.len)
+            .flat_map(|t| self.tool_self.iter().map(move |&c| (t, usize::from(c))));
+        for (a, b) in links.chain(tool) {
+            let near = self.boxes[a].near(&self.boxes[b], margin) & self.lanes & !hit;
+            if near != 0 {
+                let reach = self.radius[a] + self.radius[b];
+                hit |= near & self.segments(a).hits(&self.segments(b), reach, margin);
+                if hit == self.lanes {
+                    break;
+                }
+            }
+        }
+        hit
+    }
+
+    /// The lanes where this arm comes closer than `margin` to `other` in the same lane, base
+    /// links included: [`ArmPose::arm_hit`]`.is_some()`, lane by lane. Of the lanes both
+    /// hold.
+    pub fn arm_hits(&self, other: &ArmLanes, margin: f64) -> Mask {
+        let lanes = self.lanes & other.lanes;
+        let capsule = |j| (other.boxes[j], other.segments(j), other.radius[j]);
+        self.arm_hits_with(lanes, &other.aabb, other.len, capsule, margin)
+    }
+
+    /// [`ArmLanes::arm_hits`] against one pose in every lane (an arm standing).
+    pub fn arm_hits_pose(&self, other: &ArmPose, margin: f64) -> Mask {
+        let capsule = |j: usize| {
+            let c = &other.capsules[j];
+            let point = |p: &Vector3<f64>| [0, 1, 2].map(|i| F64s::splat(p[i]));
+            let segments = Segments {
+                a: point(&c.segment.a),
+                b: point(&c.segment.b),
+            };
+            (Boxes::splat(&other.boxes[j]), segments, c.radius)
+        };
+        let aabb = Boxes::splat(&other.aabb);
+        self.arm_hits_with(self.lanes, &aabb, other.len, capsule, margin)
+    }
+
+    /// [`ArmPose::arm_hit`] over `lanes`, the other arm's `len` capsules given by `capsule(j)`
+    /// (boxes, axes, radius) and its whole box by `aabb`.
+    #[inline(always)]
+    fn arm_hits_with(
+        &self,
+        lanes: Mask,
+        aabb: &Boxes,
+        len: usize,
+        capsule: impl Fn(usize) -> (Boxes, Segments, f64),
+        margin: f64,
+    ) -> Mask {
+        let near = self.aabb.near(aabb, margin) & lanes;
+        let mut hit: Mask = 0;
+        if near == 0 {
+            return 0;
+        }
+        for i in 0..self.len {
+            let row = self.boxes[i].near(aabb, margin) & near;
+            if row == 0 {
+                continue;
+            }
+            for j in 0..len {
+                let (boxes, segments, radius) = capsule(j);
+                let near = self.boxes[i].near(&boxes, margin) & row & !hit;
+                if near != 0 {
+                    let reach = self.radius[i] + radius;
+                    hit |= near & self.segments(i).hits(&segments, reach, margin);
+                }
+            }
+            if hit == near {
+                break;
+            }
+        }
+        hit
+    }
+}
+
+/// Places the arm of model `model` of `M`, its base frame at `base`, carrying `tool`, at
+/// configuration `q` (a lane each) and hands each capsule in `only`, in order, to
+/// `each(index, a, b, radius, on the base link)`: [`ArmPose::place_only`]'s operations, lane
+/// by lane.
+#[inline(always)]
+pub(super) fn place_ends<M: Models<D>, const D: usize>(
+    model: u8,
+    base: &Frame,
+    tool: &Tool,
+    q: &[F64s; D],
+    only: u32,
+    mut each: impl FnMut(usize, Point, Point, f64, bool),
+) {
+    const { M::CHECKED };
+    let base = FrameOf::<F64s>::splat(base);
+    let capsules = M::capsules(model);
+    // Each link's capsules as its frame comes (they are in link order: `check_model`), the
+    // frame into the world first, as `ArmPose::place_only` does for every link.
+    let mut next = 0;
+    let tool_frame = M::link_frames_lanes(model, q, |link: usize, f: &FrameOf<F64s>| {
+        let on_link = |i: usize| capsules.get(i).is_some_and(|c| usize::from(c.link) == link);
+        if !on_link(next) {
+            return;
+        }
+        let frame = base.compose(f);
+        while on_link(next) {
+            let c = &capsules[next];
+            if only & (1 << next) != 0 {
+                let (a, b) = (
+                    frame.apply(&c.a.map(F64s::splat)),
+                    frame.apply(&c.b.map(F64s::splat)),
+                );
+                each(next, a, b, c.radius, link == 0);
+            }
+            next += 1;
+        }
+    });
+    let links = capsules.len();
+    let tools = tool.capsules().iter().enumerate();
+    if tools.clone().any(|(t, _)| only & (1 << (links + t)) != 0) {
+        let flange = base.compose(&tool_frame);
+        for (t, c) in tools.filter(|(t, _)| only & (1 << (links + t)) != 0) {
+            let (a, b) = (
+                flange.apply(&c.a.map(F64s::splat)),
+                flange.apply(&c.b.map(F64s::splat)),
+            );
+            each(links + t, a, b, c.radius, false);
+        }
+    }
+}

@@ -1,0 +1,151 @@
+//! [`Segment::distance2_to_segment`] and [`Capsule::hits`] for [`crate::lanes::LANES`] pairs at once, a
+//! pair per lane: every branch of the scalar code computed in every lane and the lane's own
+//! taken by selection, each with the scalar code's operations in its order (nalgebra's dot
+//! products and norms left to right), so that each lane is, bit for bit, the scalar answer
+//! (`core/tests/batch.rs`).
+//!
+//! [`Segment::distance2_to_segment`]: super::Segment::distance2_to_segment
+//! [`Capsule::hits`]: super::Capsule::hits
+
+use crate::lanes::{F64s, Mask};
+
+use super::segment::PARALLEL_SIN2;
+
+/// Three coordinates, a lane each.
+pub type Point = [F64s; 3];
+
+/// A segment per lane, from `a` to `b`.
+#[derive(Clone, Copy, Debug)]
+pub struct Segments {
+    /// The first end.
+    pub a: Point,
+    /// The second end.
+    pub b: Point,
+}
+
+#[inline(always)]
+fn sub(u: &Point, v: &Point) -> Point {
+    [u[0] - v[0], u[1] - v[1], u[2] - v[2]]
+}
+
+/// nalgebra's `dot` of three: `x + y + z` of the products, left to right.
+#[inline(always)]
+fn dot(u: &Point, v: &Point) -> F64s {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
+#[inline(always)]
+fn splat(v: f64) -> F64s {
+    F64s::splat(v)
+}
+
+/// `f64::clamp(x, 0.0, 1.0)` (NaN stays NaN).
+#[inline(always)]
+fn clamp01(x: F64s) -> F64s {
+    let x = x.simd_lt(splat(0.0)).select(splat(0.0), x);
+    x.simd_gt(splat(1.0)).select(splat(1.0), x)
+}
+
+/// `param_toward(d, v)` of `segment.rs`: `clamp01(d.v / d.d)`, 0 for `d == 0`.
+#[inline(always)]
+fn param_toward(d: &Point, v: &Point) -> F64s {
+    let l = dot(d, d);
+    l.simd_eq(splat(0.0))
+        .select(splat(0.0), clamp01(dot(d, v) / l))
+}
+
+/// `select(m, x, y)` of points.
+#[inline(always)]
+fn select(m: F64s, x: &Point, y: &Point) -> Point {
+    [
+        m.select(x[0], y[0]),
+        m.select(x[1], y[1]),
+        m.select(x[2], y[2]),
+    ]
+}
+
+impl Segments {
+    /// `Segment::at`.
+    #[inline(always)]
+    fn at(&self, t: F64s) -> Point {
+        let d = sub(&self.b, &self.a);
+        [
+            self.a[0] + d[0] * t,
+            self.a[1] + d[1] * t,
+            self.a[2] + d[2] * t,
+        ]
+    }
+
+    /// `Segment::closest_params`.
+    #[inline(always)]
+    fn closest_params(&self, other: &Segments) -> (F64s, F64s) {
+        let zero = splat(0.0);
+        let d1 = sub(&self.b, &self.a);
+        let d2 = sub(&other.b, &other.a);
+        let r = sub(&self.a, &other.a);
+        let l1 = dot(&d1, &d1);
+        let l2 = dot(&d2, &d2);
+        let c = dot(&d1, &d2);
+        let e1 = dot(&d1, &r);
+        let e2 = dot(&d2, &r);
+        let det = l1 * l2 - c * c;
+        let free = det.simd_gt(splat(PARALLEL_SIN2) * l1 * l2);
+        let s = free.select(clamp01((c * e2 - l2 * e1) / det), zero);
+        let t = (c * s + e2) / l2;
+        let (below, above) = (t.simd_lt(zero), t.simd_gt(splat(1.0)));
+        let s = below.select(clamp01(-e1 / l1), above.select(clamp01((c - e1) / l1), s));
+        let t = below.select(zero, above.select(splat(1.0), t));
+        // A point-like segment first, as the scalar code returns early for it.
+        let minus_r = [-r[0], -r[1], -r[2]];
+        let point2 = l2.simd_eq(zero);
+        let (s, t) = (
+            point2.select(param_toward(&d1, &minus_r), s),
+            point2.select(zero, t),
+        );
+        let point1 = l1.simd_eq(zero);
+        (
+            point1.select(zero, s),
+            point1.select(param_toward(&d2, &r), t),
+        )
+    }
+
+    /// `Segment::distance2_to_segment` per lane: the pair in one order first (the same order
+    /// as the scalar code's, by the same lexicographic key).
+    #[inline(always)]
+    pub fn distance2(&self, other: &Segments) -> F64s {
+        // `key(other) < key(self)` over [a.x, a.y, a.z, b.x, b.y, b.z]: the first pair of
+        // coordinates that are not equal (NaN is not) decides, by `<`.
+        let keys = |s: &Segments| [s.a[0], s.a[1], s.a[2], s.b[0], s.b[1], s.b[2]];
+        let (k_other, k_self) = (keys(other), keys(self));
+        let mut less = splat(0.0).simd_ne(splat(0.0));
+        let mut decided = less;
+        for i in 0..6 {
+            let differ = k_other[i].simd_ne(k_self[i]);
+            less |= !decided & differ & k_other[i].simd_lt(k_self[i]);
+            decided |= differ;
+        }
+        let first = Segments {
+            a: select(less, &other.a, &self.a),
+            b: select(less, &other.b, &self.b),
+        };
+        let second = Segments {
+            a: select(less, &self.a, &other.a),
+            b: select(less, &self.b, &other.b),
+        };
+        let (s, t) = first.closest_params(&second);
+        let d = sub(&first.at(s), &second.at(t));
+        // nalgebra's `norm_squared`: 0 plus the dot product.
+        splat(0.0) + dot(&d, &d)
+    }
+
+    /// The lanes where capsules on these segments, of radii adding up to `reach`, come
+    /// closer than `margin` or meet: [`super::Capsule::hits`] per lane.
+    #[inline(always)]
+    pub fn hits(&self, other: &Segments, reach: f64, margin: f64) -> Mask {
+        let d2 = self.distance2(other);
+        // `within(d2, reach + margin)` of `geometry`.
+        let r = splat(reach + margin);
+        let within = d2.simd_lt(r * r) | d2.simd_eq(splat(0.0));
+        within.to_bitmask() as Mask
+    }
+}

@@ -1,0 +1,205 @@
+//! Streaming to the arms: one thread per bus, in lockstep on a common schedule, each cycle's
+//! commands taken from the shared [`Generator`] as they are sent. The offline run
+//! ([`crate::Executor::run`]) and online execution ([`StreamHandle`], segments pushed while
+//! the arms move) are the same loop; a run ends once it is told to finish and the queue is
+//! done, after the settle cycles, or once it is stopped (a fault, or on request).
+//!
+//! - `arm`: the arms' threads: started together, each one's start-up, cycles and stop.
+//! - `handle`: [`StreamHandle`], what the caller holds while the arms move.
+
+mod arm;
+mod handle;
+
+pub(crate) use arm::start;
+pub use handle::StreamHandle;
+
+use crate::run::{ArmState, ArmStop, Command, Fault, Measured, Progress, Span, JOINTS};
+use crate::stream::Generator;
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Barrier, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+/// How often a waiting arm thread looks at the shared fault flag and at its own bus.
+const FAULT_POLL: Duration = Duration::from_micros(100);
+
+/// The progress callback of a run.
+pub(crate) type ProgressFn = Box<dyn Fn(Progress) + Send + Sync>;
+
+/// Events kept for [`StreamHandle::events`]; older ones are dropped beyond this.
+pub const MAX_EVENTS: usize = 1024;
+
+/// Something the stream did that its caller should know about.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event {
+    /// The queue ran dry: the arms came to rest at the last queued waypoint `step` and hold
+    /// there (from control cycle `cycle`) until a push extends the queue.
+    QueueDry {
+        /// The first cycle of the hold.
+        cycle: u64,
+        /// The waypoint held.
+        step: usize,
+    },
+    /// A push extended the queue and the arms move on from the held `step`.
+    Resumed {
+        /// The first cycle of the motion.
+        cycle: u64,
+        /// The waypoint they held.
+        step: usize,
+    },
+}
+
+/// Where the stream is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StreamProgress {
+    /// Control cycles computed so far.
+    pub cycle: u64,
+    /// The step being executed (moving from it toward the next, or holding at it).
+    pub step: usize,
+    /// The last waypoint already fixed: a push may start at `fixed + 1` at the earliest.
+    pub fixed: usize,
+    /// The arms hold at the end of the queue.
+    pub holding: bool,
+}
+
+/// The generator and the commands of the cycle being sent.
+struct Cycle {
+    generator: Generator,
+    out: Vec<Command>,
+    /// The cycle whose hold ends the run, once the run is finishing and the queue done.
+    end: Option<u64>,
+    was_holding: bool,
+    events: VecDeque<Event>,
+    holds: usize,
+}
+
+impl Cycle {
+    fn event(&mut self, e: Event) {
+        if self.events.len() == MAX_EVENTS {
+            self.events.pop_front();
+        }
+        self.events.push_back(e);
+    }
+}
+
+/// What one arm's thread publishes about its arm, for [`StreamHandle::status`].
+#[derive(Clone, Copy, Debug)]
+struct ArmNow {
+    state: ArmState,
+    /// The last command sent (before the first cycle: the start).
+    commanded: Command,
+    /// Cycles sent.
+    sent: u64,
+    measured: Option<Measured>,
+    following_error: f64,
+}
+
+/// State shared by the arm threads and the handle.
+struct Shared {
+    barrier: Barrier,
+    startup_failed: AtomicBool,
+    start: Mutex<Option<Instant>>,
+    faulted: AtomicBool,
+    /// Stop every arm now, on request (no fault).
+    halt: AtomicBool,
+    /// Why an arm thread did not get the real-time priority asked for, if one did not.
+    realtime_refused: Mutex<Option<String>>,
+    finishing: AtomicBool,
+    names: Vec<String>,
+    /// Cycles each arm has sent (`usize::MAX` once it has finished).
+    sent: Vec<AtomicUsize>,
+    /// Per arm, the first cycle its per-cycle accounting does not yet allow
+    /// ([`crate::link::ArmLink::clear_until`]; `u64::MAX` once it has finished): no arm sends a cycle that
+    /// another arm's drives have not earned, so that a fault stops every arm at the same cycle.
+    clear: Vec<AtomicU64>,
+    /// The first fault: arm, fault, cycle, when detected.
+    fault: Mutex<Option<(String, Fault, usize, Instant)>>,
+    cycle: Mutex<Cycle>,
+    /// Per arm, what its thread last published.
+    arms: Vec<Mutex<ArmNow>>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl Shared {
+    fn raise(&self, arm: &str, fault: Fault, cycle: usize) -> Instant {
+        let now = Instant::now();
+        lock(&self.fault).get_or_insert((arm.to_string(), fault, cycle, now));
+        self.faulted.store(true, Ordering::SeqCst);
+        now
+    }
+
+    /// A fault here or elsewhere, or a stop asked for: every arm stops.
+    fn stopping(&self) -> bool {
+        self.faulted.load(Ordering::SeqCst) || self.halt.load(Ordering::SeqCst)
+    }
+
+    /// Arm `me`'s command of cycle `k` (computing the cycle if no arm has yet), and whether
+    /// the run ends with this cycle's hold (`Some(end cycle)`).
+    fn command(&self, me: usize, k: u64) -> Result<(Command, Option<u64>), Fault> {
+        let mut c = lock(&self.cycle);
+        if c.generator.cycle() == k {
+            let c = &mut *c;
+            let tick = c
+                .generator
+                .next(&mut c.out)
+                .map_err(|e| Fault::CommandRefused(e.to_string()))?;
+            let finishing = self.finishing.load(Ordering::SeqCst);
+            if tick.holding && finishing {
+                c.end.get_or_insert(k);
+            } else if tick.ran_dry {
+                c.holds += 1;
+                c.event(Event::QueueDry {
+                    cycle: tick.cycle,
+                    step: tick.step,
+                });
+            } else if c.was_holding && !tick.holding && k > 0 {
+                c.event(Event::Resumed {
+                    cycle: tick.cycle,
+                    step: tick.step,
+                });
+            }
+            c.was_holding = tick.holding;
+        }
+        Ok((c.out[me], c.end))
+    }
+
+    /// Publishes what arm `me` is at.
+    fn publish(&self, me: usize, update: impl FnOnce(&mut ArmNow)) {
+        update(&mut lock(&self.arms[me]));
+    }
+}
+
+/// How an arm's thread ended.
+enum ArmEnd {
+    StartupFailed(String),
+    /// Start-up went fine but another arm's did not.
+    Aborted,
+    Completed {
+        cycles: usize,
+        frames: usize,
+        max_following_error: f64,
+        max_lateness: Duration,
+    },
+    /// Quick-stopped after a fault, or on request.
+    Stopped {
+        stop: ArmStop,
+        frames: usize,
+        max_following_error: f64,
+    },
+}
+
+/// What the run's report needs that the threads do not know.
+pub(crate) struct RunInfo {
+    pub time_scale: f64,
+    /// Total cycles (with the settle cycles) when known in advance, for progress output.
+    pub total_cycles: Option<u64>,
+    /// Per arm and joint, the range (bus counts) every command stays in: each drive's
+    /// software position limits (0x607D) must cover it before any drive is enabled.
+    pub spans: Vec<Span>,
+    /// Per arm and joint, the peak commanded speed, rad/s (the drives' following-error
+    /// windows).
+    pub speeds: Vec<[f64; JOINTS]>,
+}

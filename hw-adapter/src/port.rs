@@ -1,0 +1,285 @@
+//! What a caller hands the executor per arm ([`ArmPort`]: an open CAN bus or Kortex connection),
+//! where an arm is ([`ArmUrl`], parsed in one place, and [`open`]ed), and the link the executor
+//! drives it through ([`crate::arm::ArmBus`] or [`crate::kortex::KortexArm`]).
+
+use crate::arm::{ArmBus, SetupOverride};
+use crate::kortex;
+use crate::link::ArmLink;
+use crate::log::LogSink;
+use crate::run::ExecConfig;
+use crate::transport::{self, Transport};
+use std::fmt;
+use std::time::{Duration, Instant};
+
+/// What carries one arm's commands, opened: a CAN bus or a Kortex connection.
+pub enum ArmPort {
+    /// An arm of CiA 402 drives (nodes 1 to 7) on its own CAN bus.
+    Can(Box<dyn Transport>),
+    /// A Kinova Gen3 over Ethernet, its TCP and UDP links open.
+    Kortex(Box<kortex::Connection>),
+    /// Tests only: a CAN arm whose start-up has one SDO write changed on purpose.
+    #[doc(hidden)]
+    CanSetupOverride(Box<dyn Transport>, SetupOverride),
+}
+
+impl From<Box<dyn Transport>> for ArmPort {
+    fn from(t: Box<dyn Transport>) -> Self {
+        ArmPort::Can(t)
+    }
+}
+
+impl From<kortex::Connection> for ArmPort {
+    fn from(c: kortex::Connection) -> Self {
+        ArmPort::Kortex(Box::new(c))
+    }
+}
+
+/// Ports paired with the names of their arms, as [`crate::Executor::new`] takes them.
+pub type ArmPorts = Vec<(String, ArmPort)>;
+
+impl ArmPort {
+    /// The link that drives this port's arm for a run with `cfg`, logging to `log` with time
+    /// stamps from `clock`.
+    pub(crate) fn into_link(
+        self,
+        name: String,
+        clock: Instant,
+        cfg: &ExecConfig,
+        log: Option<LogSink>,
+    ) -> Box<dyn ArmLink> {
+        match self {
+            ArmPort::Can(t) => Box::new(ArmBus::new(name, t, clock, cfg, log)),
+            ArmPort::CanSetupOverride(t, o) => {
+                Box::new(ArmBus::new(name, t, clock, cfg, log).with_setup_override(o))
+            }
+            ArmPort::Kortex(c) => Box::new(kortex::KortexArm::new(name, *c, clock, cfg, log)),
+        }
+    }
+}
+
+/// Where an arm is, parsed in one place: `kortex://HOST` (or `kortex://HOST:TCP:UDP`),
+/// `socketcan://IFACE`, `slcan:///dev/ttyX` (a serial device path), or the project's Python
+/// mocks, started for the run: `mock-kortex` and `mock-can`, each with optional mock flags as
+/// a query (`mock-can?emcy-at-sync=60`, `mock-kortex?tau-ms=20`; see [`MOCK_CAN_FLAGS`] and
+/// [`MOCK_KORTEX_FLAGS`]). The command line's older forms `kortex:HOST[:TCP:UDP]`,
+/// `socketcan:IFACE` and `slcan:PATH` are read too.
+///
+/// ```
+/// use omcbsa_hw::port::ArmUrl;
+///
+/// let u = ArmUrl::parse("kortex://192.168.1.10")?;
+/// assert_eq!(u.to_string(), "kortex://192.168.1.10:10000:10001");
+/// assert_eq!(ArmUrl::parse("slcan:///dev/ttyACM0")?, ArmUrl::Slcan("/dev/ttyACM0".into()));
+/// let mock = ArmUrl::parse("mock-can?emcy-at-sync=60")?;
+/// assert!(mock.is_mock());
+/// assert!(ArmUrl::parse("mock-can?wings=2").unwrap_err().contains("wings"));
+/// assert!(ArmUrl::parse("tcp://host").unwrap_err().contains("expected kortex://HOST"));
+/// # Ok::<(), String>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub enum ArmUrl {
+    /// A Gen3 on Kortex.
+    Kortex(kortex::KortexSpec),
+    /// CiA 402 drives on a SocketCAN interface.
+    SocketCan(String),
+    /// CiA 402 drives behind an SLCAN adapter at this device path.
+    Slcan(String),
+    /// The Python mock Gen3 on Kortex (`hw-adapter/mock/mock_gen3.py`), with its flags.
+    MockKortex(Vec<(String, String)>),
+    /// The Python mock arm on CAN (`hw-adapter/mock/mock_arm.py`), with its flags.
+    MockCan(Vec<(String, String)>),
+}
+
+/// The flags `mock-can?...` may set (`hw-adapter/mock/mock_arm.py`: fault injection, the
+/// joints' time constant).
+pub const MOCK_CAN_FLAGS: [&str; 9] = [
+    "stop-after-syncs",
+    "late-after-syncs",
+    "late-ms",
+    "emcy-at-sync",
+    "fault-at-sync",
+    "nmt-stop-at-sync",
+    "heartbeat-stop-at-sync",
+    "lag-after-syncs",
+    "tau",
+];
+
+/// The flags `mock-kortex?...` may set (`hw-adapter/mock/mock_gen3.py`: fault injection, the
+/// actuators' time constant, a slow UDP path).
+pub const MOCK_KORTEX_FLAGS: [&str; 8] = [
+    "silent-at",
+    "late-at",
+    "late-ms",
+    "fault-at",
+    "drop-session-at",
+    "tau-ms",
+    "udp-delay-ms",
+    "seed",
+];
+
+impl ArmUrl {
+    /// Parses an arm URL; the error names the URL and what is wrong with it.
+    pub fn parse(url: &str) -> Result<Self, String> {
+        let bus = |spec: String| {
+            transport::BusSpec::parse(&spec)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
+        if let Some(rest) = url.strip_prefix("kortex://") {
+            return Ok(ArmUrl::Kortex(kortex::KortexSpec::parse(&format!(
+                "kortex:{rest}"
+            ))?));
+        }
+        if url.starts_with("kortex:") {
+            return Ok(ArmUrl::Kortex(kortex::KortexSpec::parse(url)?));
+        }
+        if let Some(iface) = (url.strip_prefix("socketcan://")).or(url.strip_prefix("socketcan:")) {
+            bus(format!("socketcan:{iface}"))?;
+            return Ok(ArmUrl::SocketCan(iface.to_string()));
+        }
+        if let Some(path) = (url.strip_prefix("slcan://")).or(url.strip_prefix("slcan:")) {
+            bus(format!("slcan:{path}"))?;
+            return Ok(ArmUrl::Slcan(path.to_string()));
+        }
+        let (kind, query) = url.split_once('?').unwrap_or((url, ""));
+        let allowed: &[&str] = match kind {
+            "mock-kortex" => &MOCK_KORTEX_FLAGS,
+            "mock-can" => &MOCK_CAN_FLAGS,
+            _ => {
+                let forms = "kortex://HOST, socketcan://IFACE, slcan:///dev/ttyX, mock-kortex \
+                             or mock-can";
+                // Not a URL: the bus spec's own error names the command line's forms.
+                return Err(match bus(url.to_string()) {
+                    Err(e) if !url.contains("://") => format!("{e}; or an arm URL: {forms}"),
+                    _ => format!("unknown arm URL {url:?}: expected {forms}"),
+                });
+            }
+        };
+        let mut flags = Vec::new();
+        for pair in query.split('&').filter(|p| !p.is_empty()) {
+            let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+            if !allowed.contains(&key) {
+                return Err(format!(
+                    "arm URL {url:?}: {kind} has no flag {key:?} (it has {})",
+                    allowed.join(", ")
+                ));
+            }
+            if !value.parse::<f64>().is_ok_and(f64::is_finite) {
+                return Err(format!("arm URL {url:?}: {key}={value:?} is not a number"));
+            }
+            flags.push((key.to_string(), value.to_string()));
+        }
+        Ok(match kind {
+            "mock-kortex" => ArmUrl::MockKortex(flags),
+            _ => ArmUrl::MockCan(flags),
+        })
+    }
+
+    /// A Python mock, started for the run.
+    pub fn is_mock(&self) -> bool {
+        matches!(self, ArmUrl::MockKortex(_) | ArmUrl::MockCan(_))
+    }
+
+    /// The control period this arm runs at by default: CAN 2 ms, Kortex 1 ms, the Python mocks
+    /// [`crate::mock::MOCK_PERIOD`] (they cannot keep up faster).
+    pub fn default_period(&self) -> Duration {
+        match self {
+            ArmUrl::Kortex(_) => Duration::from_millis(1),
+            ArmUrl::SocketCan(_) | ArmUrl::Slcan(_) => Duration::from_millis(2),
+            ArmUrl::MockKortex(_) | ArmUrl::MockCan(_) => crate::mock::MOCK_PERIOD,
+        }
+    }
+
+    /// Opens a real arm's port (a Kortex arm is reached with `credentials`). Mock arms are
+    /// started, not opened: `crate::cell::Cell` does it.
+    pub fn open(&self, credentials: &kortex::Credentials) -> Result<ArmPort, String> {
+        match self {
+            ArmUrl::Kortex(spec) => Ok(kortex::Connection::open(spec, credentials)?.into()),
+            ArmUrl::SocketCan(_) | ArmUrl::Slcan(_) => Ok(ArmPort::Can(
+                transport::open(&self.bus_spec()).map_err(|e| e.to_string())?,
+            )),
+            ArmUrl::MockKortex(_) | ArmUrl::MockCan(_) => Err(format!(
+                "{self} is a mock arm, started with its run by a cell (`omcbsa_hw::cell::Cell`), not opened"
+            )),
+        }
+    }
+
+    /// The transport's own spec of a CAN arm (`socketcan:IFACE`, `slcan:PATH`).
+    fn bus_spec(&self) -> String {
+        match self {
+            ArmUrl::SocketCan(iface) => format!("socketcan:{iface}"),
+            ArmUrl::Slcan(path) => format!("slcan:{path}"),
+            other => other.to_string(),
+        }
+    }
+}
+
+impl fmt::Display for ArmUrl {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mock = |f: &mut fmt::Formatter<'_>, kind: &str, flags: &[(String, String)]| {
+            write!(f, "{kind}")?;
+            for (i, (k, v)) in flags.iter().enumerate() {
+                write!(f, "{}{k}={v}", if i == 0 { "?" } else { "&" })?;
+            }
+            Ok(())
+        };
+        match self {
+            ArmUrl::Kortex(s) => write!(f, "kortex://{}:{}:{}", s.host, s.tcp_port, s.udp_port),
+            ArmUrl::SocketCan(iface) => write!(f, "socketcan://{iface}"),
+            ArmUrl::Slcan(path) => write!(f, "slcan://{path}"),
+            ArmUrl::MockKortex(flags) => mock(f, "mock-kortex", flags),
+            ArmUrl::MockCan(flags) => mock(f, "mock-can", flags),
+        }
+    }
+}
+
+/// An arm's port spec or URL, checked ([`ArmUrl::parse`]). A dry run checks its arms with this.
+pub fn check_spec(spec: &str) -> Result<(), String> {
+    ArmUrl::parse(spec).map(|_| ())
+}
+
+/// Opens a real arm's port from its spec or URL ([`ArmUrl`]); a Kortex arm is reached with
+/// `credentials`.
+pub fn open(spec: &str, credentials: &kortex::Credentials) -> Result<ArmPort, String> {
+    ArmUrl::parse(spec)?.open(credentials)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arm_urls_in_both_forms_and_bad_ones_named() {
+        let k = ArmUrl::parse("kortex://10.0.0.2:4000:4001").unwrap();
+        assert_eq!(k, ArmUrl::parse("kortex:10.0.0.2:4000:4001").unwrap());
+        assert_eq!(k.default_period(), Duration::from_millis(1));
+        assert_eq!(
+            ArmUrl::parse("slcan:/dev/ttyUSB0").unwrap(),
+            ArmUrl::Slcan("/dev/ttyUSB0".into())
+        );
+        let m = ArmUrl::parse("mock-kortex?fault-at=100&tau-ms=20").unwrap();
+        assert_eq!(m.to_string(), "mock-kortex?fault-at=100&tau-ms=20");
+        assert_eq!(
+            ArmUrl::parse("mock-can").unwrap(),
+            ArmUrl::MockCan(Vec::new())
+        );
+        for (bad, why) in [
+            ("kortex://", "cannot reach arm kortex:"),
+            ("slcan://", "the serial device path is empty"),
+            ("mock-kortex?fault-at=soon", "is not a number"),
+            ("mock-kortex?emcy-at-sync=1", "has no flag \"emcy-at-sync\""),
+            ("tcp://host", "unknown arm URL"),
+            ("can0", "expected `slcan:/dev/ttyXXX` or `socketcan:IFACE`"),
+        ] {
+            let e = ArmUrl::parse(bad).unwrap_err();
+            assert!(e.contains(why), "{bad}: {e}");
+        }
+        let e = ArmUrl::parse("mock-can")
+            .unwrap()
+            .open(&kortex::Credentials {
+                username: "u".into(),
+                password: "p".into(),
+            });
+        assert!(e.err().unwrap().contains("started with its run by a cell"));
+    }
+}
