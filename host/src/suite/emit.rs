@@ -10,13 +10,14 @@ use serde_json::Map;
 use super::connect;
 use super::family::Family;
 use super::frames::{at, v3};
+use super::index::{Error, SuiteEntry, WITNESS_DIR};
 use super::layout::{Layout, NamedObstacle};
 use super::myopic::ik_tracking_solves;
+use super::spec::{Spec, HARD_SAMPLES, MIXED_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES};
 use super::standing::{clear_of, stand_clear};
 use super::trap::traps;
-use super::witness::{random_motion, retract, shuffle, task_witness, Arms, Hand, Placed, Scene, Q};
-use super::{
-    Error, Spec, SuiteEntry, HARD_SAMPLES, MIXED_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR,
+use super::witness::{
+    random_motion, retract, shuffle, task_witness, Arms, Hand, MotionSpec, Placed, Scene, Q,
 };
 use crate::format::{
     ObstacleSpec, Pose, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToleranceSpec,
@@ -157,16 +158,14 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
                         path: p.path.clone(),
                     })
                     .collect();
-                let path = random_motion(
-                    &scene,
+                let motion = MotionSpec {
                     model,
-                    &base,
-                    &layout.stations[arm],
-                    h,
-                    holder != Some(arm),
-                    &others,
-                    rng,
-                )?;
+                    base: &base,
+                    station: &layout.stations[arm],
+                    steps: h,
+                    moving: holder != Some(arm),
+                };
+                let path = random_motion(&scene, &motion, &others, rng)?;
                 placed.push((arm, Placed { model, base, path }));
             }
             placed.sort_by_key(|(arm, _)| *arm);

@@ -15,7 +15,7 @@
 //! order, so the listed order is not the assignment.
 //!
 //! Resampling: a task whose witness search fails is resampled, up to [`TASK_SAMPLES`] samples
-//! ([`RANDOM_SAMPLES`] for the random and approach families, [`MIXED_SAMPLES`] for the mixed
+//! (`RANDOM_SAMPLES` for the random and approach families, `MIXED_SAMPLES` for the mixed
 //! one). A sample with a witness that the IK-tracking baseline still solves (within a fixed
 //! budget of work, see `myopic`) is also resampled, up to [`HARD_SAMPLES`] samples with witness
 //! paths and arms that can stand; then the first of them with a validated witness is kept
@@ -42,66 +42,32 @@ mod emit;
 pub(crate) use emit::obstacle_spec;
 mod family;
 pub(crate) mod frames;
+mod index;
 pub(crate) mod layout;
 mod myopic;
 mod refine_family;
+mod spec;
 mod standing;
 mod trap;
 pub(crate) mod witness;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use omcbsa_core::rng::Rng;
+use index::{io, write_json};
+use spec::{specs, Spec};
 
 pub use family::{Family, MIXED_MODELS};
+pub use index::{
+    read_index, Error, SuiteEntry, SuiteIndex, Undrawn, INDEX_FILE, INDEX_FORMAT, WITNESS_DIR,
+};
 pub use layout::LayoutKind;
 pub use refine_family::{gen_refine, RefineOptions};
+pub use spec::{GenOptions, HARD_SAMPLES, MAX_DRAWS, TASK_SAMPLES};
 pub use standing::Stance;
 pub use trap::Tightness;
-
-/// The index file of a suite directory.
-pub const INDEX_FILE: &str = "suite.json";
-/// The `format` string of the index.
-pub const INDEX_FORMAT: &str = "omcbsa.suite.v1";
-/// Where witnesses are written, under the suite directory.
-pub const WITNESS_DIR: &str = "witnesses";
-/// Samples of a task family tried from one seed.
-pub const TASK_SAMPLES: u64 = 10;
-/// Samples with a witness tried before one that IK tracking solves is kept.
-pub const HARD_SAMPLES: usize = 10;
-/// Samples of the random and approach families tried from one seed.
-const RANDOM_SAMPLES: u64 = 64;
-/// Samples of the mixed family (random motions of Gen3s and Pandas) tried from one seed: a
-/// Panda finds a clear random motion in a crowded layout about a third as often as a Gen3.
-const MIXED_SAMPLES: u64 = 256;
-/// Seeds a problem is drawn from before it is left out.
-pub const MAX_DRAWS: u32 = 16;
-
-/// How `omcbsa gen-bench` generates the suite.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GenOptions {
-    /// Seed of the whole suite.
-    pub seed: u64,
-    /// Problems per motion family, spread evenly over the family's layouts and arm counts.
-    pub per_family: usize,
-    /// The families generated (each with the problems it has in the whole suite).
-    pub families: Vec<Family>,
-}
-
-impl Default for GenOptions {
-    /// The published suite: 8 families x 76 = 608 problems.
-    fn default() -> Self {
-        GenOptions {
-            seed: 20_250_606,
-            per_family: 76,
-            families: Family::ALL.to_vec(),
-        }
-    }
-}
 
 /// What [`gen_bench`] wrote.
 #[derive(Clone, Debug, PartialEq)]
@@ -116,173 +82,6 @@ pub struct GenReport {
     pub undrawn: Vec<String>,
     /// Wall time of generation, s.
     pub seconds: f64,
-}
-
-/// The suite index (`suite.json`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SuiteIndex {
-    /// The index's format string.
-    pub format: String,
-    /// The seed of the whole suite.
-    pub seed: u64,
-    /// Every problem.
-    pub problems: Vec<SuiteEntry>,
-    /// Problems no seed drew (see the module's docs), left out.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub undrawn: Vec<Undrawn>,
-}
-
-/// A problem left out of a suite.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Undrawn {
-    pub name: String,
-    /// The seeds tried, in order.
-    pub seeds: Vec<u64>,
-}
-
-/// One problem of the suite.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SuiteEntry {
-    /// The problem's name.
-    pub name: String,
-    /// The problem file, relative to the suite directory.
-    pub file: String,
-    /// Its motion family.
-    pub family: String,
-    /// Its layout of arms.
-    pub layout: String,
-    /// Robots in it.
-    pub robots: usize,
-    /// Trajectories in it.
-    pub trajectories: usize,
-    /// Steps of every trajectory.
-    #[serde(rename = "H")]
-    pub horizon: usize,
-    /// Whether a validated witness solves it (every problem `gen-bench` writes has one).
-    pub known_solvable: bool,
-    /// The seed the problem was drawn from.
-    pub seed: u64,
-    /// Seeds of the problem's stream tried before `seed` (none of their samples had a
-    /// validated witness).
-    #[serde(default)]
-    pub redraws: u32,
-    /// The witness solution file, relative to the suite directory, when known solvable.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub witness: Option<String>,
-    /// How the witness was made: its paths (`swing-tracking`: IK tracking of the task's hands
-    /// with the elbow swinging through the null space; `random-motion`: random joint motions,
-    /// the hands their forward kinematics), then, when the arms stand somewhere, its approach
-    /// (`+straight`: all arms straight together; `+rrt-connect`: RRT-Connect), every motion
-    /// checked by the validator's checks.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub witness_method: Option<String>,
-    /// The approach family: how the arms stand (`tucked`, `crossed`, `far_side`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub stance: Option<String>,
-    /// When every arm has `initial` and there is a witness: whether the straight bridge of
-    /// all arms together from `initial` to the witness's first configurations collides (by
-    /// the validator's checks, step by step as an approach).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub straight_bridge_collides: Option<bool>,
-    /// When the problem set says which arm goes where: `assignment[i]`, the trajectory robot
-    /// `i` tracks (`null`: it holds). `omcbsa bench` plans under it and counts a plan with any
-    /// other assignment as invalid. Absent, the planner chooses.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub assignment: Option<Vec<Option<usize>>>,
-}
-
-/// Why the suite could not be generated or read.
-#[derive(Debug)]
-pub enum Error {
-    /// A file could not be read or written.
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What the system said.
-        source: std::io::Error,
-    },
-    /// A suite index that cannot be read.
-    Index {
-        /// The index file.
-        path: PathBuf,
-        /// What is wrong with it.
-        message: String,
-    },
-    /// The generator made a problem it cannot stand behind (a bug, reported, not written).
-    Generation {
-        /// The problem's name.
-        problem: String,
-        /// What is wrong with it.
-        message: String,
-    },
-}
-
-impl std::fmt::Display for Error {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            Error::Index { path, message } => write!(f, "{}: {message}", path.display()),
-            Error::Generation { problem, message } => write!(f, "generating {problem}: {message}"),
-        }
-    }
-}
-
-impl std::error::Error for Error {}
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
-    move |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
-/// What to generate for one problem.
-struct Spec {
-    name: String,
-    family: Family,
-    layout: LayoutKind,
-    robots: usize,
-    /// Seeds the stream of the problem's seeds.
-    stream: u64,
-    traps: Tightness,
-    /// How the approach family's arms stand.
-    stance: Option<Stance>,
-}
-
-fn specs(opts: &GenOptions, traps: Tightness) -> Vec<Spec> {
-    let mut specs = Vec::new();
-    // Seeds come from a family's place in `Family::ALL`, so a subset is the same problems.
-    let chosen = (Family::ALL.into_iter().enumerate()).filter(|(_, f)| opts.families.contains(f));
-    for (f, family) in chosen {
-        let cells = family.cells();
-        for k in 0..opts.per_family {
-            let (layout, robots) = cells[k % cells.len()];
-            let stream = opts.seed ^ ((f as u64) << 32 | k as u64);
-            let name = format!("{}_{}_{robots}arms_{k:03}", family.name(), layout.name());
-            let stance = (family == Family::Approach).then(|| Stance::ALL[k % Stance::ALL.len()]);
-            specs.push(Spec {
-                name,
-                family,
-                layout,
-                robots,
-                stream,
-                traps,
-                stance,
-            });
-        }
-    }
-    specs
-}
-
-impl Spec {
-    /// The problem's seeds, in the order it is drawn from them.
-    fn seeds(&self) -> impl Iterator<Item = u64> {
-        let mut stream = Rng::new(self.stream);
-        std::iter::repeat_with(move || stream.next_u64())
-    }
 }
 
 /// A problem of the suite, or why there is none.
@@ -365,32 +164,6 @@ fn write_suite(
         undrawn: index.undrawn.iter().map(|u| u.name.clone()).collect(),
         seconds: start.elapsed().as_secs_f64(),
     })
-}
-
-/// Reads `suite_dir/suite.json`.
-pub fn read_index(suite_dir: &Path) -> Result<SuiteIndex, Error> {
-    let path = suite_dir.join(INDEX_FILE);
-    let text = std::fs::read_to_string(&path).map_err(io(&path))?;
-    let index: SuiteIndex = serde_json::from_str(&text).map_err(|e| Error::Index {
-        path: path.clone(),
-        message: e.to_string(),
-    })?;
-    if index.format != INDEX_FORMAT {
-        let message = format!("format is {:?}, expected {INDEX_FORMAT:?}", index.format);
-        return Err(Error::Index { path, message });
-    }
-    Ok(index)
-}
-
-/// Compact JSON and a final newline: problem files are large and read by programs (the index
-/// is written pretty, for people).
-fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Error> {
-    let mut text = serde_json::to_string(value).map_err(|e| Error::Io {
-        path: path.to_path_buf(),
-        source: e.into(),
-    })?;
-    text.push('\n');
-    std::fs::write(path, text).map_err(io(path))
 }
 
 #[cfg(test)]

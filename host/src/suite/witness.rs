@@ -256,21 +256,37 @@ pub fn task_witness(
     None
 }
 
-/// A smooth random joint motion of `h` steps for an arm: it starts where IK puts the hand near
-/// the arm's station (pointing forward and down by a random amount), then every joint follows
-/// a sum of two slow sines whose speeds add up to at most half the step limit. `moving: false`
-/// gives a still arm in the same kind of pose.
-#[allow(clippy::too_many_arguments)]
+/// The arm a random motion is for, and what kind of motion.
+pub struct MotionSpec<'a> {
+    /// The arm's model.
+    pub model: u8,
+    /// Where its base stands.
+    pub base: &'a Frame,
+    /// Where its hand works.
+    pub station: &'a Station,
+    /// Steps of the motion.
+    pub steps: usize,
+    /// `false`: a still arm, in the same kind of pose.
+    pub moving: bool,
+}
+
+/// A smooth random joint motion of `spec.steps` steps for an arm, clear of the arms `placed`:
+/// it starts where IK puts the hand near the arm's station (pointing forward and down by a
+/// random amount), then every joint follows a sum of two slow sines whose speeds add up to at
+/// most half the step limit.
 pub fn random_motion(
     scene: &Scene,
-    model: u8,
-    base: &Frame,
-    station: &Station,
-    h: usize,
-    moving: bool,
+    spec: &MotionSpec,
     placed: &[Placed],
     rng: &mut Rng,
 ) -> Option<Vec<Q>> {
+    let MotionSpec {
+        model,
+        base,
+        station,
+        steps: h,
+        moving,
+    } = *spec;
     let params = IkParams::default();
     let span = (h - 1).max(1) as f64;
     for _ in 0..TRACK_ATTEMPTS {
