@@ -495,8 +495,7 @@ fn run_text(
     row.success = report.is_valid();
     if !report.is_valid() {
         row.message = report.summary();
-    } else if let Some(fixed) = (entry.assignment.as_ref()).filter(|f| **f != solution.assignment)
-    {
+    } else if let Some(fixed) = (entry.assignment.as_ref()).filter(|f| **f != solution.assignment) {
         row.valid = Some(false);
         row.success = false;
         row.message = format!(
