@@ -38,7 +38,7 @@ bin="$root/target/release/omcbsa"
 
 echo "== suite: $work/suite"
 rm -rf "$work/suite" "$work/bench"
-started=$(date +%s)
+started=$(date +%s) load_start="$(cut -d' ' -f1-3 /proc/loadavg)"
 "$bin" gen-bench "$work/suite" --per-family "$per_family"
 if [ "$per_family" = 76 ]; then
     (cd "$work/suite" && sha256sum --quiet --check "$root/docs/bench/suite.sha256")
@@ -61,6 +61,8 @@ gzip -9 -n -c "$work/bench/results.csv" > "$out/results.csv.gz"
     echo "commit $(git rev-parse HEAD)$(git diff --quiet HEAD -- . 2>/dev/null || echo ' (with uncommitted changes)')"
     echo "finished $(date -u +%Y-%m-%dT%H:%M:%SZ), $(( $(date +%s) - started )) s"
     echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
+    # Other work on the machine slows the runs: a run's timeout is wall-clock time.
+    echo "load average (1, 5, 15 min): $load_start at the start, $(cut -d' ' -f1-3 /proc/loadavg) at the end"
 } > "$out/run.txt"
 cat "$out/run.txt"
 echo "3D views of every problem: $work/bench/index.html"
