@@ -39,6 +39,8 @@ bin="$root/target/release/omcbsa"
 echo "== suite: $work/suite"
 rm -rf "$work/suite" "$work/bench"
 started=$(date +%s) load_start="$(cut -d' ' -f1-3 /proc/loadavg)"
+# The commit the runs are of, taken before the results are copied into docs/bench.
+commit="$(git rev-parse HEAD)$(git diff --quiet HEAD -- . 2>/dev/null || echo ' (with uncommitted changes)')"
 "$bin" gen-bench "$work/suite" --per-family "$per_family"
 if [ "$per_family" = 76 ]; then
     (cd "$work/suite" && sha256sum --quiet --check "$root/docs/bench/suite.sha256")
@@ -58,7 +60,7 @@ cp "$work/bench/summary.md" "$work"/bench/*.svg "$work"/bench/*.png "$out/"
 gzip -9 -n -c "$work/bench/results.csv" > "$out/results.csv.gz"
 {
     echo "bash scripts/bench-docs.sh --per-family $per_family --planners ${planners:-all} --timeout $timeout --jobs $jobs"
-    echo "commit $(git rev-parse HEAD)$(git diff --quiet HEAD -- . 2>/dev/null || echo ' (with uncommitted changes)')"
+    echo "commit $commit"
     echo "finished $(date -u +%Y-%m-%dT%H:%M:%SZ), $(( $(date +%s) - started )) s"
     echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
     # Other work on the machine slows the runs: a run's timeout is wall-clock time.

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # What Ray costs and gives: a sample of a suite (every 15th problem, as `omcbsa bench --quick`
 # picks them) run by `omcbsa bench --jobs N` and by `python -m omcbsa.sweep --num-cpus N`, for
-# N = 1 and 2, one after the other; Ray's overhead per run with the fastest planner alone; and
-# from these an estimate of the whole suite with every planner on a 64-core node.
+# N = 1 and 2, one after the other; Ray's overhead per run with the fastest planner alone, on
+# the whole suite; and from these an estimate of the whole suite with every planner on a
+# 64-core node. Prints a markdown table and the estimate (docs/bench/sweep.md).
 #
 #   bash scripts/sweep-throughput.sh SUITE WORK [PLANNERS] [TIMEOUT]
 #
@@ -14,6 +15,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 suite="$(cd "$1" && pwd)" work="$2" planners="${3:-omcbsa,pp,pp-single,ik-tracking,descartes,composite-astar}" timeout="${4:-5}"
 bin="$root/target/release/omcbsa" py="$root/.venv/bin/python"
 mkdir -p "$work" && work="$(cd "$work" && pwd)"
+load_start="$(cut -d' ' -f1-3 /proc/loadavg)"
 
 # The sample: a suite of its own whose files are the suite's.
 mkdir -p "$work/sample"
@@ -29,15 +31,24 @@ for e in index["problems"]:
 json.dump(index, open(os.path.join(sample, "suite.json"), "w"), indent=2)
 EOF
 
-seconds() { local t0; t0=$(date +%s.%N); "$@" >/dev/null 2>&1; awk "BEGIN { print $(date +%s.%N) - $t0 }"; }
+# The wall time of a command, its output in LOG; a command that fails stops the script.
+seconds() {
+    local log="$1" t0
+    shift
+    t0=$(date +%s.%N)
+    "$@" >"$log" 2>&1 || { echo "failed: $* (see $log)" >&2; return 1; }
+    awk "BEGIN { print $(date +%s.%N) - $t0 }"
+}
+rm -f "$work/walls.txt"
 for n in 1 2; do
     rm -rf "$work/bench-$n" "$work/sweep-$n"
-    b=$(seconds "$bin" bench "$work/sample" --planners "$planners" --timeout "$timeout" --jobs "$n" --out "$work/bench-$n")
-    s=$(seconds "$py" -m omcbsa.sweep "$work/sample" --planners "$planners" --param "timeout=$timeout" --num-cpus "$n" --out "$work/sweep-$n" --no-progress)
+    b=$(seconds "$work/bench-$n.log" "$bin" bench "$work/sample" --planners "$planners" --timeout "$timeout" --jobs "$n" --out "$work/bench-$n")
+    s=$(seconds "$work/sweep-$n.log" "$py" -m omcbsa.sweep "$work/sample" --planners "$planners" --param "timeout=$timeout" --num-cpus "$n" --out "$work/sweep-$n" --no-progress)
     echo "$n $b $s" >> "$work/walls.txt"
 done
 rm -rf "$work/overhead"
-"$py" -m omcbsa.sweep "$work/sample" --planners ik-tracking --param "timeout=$timeout" --num-cpus 2 --out "$work/overhead" --no-progress >/dev/null 2>&1
+seconds "$work/overhead.log" "$py" -m omcbsa.sweep "$suite" --planners ik-tracking --param "timeout=$timeout" --num-cpus 2 --out "$work/overhead" --no-progress >/dev/null
+echo "load average (1, 5, 15 min): $load_start at the start, $(cut -d' ' -f1-3 /proc/loadavg) at the end"
 
 "$py" - "$work" "$suite" "$timeout" <<'EOF'
 import csv, json, os, sys
@@ -51,7 +62,7 @@ for line in open(os.path.join(work, "walls.txt")):
     print(f"| {n} | {float(b):.1f} | {float(s):.1f} | {st['wall_s']:.1f} | {st['runs']} | "
           f"{st['runs_per_s']:.2f} | {st['task_cpu_s_mean']:.3f} | {1000 * st['overhead_per_run_s']:.1f} |")
 ov = json.load(open(os.path.join(work, "overhead", "sweep.json")))
-print(f"\nik-tracking alone on 2 workers: {ov['runs']} runs, {1000 * ov['task_s_mean']:.1f} ms in a "
+print(f"\nik-tracking alone on the whole suite, 2 workers: {ov['runs']} runs, {1000 * ov['task_s_mean']:.1f} ms in a "
       f"run, Ray's overhead {1000 * ov['overhead_per_run_s']:.1f} ms per run")
 
 # The whole suite with these planners on 64 cores: what each run of the sample costs a
