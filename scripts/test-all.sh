@@ -7,6 +7,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+echo "== docs: relative links resolve, no issue numbers in README.md and docs/, docs/README.md indexes every page"
+python3 scripts/check_docs.py
+
 echo "== bare-metal build of the core (thumbv7em-none-eabihf: no std, no alloc)"
 rustup target add thumbv7em-none-eabihf >/dev/null
 cargo build -p omcbsa-core --release --target thumbv7em-none-eabihf

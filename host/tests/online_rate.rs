@@ -65,13 +65,14 @@ fn a_dead_end_is_recovered_by_planning_again_what_was_not_sent() {
 }
 
 /// Chunks planned greedily, IK tracking first (the dead end of transfer 013), at the policy's
-/// rate (no time scaling).
+/// rate (no time scaling), and a chunk that cannot be followed an error (no catch-up).
 fn greedy() -> OnlineOptions {
     OnlineOptions {
         axis_weight: 0.0,
         headroom_weight: 0.0,
         reserve_weight: 0.0,
         time_scaling: false,
+        catch_up: false,
         ..OnlineOptions::default()
     }
 }

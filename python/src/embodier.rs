@@ -302,7 +302,10 @@ impl Embodier {
     }
 
     /// The last chunk's planning report: start_step, index, dropped, recovery (None, or how a
-    /// dead end was recovered), end, planning_time_s, stats.
+    /// dead end was recovered), blocked (why it needed one), end, planning_time_s,
+    /// time_factor (timeline steps per policy step: above 1 when time-scaled), lag_s (how far
+    /// the arms fell behind the policy with this chunk), total_lag_s (how far behind they
+    /// are at its last pose), stats.
     #[getter]
     fn last_report<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let Some(r) = &self.last else {
@@ -313,8 +316,12 @@ impl Embodier {
         d.set_item("index", r.index)?;
         d.set_item("dropped", r.dropped)?;
         d.set_item("recovery", r.recovery.map(|r| r.name()))?;
+        d.set_item("blocked", r.blocked.as_deref())?;
         d.set_item("end", r.end)?;
         d.set_item("planning_time_s", r.planning_time_s)?;
+        d.set_item("time_factor", r.time_factor)?;
+        d.set_item("lag_s", r.lag_s)?;
+        d.set_item("total_lag_s", r.total_lag_s)?;
         d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;
         Ok(Some(d))
     }

@@ -91,6 +91,11 @@ def test_an_episode_longer_than_a_problem_runs_through_the_embodier():
         assert np.abs(reached[:, :3] - hands[hand][:, :3]).max() <= 1e-3 + 1e-9
     speed = np.abs(np.diff(timeline, axis=1)).max() / dt
     assert speed <= 1.3963 + 1e-9
+    # The last chunk's report says how it was planned and how far behind the arms are.
+    report = e.last_report
+    assert report["recovery"] is None and report["blocked"] is None
+    assert report["time_factor"] == 1.0
+    assert report["lag_s"] == 0.0 and report["total_lag_s"] == 0.0
 
 
 def test_a_fixed_assignment_is_kept_by_plan_and_by_the_embodier():

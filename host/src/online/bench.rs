@@ -160,8 +160,20 @@ pub struct Chunking {
     pub lead: usize,
 }
 
+/// One chunk's outcome in [`EpisodeRun::outcomes`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChunkOutcome {
+    /// The chunk's first policy step.
+    pub start: u64,
+    /// The plan's recovery (`Ok(None)`: planned from where the last chunk left the arms), or
+    /// the Embodier's error.
+    pub result: Result<Option<super::Recovery>, String>,
+    /// Why a recovered chunk needed one ([`super::ChunkReport::blocked`]).
+    pub blocked: Option<String>,
+}
+
 /// One episode's result.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct EpisodeRun {
     /// Chunks pushed.
     pub chunks: usize,
@@ -184,6 +196,12 @@ pub struct EpisodeRun {
     pub duration_s: f64,
     /// The first error, as the Embodier gave it.
     pub error: Option<String>,
+    /// Chunks after which the plan no longer held what the arms had been sent.
+    pub broken_commitments: usize,
+    /// Every chunk's outcome, in order.
+    pub outcomes: Vec<ChunkOutcome>,
+    /// What was sent to the arms, and what each index tracked.
+    pub record: super::record::RunRecord,
 }
 
 /// Runs `episode` through an Embodier as a policy at its own rate would: chunk `c` covers
@@ -196,6 +214,17 @@ pub fn run_episode(
     options: &OnlineOptions,
     chunking: Chunking,
 ) -> Result<EpisodeRun, String> {
+    run_altered(episode, options, chunking, &mut |_, _| {})
+}
+
+/// [`run_episode`] with each chunk passed through `alter` (its first step and its poses per
+/// hand) before it is pushed: a policy that sends a bad chunk.
+pub fn run_altered(
+    episode: &super::bimanual::Episode,
+    options: &OnlineOptions,
+    chunking: Chunking,
+    alter: &mut dyn FnMut(u64, &mut [Vec<Pose>]),
+) -> Result<EpisodeRun, String> {
     use super::record::RunRecord;
     let mut e = Embodier::new(&episode.setup, options.clone()).map_err(|e| e.to_string())?;
     let mut record = RunRecord::default();
@@ -204,11 +233,12 @@ pub fn run_episode(
     let mut start = 0;
     while start < steps {
         let end = (start + chunking.len).min(steps);
-        let hands: Vec<Vec<Pose>> = episode
+        let mut hands: Vec<Vec<Pose>> = episode
             .hands
             .iter()
             .map(|h| h[start..end].to_vec())
             .collect();
+        alter(start as u64, &mut hands);
         if let Some(index) = e.timeline_index(start as u64) {
             let sent = index
                 .saturating_sub(chunking.lead)
@@ -217,7 +247,19 @@ pub fn run_episode(
             e.commit_until(sent);
         }
         run.chunks += 1;
-        match e.push_chunk(start as u64, &hands) {
+        let pushed = e.push_chunk(start as u64, &hands);
+        run.outcomes.push(ChunkOutcome {
+            start: start as u64,
+            result: (pushed.as_ref())
+                .map(|r| r.recovery)
+                .map_err(ToString::to_string),
+            blocked: pushed.as_ref().ok().and_then(|r| r.blocked.clone()),
+        });
+        if let Some(broken) = changed_sent(&record, &e) {
+            run.error.get_or_insert(format!("step {start}: {broken}"));
+            run.broken_commitments += 1;
+        }
+        match pushed {
             Ok(r) => {
                 run.recovered += usize::from(r.recovery.is_some());
                 run.scaled += usize::from(r.recovery == Some(super::Recovery::TimeScaled));
@@ -272,8 +314,23 @@ pub fn run_episode(
             valid = false;
         }
     }
-    run.embodied = valid && run.planned == run.chunks;
+    run.embodied = valid && run.planned == run.chunks && run.broken_commitments == 0;
+    run.record = record;
     Ok(run)
+}
+
+/// Where the Embodier's plan no longer starts from the last configuration sent to the arms
+/// (a chunk that replaced what the arms were already given), named.
+fn changed_sent(record: &super::record::RunRecord, e: &Embodier) -> Option<String> {
+    let sent = record.sent.first().map_or(0, Vec::len);
+    let last = sent.checked_sub(1)?;
+    (record.sent.iter().enumerate()).find_map(|(i, path)| {
+        (e.configuration(i, last) != Some(path[last])).then(|| {
+            format!(
+                "robot {i}'s configuration at timeline index {last}, already sent, was replaced"
+            )
+        })
+    })
 }
 
 /// The results of one arm count and chunking.

@@ -152,6 +152,7 @@ impl Embodier {
             time_factor: p.targets.len() as f64 / poses as f64,
             lag_s: 0.0,
             total_lag_s: 0.0,
+            blocked: None,
         }
     }
 

@@ -122,6 +122,11 @@ pub struct OnlineOptions {
     /// rather than stop: the arms lag behind the policy by the time added (reported per chunk
     /// and in total). Off, such a chunk is recovered by a catch-up that drops poses.
     pub time_scaling: bool,
+    /// When a chunk cannot be planned otherwise, the arms hold where the plan is unsent and
+    /// an approach catches up with the hands, dropping the poses it cannot reach in time
+    /// ([`Recovery::CaughtUp`]). Off, such a chunk is an error (the arms finish the plan
+    /// and hold) and the next chunk is tried from there.
+    pub catch_up: bool,
 }
 
 /// [`OnlineOptions::axis_weight`] by default: none. On hand trajectories a real policy
@@ -167,6 +172,7 @@ impl Default for OnlineOptions {
             headroom_weight: HEADROOM_WEIGHT,
             reserve_weight: RESERVE_WEIGHT,
             time_scaling: true,
+            catch_up: true,
         }
     }
 }
@@ -199,6 +205,9 @@ pub struct ChunkReport {
     pub lag_s: f64,
     /// Seconds the arms are behind the policy in all, at the chunk's last pose.
     pub total_lag_s: f64,
+    /// Why the chunk could not be planned from where the last chunk left the arms (the
+    /// error that `recovery` overcame), `None` when it could.
+    pub blocked: Option<String>,
 }
 
 /// How a chunk was planned that could not be from where the last chunk left the arms.
@@ -646,6 +655,7 @@ impl Embodier {
             time_factor: 1.0,
             lag_s: 0.0,
             total_lag_s: 0.0,
+            blocked: None,
         })
     }
 
@@ -679,7 +689,10 @@ impl Embodier {
             (Recovery::TimeScaled, self.options.time_scaling),
             // The arms hold (the plan ran out, or the last chunk was not planned): an approach
             // catches up with the hands, at the cost of this chunk's first poses.
-            (Recovery::CaughtUp, self.missed || index >= self.end()),
+            (
+                Recovery::CaughtUp,
+                self.options.catch_up && (self.missed || index >= self.end()),
+            ),
             (Recovery::Reassigned, self.options.reassign),
         ];
         for (way, allowed) in ways {
@@ -699,7 +712,9 @@ impl Embodier {
         }
         // The error of the plain try names where the chunk is blocked.
         self.missed = planned.is_err();
+        let blocked = first.as_ref().err().map(ToString::to_string);
         let mut report = planned.or(first)?;
+        report.blocked = blocked.filter(|_| report.recovery.is_some());
         self.remember(start_step, hands);
         let last = start_step + hands.first().map_or(0, |t| t.len() as u64).max(1) - 1;
         report.total_lag_s = self.lag_s(last);

@@ -8,7 +8,8 @@
 //!    it (`super::scaling`).
 //! 3. The arms hold where the plan is still unsent and an approach reaches the hands where
 //!    they will be ([`Embodier::catch_up`]); the poses it cannot reach in time are dropped,
-//!    and tracking resumes from there.
+//!    and tracking resumes from there (behind the policy when even the chunk's last pose
+//!    comes too soon).
 //! 4. With [`super::OnlineOptions::reassign`], a new assignment from where the arms stand
 //!    ([`Embodier::reassign`]).
 //!
@@ -154,7 +155,9 @@ impl Embodier {
     /// plan is still unsent (the first index not sent), and an approach, as the first
     /// chunk's, takes them to the hands where they will be when it ends. The approach must
     /// end by the pose it reaches; the chunk's first poses it cannot reach in time are
-    /// dropped (`dropped` in the report), and tracking resumes there.
+    /// dropped (`dropped` in the report), and tracking resumes there. When even the chunk's
+    /// last pose comes too soon, the approach reaches it late and the arms go on behind the
+    /// policy.
     pub(super) fn catch_up(
         &mut self,
         start_step: u64,
@@ -169,9 +172,15 @@ impl Embodier {
         let h = hands.first().map_or(0, |t| t.len());
         let mut skip = unsent.saturating_sub(index);
         let mut planning_time_s = 0.0;
-        for _ in 0..MAX_CATCH_UP_TRIES {
+        for attempt in 0..MAX_CATCH_UP_TRIES {
             if skip >= h {
                 break;
+            }
+            // The last try aims at the chunk's last pose, late if need be: the arms then
+            // follow the next chunk behind the policy (`lag_s`) rather than hold.
+            let last = attempt + 1 == MAX_CATCH_UP_TRIES || skip + 1 == h;
+            if last {
+                skip = h - 1;
             }
             let rest = hands.iter().map(|t| t[skip..].iter().copied().collect());
             let mut problem = self.problem(rest, Start::Sampled, Some(&hold));
@@ -180,12 +189,15 @@ impl Embodier {
             let approach = outcome.approach.clone().unwrap_or_default();
             let a = approach.first().map_or(0, Vec::len);
             let first = index + skip;
-            if unsent + a > first {
+            if unsent + a > first && !last {
                 // Too late for these poses: aim further ahead, with some room, as a new
                 // start may need a longer approach.
-                skip += (unsent + a - first) + (unsent + a - first) / 4;
+                let late = unsent + a - first;
+                skip = (skip + late + late / 4).min(h - 1);
                 continue;
             }
+            // The approach starts where the arms hold, or as soon as they can when late.
+            let from = first.saturating_sub(a).max(unsent);
             let paths: Vec<Vec<[f64; DOF]>> = (0..n)
                 .map(|i| [&approach[i][..], &outcome.joint_paths[i][..]].concat())
                 .collect();
@@ -198,26 +210,26 @@ impl Embodier {
             let paths: Vec<&[[f64; DOF]]> = paths.iter().map(Vec::as_slice).collect();
             // The unsent plan goes: the arms hold from `unsent` until the approach starts.
             self.timeline.truncate(unsent);
-            self.timeline.replace_from(first - a, &paths, &targets);
+            self.timeline.replace_from(from, &paths, &targets);
             // Unchanged unless it was planned free (`reassign`).
             self.assignment = Some(outcome.assignment.clone());
             return Ok(ChunkReport {
                 start_step: start_step + skip as u64,
                 dropped: skip,
                 recovery: None,
-                index: first,
+                index: from + a,
                 end: self.end(),
                 planning_time_s,
                 stats: outcome.stats,
                 time_factor: 1.0,
                 lag_s: 0.0,
                 total_lag_s: 0.0,
+                blocked: None,
             });
         }
         Err(OnlineError::NotPlanned {
             start_step,
-            status: "the approach from where the arms hold takes longer than the chunk lasts"
-                .to_string(),
+            status: "no approach from where the arms hold reaches the chunk's poses".to_string(),
         })
     }
 
