@@ -396,13 +396,12 @@ fn motion_collides<M: Model<D>>(
     })
 }
 
+/// A composite motion: every arm's configuration before and after.
+type Motion = (Vec<[f64; D]>, Vec<[f64; D]>);
+
 /// `CASES` collision-free composite motions from collision-free configurations, every joint
 /// turning by `turn` (random sign; less where its limits are closer).
-fn motions<M: Model<D>>(
-    fleet: &Fleet,
-    turn: f64,
-    rng: &mut Rng,
-) -> Vec<(Vec<[f64; D]>, Vec<[f64; D]>)> {
+fn motions<M: Model<D>>(fleet: &Fleet, turn: f64, rng: &mut Rng) -> Vec<Motion> {
     let mut out = Vec::new();
     let mut poses = fleet.poses::<M>(&vec![[0.0; D]; fleet.bases.len()]);
     while out.len() < CASES / 4 {

@@ -352,3 +352,27 @@ class Cell:
     def records(self) -> os.PathLike[str]: ...
     @property
     def running(self) -> bool: ...
+
+def bench_csv_header() -> str:
+    """The header line of ``results.csv`` (no line end), as ``omcbsa bench`` writes it."""
+
+def bench_run(
+    entry: str, problem: str, planner: str, timeout: float, approach: bool = True
+) -> Tuple[str, Optional[str]]:
+    """One run exactly as ``omcbsa bench`` makes it: ``entry`` is the problem's entry of
+    ``suite.json`` (JSON text), ``problem`` its file's text. Returns the ``results.csv`` record
+    (line end included) and, for a reported success, the solution's JSON text."""
+
+def bench_report(
+    suite: Union[str, os.PathLike[str]],
+    out: Union[str, os.PathLike[str]],
+    planners: Sequence[str],
+    timeout: float,
+    approach: bool = True,
+    jobs: int = 1,
+) -> str:
+    """``omcbsa bench SUITE --out OUT --report-only``: writes summary.md, the plots and
+    index.html of the runs in ``OUT/results.csv`` and returns the summary. Runs nothing."""
+
+def bench_planners() -> list[str]:
+    """The planners ``omcbsa bench`` runs by default (every one it can run)."""

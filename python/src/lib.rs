@@ -2,6 +2,7 @@
 //! files, planners, validator, kinematics, online API and live cell, with NumPy arrays for
 //! joint paths and poses. One implementation: everything here converts and calls the host library.
 
+mod bench;
 mod cell;
 mod cell_state;
 mod convert;
@@ -52,5 +53,9 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.py()
         .import("atexit")?
         .call_method1("register", (stop_all,))?;
+    m.add_function(wrap_pyfunction!(bench::bench_run, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_csv_header, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_report, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_planners, m)?)?;
     Ok(())
 }
