@@ -171,14 +171,16 @@ class Embodier:
       with ``preferred=True``; ``reassign=True`` lets a chunk with no plan under the
       assignment take a new one from where the arms stand (off: a hand holding an object
       cannot change arms).
-    - ``axis_weight`` (4.0): the search's cost of two joint axes nearing one line, which keeps
-      a chunk from leaving an arm where the next needs a joint past its speed (0: chunks
-      planned greedily, IK tracking first).
-    - ``headroom_weight`` (0.0): the cost of a step that brings a joint near its speed limit
-      along the hands' motion; ``reserve_weight`` (0.0): the cost of a chunk ending where the
+    - ``axis_weight`` (0.0): the search's cost of two joint axes nearing one line (on a real
+      policy's trajectories the headroom below does better).
+    - ``headroom_weight`` (2.0): the cost of a step that brings a joint near its speed limit
+      along the hands' motion; ``reserve_weight`` (1.0): the cost of a chunk ending where the
       joints have little room for any next motion.
     - ``time_scaling`` (True): a chunk the arms cannot follow at the policy's rate is slowed
       where it must be (the arms fall behind: ``last_report["lag_s"]``), rather than stopped.
+    - ``catch_up`` (True): a chunk that cannot be planned otherwise is reached by an approach
+      from where the arms hold, dropping the poses it cannot reach in time
+      (``last_report["dropped"]``); False: such a chunk raises ``ChunkError``.
     """
 
     def __init__(
@@ -198,10 +200,11 @@ class Embodier:
         assignment: Optional[Sequence[Optional[int]]] = None,
         preferred: bool = False,
         reassign: bool = False,
-        axis_weight: float = 4.0,
-        headroom_weight: float = 0.0,
-        reserve_weight: float = 0.0,
+        axis_weight: float = 0.0,
+        headroom_weight: float = 2.0,
+        reserve_weight: float = 1.0,
         time_scaling: bool = True,
+        catch_up: bool = True,
     ) -> None: ...
     def embody(self, hands: ArrayLike, chunk_len: Optional[int] = None) -> npt.NDArray[np.float64]:
         """A whole episode, however long: ``hands`` (hands, T, 7) -> every robot's timeline

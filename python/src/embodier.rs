@@ -64,6 +64,7 @@ const OPTIONS: [&str; 17] = [
     "headroom_weight",
     "reserve_weight",
     "time_scaling",
+    "catch_up",
 ];
 
 pub(crate) fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
@@ -211,6 +212,7 @@ impl Embodier {
             headroom_weight: o.or("headroom_weight", "a number", d.headroom_weight)?,
             reserve_weight: o.or("reserve_weight", "a number", d.reserve_weight)?,
             time_scaling: o.or("time_scaling", "a bool", d.time_scaling)?,
+            catch_up: o.or("catch_up", "a bool", d.catch_up)?,
             ..d
         };
         let max_chunk_len = options.max_chunk_len;

@@ -135,8 +135,9 @@ def test_the_axis_weight_is_an_option_and_a_bad_one_is_refused():
 
 def test_a_blocked_chunk_names_the_robot_the_hand_and_the_step():
     hands = episode(40, np.random.default_rng(13))
+    # catch_up off: the chunk is an error, not reached by an approach that drops its poses.
     e = omcbsa.Embodier(bases=BASES, initial=[RETRACT, RETRACT], dt=0.05, tcp=TCP,
-                        assignment=[0, 1])
+                        assignment=[0, 1], catch_up=False)
     e.push_chunk(0, hands[:, :20])
     # Hand 1 jumps 15 cm within one step at step 25: too fast for any joint.
     later = hands[:, 20:].copy()
@@ -157,7 +158,8 @@ def test_options_are_keywords_read_by_one_helper():
     # Every option a user needs, given at once.
     e = omcbsa.Embodier(**kw, planner="pp", chunk_timeout=0.5, max_chunk_len=32,
                         assignment=[0, 1], preferred=True, reassign=True, axis_weight=2.0,
-                        headroom_weight=0.5, reserve_weight=0.25, time_scaling=False)
+                        headroom_weight=0.5, reserve_weight=0.25, time_scaling=False,
+                        catch_up=False)
     e.push_chunk(0, hands[:, :10])
     r = e.last_report
     assert e.assignment == [0, 1]
@@ -165,7 +167,8 @@ def test_options_are_keywords_read_by_one_helper():
     with pytest.raises(TypeError, match='unexpected keyword argument "chunk_timout"'):
         omcbsa.Embodier(**kw, chunk_timout=0.5)
     for key, bad, want in [("chunk_timeout", "1s", "a number of seconds"),
-                           ("reassign", 1, "a bool"), ("max_chunk_len", 2.5, "an int"),
+                           ("reassign", 1, "a bool"), ("catch_up", "no", "a bool"),
+                           ("max_chunk_len", 2.5, "an int"),
                            ("assignment", "01", "a list of hand indices")]:
         with pytest.raises(TypeError, match=f"Embodier\\(\\): {key}: expected {want}"):
             omcbsa.Embodier(**kw, **{key: bad})
