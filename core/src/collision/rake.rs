@@ -78,7 +78,7 @@ impl Rake {
     ) {
         let q = core::array::from_fn(|j| F64s::splat(q0[j]) + F64s::splat(dq[j]) * s);
         place_ends::<M, D>(model, base, tool, &q, only, |i, a, b, radius, _| {
-            (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
+            (self.a[i], self.b[i], self.radius[i]) = (*a, *b, radius);
         });
     }
 
