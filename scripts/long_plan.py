@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes a valid 3-arm problem and solution of 241 steps lasting MINUTES minutes (dt =
-MINUTES * 60 / 240 s), for measuring `omcbsa execute --dry-run` on long plans (README, issue
-15): plans of different durations with the same number of waypoints.
+MINUTES * 60 / 240 s), for measuring `omcbsa execute --dry-run` on long plans
+(docs/EXECUTION.md): plans of different durations with the same number of waypoints.
 
     python3 scripts/long_plan.py OMCBSA_BINARY MINUTES OUTDIR
 

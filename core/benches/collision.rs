@@ -401,7 +401,7 @@ fn motion_collides<M: Model<D>>(
     })
 }
 
-/// A composite motion: every arm's start, then every arm's end.
+/// A composite motion: every arm's configuration before and after.
 type Motion = (Vec<[f64; D]>, Vec<[f64; D]>);
 
 /// `CASES` collision-free composite motions from collision-free configurations, every joint

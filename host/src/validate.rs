@@ -781,14 +781,12 @@ fn check_collisions<M: Models<D>, const D: usize>(
     report: &mut Report,
 ) {
     let horizon = paths.iter().map(Vec::len).min().unwrap_or(0);
-    let arms_at = |configurations: &mut dyn Iterator<Item = [f64; D]>| -> Vec<ArmPose> {
-        (problem.robots.iter().zip(configurations))
-            .map(|(robot, q)| ArmPose::new::<M, D>(robot.model, &robot.base, &robot.tool, &q))
-            .collect()
-    };
     let mut step_collides = vec![false; horizon];
     for (t, collides) in step_collides.iter_mut().enumerate() {
-        let contacts = contacts(problem, &arms_at(&mut paths.iter().map(|p| p[t])));
+        let contacts = contacts(
+            problem,
+            &arms_at::<M, D>(problem, paths.iter().map(|p| p[t])),
+        );
         *collides = !contacts.is_empty();
         for c in contacts {
             report.add_contact::<M, D>(problem, &c, t, c.describe::<M, D>(file, problem));
@@ -799,15 +797,14 @@ fn check_collisions<M: Models<D>, const D: usize>(
         if step_collides[t] || step_collides[t + 1] {
             continue;
         }
-        // All robots move together, checked at the same instants: as many as the robot whose
-        // points move farthest needs.
-        let sweeps: Vec<Sweep<M, D>> = (paths.iter().zip(&problem.robots))
-            .map(|(p, r)| Sweep::new(r.model, &r.tool, &p[t], &p[t + 1], MOTION_CHECK_SPACING))
-            .collect();
-        let count = sweeps.iter().map(|s| s.count()).max().unwrap_or(1);
-        let sweeps: Vec<_> = sweeps.into_iter().map(|s| s.with_count(count)).collect();
+        let (from, to): (Vec<_>, Vec<_>) = paths.iter().map(|p| (p[t], p[t + 1])).unzip();
+        let sweeps = together::<M, D>(problem, &from, &to);
+        let count = sweeps.first().map_or(0, Sweep::count);
         for k in 0..count {
-            let contacts = contacts(problem, &arms_at(&mut sweeps.iter().map(|s| s.config(k))));
+            let contacts = contacts(
+                problem,
+                &arms_at::<M, D>(problem, sweeps.iter().map(|s| s.config(k))),
+            );
             for c in &contacts {
                 let detail = format!(
                     "moving from step {t} to {}, at {:.1} % of the way: {}",
@@ -822,6 +819,78 @@ fn check_collisions<M: Models<D>, const D: usize>(
             }
         }
     }
+}
+
+/// The robots of `problem` placed at `configurations` (one per robot, in order).
+fn arms_at<M: Models<D>, const D: usize>(
+    problem: &Problem<D>,
+    configurations: impl Iterator<Item = [f64; D]>,
+) -> Vec<ArmPose> {
+    (problem.robots.iter().zip(configurations))
+        .map(|(robot, q)| ArmPose::new::<M, D>(robot.model, &robot.base, &robot.tool, &q))
+        .collect()
+}
+
+/// The robots moving together straight from `from` to `to` (one configuration each), checked
+/// at the same instants: as many as the robot whose points move farthest needs for no point
+/// to move more than [`MOTION_CHECK_SPACING`] between two.
+fn together<M: Models<D>, const D: usize>(
+    problem: &Problem<D>,
+    from: &[[f64; D]],
+    to: &[[f64; D]],
+) -> Vec<Sweep<M, D>> {
+    let sweeps: Vec<Sweep<M, D>> = (problem.robots.iter().zip(from.iter().zip(to)))
+        .map(|(r, (a, b))| Sweep::new(r.model, &r.tool, a, b, MOTION_CHECK_SPACING))
+        .collect();
+    let count = sweeps.iter().map(|s| s.count()).max().unwrap_or(1);
+    sweeps.into_iter().map(|s| s.with_count(count)).collect()
+}
+
+/// Whether the robots standing at `configurations` (one per robot) overlap nothing, by rule
+/// 4's check of a step.
+pub fn placing_is_clear<M: Models<D>, const D: usize>(
+    problem: &Problem<D>,
+    configurations: &[[f64; D]],
+) -> bool {
+    contacts(
+        problem,
+        &arms_at::<M, D>(problem, configurations.iter().copied()),
+    )
+    .is_empty()
+}
+
+/// Whether the robots moving together straight from `from` to `to` (one configuration each)
+/// overlap nothing at any instant rule 4 checks between two steps (the ends are
+/// [`placing_is_clear`]'s). The instants are those of a validation, visited coarse to fine so
+/// that a motion that collides is found out early.
+pub fn motion_is_clear<M: Models<D>, const D: usize>(
+    problem: &Problem<D>,
+    from: &[[f64; D]],
+    to: &[[f64; D]],
+) -> bool {
+    let sweeps = together::<M, D>(problem, from, to);
+    let count = sweeps.first().map_or(0, Sweep::count);
+    // Placed in the same storage each time; a robot that stays put, once.
+    let mut arms = arms_at::<M, D>(problem, from.iter().copied());
+    let moving: Vec<usize> = (0..arms.len()).filter(|&r| from[r] != to[r]).collect();
+    coarse_to_fine(count).all(|k| {
+        for &r in &moving {
+            let robot = &problem.robots[r];
+            arms[r].place::<M, D>(robot.model, &robot.base, &robot.tool, &sweeps[r].config(k));
+        }
+        contacts(problem, &arms).is_empty()
+    })
+}
+
+/// `0..count`, every index once: first those on the coarsest power-of-two grid, then each
+/// finer grid's new ones.
+fn coarse_to_fine(count: usize) -> impl Iterator<Item = usize> {
+    let top = count.max(1).next_power_of_two();
+    std::iter::successors(Some(top), |&s| (s > 1).then_some(s / 2)).flat_map(move |stride| {
+        (0..count)
+            .step_by(stride)
+            .filter(move |k| stride == top || k % (2 * stride) != 0)
+    })
 }
 
 /// What the arms standing at their `initial` configurations overlap, in the validator's words:
@@ -880,4 +949,19 @@ fn contacts<const D: usize>(problem: &Problem<D>, arms: &[ArmPose]) -> Vec<Conta
         }
     }
     found
+}
+
+#[cfg(test)]
+mod tests {
+    use super::coarse_to_fine;
+
+    #[test]
+    fn coarse_to_fine_visits_every_instant_once() {
+        for count in 0..70 {
+            let mut seen: Vec<usize> = coarse_to_fine(count).collect();
+            seen.sort_unstable();
+            assert_eq!(seen, (0..count).collect::<Vec<_>>(), "count {count}");
+        }
+        assert_eq!(coarse_to_fine(5).collect::<Vec<_>>(), [0, 4, 2, 1, 3]);
+    }
 }

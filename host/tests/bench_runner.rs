@@ -1,10 +1,10 @@
 //! The benchmark runner with fake planners: CSV rows, re-validation of successes, resuming
-//! after an interruption, the summary and the plots.
+//! after an interruption, the summary and the plots, a report of runs made elsewhere.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use omcbsa::bench::{run_bench_with, BenchOptions, Error, Row, QUICK_STRIDE};
+use omcbsa::bench::{csv_header, csv_line, run_bench_with, BenchOptions, Error, Row, QUICK_STRIDE};
 use omcbsa::format::{
     Pose, ProblemFile, RobotSpec, SolutionFile, Status, ToleranceSpec, TrajectorySpec,
     PROBLEM_FORMAT, SOLUTION_FORMAT,
@@ -62,7 +62,9 @@ fn write_suite(dir: &Path, n: usize) {
             horizon: 3,
             known_solvable: k % 3 != 0,
             seed: k as u64,
+            redraws: 0,
             witness: None,
+            witness_method: None,
             stance: None,
             straight_bridge_collides: None,
             assignment: None,
@@ -72,6 +74,7 @@ fn write_suite(dir: &Path, n: usize) {
         format: INDEX_FORMAT.to_string(),
         seed: 0,
         problems,
+        undrawn: Vec::new(),
     };
     std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
 }
@@ -117,6 +120,7 @@ fn options(planners: &[&str], out: &Path) -> BenchOptions {
         out: Some(out.to_path_buf()),
         progress: false,
         approach: true,
+        report_only: false,
     }
 }
 
@@ -181,10 +185,20 @@ fn every_run_is_a_row_and_invalid_successes_are_failures() {
         "{summary}"
     );
     assert!(summary.contains("Invalid \"successes\""), "{summary}");
+    // Per family (every fake problem is of the family `still`): a column, and rows.
+    assert!(summary.contains("| planner | still | all |\n"), "{summary}");
+    assert!(
+        summary.contains("| good | 4/4 (100.0 %) | 4/4 (100.0 %) |"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("| liar | still | 4 | 0.0 % (0) |"),
+        "{summary}"
+    );
     let good = report.summary.cell("good", None).unwrap();
     assert_eq!((good.median(), good.mean()), (Some(0.002), Some(0.002)));
     assert_eq!(report.plot_error, None);
-    assert_eq!(report.plots.len(), 10);
+    assert_eq!(report.plots.len(), 12);
     for plot in &report.plots {
         assert!(
             std::fs::metadata(plot).unwrap().len() > 1000,
@@ -327,6 +341,39 @@ fn a_missing_suite_is_a_clear_error() {
     assert!(err.to_string().contains("suite.json"), "{err}");
 }
 
+/// `--report-only`: the summary, plots and index of a results file made elsewhere, row by
+/// row from `csv_header` and `csv_line` (as a sweep writes it), without a single run.
+#[test]
+fn a_report_of_runs_made_elsewhere_runs_nothing() {
+    let suite = tempfile::tempdir().unwrap();
+    let (here, elsewhere) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    write_suite(suite.path(), 3);
+    let planners = ["good", "liar", "slow"];
+    let made = run_bench_with(suite.path(), &options(&planners, here.path()), &fake).unwrap();
+    let mut text = csv_header().unwrap() + "\n";
+    for row in &read_rows(&made.results_path) {
+        text += &csv_line(row).unwrap();
+    }
+    std::fs::write(elsewhere.path().join("results.csv"), text).unwrap();
+    let never =
+        |_: &str, _: &ProblemFile, _: &Problem<7>, _: f64| -> Result<SolutionFile, String> {
+            panic!("a report runs nothing")
+        };
+    let opts = BenchOptions {
+        report_only: true,
+        ..options(&planners, elsewhere.path())
+    };
+    let report = run_bench_with(suite.path(), &opts, &never).unwrap();
+    assert_eq!((report.runs, report.resumed), (0, 9));
+    assert_eq!(report.summary, made.summary);
+    let summary = |dir: &Path| std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    assert_eq!(
+        summary(elsewhere.path()).replace(&elsewhere.path().display().to_string(), "OUT"),
+        summary(here.path()).replace(&here.path().display().to_string(), "OUT")
+    );
+    assert_eq!(report.plots.len(), 12);
+}
+
 /// Two Gen3s 3 m apart at HOME and one hand where robot 0's HOME puts it; `assignment` in the
 /// index fixes it to robot 1.
 fn write_fixed_suite(dir: &Path, assignment: Vec<Option<usize>>) {
@@ -352,11 +399,14 @@ fn write_fixed_suite(dir: &Path, assignment: Vec<Option<usize>>) {
             horizon: 2,
             known_solvable: false,
             seed: 0,
+            redraws: 0,
             witness: None,
+            witness_method: None,
             stance: None,
             straight_bridge_collides: None,
             assignment: Some(assignment),
         }],
+        undrawn: Vec::new(),
     };
     std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
 }

@@ -42,7 +42,7 @@ use crate::{load, validate};
 
 pub use error::Error;
 pub use quality::{path_quality, PathQuality};
-pub use results::Row;
+pub use results::{csv_header, csv_line, Row};
 pub use summary::{Cell, Spread, Summary};
 
 use crate::models::{Fleet, DOF};
@@ -103,6 +103,9 @@ pub struct BenchOptions {
     pub progress: bool,
     /// Plan the approach from `initial` (the default); off only to measure what it costs.
     pub approach: bool,
+    /// Run nothing: only write the summary, plots and index of the runs already in the
+    /// output directory's `results.csv` (made elsewhere, e.g. by a sweep on a cluster).
+    pub report_only: bool,
 }
 
 impl Default for BenchOptions {
@@ -115,6 +118,7 @@ impl Default for BenchOptions {
             out: None,
             progress: true,
             approach: true,
+            report_only: false,
         }
     }
 }
@@ -171,6 +175,24 @@ pub fn run_bench(suite_dir: &Path, opts: &BenchOptions) -> Result<BenchReport, E
 thread_local! {
     /// Each worker's planner pools, made at its first run and reused: they are large.
     static POOLS: RefCell<Pools> = RefCell::new(Pools::default());
+}
+
+/// One run of a built-in planner (as [`run_bench`] makes it) on the problem of `entry`,
+/// whose file holds `text` (`source` names it in messages): the row, and the solution of a
+/// reported success. A planner that is not one of [`PlannerKind::BENCH`] is an error.
+pub fn run_builtin(
+    entry: &SuiteEntry,
+    text: &str,
+    source: &str,
+    planner: &str,
+    timeout_s: f64,
+    approach: bool,
+) -> Result<(Row, Option<SolutionFile>), String> {
+    planners::parse_bench(planner)?;
+    let solver = move |name: &str, file: &ProblemFile, problem: &Problem<7>, timeout_s: f64| {
+        plan_one(name, file, problem, timeout_s, approach)
+    };
+    Ok(run_text(entry, text, source, planner, timeout_s, &solver))
 }
 
 /// One run of `omcbsa bench`: planner `name` on one problem, in this thread's pools, through
@@ -242,6 +264,7 @@ pub fn run_bench_with(
     let jobs: Vec<(&SuiteEntry, &str)> = (problems.iter())
         .flat_map(|e| opts.planners.iter().map(move |p| (*e, p.as_str())))
         .filter(|(e, p)| !done.contains(&(e.name.clone(), p.to_string())))
+        .filter(|_| !opts.report_only)
         .collect();
 
     let bar = if opts.progress {
@@ -359,7 +382,7 @@ fn save_solution(
     std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// One run: load, plan (a panic is caught and reported), re-validate a success.
+/// One run: read, plan and check ([`run_text`]), keep a success's solution for its view.
 fn run_one(
     suite_dir: &Path,
     out_dir: &Path,
@@ -368,7 +391,27 @@ fn run_one(
     timeout_s: f64,
     solver: &dyn Solver,
 ) -> Row {
-    let mut row = Row {
+    let path = suite_dir.join(&entry.file);
+    let source = path.display().to_string();
+    let (mut row, solution) = match load::read_text(&path) {
+        Ok(text) => run_text(entry, &text, &source, planner, timeout_s, solver),
+        Err(e) => {
+            let mut row = blank_row(entry, planner, timeout_s);
+            row.message = format!("{source}: {}", e.to_string().replace('\n', "; "));
+            (row, None)
+        }
+    };
+    if let Some(solution) = solution {
+        if let Err(e) = save_solution(out_dir, &entry.name, planner, &solution) {
+            row.message = format!("{} (solution not saved: {e})", row.message);
+        }
+    }
+    row
+}
+
+/// A run's row before it runs: what the index says of the problem, status `error`.
+fn blank_row(entry: &SuiteEntry, planner: &str, timeout_s: f64) -> Row {
+    Row {
         problem: entry.name.clone(),
         family: entry.family.clone(),
         layout: entry.layout.clone(),
@@ -380,16 +423,28 @@ fn run_one(
         timeout_s,
         status: "error".to_string(),
         ..Row::default()
-    };
-    let path = suite_dir.join(&entry.file);
-    let loaded = load::read_text(&path)
-        .and_then(|text| load::parse_problem(&text))
+    }
+}
+
+/// One run on a problem file's `text` (`source` names it in messages): load, plan (a panic is
+/// caught and reported), re-validate a reported success. The row, and the solution of a
+/// reported success (valid or not).
+fn run_text(
+    entry: &SuiteEntry,
+    text: &str,
+    source: &str,
+    planner: &str,
+    timeout_s: f64,
+    solver: &dyn Solver,
+) -> (Row, Option<SolutionFile>) {
+    let mut row = blank_row(entry, planner, timeout_s);
+    let loaded = load::parse_problem(text)
         .and_then(|file| load::problem::<Fleet, DOF>(&file).map(|p| (file, Box::new(p))));
     let (file, mut problem) = match loaded {
         Ok(x) => x,
         Err(e) => {
-            row.message = format!("{}: {}", path.display(), e.to_string().replace('\n', "; "));
-            return row;
+            row.message = format!("{source}: {}", e.to_string().replace('\n', "; "));
+            return (row, None);
         }
     };
     // A problem set that says which arm goes where is planned under that assignment.
@@ -398,7 +453,7 @@ fn run_one(
     if let Err(e) = rule.check("assignment", robots, hands) {
         let e = e.to_string().replace('\n', "; ");
         row.message = format!("{}: {}: {e}", suite::INDEX_FILE, entry.name);
-        return row;
+        return (row, None);
     }
     AssignmentRule::apply(rule.list(), &mut problem);
     let start = Instant::now();
@@ -410,11 +465,11 @@ fn run_one(
         Ok(Ok(s)) => s,
         Ok(Err(e)) => {
             row.message = e;
-            return row;
+            return (row, None);
         }
         Err(_) => {
             row.message = "the planner panicked".to_string();
-            return row;
+            return (row, None);
         }
     };
     row.status = solution.status.as_str().to_string();
@@ -432,33 +487,29 @@ fn run_one(
             .to_string();
     }
     row.message = solution.message.clone();
-    if solution.status == Status::Solved {
-        if let Err(e) = save_solution(out_dir, &entry.name, planner, &solution) {
-            row.message = format!("{} (solution not saved: {e})", row.message);
-        }
-        let report = validate::validate::<Fleet, DOF>(&file, &problem, &solution);
-        row.valid = Some(report.is_valid());
-        row.success = report.is_valid();
-        if !report.is_valid() {
-            row.message = report.summary();
-        } else if let Some(fixed) =
-            (entry.assignment.as_ref()).filter(|f| **f != solution.assignment)
-        {
-            row.valid = Some(false);
-            row.success = false;
-            row.message = format!(
-                "the plan's assignment {:?} is not the fixed {fixed:?}",
-                solution.assignment
-            );
-        } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
-            row.set_quality(&path_quality::<Fleet, DOF>(
-                &problem,
-                &solution.assignment,
-                &paths,
-            ));
-        }
+    if solution.status != Status::Solved {
+        return (row, None);
     }
-    row
+    let report = validate::validate::<Fleet, DOF>(&file, &problem, &solution);
+    row.valid = Some(report.is_valid());
+    row.success = report.is_valid();
+    if !report.is_valid() {
+        row.message = report.summary();
+    } else if let Some(fixed) = (entry.assignment.as_ref()).filter(|f| **f != solution.assignment) {
+        row.valid = Some(false);
+        row.success = false;
+        row.message = format!(
+            "the plan's assignment {:?} is not the fixed {fixed:?}",
+            solution.assignment
+        );
+    } else if let Some(paths) = solution.joint_paths.as_ref().and_then(|p| config_paths(p)) {
+        row.set_quality(&path_quality::<Fleet, DOF>(
+            &problem,
+            &solution.assignment,
+            &paths,
+        ));
+    }
+    (row, Some(solution))
 }
 
 /// A valid solution's joint paths as configurations (`None` if one has the wrong length,

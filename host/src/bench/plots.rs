@@ -1,5 +1,5 @@
 //! The benchmark's figures, in SVG and PNG (plotters): success rate per planner, success rate
-//! by number of arms, and the distribution of planning times (share of runs solved within a
+//! by number of arms and by motion family, and the distribution of planning times (share of runs solved within a
 //! time budget, the cumulative distribution of successful planning times), the mean planning
 //! time with its standard deviation, and the mean joint-space path length, per planner and
 //! number of arms.
@@ -20,9 +20,10 @@ const FALLBACK_FONTS: [&str; 2] = [
 ];
 
 /// The figures, by file name.
-const CHARTS: [&str; 5] = [
+const CHARTS: [&str; 6] = [
     "success_overall",
     "success_by_robots",
+    "success_by_family",
     "runtime_cdf",
     "runtime_mean",
     "path_length",
@@ -62,6 +63,7 @@ fn draw<DB: DrawingBackend>(
     match name {
         "success_overall" => success_overall(root, s),
         "success_by_robots" => success_by_robots(root, s),
+        "success_by_family" => success_by_family(root, s),
         "runtime_mean" => grouped_bars(
             root,
             s,
@@ -236,6 +238,63 @@ fn success_by_robots<DB: DrawingBackend>(
             .map_err(err)?;
     }
     legend(&mut chart, SeriesLabelPosition::LowerLeft)
+}
+
+/// One group of bars per family, one bar per planner: its success rate there.
+fn success_by_family<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &Summary,
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(err)?;
+    let groups = s.families.len().max(1);
+    let width = 0.8 / s.planners.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(root)
+        .caption("Success rate by motion family", ("sans-serif", 26))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        // Room above the bars for the legend.
+        .build_cartesian_2d(-0.5..(groups as f64 - 0.5), 0.0..140.0)
+        .map_err(err)?;
+    let families = s.families.clone();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .y_desc("success (%)")
+        .y_labels(8)
+        .y_label_formatter(&|y| {
+            if *y <= 100.0 {
+                format!("{y:.0}")
+            } else {
+                String::new()
+            }
+        })
+        .x_labels(groups)
+        .x_label_formatter(&|x| {
+            let g = x.round();
+            let at_group = (x - g).abs() < 1e-6 && g >= 0.0;
+            (families.get(g as usize).filter(|_| at_group)).map_or(String::new(), |f| f.clone())
+        })
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(err)?;
+    for (i, p) in s.planners.iter().enumerate() {
+        let c = color(i);
+        let x = |g: usize| g as f64 + (i as f64 - (s.planners.len() as f64 - 1.0) / 2.0) * width;
+        let bars = (s.families.iter().enumerate()).filter_map(|(g, f)| {
+            let rate = 100.0 * s.family_cell(p, f)?.success_rate();
+            Some(Rectangle::new(
+                [(x(g) - 0.45 * width, 0.0), (x(g) + 0.45 * width, rate)],
+                c.filled(),
+            ))
+        });
+        chart
+            .draw_series(bars)
+            .map_err(err)?
+            .label(p.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 18, y + 6)], c.filled()));
+    }
+    legend(&mut chart, SeriesLabelPosition::UpperRight)
 }
 
 fn runtime_cdf<DB: DrawingBackend>(

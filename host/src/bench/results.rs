@@ -90,20 +90,30 @@ impl Row {
     }
 }
 
-/// The header line the current [`Row`] writes.
-fn header() -> Result<String, Error> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    let dummy = Row::default();
-    w.serialize(&dummy).map_err(|e| Error::Csv {
+/// `row` as `results.csv` holds it, with the header line first when `header`.
+fn csv_text(row: &Row, header: bool) -> Result<String, Error> {
+    let csv_err = |e: &dyn std::fmt::Display| Error::Csv {
         path: PathBuf::new(),
         message: e.to_string(),
-    })?;
-    let bytes = w.into_inner().map_err(|e| Error::Csv {
-        path: PathBuf::new(),
-        message: e.to_string(),
-    })?;
-    let text = String::from_utf8_lossy(&bytes);
+    };
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(header)
+        .from_writer(Vec::new());
+    w.serialize(row).map_err(|e| csv_err(&e))?;
+    let bytes = w.into_inner().map_err(|e| csv_err(&e))?;
+    String::from_utf8(bytes).map_err(|e| csv_err(&e))
+}
+
+/// The header line the current [`Row`] writes (no line end).
+pub fn csv_header() -> Result<String, Error> {
+    let text = csv_text(&Row::default(), true)?;
     Ok(text.lines().next().unwrap_or_default().to_string())
+}
+
+/// `row` as one record of `results.csv`, its line end included (a message may span lines,
+/// quoted).
+pub fn csv_line(row: &Row) -> Result<String, Error> {
+    csv_text(row, false)
 }
 
 /// Appends rows to a results file, flushing each.
@@ -130,7 +140,7 @@ pub fn open(path: &Path) -> Result<(Vec<Row>, Appender), Error> {
         path: path.to_path_buf(),
         source,
     };
-    let expected = header()?;
+    let expected = csv_header()?;
     let mut rows = Vec::new();
     let existing = match std::fs::read(path) {
         Ok(bytes) => bytes,

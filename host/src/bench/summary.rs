@@ -1,11 +1,13 @@
 //! Aggregates of the runs: success rate, planning times (median, mean, standard deviation,
-//! extremes) and path quality per planner and number of arms, as markdown tables.
+//! extremes) and path quality per planner and number of arms, and success and time per
+//! planner and motion family, as markdown tables.
 
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
 use super::quality::PathQuality;
 use super::results::Row;
+use crate::suite::Family;
 
 /// Mean, sample standard deviation (n - 1; 0 for one value), smallest and largest of some
 /// values.
@@ -146,6 +148,10 @@ fn quality(r: &Row) -> Option<PathQuality> {
     })
 }
 
+fn pct(x: f64) -> String {
+    format!("{:.1} %", 100.0 * x)
+}
+
 fn ratio(a: usize, b: usize) -> f64 {
     if b == 0 {
         0.0
@@ -154,15 +160,19 @@ fn ratio(a: usize, b: usize) -> f64 {
     }
 }
 
-/// Every planner's cells: per arm count, and over all problems.
+/// Every planner's cells: per arm count, per family, and over all problems.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
     /// Planners in display order.
     pub planners: Vec<String>,
     /// Arm counts present, ascending.
     pub robot_counts: Vec<usize>,
+    /// Families present: the suite's in its order, then any others by name.
+    pub families: Vec<String>,
     /// `(planner, Some(arms))` or `(planner, None)` for all problems.
     pub cells: BTreeMap<(String, Option<usize>), Cell>,
+    /// `(planner, family)`.
+    pub family_cells: BTreeMap<(String, String), Cell>,
     /// Runs whose planner reported success with a solution the validator refuses.
     pub invalid: Vec<Row>,
 }
@@ -184,12 +194,24 @@ impl Summary {
         let mut robot_counts: Vec<usize> = rows.iter().map(|r| r.robots).collect();
         robot_counts.sort_unstable();
         robot_counts.dedup();
+        let suite_order = |f: &String| {
+            let known = Family::ALL.iter().position(|k| k.name() == f);
+            (known.unwrap_or(Family::ALL.len()), f.clone())
+        };
+        let mut families: Vec<String> = rows.iter().map(|r| r.family.clone()).collect();
+        families.sort_by_key(suite_order);
+        families.dedup();
         let mut cells = BTreeMap::new();
+        let mut family_cells = BTreeMap::new();
         for p in &planners {
             let mine: Vec<&Row> = rows.iter().filter(|r| &r.planner == p).collect();
             for &n in &robot_counts {
                 let group: Vec<&Row> = mine.iter().copied().filter(|r| r.robots == n).collect();
                 cells.insert((p.clone(), Some(n)), Cell::new(&group));
+            }
+            for f in &families {
+                let group: Vec<&Row> = mine.iter().copied().filter(|r| &r.family == f).collect();
+                family_cells.insert((p.clone(), f.clone()), Cell::new(&group));
             }
             cells.insert((p.clone(), None), Cell::new(&mine));
         }
@@ -201,16 +223,19 @@ impl Summary {
         Summary {
             planners,
             robot_counts,
+            families,
             cells,
+            family_cells,
             invalid,
         }
     }
 
     /// Each planner's cells, per arm count then over all problems, with their label.
-    fn groups<'a>(&'a self, planner: &'a str) -> impl Iterator<Item = (String, &'a Cell)> + 'a {
+    fn groups<'a>(&'a self, planner: &str) -> impl Iterator<Item = (String, &'a Cell)> + 'a {
+        let planner = planner.to_string();
         (self.robot_counts.iter().map(|&n| (n.to_string(), Some(n))))
             .chain([("all".to_string(), None)])
-            .filter_map(move |(label, key)| Some((label, self.cell(planner, key)?)))
+            .filter_map(move |(label, key)| Some((label, self.cell(&planner, key)?)))
     }
 
     fn time_table(&self, s: &mut String) {
@@ -308,11 +333,83 @@ impl Summary {
         self.cells.get(&(planner.to_string(), robots))
     }
 
+    pub fn family_cell(&self, planner: &str, family: &str) -> Option<&Cell> {
+        self.family_cells
+            .get(&(planner.to_string(), family.to_string()))
+    }
+
+    /// Per planner and family: successes of runs, as a table with a column per family.
+    fn family_table(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Success rate by family\n");
+        let _ = writeln!(
+            s,
+            "Successes of runs, per motion family (the suite's families: `omcbsa gen-bench`).\n"
+        );
+        let _ = write!(s, "| planner |");
+        for f in &self.families {
+            let _ = write!(s, " {f} |");
+        }
+        let _ = writeln!(
+            s,
+            " all |\n|---|{}---:|",
+            "---:|".repeat(self.families.len())
+        );
+        for p in &self.planners {
+            let _ = write!(s, "| {p} |");
+            let cells =
+                (self.families.iter().map(|f| self.family_cell(p, f))).chain([self.cell(p, None)]);
+            for c in cells {
+                let _ = match c {
+                    Some(c) => write!(
+                        s,
+                        " {}/{} ({}) |",
+                        c.successes,
+                        c.runs,
+                        pct(c.success_rate())
+                    ),
+                    None => write!(s, " - |"),
+                };
+            }
+            let _ = writeln!(s);
+        }
+    }
+
+    /// One row per planner and group (`label`, cell): runs, success, known solvable, times.
+    fn group_table<'a>(
+        &self,
+        s: &mut String,
+        title: &str,
+        column: &str,
+        groups: impl Fn(&str) -> Vec<(String, &'a Cell)>,
+    ) {
+        let ms = |x: Option<f64>| x.map_or("-".to_string(), |t| format!("{:.1}", 1000.0 * t));
+        let _ = writeln!(s, "\n## {title}\n");
+        let _ = writeln!(
+            s,
+            "| planner | {column} | runs | success | success (known solvable) | median (ms) | mean (ms) |"
+        );
+        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|");
+        for p in &self.planners {
+            for (label, c) in groups(p) {
+                let _ = writeln!(
+                    s,
+                    "| {p} | {label} | {} | {} ({}) | {} ({}/{}) | {} | {} |",
+                    c.runs,
+                    pct(c.success_rate()),
+                    c.successes,
+                    pct(c.solvable_success_rate()),
+                    c.solvable_successes,
+                    c.solvable_runs,
+                    ms(c.median()),
+                    ms(c.mean())
+                );
+            }
+        }
+    }
+
     /// The markdown report. `context` is a line saying what was run.
     pub fn markdown(&self, context: &str) -> String {
         let mut s = String::new();
-        let ms = |x: Option<f64>| x.map_or("-".to_string(), |t| format!("{:.1}", 1000.0 * t));
-        let pct = |x: f64| format!("{:.1} %", 100.0 * x);
         let _ = writeln!(s, "# Benchmark results\n\n{context}\n");
         let _ = writeln!(
             s,
@@ -341,31 +438,15 @@ impl Summary {
                 pct(all.solvable_success_rate())
             );
         }
-        let _ = writeln!(s, "\n## Per planner and number of arms\n");
-        let _ = writeln!(s, "| planner | arms | runs | success | success (known solvable) | median (ms) | mean (ms) |");
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
-        for p in &self.planners {
-            let groups = self
-                .robot_counts
-                .iter()
-                .map(|&n| (n.to_string(), Some(n)))
-                .chain([("all".to_string(), None)]);
-            for (label, key) in groups {
-                let c = &self.cells[&(p.clone(), key)];
-                let _ = writeln!(
-                    s,
-                    "| {p} | {label} | {} | {} ({}) | {} ({}/{}) | {} | {} |",
-                    c.runs,
-                    pct(c.success_rate()),
-                    c.successes,
-                    pct(c.solvable_success_rate()),
-                    c.solvable_successes,
-                    c.solvable_runs,
-                    ms(c.median()),
-                    ms(c.mean())
-                );
-            }
-        }
+        self.family_table(&mut s);
+        self.group_table(&mut s, "Per planner and number of arms", "arms", |p| {
+            self.groups(p).collect()
+        });
+        self.group_table(&mut s, "Per planner and family", "family", |p| {
+            (self.families.iter())
+                .filter_map(|f| Some((f.clone(), self.family_cell(p, f)?)))
+                .collect()
+        });
         self.time_table(&mut s);
         self.quality_table(&mut s);
         if !self.invalid.is_empty() {

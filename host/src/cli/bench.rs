@@ -34,6 +34,10 @@ pub struct Args {
     /// it chose. Only to measure what the approach costs (the peer of a default run).
     #[arg(long)]
     no_approach: bool,
+    /// Run nothing: write summary.md, the plots and index.html from the runs already in the
+    /// output directory's results.csv (a sweep's, e.g. `python -m omcbsa.sweep`).
+    #[arg(long)]
+    report_only: bool,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -46,6 +50,7 @@ pub fn run(args: &Args) -> ExitCode {
         out: args.out.clone(),
         progress: true,
         approach: !args.no_approach,
+        report_only: args.report_only,
     };
     match run_bench(&args.suite_dir, &opts) {
         Ok(report) => {

@@ -64,11 +64,20 @@ pub fn run(args: &Args) -> ExitCode {
     };
     match written {
         Ok(r) => match print(format_args!(
-            "{} problems ({} known solvable) in {} ({:.1} s)",
+            "{} problems ({} known solvable, {} drawn again from a later seed) in {} ({:.1} s){}",
             r.problems,
             r.known_solvable,
+            r.redrawn,
             args.outdir.display(),
-            r.seconds
+            r.seconds,
+            if r.undrawn.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "\nleft out, no seed drew them (listed in suite.json): {}",
+                    r.undrawn.join(", ")
+                )
+            }
         )) {
             Ok(()) => ExitCode::SUCCESS,
             Err(code) => code,

@@ -7,15 +7,17 @@ use omcbsa_core::problem::Problem;
 use omcbsa_core::rng::Rng;
 use serde_json::Map;
 
-use super::family::{Family, Hand};
+use super::connect;
+use super::family::Family;
 use super::frames::{at, v3};
+use super::index::{Error, SuiteEntry, WITNESS_DIR};
 use super::layout::{Layout, NamedObstacle};
 use super::myopic::ik_tracking_solves;
-use super::standing::{clear_of, stand_anywhere, stand_clear, witness_approach};
+use super::spec::{Spec, HARD_SAMPLES, MIXED_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES};
+use super::standing::{clear_of, stand_clear};
 use super::trap::traps;
-use super::witness::{random_motion, retract, shuffle, task_witness, Arms, Placed, Scene, Q};
-use super::{
-    Error, Spec, SuiteEntry, HARD_SAMPLES, MIXED_SAMPLES, RANDOM_SAMPLES, TASK_SAMPLES, WITNESS_DIR,
+use super::witness::{
+    random_motion, retract, shuffle, task_witness, Arms, Hand, MotionSpec, Placed, Scene, Q,
 };
 use crate::format::{
     ObstacleSpec, Pose, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToleranceSpec,
@@ -23,7 +25,6 @@ use crate::format::{
 };
 use crate::models::DOF;
 use crate::{load, pose, validate};
-use omcbsa_core::approach::ApproachError;
 
 /// Time between poses: `velocity * dt` is 0.24 to 0.28 rad, above the planners' 0.2 rad
 /// null-space step.
@@ -36,7 +37,7 @@ const TCP_OFFSET: f64 = 0.12;
 pub struct Generated {
     pub entry: SuiteEntry,
     pub problem: ProblemFile,
-    pub witness: Option<SolutionFile>,
+    pub witness: SolutionFile,
 }
 
 /// One sampled problem: its layout, hands (designed arm included) and maybe a witness.
@@ -46,7 +47,22 @@ struct Sample {
     witness: Option<Vec<Vec<Q>>>,
 }
 
-pub fn generate(spec: &Spec) -> Result<Generated, Error> {
+/// A sample made into a problem whose arms can stand where it puts them, with the witness's
+/// paths (rounded as the files hold them).
+struct Candidate {
+    problem: ProblemFile,
+    core: Box<Problem<DOF>>,
+    paths: Vec<Vec<Q>>,
+    assignment: Vec<Option<usize>>,
+    /// When every arm has `initial`: whether the straight motion of all arms together from
+    /// there to the witness's first configurations collides.
+    straight_bridge_collides: Option<bool>,
+}
+
+/// The problem of `spec` drawn from `seed`: the first of its samples with a validated witness
+/// that IK tracking does not solve (of the approach family: whose straight bridge collides),
+/// else the best sample with a validated witness; `None` when no sample has one.
+pub fn generate(spec: &Spec, seed: u64) -> Result<Option<Generated>, Error> {
     let samples = if spec.family == Family::Mixed {
         MIXED_SAMPLES
     } else if matches!(spec.family, Family::Random | Family::Approach) {
@@ -54,44 +70,40 @@ pub fn generate(spec: &Spec) -> Result<Generated, Error> {
     } else {
         TASK_SAMPLES
     };
-    // The first sample with a witness (of the approach family, whose straight bridge
-    // collides if any does), else the last one without.
     let mut fallback: Option<(Generated, bool)> = None;
-    let mut solvable = 0;
+    let mut tried = 0;
     for k in 0..samples {
-        let mut rng = Rng::new(
-            spec.seed
-                .wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15)),
-        );
+        let mut rng = Rng::new(seed.wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
         let Some(sample) = sample(spec, &mut rng) else {
             continue;
         };
-        let Some((generated, problem)) = files(spec, &sample, &mut rng)? else {
+        let Some(paths) = &sample.witness else {
             continue;
         };
-        let known = generated.witness.is_some();
+        let Some(candidate) = candidate(spec, &sample, paths, &mut rng)? else {
+            continue;
+        };
         // The approach family wants arms whose straight bridges collide.
-        let hard = spec.stance.is_none() || generated.entry.straight_bridge_collides == Some(true);
-        if known && hard && !ik_tracking_solves(&problem) {
-            return Ok(generated);
-        }
+        let hard = spec.stance.is_none() || candidate.straight_bridge_collides == Some(true);
+        let wanted = hard && !ik_tracking_solves(&candidate.core);
         let better = match &fallback {
             None => true,
-            Some((f, f_hard)) => known && (f.witness.is_none() || (hard && !f_hard)),
+            Some((_, fallback_hard)) => hard && !fallback_hard,
         };
-        if better {
-            fallback = Some((generated, hard));
+        if wanted || better {
+            if let Some(generated) = witness(spec, seed, candidate, &mut rng)? {
+                if wanted {
+                    return Ok(Some(generated));
+                }
+                fallback = Some((generated, hard));
+            }
         }
-        solvable += usize::from(known && hard);
-        if solvable == HARD_SAMPLES {
+        tried += usize::from(hard);
+        if tried >= HARD_SAMPLES && fallback.is_some() {
             break;
         }
     }
-    let fallback = fallback.map(|(g, _)| g);
-    fallback.ok_or_else(|| Error::NoMotion {
-        problem: spec.name.clone(),
-        samples,
-    })
+    Ok(fallback.map(|(g, _)| g))
 }
 
 fn tcp() -> Frame {
@@ -146,16 +158,14 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
                         path: p.path.clone(),
                     })
                     .collect();
-                let path = random_motion(
-                    &scene,
+                let motion = MotionSpec {
                     model,
-                    &base,
-                    &layout.stations[arm],
-                    h,
-                    holder != Some(arm),
-                    &others,
-                    rng,
-                )?;
+                    base: &base,
+                    station: &layout.stations[arm],
+                    steps: h,
+                    moving: holder != Some(arm),
+                };
+                let path = random_motion(&scene, &motion, &others, rng)?;
                 placed.push((arm, Placed { model, base, path }));
             }
             placed.sort_by_key(|(arm, _)| *arm);
@@ -188,17 +198,20 @@ fn sample(spec: &Spec, rng: &mut Rng) -> Option<Sample> {
     }
 }
 
-/// The problem file (trajectories shuffled) and, if the witness passes the validator, the
-/// witness solution; and the problem as the planners get it. `None` when no place was found
-/// for every arm to stand clear.
-fn files(
+/// The problem file (trajectories shuffled) of a sample with witness `paths`, with the
+/// arms standing clear; `None` when some arm has nowhere to stand.
+fn candidate(
     spec: &Spec,
     sample: &Sample,
+    paths: &[Vec<Q>],
     rng: &mut Rng,
-) -> Result<Option<(Generated, Box<Problem<DOF>>)>, Error> {
+) -> Result<Option<Candidate>, Error> {
     let n = sample.layout.bases.len();
     let models = &sample.layout.models;
     let hands = &sample.hands;
+    let paths: Vec<Vec<Q>> = (paths.iter())
+        .map(|p| p.iter().map(|q| q.map(round)).collect())
+        .collect();
     // listed[j] = the hand listed j-th; never the identity when it could be.
     let mut listed: Vec<usize> = (0..hands.len()).collect();
     while hands.len() >= 2 && listed.iter().enumerate().all(|(j, &k)| hands[k].arm == j) {
@@ -209,25 +222,23 @@ fn files(
         assignment[hands[k].arm] = Some(j);
     }
     let holds = hands.len() < n;
-    let starts: Vec<Option<Q>> = (0..n)
-        .map(|i| sample.witness.as_ref().map(|paths| paths[i][0]))
-        .collect();
+    let starts: Vec<Option<Q>> = paths.iter().map(|p| Some(p[0])).collect();
     // Holding arms hold their witness configuration; every arm needs an initial one then, and
     // the others get the retract pose. The approach family stands every arm somewhere hard.
     let initial: Vec<Option<Q>> = (0..n)
-        .map(|i| match (spec.stance, starts[i], assignment[i]) {
-            (Some(stance), Some(start), _) => Some(stance.initial(i, &start, &retract(models[i]))),
-            (_, Some(start), None) => Some(start),
-            _ => holds.then(|| retract(models[i])),
+        .map(|i| match (assignment[i], spec.stance) {
+            (None, _) => starts[i],
+            (Some(_), Some(stance)) => Some(stance.initial(i, &paths[i][0], &retract(models[i]))),
+            (Some(_), None) => holds.then(|| retract(models[i])),
         })
         .collect();
     let mut obstacles = sample.layout.obstacles.clone();
-    if let (Some(stance), Some(paths)) = (spec.stance, &sample.witness) {
+    if let Some(stance) = spec.stance {
         for i in 0..n {
-            if let (Some(q), Some(start)) = (initial[i], starts[i]) {
+            if let Some(q) = initial[i] {
                 let post = stance
-                    .post(models[i], &sample.layout.bases[i], &q, &start, &tcp())
-                    .filter(|o| clear_of(o, models, &sample.layout.bases, paths));
+                    .post(models[i], &sample.layout.bases[i], &q, &paths[i][0], &tcp())
+                    .filter(|o| clear_of(o, models, &sample.layout.bases, &paths));
                 obstacles.extend(post.map(|o| (format!("post_{i}"), o)));
             }
         }
@@ -249,7 +260,7 @@ fn files(
             poses: hands[k].poses.iter().map(rounded).collect(),
         })
         .collect();
-    let problem = ProblemFile {
+    let mut problem = ProblemFile {
         format: PROBLEM_FORMAT.to_string(),
         name: spec.name.clone(),
         dt: DT,
@@ -258,121 +269,128 @@ fn files(
         obstacles: obstacles.iter().map(obstacle_spec).collect(),
         tolerance: ToleranceSpec::default(),
     };
-    let mut problem = problem;
-    // A problem the loader refuses is a bug of the generator.
-    let generation = |message: String| Error::Generation {
-        problem: spec.name.clone(),
-        message,
-    };
-    let mut core = load::problem::<Arms, DOF>(&problem)
-        .map(Box::new)
-        .map_err(|e| generation(e.to_string()))?;
-    // Where the arms stand: clear of everything, with an approach to the witness.
-    let mut approach = None;
+    let mut core = load_problem(spec, &problem)?;
     let mut straight_bridge_collides = None;
     if initial.iter().any(Option::is_some) {
-        if !stand_clear(&mut core, &starts) && !stand_anywhere(&mut core, rng, 1000) {
-            // No witness start to fall back on and no free configuration found.
-            // Nowhere found for an arm to stand: the sample is not used.
+        // An arm that cannot stand where it was put (limits, collisions, as the loader checks)
+        // stands at its witness's start instead.
+        if !stand_clear(&mut core, &starts) {
             return Ok(None);
         }
-        if let Some(paths) = &sample.witness {
-            for _ in 0..=n {
-                match witness_approach(&core, paths, true) {
-                    Ok(a) => {
-                        approach = Some(a);
-                        break;
-                    }
-                    Err(ApproachError::Blocked { robot, other }) => {
-                        for r in [Some(robot), other].into_iter().flatten() {
-                            core.robots[r].initial = starts[r];
-                        }
-                    }
-                    Err(_) => break,
-                }
-            }
-            straight_bridge_collides = Some(witness_approach(&core, paths, false).is_err());
-        }
         for (i, r) in problem.robots.iter_mut().enumerate() {
-            r.initial = core.robots[i]
-                .initial
-                .map(|q| q.iter().map(|&x| round(x)).collect());
+            r.initial = core.robots[i].initial.map(|q| q.map(round).to_vec());
         }
-        let rounded =
-            load::problem::<Arms, DOF>(&problem).map_err(|e| generation(e.to_string()))?;
-        // The validator's own check of where the arms stand (after rounding): never an
-        // `initial` that collides.
-        let contacts = validate::initial_contacts::<Arms, DOF>(&problem, &rounded);
+        core = load_problem(spec, &problem)?;
+        // The validator's own check of where the arms stand: never an `initial` that collides.
+        let contacts = validate::initial_contacts::<Arms, DOF>(&problem, &core);
         if contacts.is_some_and(|c| !c.is_empty()) {
             return Ok(None);
         }
+        straight_bridge_collides = initial_placing(&core)
+            .map(|from| connect::straight_collides(&core, &from, &first(&paths)));
     }
-    let witness = match &sample.witness {
-        Some(paths) => {
-            let solution = SolutionFile {
-                approach: approach.as_ref().map(|a| {
-                    a.iter()
-                        .map(|p| {
-                            p.iter()
-                                .map(|q| q.iter().map(|&x| round(x)).collect())
-                                .collect()
-                        })
-                        .collect()
-                }),
-                format: SOLUTION_FORMAT.to_string(),
-                problem: spec.name.clone(),
-                planner: "witness".to_string(),
-                status: Status::Solved,
-                message: String::new(),
-                planning_time_s: 0.0,
-                assignment,
-                joint_paths: Some(
-                    paths
-                        .iter()
-                        .map(|p| {
-                            p.iter()
-                                .map(|q| q.iter().map(|&x| round(x)).collect())
-                                .collect()
-                        })
-                        .collect(),
-                ),
-                stats: Map::new(),
-            };
-            // A witness of a problem that gives every `initial` needs its approach.
-            let needs_approach = core.robots.iter().all(|r| r.initial.is_some());
-            let core =
-                load::problem::<Arms, DOF>(&problem).map_err(|e| generation(e.to_string()))?;
-            (validate::validate::<Arms, DOF>(&problem, &core, &solution).is_valid()
-                && (approach.is_some() || !needs_approach))
-                .then_some(solution)
-        }
+    Ok(Some(Candidate {
+        problem,
+        core,
+        paths,
+        assignment,
+        straight_bridge_collides,
+    }))
+}
+
+/// The witness of a candidate drawn from `seed`: its paths and, when every arm has `initial`,
+/// an approach from there ([`connect::approach`]); `None` when no approach is found or the
+/// validator refuses the witness.
+fn witness(
+    spec: &Spec,
+    seed: u64,
+    c: Candidate,
+    rng: &mut Rng,
+) -> Result<Option<Generated>, Error> {
+    let approach = match initial_placing(&c.core) {
+        Some(from) => match connect::approach(&c.core, &from, &first(&c.paths), rng) {
+            Some(a) => Some(a),
+            None => return Ok(None),
+        },
         None => None,
+    };
+    let configurations = |qs: &mut dyn Iterator<Item = &Q>| -> Vec<Vec<f64>> {
+        qs.map(|q| q.iter().map(|&x| round(x)).collect()).collect()
+    };
+    let solution = SolutionFile {
+        approach: approach.as_ref().map(|a| {
+            (0..c.paths.len())
+                .map(|i| configurations(&mut a.steps.iter().map(|step| &step[i])))
+                .collect()
+        }),
+        format: SOLUTION_FORMAT.to_string(),
+        problem: spec.name.clone(),
+        planner: "witness".to_string(),
+        status: Status::Solved,
+        message: String::new(),
+        planning_time_s: 0.0,
+        assignment: c.assignment,
+        joint_paths: Some(
+            (c.paths.iter())
+                .map(|p| configurations(&mut p.iter()))
+                .collect(),
+        ),
+        stats: Map::new(),
+    };
+    if !validate::validate::<Arms, DOF>(&c.problem, &c.core, &solution).is_valid() {
+        return Ok(None);
+    }
+    let paths_method = if spec.family.random_motions() {
+        "random-motion"
+    } else {
+        "swing-tracking"
+    };
+    let method = match &approach {
+        Some(a) => format!("{paths_method}+{}", a.method.name()),
+        None => paths_method.to_string(),
     };
     let entry = SuiteEntry {
         name: spec.name.clone(),
         file: format!("{}.json", spec.name),
         family: spec.family.name().to_string(),
         layout: spec.layout.name().to_string(),
-        robots: n,
-        trajectories: hands.len(),
-        horizon: hands[0].poses.len(),
-        known_solvable: witness.is_some(),
-        seed: spec.seed,
+        robots: c.paths.len(),
+        trajectories: c.problem.trajectories.len(),
+        horizon: c.core.horizon(),
+        known_solvable: true,
+        seed,
+        redraws: 0,
         stance: spec.stance.map(|s| s.name().to_string()),
-        straight_bridge_collides,
+        straight_bridge_collides: c.straight_bridge_collides,
         assignment: None,
-        witness: witness
-            .as_ref()
-            .map(|_| format!("{WITNESS_DIR}/{}.json", spec.name)),
+        witness: Some(format!("{WITNESS_DIR}/{}.json", spec.name)),
+        witness_method: Some(method),
     };
-    Ok(Some((
-        Generated {
-            entry,
-            problem,
-            witness,
-        },
-        core,
-    )))
+    Ok(Some(Generated {
+        entry,
+        problem: c.problem,
+        witness: solution,
+    }))
+}
+
+/// The problem as the planners get it; one the loader refuses is a bug of the generator.
+fn load_problem(spec: &Spec, problem: &ProblemFile) -> Result<Box<Problem<DOF>>, Error> {
+    load::problem::<Arms, DOF>(problem)
+        .map(Box::new)
+        .map_err(|e| Error::Generation {
+            problem: spec.name.clone(),
+            message: e.to_string(),
+        })
+}
+
+/// Every robot's `initial`, when every robot has one.
+fn initial_placing(problem: &Problem<DOF>) -> Option<Vec<Q>> {
+    problem.robots.iter().map(|r| r.initial).collect()
+}
+
+/// Every path's first configuration.
+fn first(paths: &[Vec<Q>]) -> Vec<Q> {
+    paths.iter().map(|p| p[0]).collect()
 }
 
 /// Nine decimals: nanometres and nanoradians, far below every tolerance, and short files.

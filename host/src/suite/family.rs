@@ -8,8 +8,9 @@ use omcbsa_core::model::Frame;
 use omcbsa_core::nalgebra::Matrix3;
 use omcbsa_core::rng::Rng;
 
-use super::frames::{aligned, ease, heading, rot, v3, yaw, V3};
+use super::frames::{aligned, atan2, ease, heading, rot, sin, v3, yaw, V3};
 use super::layout::{self, obstacle_box, post, Layout, LayoutKind};
+use super::witness::Hand;
 use crate::models::ModelKind;
 
 /// The benchmark suite's motion families.
@@ -73,6 +74,12 @@ impl Family {
             Family::Approach => "approach",
             Family::Mixed => "mixed",
         }
+    }
+
+    /// Whether the family's hands are those of random joint motions (the others' are
+    /// designed for a task, and their witnesses track them).
+    pub fn random_motions(self) -> bool {
+        matches!(self, Family::Random | Family::Approach | Family::Mixed)
     }
 
     /// The (layout, number of arms) combinations this family is generated on.
@@ -163,13 +170,6 @@ impl Family {
     }
 }
 
-/// One hand trajectory and the arm it was designed for.
-#[derive(Clone, Debug)]
-pub struct Hand {
-    pub arm: usize,
-    pub poses: Vec<Frame>,
-}
-
 type Steps<'a> = &'a dyn Fn(&mut dyn FnMut(f64) -> Frame) -> Vec<Frame>;
 
 /// Hands pointing away from their arm at a low height, all moving +y (right to left seen from
@@ -220,9 +220,9 @@ fn sweep(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
             let poses = steps(&mut |s| {
                 let p = start
                     + v3(
-                        wobble * (PI * s).sin(),
+                        wobble * sin(PI * s),
                         length * ease(s),
-                        0.02 * (2.0 * PI * s).sin(),
+                        0.02 * sin(2.0 * PI * s),
                     );
                 let side = station.front.cross(&v3(0.0, 0.0, 1.0));
                 aligned(p, rot(side, pitch) * station.front, v3(0.0, 0.0, -1.0))
@@ -259,7 +259,7 @@ fn box_flip(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
         LayoutKind::Ring => {
             // Arm k faces the centre from heading(a_k): it takes the face whose normal points
             // back at it. The box's x axis points at arm 0.
-            let a0 = layout.bases[0].pos.y.atan2(layout.bases[0].pos.x);
+            let a0 = atan2(layout.bases[0].pos.y, layout.bases[0].pos.x);
             let frame0 = Frame {
                 rot: yaw(a0),
                 pos: layout.centre + v3(0.0, 0.0, 0.3),
@@ -341,10 +341,10 @@ fn cloth(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
     let lift = rng.uniform(0.0, 0.08);
     (layout.bases.iter().enumerate())
         .map(|(arm, base)| {
-            let a0 = (base.pos.y - centre.y).atan2(base.pos.x - centre.x);
+            let a0 = atan2(base.pos.y - centre.y, base.pos.x - centre.x);
             let poses = steps(&mut |s| {
                 let radial = heading(a0 + turn * ease(s));
-                let p = centre + radial * radius + v3(0.0, 0.0, lift * (PI * s).sin());
+                let p = centre + radial * radius + v3(0.0, 0.0, lift * sin(PI * s));
                 aligned(p, v3(0.0, 0.0, -1.0), radial)
             });
             Hand { arm, poses }
@@ -382,7 +382,7 @@ fn pushing(layout: &mut Layout, rng: &mut Rng, steps: Steps) -> Vec<Hand> {
             let turn = rng.uniform(-0.3, 0.3);
             let poses = steps(&mut |s| {
                 let e = ease(s);
-                let p = start + (end - start) * e + bend * (PI * e).sin();
+                let p = start + (end - start) * e + bend * sin(PI * e);
                 aligned(p, v3(0.0, 0.0, -1.0), yaw(turn * e) * dir)
             });
             Hand { arm, poses }

@@ -1,7 +1,8 @@
-//! Small constructors for world frames used by the layouts and motion families.
+//! Small constructors for world frames used by the layouts and motion families. Sines and
+//! cosines come from `libm` (see [`sin`]), so that the suite is the same on every platform.
 
 use omcbsa_core::model::Frame;
-use omcbsa_core::nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use omcbsa_core::nalgebra::{Matrix3, Vector3};
 
 pub type V3 = Vector3<f64>;
 
@@ -16,9 +17,28 @@ pub fn at(pos: V3) -> Frame {
     }
 }
 
-/// Rotation by `angle` about the unit vector `axis`.
+/// The sine, the same bits on every platform: `libm`'s, not the C library's behind `f64::sin`
+/// (nor nalgebra's, which is either, by the features a build enables).
+pub fn sin(x: f64) -> f64 {
+    libm::sin(x)
+}
+
+/// The cosine, as [`sin`].
+pub fn cos(x: f64) -> f64 {
+    libm::cos(x)
+}
+
+/// The angle of `(x, y)` from the x axis, as [`sin`].
+pub fn atan2(y: f64, x: f64) -> f64 {
+    libm::atan2(y, x)
+}
+
+/// Rotation by `angle` about `axis` (any length but 0): Rodrigues' formula.
 pub fn rot(axis: V3, angle: f64) -> Matrix3<f64> {
-    Rotation3::from_axis_angle(&Unit::new_normalize(axis), angle).into_inner()
+    let k = axis.normalize();
+    let (s, c) = (sin(angle), cos(angle));
+    let cross = Matrix3::new(0.0, -k.z, k.y, k.z, 0.0, -k.x, -k.y, k.x, 0.0);
+    Matrix3::identity() * c + cross * s + k * k.transpose() * (1.0 - c)
 }
 
 /// Rotation about world z.
@@ -40,10 +60,10 @@ pub fn aligned(pos: V3, z: V3, x_hint: V3) -> Frame {
 
 /// A horizontal unit vector at angle `a` from world x.
 pub fn heading(a: f64) -> V3 {
-    v3(a.cos(), a.sin(), 0.0)
+    v3(cos(a), sin(a), 0.0)
 }
 
 /// `0 -> 0`, `1 -> 1`, with zero speed at both ends: how a policy starts and stops a motion.
 pub fn ease(s: f64) -> f64 {
-    0.5 - 0.5 * (std::f64::consts::PI * s).cos()
+    0.5 - 0.5 * cos(std::f64::consts::PI * s)
 }

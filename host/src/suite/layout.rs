@@ -8,8 +8,8 @@ use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::model::Frame;
 use omcbsa_core::rng::Rng;
 
-use super::frames::{aligned, at, heading, v3, yaw, V3};
-use super::witness::default_model;
+use super::frames::{aligned, at, cos, heading, sin, v3, yaw, V3};
+use crate::models::ModelKind;
 
 /// How the arms of a problem stand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,6 +36,11 @@ impl LayoutKind {
     }
 }
 
+/// The model of arms whose family names none.
+fn default_model() -> u8 {
+    ModelKind::default().id()
+}
+
 /// A named obstacle, as it goes into the problem file.
 pub type NamedObstacle = (String, Obstacle);
 
@@ -49,7 +54,7 @@ pub struct Station {
 pub struct Layout {
     pub kind: LayoutKind,
     pub bases: Vec<Frame>,
-    /// Each arm's model (an index into [`super::witness::Arms`]): the default model unless
+    /// Each arm's model (an index into [`crate::models::Fleet`]): the default model unless
     /// the family mixes models.
     pub models: Vec<u8>,
     pub stations: Vec<Station>,
@@ -300,7 +305,7 @@ pub fn torsos(n: usize, rng: &mut Rng) -> Layout {
                 break;
             }
             let mount = t.apply(&v3(0.0, 0.16 * side, SHOULDER_Z));
-            let out = t.rot * v3(0.0, side * tilt.cos(), -tilt.sin());
+            let out = t.rot * v3(0.0, side * cos(tilt), -sin(tilt));
             bases.push(aligned(mount, out, front));
             stations.push(Station {
                 front,

@@ -22,9 +22,9 @@ use omcbsa_core::collision::ArmPose;
 use omcbsa_core::planner::{NoClock, PlannerKind, Status, Until};
 use omcbsa_core::search::refine::LEVEL_CAP;
 
-use super::emit::{self, Generated};
+use super::emit::Generated;
 use super::witness::Arms;
-use super::{specs, write_suite, Error, Family, GenOptions, GenReport, Tightness};
+use super::{draw, specs, write_suite, Drawn, Error, Family, GenOptions, GenReport, Tightness};
 use crate::bench::WORKER_STACK;
 use crate::load;
 use crate::models::DOF;
@@ -91,11 +91,11 @@ pub fn gen_refine(outdir: &Path, opts: &RefineOptions) -> Result<GenReport, Erro
         let found: Vec<Option<Generated>> = pool.install(|| {
             batch
                 .par_iter()
-                .map(|spec| match emit::generate(spec) {
-                    Ok(g) => Ok(level0_misses(&g)?.then_some(g)),
-                    // A candidate with nothing to build from is no candidate.
-                    Err(Error::NoMotion { .. }) => Ok(None),
-                    Err(e) => Err(e),
+                // A candidate is drawn from its first seed alone: one with nothing to build
+                // from is no candidate.
+                .map(|spec| match draw(spec, 1)? {
+                    Drawn::Problem(g) => Ok(level0_misses(&g)?.then_some(*g)),
+                    Drawn::Undrawn(_) => Ok(None),
                 })
                 .collect::<Result<_, Error>>()
         })?;
@@ -108,16 +108,13 @@ pub fn gen_refine(outdir: &Path, opts: &RefineOptions) -> Result<GenReport, Erro
     for g in &mut kept {
         g.entry.family = format!("refine_{}", g.entry.family);
     }
-    write_suite(outdir, opts.seed, kept, start)
+    write_suite(outdir, opts.seed, kept, Vec::new(), start)
 }
 
-/// Whether `g` has a validated witness, arms that can stand at their `initial` (the tighter
-/// fixtures may take the retract pose an arm starts from), and Ω-CBSA's level 0 exhausts its
-/// search space on it.
+/// Whether `g`'s arms can stand at their `initial` (the tighter fixtures may take the retract
+/// pose an arm starts from) and Ω-CBSA's level 0 exhausts its search space on it (its witness
+/// is validated).
 fn level0_misses(g: &Generated) -> Result<bool, Error> {
-    if g.witness.is_none() {
-        return Ok(false);
-    }
     let problem = load::problem::<Arms, DOF>(&g.problem).map_err(|e| Error::Generation {
         problem: g.entry.name.clone(),
         message: e.to_string(),

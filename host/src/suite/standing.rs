@@ -1,11 +1,9 @@
-//! Where a problem's arms stand (`initial`), and the witness's approach from there.
+//! Where a problem's arms stand (`initial`).
 //!
 //! A problem that gives `initial` is planned from it, so its witness must reach its first
-//! configurations from it too. `initial` is checked as the loader checks it (limits and
-//! collisions, `approach::check_initial`), and an approach from it to the witness's first
-//! configurations is planned with the core's own approach planner and kept in the witness
-//! file, which the validator then checks whole. An arm that cannot stand where it was put, or
-//! whose approach is not found, stands at its witness's first configuration instead.
+//! configurations from it too (its approach: `connect`). `initial` is checked as the loader
+//! checks it (limits and collisions, `approach::check_initial`): an arm that cannot stand
+//! where it was put stands at its witness's first configuration instead.
 //!
 //! The approach family ([`super::Family::Approach`]) puts every arm where a straight bridge to
 //! its hand collides: folded at Kinova's retract pose, turned a quarter turn across its
@@ -13,14 +11,10 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use omcbsa_core::approach::{
-    check_starts, plan_approach, ApproachError, ApproachParams, ApproachQuery, ApproachStorage,
-};
+use omcbsa_core::approach::check_starts;
 use omcbsa_core::geometry::{Obstacle, Shape};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::problem::Problem;
-use omcbsa_core::rng::Rng;
-use omcbsa_core::search::NoDeadline;
 
 use super::frames::{at, v3};
 use super::witness::{Arms, Q};
@@ -113,56 +107,6 @@ pub fn clear_of(obstacle: &Obstacle, models: &[u8], bases: &[Frame], paths: &[Ve
     })
 }
 
-/// RRT-Connect samples the witness's approach may use.
-const WITNESS_SAMPLES: u32 = 6400;
-
-/// The approach from `problem`'s `initial` to the first configurations of `paths` (per robot,
-/// all the same length), with the core's planner; `rrt` false keeps it to the straight bridge
-/// of all arms together. Per robot, its configurations.
-pub fn witness_approach(
-    problem: &Problem<DOF>,
-    paths: &[Vec<Q>],
-    rrt: bool,
-) -> Result<Vec<Vec<Q>>, ApproachError> {
-    let n = paths.len();
-    let h = paths.first().map_or(0, Vec::len);
-    let flat: Vec<Q> = paths.iter().flatten().copied().collect();
-    let nodes = 1 << 12;
-    let (mut tree, mut parent, mut waypoints) = (
-        vec![[0.0; DOF]; nodes * n],
-        vec![0u32; nodes],
-        vec![[0.0; DOF]; 512 * n],
-    );
-    let mut storage = ApproachStorage {
-        tree: &mut tree,
-        parent: &mut parent,
-        waypoints: &mut waypoints,
-    };
-    let cap = crate::approach::MAX_APPROACH;
-    let mut out = vec![[0.0; DOF]; cap * n];
-    let params = ApproachParams {
-        ordered: rrt,
-        rrt_orders: if rrt {
-            ApproachParams::default().rrt_orders
-        } else {
-            0
-        },
-        rrt_samples: if rrt { WITNESS_SAMPLES } else { 0 },
-        ..ApproachParams::default()
-    };
-    let q = ApproachQuery {
-        problem,
-        plan: &flat,
-        horizon: h,
-        params,
-        deadline: &NoDeadline,
-    };
-    let a = plan_approach::<Arms, DOF>(&q, &mut storage, &mut out)?;
-    Ok((0..n)
-        .map(|i| out[i * cap..i * cap + a.len].to_vec())
-        .collect())
-}
-
 /// Moves arms that cannot stand at their `initial` (limits, collisions, as the loader checks)
 /// to their `fallback` configuration until all can: the arm found blocked, else the arm it
 /// touches. Returns `false` when some arm still cannot stand and has nowhere else to go.
@@ -183,18 +127,4 @@ pub fn stand_clear(problem: &mut Problem<DOF>, fallback: &[Option<Q>]) -> bool {
         problem.robots[i].initial = fallback[i];
     }
     true
-}
-
-/// For a problem without a witness: moves each arm that cannot stand to random
-/// configurations (from `rng`) until all can, at most `tries` moves. Returns whether they can.
-pub fn stand_anywhere(problem: &mut Problem<DOF>, rng: &mut Rng, tries: usize) -> bool {
-    for _ in 0..tries {
-        let Err(b) = check_starts::<Arms, DOF>(problem) else {
-            return true;
-        };
-        let model = problem.robots[b.robot].model;
-        problem.robots[b.robot].initial =
-            Some(rng.configuration(Arms::lower(model), Arms::upper(model)));
-    }
-    check_starts::<Arms, DOF>(problem).is_ok()
 }

@@ -8,17 +8,16 @@
 //! near it all along: solving a trapped problem takes that null-space motion.
 
 use omcbsa_core::collision::ArmPose;
-use omcbsa_core::geometry::{Obstacle, Shape};
+use omcbsa_core::geometry::{Aabb, Obstacle, Shape};
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::motion::{motion_is_free, motion_near_point, ArmMotion};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 
-use super::family::Hand;
 use super::frames::{at, V3};
 use super::layout::NamedObstacle;
-use super::witness::{retract, Arms, Scene, MOTION_STEP, Q};
+use super::witness::{retract, Arms, Hand, Scene, MOTION_STEP, Q};
 use crate::models::DOF;
 
 /// Fixture radii tried, largest first: the largest that keeps the clearance from the witness.
@@ -143,12 +142,27 @@ impl<'a> Witness<'a> {
         }
     }
 
-    /// Distance from `p` to the nearest witness arm surface (sampled at half-steps).
+    /// Distance from `p` to the nearest witness arm surface (sampled at half-steps). The arms
+    /// are visited nearest box first, and those whose box is farther than the nearest surface
+    /// found so far are passed over: their capsules are inside their box, so none is nearer
+    /// (the same minimum, sooner).
     fn gap(&self, p: &V3) -> f64 {
-        (self.poses.iter())
-            .flat_map(|a| a.capsules())
-            .map(|c| c.segment.distance2_to_point(p).sqrt() - c.radius)
-            .fold(f64::INFINITY, f64::min)
+        let point = Aabb::around(p, &V3::zeros());
+        let mut boxes: Vec<(f64, &ArmPose)> = (self.poses.iter())
+            .map(|a| (a.aabb().distance(&point), a))
+            .collect();
+        boxes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut nearest = f64::INFINITY;
+        for (distance, a) in boxes {
+            // Past float noise, so the minimum is the same to the bit.
+            if distance > nearest + 1e-9 {
+                break;
+            }
+            for c in a.capsules() {
+                nearest = nearest.min(c.segment.distance2_to_point(p).sqrt() - c.radius);
+            }
+        }
+        nearest
     }
 
     /// Whether a sphere of `radius` at `p` keeps the clearance from every witness motion.

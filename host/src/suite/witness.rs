@@ -14,10 +14,9 @@ use omcbsa_core::motion::{motion_is_free, motions_collide, ArmMotion};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
 
-use super::family::Hand;
-use super::frames::{aligned, rot, v3, V3};
+use super::frames::{aligned, rot, sin, v3, V3};
 use super::layout::Station;
-use crate::models::{ModelKind, DOF};
+use crate::models::DOF;
 
 /// The models the suite's arms are of (each arm's an index into it).
 pub type Arms = crate::models::Fleet;
@@ -64,9 +63,12 @@ pub fn retract(model: u8) -> Q {
     std::array::from_fn(|j| RETRACT[j].clamp(lower[j], upper[j]))
 }
 
-/// The model of arms whose family names none.
-pub fn default_model() -> u8 {
-    ModelKind::default().id()
+/// One hand trajectory and the arm it was designed for (the witness tracks it with that arm
+/// first).
+#[derive(Clone, Debug)]
+pub struct Hand {
+    pub arm: usize,
+    pub poses: Vec<Frame>,
 }
 
 /// An arm whose path is fixed.
@@ -254,21 +256,37 @@ pub fn task_witness(
     None
 }
 
-/// A smooth random joint motion of `h` steps for an arm: it starts where IK puts the hand near
-/// the arm's station (pointing forward and down by a random amount), then every joint follows
-/// a sum of two slow sines whose speeds add up to at most half the step limit. `moving: false`
-/// gives a still arm in the same kind of pose.
-#[allow(clippy::too_many_arguments)]
+/// The arm a random motion is for, and what kind of motion.
+pub struct MotionSpec<'a> {
+    /// The arm's model.
+    pub model: u8,
+    /// Where its base stands.
+    pub base: &'a Frame,
+    /// Where its hand works.
+    pub station: &'a Station,
+    /// Steps of the motion.
+    pub steps: usize,
+    /// `false`: a still arm, in the same kind of pose.
+    pub moving: bool,
+}
+
+/// A smooth random joint motion of `spec.steps` steps for an arm, clear of the arms `placed`:
+/// it starts where IK puts the hand near the arm's station (pointing forward and down by a
+/// random amount), then every joint follows a sum of two slow sines whose speeds add up to at
+/// most half the step limit.
 pub fn random_motion(
     scene: &Scene,
-    model: u8,
-    base: &Frame,
-    station: &Station,
-    h: usize,
-    moving: bool,
+    spec: &MotionSpec,
     placed: &[Placed],
     rng: &mut Rng,
 ) -> Option<Vec<Q>> {
+    let MotionSpec {
+        model,
+        base,
+        station,
+        steps: h,
+        moving,
+    } = *spec;
     let params = IkParams::default();
     let span = (h - 1).max(1) as f64;
     for _ in 0..TRACK_ATTEMPTS {
@@ -313,7 +331,7 @@ pub fn random_motion(
                     let offset: f64 = (waves[j].iter())
                         .map(|&(c, a, phase)| {
                             let w = 2.0 * std::f64::consts::PI * c / span;
-                            a * ((w * t as f64 + phase).sin() - phase.sin())
+                            a * (sin(w * t as f64 + phase) - sin(phase))
                         })
                         .sum();
                     (q0[j] + offset).clamp(lower[j], upper[j])

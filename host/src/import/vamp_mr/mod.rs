@@ -385,7 +385,9 @@ fn entry(env: &str, p: &ProblemFile, assignment: Assignment) -> SuiteEntry {
         horizon: 1,
         known_solvable: false,
         seed: 0,
+        redraws: 0,
         witness: None,
+        witness_method: None,
         stance: None,
         straight_bridge_collides: None,
         assignment: (assignment == Assignment::Fixed).then(|| (0..n).map(Some).collect()),
@@ -416,6 +418,7 @@ fn write_suite(
         format: INDEX_FORMAT.to_string(),
         seed: 0,
         problems: entries.to_vec(),
+        undrawn: Vec::new(),
     };
     write(&out.join(INDEX_FILE), serde_json::to_string_pretty(&index))
 }
