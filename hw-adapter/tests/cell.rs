@@ -69,10 +69,8 @@ fn options(arms: &[CellArm], dir: &std::path::Path) -> CellOptions {
     let probe = chunk(&arms.iter().map(|a| a.start).collect::<Vec<_>>(), 10);
     let limits = omcbsa_hw::testing::fleet_limits(arms.len());
     o.time_scale = 1.5 * min_time_scale(probe.iter().map(|p| p.as_slice()), &limits, DT);
-    // About the cell, not the watchdog (tests/faults.rs, tests/watchdog_bound.rs): four Python
-    // mocks on a shared 2-core machine are descheduled for tens of milliseconds at times (as
-    // tests/online.rs).
-    o.config.watch.missed_cycles = 25;
+    // About the cell, not the watchdog: four Python mocks start at once, so a 3-period heartbeat.
+    o.config.watch = omcbsa_hw::testing::streaming_watch();
     o.config.watch.heartbeat_factor = 3.0;
     o.config.feedback_timeout = Duration::from_millis(250);
     // Likewise their SDO answers at start-up, four mocks starting at once.

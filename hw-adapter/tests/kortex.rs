@@ -14,7 +14,7 @@ use omcbsa_hw::kortex::proto::{self, base, base_cyclic};
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::mock_gen3::{self, MockGen3};
 use omcbsa_hw::watchdog::CycleFault;
-use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, FaultReport, Plan, WatchSettings};
+use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, FaultReport, Plan};
 use prost::Message;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -64,15 +64,9 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let plan = three_arm_plan(8);
     let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
     let log = record_path("ok", "log");
-    // 4 missed cycles, not the default 2: a Python mock descheduled for two 10 ms periods on
-    // a shared 2-core machine is no fault of the executor's; the watchdog's own bound is what
-    // the fault runs below test, with the default.
     let cfg = ExecConfig {
         log_path: Some(log.clone()),
-        watch: WatchSettings {
-            missed_cycles: 4,
-            ..WatchSettings::default()
-        },
+        watch: omcbsa_hw::testing::streaming_watch(),
         ..exec_config()
     };
     let mocks = spawn(&plan, "ok", &[]);
@@ -392,12 +386,8 @@ fn no_refresh_reaches_the_arm_after_the_mode_change_in_20_runs_with_udp_delayed_
     };
     let cfg = ExecConfig {
         settle_cycles: 5,
-        // About the order of the leaving frames, not the watchdog: answers up to 2 periods
-        // late, and a Python mock descheduled on a shared machine, within 6 missed cycles.
-        watch: WatchSettings {
-            missed_cycles: 6,
-            ..WatchSettings::default()
-        },
+        // About the order of the leaving frames, not the watchdog: answers 2 periods late.
+        watch: omcbsa_hw::testing::streaming_watch(),
         ..exec_config()
     };
     let delay = format!("--udp-delay-ms={}", 2 * cfg.period.as_millis());

@@ -11,7 +11,7 @@ use common::*;
 use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::Command;
-use omcbsa_hw::{Event, ExecConfig, Executor, PushError, StreamHandle, WatchSettings, JOINTS};
+use omcbsa_hw::{Event, ExecConfig, Executor, PushError, StreamHandle, JOINTS};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -48,14 +48,9 @@ fn start(tag: &str) -> (Online, Vec<Path>) {
         DT,
         time_scale,
         &omcbsa_hw::testing::fleet_limits(starts.len()),
-        // About online streaming, not fault detection (tests/faults.rs keeps the defaults):
-        // seconds-long runs of three Python mocks on a loaded 2-core machine see a mock stall
-        // for 20-60 ms at times, which the default accounting (2 periods) rightly stops.
+        // About online streaming, not fault detection (tests/faults.rs keeps the defaults).
         ExecConfig {
-            watch: WatchSettings {
-                missed_cycles: 25,
-                ..WatchSettings::default()
-            },
+            watch: omcbsa_hw::testing::streaming_watch(),
             ..mock_config()
         },
     )

@@ -13,18 +13,7 @@ use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
 use omcbsa_hw::fleet::MockKind;
 use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::record::{self, TOLERANCE};
-use omcbsa_hw::{Plan, Report, WatchSettings, JOINTS};
-
-/// The watchdog of these runs allows 4 missed cycles, not the default 2: a Python mock
-/// descheduled for two 10 ms periods on a shared 2-core machine stopped a run once; the
-/// watchdog's own bound is tested with the default in hw-adapter (watchdog.rs, tests/faults.rs,
-/// tests/kortex.rs).
-fn watch() -> WatchSettings {
-    WatchSettings {
-        missed_cycles: 4,
-        ..WatchSettings::default()
-    }
-}
+use omcbsa_hw::{Plan, Report, JOINTS};
 
 /// One set of mocks at a time: two sets of three Python mocks beside two planners starve the
 /// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
@@ -62,7 +51,7 @@ fn stream_demo(kind: MockKind, tag: &str) -> (Plan, std::path::PathBuf, Report) 
         plan.clone(),
         &checked,
         &dir,
-        &watch(),
+        &omcbsa_hw::testing::streaming_watch(),
         |_| {},
     )
     .unwrap_or_else(|e| panic!("{e}"));

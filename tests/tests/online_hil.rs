@@ -9,7 +9,7 @@
 use omcbsa::online::run::{run_on_mock_arms, RunScript};
 use omcbsa::online::OnlineError;
 use omcbsa_hw::mock::venv_python;
-use omcbsa_hw::{Event, WatchSettings};
+use omcbsa_hw::Event;
 use std::sync::{Mutex, MutexGuard};
 
 /// Three mocks per test: the tests of this file run one at a time (six Python mocks at the
@@ -20,17 +20,6 @@ fn serial() -> MutexGuard<'static, ()> {
     SERIAL.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// These tests are about online streaming, not fault detection (hw-adapter/tests/faults.rs):
-/// runs of thousands of cycles on three Python mocks on a loaded 2-core machine see a mock
-/// stall for 20-60 ms at times, which the default accounting (a SYNC unanswered 2 periods
-/// later) rightly stops. Heartbeat and following error stay at their defaults.
-fn tolerant_watch() -> WatchSettings {
-    WatchSettings {
-        missed_cycles: 25,
-        ..WatchSettings::default()
-    }
-}
-
 #[test]
 fn chunks_stream_to_three_mock_arms_without_stopping() {
     let _serial = serial();
@@ -38,7 +27,7 @@ fn chunks_stream_to_three_mock_arms_without_stopping() {
     let dir = tempfile_dir("online-ok");
     let script = RunScript {
         chunks: 3,
-        watch: tolerant_watch(),
+        watch: omcbsa_hw::testing::streaming_watch(),
         ..RunScript::default()
     };
     let out = run_big_stack(script, python, dir);
@@ -71,7 +60,7 @@ fn unreachable_and_late_chunks_hold_the_arms_safely_and_are_reported() {
         chunks: 3,
         unreachable_chunk: Some(1),
         late_chunk: Some(2),
-        watch: tolerant_watch(),
+        watch: omcbsa_hw::testing::streaming_watch(),
         ..RunScript::default()
     };
     let out = run_big_stack(script, python, dir);
