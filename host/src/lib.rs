@@ -50,6 +50,7 @@ pub mod execute;
 pub mod format;
 pub mod ik;
 pub mod import;
+pub mod live;
 pub mod load;
 pub mod models;
 pub mod online;

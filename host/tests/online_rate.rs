@@ -261,7 +261,9 @@ fn long_episode() {
     let steps = ep.hands[0].len();
     assert!(steps > MAX_STEPS);
     let mut e = Embodier::new(&ep.setup, OnlineOptions::default()).unwrap();
-    let timeline = e.embody(&ep.hands, 64).expect("embodied");
+    let embodied = e.embody(&ep.hands, 64).expect("embodied");
+    let timeline = embodied.timeline;
+    assert_eq!(embodied.last.end, e.end());
     let a = e.approach_len();
     let assignment = e.assignment().unwrap().to_vec();
     for (i, path) in timeline.iter().enumerate() {

@@ -12,6 +12,9 @@ the same Rust library as the command line; bad input raises :class:`InputError` 
 """
 
 from ._omcbsa import (
+    ArmFault,
+    Cell,
+    CellError,
     ChunkError,
     Embodier,
     InputError,
@@ -19,6 +22,7 @@ from ._omcbsa import (
     Report,
     Solution,
     Violation,
+    aloha_episode,
     fk,
     ik,
     plan,
@@ -26,6 +30,9 @@ from ._omcbsa import (
 )
 
 __all__ = [
+    "ArmFault",
+    "Cell",
+    "CellError",
     "ChunkError",
     "Embodier",
     "InputError",
@@ -33,6 +40,7 @@ __all__ = [
     "Report",
     "Solution",
     "Violation",
+    "aloha_episode",
     "fk",
     "ik",
     "plan",

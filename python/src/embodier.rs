@@ -9,11 +9,12 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::cell_state::{running, CellRef};
 use crate::convert::{field_error, flat, input_error};
 use crate::guard;
+use crate::options::Options;
 use crate::problem::{
-    check, planner_kind, problem_document, robots_value, rule, to_python, ModelArg, Problem,
-    DOF,
+    check, planner_kind, problem_document, robots_value, rule, to_python, ModelArg, Problem, DOF,
 };
 use omcbsa::load;
 
@@ -30,18 +31,43 @@ pyo3::create_exception!(
 /// Plans policy chunks as they arrive, from where the arms will be, keeping one plan the arms
 /// can be streamed without stopping (the `omcbsa` library's `Embodier`).
 ///
-/// `Embodier(setup, planner="omcbsa", chunk_timeout=1.0, max_chunk_len=64)`: `setup` is a
-/// `Problem` whose robots all give `initial` (its trajectories are not used). Timeline index
-/// 0 is `initial`; then the approach to the first chunk; then the chunks, one configuration
-/// per `dt`.
+/// `Embodier(setup, **options)`: `setup` is a `Problem` whose robots all give `initial` (its
+/// trajectories are not used), or the keywords `bases`, `initial`, `dt` (`tcp`, `obstacles`,
+/// `tolerance`, `model`) give it; the other keywords say how chunks are planned (see the stub,
+/// `_omcbsa.pyi`). Timeline index 0 is `initial`; then the approach to the first chunk; then
+/// the chunks, one configuration per `dt`.
 #[pyclass(module = "omcbsa")]
 pub struct Embodier {
-    inner: HostEmbodier,
-    last: Option<ChunkReport>,
+    pub(crate) inner: HostEmbodier,
+    pub(crate) last: Option<ChunkReport>,
     max_chunk_len: usize,
+    /// The cell it plans for, while that runs: the cell pushes its chunks.
+    pub(crate) cell: Option<CellRef>,
 }
 
-fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
+/// The Embodier's keyword options: its setup as arrays, and how chunks are planned.
+const OPTIONS: [&str; 17] = [
+    "bases",
+    "initial",
+    "dt",
+    "tcp",
+    "obstacles",
+    "tolerance",
+    "model",
+    "planner",
+    "chunk_timeout",
+    "max_chunk_len",
+    "assignment",
+    "preferred",
+    "reassign",
+    "axis_weight",
+    "headroom_weight",
+    "reserve_weight",
+    "time_scaling",
+    "catch_up",
+];
+
+pub(crate) fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
     let (kind, hand, step, robot) = match &e {
         OnlineError::Input(e) => return input_error(py, e),
         OnlineError::Unreachable { hand, step, robot } => {
@@ -76,7 +102,7 @@ fn online_error(py: Python<'_>, e: OnlineError) -> PyErr {
 }
 
 /// `hands` of shape (hands, H, 7), position + quaternion xyzw, as poses per hand.
-fn poses_of(
+pub(crate) fn poses_of(
     py: Python<'_>,
     hands: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
 ) -> PyResult<Vec<Vec<Pose>>> {
@@ -104,7 +130,35 @@ fn poses_of(
     Ok(poses)
 }
 
+/// A chunk's report as a dict (`Embodier.last_report`, `Cell.push`).
+pub(crate) fn report_dict<'py>(py: Python<'py>, r: &ChunkReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("start_step", r.start_step)?;
+    d.set_item("index", r.index)?;
+    d.set_item("dropped", r.dropped)?;
+    d.set_item("recovery", r.recovery.map(|r| r.name()))?;
+    d.set_item("blocked", r.blocked.as_deref())?;
+    d.set_item("end", r.end)?;
+    d.set_item("planning_time_s", r.planning_time_s)?;
+    d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;
+    d.set_item("time_factor", r.time_factor)?;
+    d.set_item("lag_s", r.lag_s)?;
+    d.set_item("total_lag_s", r.total_lag_s)?;
+    Ok(d)
+}
+
 impl Embodier {
+    /// Chunks go through the cell while one runs on this Embodier.
+    pub(crate) fn check_free(&self) -> PyResult<()> {
+        match &self.cell {
+            Some(cell) if running(cell) => Err(PyRuntimeError::new_err(
+                "this Embodier plans for a running Cell: push chunks with cell.push (the \
+                 cell commits what the arms execute)",
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// Robots' configurations from timeline index `from` to the plan's end, (robots, n, 7).
     fn segment<'py>(&self, py: Python<'py>, from: usize) -> PyResult<Bound<'py, PyArray3<f64>>> {
         self.range(py, from, self.inner.end().saturating_sub(from))
@@ -137,38 +191,39 @@ impl Embodier {
 #[pymethods]
 impl Embodier {
     #[new]
-    #[pyo3(signature = (setup=None, *, bases=None, initial=None, dt=None, tcp=None,
-        obstacles=None, tolerance=None, model=None, planner=None,
-        chunk_timeout=1.0, max_chunk_len=64, assignment=None, preferred=false,
-        reassign=false, axis_weight=omcbsa::online::AXIS_WEIGHT))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (setup=None, **options))]
     fn new(
         py: Python<'_>,
         setup: Option<&Problem>,
-        bases: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
-        initial: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
-        dt: Option<f64>,
-        tcp: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
-        obstacles: Option<&Bound<'_, PyAny>>,
-        tolerance: Option<(f64, f64)>,
-        model: Option<ModelArg>,
-        planner: Option<&str>,
-        chunk_timeout: f64,
-        max_chunk_len: usize,
-        assignment: Option<Vec<Option<usize>>>,
-        preferred: bool,
-        reassign: bool,
-        axis_weight: f64,
+        options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Embodier> {
+        let o = Options::new("Embodier", options, &OPTIONS)?;
+        let d = OnlineOptions::default();
+        let planner = o.get::<Option<String>>("planner", "a planner name, or None")?;
+        let assignment =
+            o.get::<Option<Vec<Option<usize>>>>("assignment", "a list of hand indices or None")?;
         let options = OnlineOptions {
-            planner: planner_kind(py, planner)?,
-            chunk_timeout_s: chunk_timeout,
-            max_chunk_len,
-            assignment: rule(assignment, preferred),
-            reassign,
-            axis_weight,
-            ..OnlineOptions::default()
+            planner: planner_kind(py, planner.flatten().as_deref())?,
+            chunk_timeout_s: o.or("chunk_timeout", "a number of seconds", d.chunk_timeout_s)?,
+            max_chunk_len: o.or("max_chunk_len", "an int", d.max_chunk_len)?,
+            assignment: rule(assignment.flatten(), o.or("preferred", "a bool", false)?),
+            reassign: o.or("reassign", "a bool", d.reassign)?,
+            axis_weight: o.or("axis_weight", "a number", d.axis_weight)?,
+            headroom_weight: o.or("headroom_weight", "a number", d.headroom_weight)?,
+            reserve_weight: o.or("reserve_weight", "a number", d.reserve_weight)?,
+            time_scaling: o.or("time_scaling", "a bool", d.time_scaling)?,
+            catch_up: o.or("catch_up", "a bool", d.catch_up)?,
+            ..d
         };
+        let max_chunk_len = options.max_chunk_len;
+        let array = "an array of poses";
+        let bases = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("bases", array)?;
+        let initial = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("initial", array)?;
+        let dt = o.get::<f64>("dt", "a number of seconds")?;
+        let tcp = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("tcp", array)?;
+        let obstacles = o.get::<Bound<'_, PyAny>>("obstacles", "a list of dicts")?;
+        let tolerance = o.get::<(f64, f64)>("tolerance", "(metres, radians)")?;
+        let model = o.get::<ModelArg>("model", "a model name or a list of them")?;
         let setup = match (setup, bases, initial, dt) {
             (Some(problem), None, None, None) => Setup::of_problem(&problem.file),
             (None, Some(bases), Some(initial), Some(dt)) => {
@@ -178,8 +233,15 @@ impl Embodier {
                 // chunks to come.
                 let hand = serde_json::json!({"name": "hand", "poses": [{
                     "position": [0.0, 0.0, 0.0], "quat_xyzw": [0.0, 0.0, 0.0, 1.0]}]});
-                let doc =
-                    problem_document(py, "online", dt, robots, vec![hand], obstacles, tolerance)?;
+                let doc = problem_document(
+                    py,
+                    "online",
+                    dt,
+                    robots,
+                    vec![hand],
+                    obstacles.as_ref(),
+                    tolerance,
+                )?;
                 let file = load::parse_problem(&doc.to_string())
                     .and_then(check)
                     .map_err(|e| input_error(py, &e))?;
@@ -201,6 +263,7 @@ impl Embodier {
             inner,
             last: None,
             max_chunk_len,
+            cell: None,
         })
     }
 
@@ -218,6 +281,7 @@ impl Embodier {
         start_step: u64,
         hands: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        self.check_free()?;
         let poses = poses_of(py, &hands)?;
         let inner = &mut self.inner;
         let report = py
@@ -241,12 +305,15 @@ impl Embodier {
         hands: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         chunk_len: Option<usize>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        self.check_free()?;
         let poses = poses_of(py, &hands)?;
         let chunk_len = chunk_len.unwrap_or(self.max_chunk_len);
         let inner = &mut self.inner;
-        let timeline = py
+        let embodied = py
             .detach(|| guard("embody", || inner.embody(&poses, chunk_len)))?
             .map_err(|e| online_error(py, e))?;
+        let timeline = embodied.timeline;
+        self.last = Some(embodied.last);
         let (n, len) = (timeline.len(), timeline.first().map_or(0, Vec::len));
         let values: Vec<f64> = timeline.iter().flatten().flatten().copied().collect();
         Array3::from_shape_vec((n, len, DOF), values)
@@ -269,8 +336,10 @@ impl Embodier {
 
     /// The arms were sent the plan up to (not including) timeline index `index`: later chunks
     /// may no longer replace it, and it is forgotten (memory stays bounded).
-    fn commit_until(&mut self, index: usize) {
+    fn commit_until(&mut self, index: usize) -> PyResult<()> {
+        self.check_free()?;
         self.inner.commit_until(index);
+        Ok(())
     }
 
     /// The timeline index of policy step `step` (None before the first chunk).
@@ -308,22 +377,7 @@ impl Embodier {
     /// are at its last pose), stats.
     #[getter]
     fn last_report<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some(r) = &self.last else {
-            return Ok(None);
-        };
-        let d = PyDict::new(py);
-        d.set_item("start_step", r.start_step)?;
-        d.set_item("index", r.index)?;
-        d.set_item("dropped", r.dropped)?;
-        d.set_item("recovery", r.recovery.map(|r| r.name()))?;
-        d.set_item("blocked", r.blocked.as_deref())?;
-        d.set_item("end", r.end)?;
-        d.set_item("planning_time_s", r.planning_time_s)?;
-        d.set_item("time_factor", r.time_factor)?;
-        d.set_item("lag_s", r.lag_s)?;
-        d.set_item("total_lag_s", r.total_lag_s)?;
-        d.set_item("stats", to_python(py, &stats_map(&r.stats))?)?;
-        Ok(Some(d))
+        self.last.as_ref().map(|r| report_dict(py, r)).transpose()
     }
 
     /// Robot names, in the setup's order.

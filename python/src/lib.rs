@@ -1,11 +1,15 @@
 //! The `omcbsa` Python package's native module: the host library's problem and solution
-//! files, planners, validator, kinematics and online API, with NumPy arrays for joint paths
-//! and poses. One implementation: everything here converts and calls the host library.
+//! files, planners, validator, kinematics, online API and live cell, with NumPy arrays for
+//! joint paths and poses. One implementation: everything here converts and calls the host library.
 
 mod bench;
+mod cell;
+mod cell_state;
 mod convert;
 mod embodier;
+mod episode;
 mod kinematics;
+mod options;
 mod problem;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -31,7 +35,10 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.py().get_type::<convert::exception::InputError>(),
     )?;
     m.add("ChunkError", m.py().get_type::<embodier::ChunkError>())?;
+    m.add("CellError", m.py().get_type::<cell::CellError>())?;
+    m.add("ArmFault", m.py().get_type::<cell::ArmFault>())?;
     m.add_class::<embodier::Embodier>()?;
+    m.add_class::<cell::Cell>()?;
     m.add_class::<problem::Problem>()?;
     m.add_class::<problem::Solution>()?;
     m.add_class::<problem::Report>()?;
@@ -40,6 +47,12 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(problem::validate, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::fk, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::ik, m)?)?;
+    m.add_function(wrap_pyfunction!(episode::aloha_episode, m)?)?;
+    // Leaving the interpreter stops every arm of every cell still running.
+    let stop_all = wrap_pyfunction!(cell::stop_all_cells, m)?;
+    m.py()
+        .import("atexit")?
+        .call_method1("register", (stop_all,))?;
     m.add_function(wrap_pyfunction!(bench::bench_run, m)?)?;
     m.add_function(wrap_pyfunction!(bench::bench_csv_header, m)?)?;
     m.add_function(wrap_pyfunction!(bench::bench_report, m)?)?;

@@ -10,8 +10,8 @@ use omcbsa::assignment::AssignmentRule;
 use omcbsa::error::{FieldError, InputError};
 use omcbsa::format::{ProblemFile, SolutionFile, Status, PROBLEM_FORMAT};
 use omcbsa::load;
-use omcbsa::planners::{self as planners, PlannerKind, Pools};
 use omcbsa::plan::{load_problem, plan_assigned, InputOrPlanError};
+use omcbsa::planners::{self as planners, PlannerKind, Pools};
 use omcbsa::validate::validate as check_solution;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
@@ -20,6 +20,10 @@ use serde_json::{Map, Value};
 
 use crate::convert::{field_error, flat, input_error, number, pose_value, to_json};
 use crate::guard;
+use crate::options::Options;
+
+/// The keyword options of `Problem.from_arrays`.
+const FROM_ARRAYS: [&str; 6] = ["initial", "tcp", "obstacles", "tolerance", "name", "model"];
 
 pub use omcbsa::models::DOF;
 use omcbsa::models::{Fleet, ModelKind};
@@ -139,21 +143,22 @@ impl Problem {
     /// radians); `model`: one model name for all robots or a list of one per robot (robots
     /// of different models mix), the default model (`kinova_gen3`) when left out.
     #[staticmethod]
-    #[pyo3(signature = (bases, hands, dt, *, initial=None, tcp=None, obstacles=None,
-        tolerance=None, name="problem", model=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (bases, hands, dt, **options))]
     fn from_arrays(
         py: Python<'_>,
         bases: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
         hands: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
         dt: f64,
-        initial: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
-        tcp: Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
-        obstacles: Option<&Bound<'_, PyAny>>,
-        tolerance: Option<(f64, f64)>,
-        name: &str,
-        model: Option<ModelArg>,
+        options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Problem> {
+        let o = Options::new("from_arrays", options, &FROM_ARRAYS)?;
+        let array = "an array of poses";
+        let initial = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("initial", array)?;
+        let tcp = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("tcp", array)?;
+        let obstacles = o.get::<Bound<'_, PyAny>>("obstacles", "a list of dicts")?;
+        let tolerance = o.get::<(f64, f64)>("tolerance", "(metres, radians)")?;
+        let name = o.or("name", "a str", "problem".to_string())?;
+        let model = o.get::<ModelArg>("model", "a model name or a list of them")?;
         let robots = robots_value(py, &bases, initial.as_ref(), tcp.as_ref(), model.as_ref())?;
         let hands = hands.as_array();
         let h = hands.shape().get(1).copied().unwrap_or(0);
@@ -170,7 +175,15 @@ impl Problem {
             m.insert("poses".into(), Value::Array(poses));
             trajectories.push(Value::Object(m));
         }
-        let doc = problem_document(py, name, dt, robots, trajectories, obstacles, tolerance)?;
+        let doc = problem_document(
+            py,
+            &name,
+            dt,
+            robots,
+            trajectories,
+            obstacles.as_ref(),
+            tolerance,
+        )?;
         Problem::from_text(py, &doc.to_string())
     }
 

@@ -135,8 +135,9 @@ def test_the_axis_weight_is_an_option_and_a_bad_one_is_refused():
 
 def test_a_blocked_chunk_names_the_robot_the_hand_and_the_step():
     hands = episode(40, np.random.default_rng(13))
+    # catch_up off: the chunk is an error, not reached by an approach that drops its poses.
     e = omcbsa.Embodier(bases=BASES, initial=[RETRACT, RETRACT], dt=0.05, tcp=TCP,
-                        assignment=[0, 1])
+                        assignment=[0, 1], catch_up=False)
     e.push_chunk(0, hands[:, :20])
     # Hand 1 jumps 15 cm within one step at step 25: too fast for any joint.
     later = hands[:, 20:].copy()
@@ -149,3 +150,35 @@ def test_a_blocked_chunk_names_the_robot_the_hand_and_the_step():
     assert "rad/s" in str(err.value)
     # The plan is kept: the chunk without the jump is planned.
     e.push_chunk(20, hands[:, 20:])
+
+
+def test_options_are_keywords_read_by_one_helper():
+    hands = episode(20, np.random.default_rng(11))
+    kw = dict(bases=BASES, initial=[RETRACT, RETRACT], dt=0.05, tcp=TCP)
+    # Every option a user needs, given at once.
+    e = omcbsa.Embodier(**kw, planner="pp", chunk_timeout=0.5, max_chunk_len=32,
+                        assignment=[0, 1], preferred=True, reassign=True, axis_weight=2.0,
+                        headroom_weight=0.5, reserve_weight=0.25, time_scaling=False,
+                        catch_up=False)
+    e.push_chunk(0, hands[:, :10])
+    r = e.last_report
+    assert e.assignment == [0, 1]
+    assert (r["time_factor"], r["lag_s"], r["total_lag_s"]) == (1.0, 0.0, 0.0)
+    with pytest.raises(TypeError, match='unexpected keyword argument "chunk_timout"'):
+        omcbsa.Embodier(**kw, chunk_timout=0.5)
+    for key, bad, want in [("chunk_timeout", "1s", "a number of seconds"),
+                           ("reassign", 1, "a bool"), ("catch_up", "no", "a bool"),
+                           ("max_chunk_len", 2.5, "an int"),
+                           ("assignment", "01", "a list of hand indices")]:
+        with pytest.raises(TypeError, match=f"Embodier\\(\\): {key}: expected {want}"):
+            omcbsa.Embodier(**kw, **{key: bad})
+    for key in ("headroom_weight", "reserve_weight"):
+        with pytest.raises(omcbsa.InputError, match=key):
+            omcbsa.Embodier(**kw, **{key: -1.0})
+    # Problem.from_arrays reads its options the same way.
+    p = omcbsa.Problem.from_arrays(BASES, hands, 0.05, tcp=TCP, name="two", tolerance=(1e-3, 1e-2))
+    assert p.name == "two"
+    with pytest.raises(TypeError, match='from_arrays\\(\\) got an unexpected keyword argument "nam"'):
+        omcbsa.Problem.from_arrays(BASES, hands, 0.05, nam="two")
+    with pytest.raises(TypeError, match="from_arrays\\(\\): name: expected a str, got int"):
+        omcbsa.Problem.from_arrays(BASES, hands, 0.05, name=2)

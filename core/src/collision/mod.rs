@@ -279,6 +279,17 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         self.count
     }
 
+    /// The motion as [`Rake::place`] reads it, the arm's base at `base`.
+    fn moving<'a>(&'a self, base: &'a Frame) -> rake::Moving<'a, D> {
+        rake::Moving {
+            model: self.model,
+            base,
+            tool: &self.tool,
+            q0: &self.q0,
+            dq: &self.dq,
+        }
+    }
+
     /// Bound on how far any point of the arm or its tool travels over the whole motion.
     pub fn length(&self) -> f64 {
         self.length
@@ -409,18 +420,17 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         match self.placing {
             Placing::Single => {
                 let placer = &mut Single(single);
-                refine(0, halves, halves, ends, left, None, placer, check)
+                refine(Parts::all(halves), ends, left, None, placer, check)
             }
             Placing::Rake => {
                 let place = |s: F64s, sus: &Suspects, rakes: &mut [Rake; 1]| {
-                    let (q0, dq, only) = (&self.q0, &self.dq, sus.capsules());
-                    rakes[0].place::<M, D>(self.model, base, &self.tool, q0, dq, s, only);
+                    rakes[0].place::<M, D>(&self.moving(base), s, sus.capsules());
                 };
                 let pose = |rakes: &[Rake; 1], k: usize, sus: &Suspects, at: &mut [ArmPose; 1]| {
                     rakes[0].pose(k, sus.capsules(), e0, &mut at[0]);
                 };
                 let placer = &mut Raked(place, pose, single);
-                refine(0, halves, halves, ends, left, None, placer, check)
+                refine(Parts::all(halves), ends, left, None, placer, check)
             }
         }
     }
@@ -529,10 +539,10 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
     let rake = |s: F64s, pairs: &Pairs, rakes: &mut [Rake; 2]| {
         let (rows, columns) = rows_and_columns(pairs);
         if !a_still {
-            rakes[0].place::<A, DA>(a.model, base_a, &a.tool, &a.q0, &a.dq, s, rows);
+            rakes[0].place::<A, DA>(&a.moving(base_a), s, rows);
         }
         if !b_still {
-            rakes[1].place::<B, DB>(b.model, base_b, &b.tool, &b.q0, &b.dq, s, columns);
+            rakes[1].place::<B, DB>(&b.moving(base_b), s, columns);
         }
     };
     let pose = |rakes: &[Rake; 2], k: usize, pairs: &Pairs, at: &mut [ArmPose; 2]| {
@@ -563,11 +573,11 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
             match a.placing {
                 Placing::Single => {
                     let placer = &mut Single(place);
-                    refine(0, halves, halves, ends, left, None, placer, check)
+                    refine(Parts::all(halves), ends, left, None, placer, check)
                 }
                 Placing::Rake => {
                     let placer = &mut Raked(rake, pose, place);
-                    refine(0, halves, halves, ends, left, None, placer, check)
+                    refine(Parts::all(halves), ends, left, None, placer, check)
                 }
             }
         }
@@ -712,6 +722,25 @@ where
     }
 }
 
+/// Parts `first..end` of a motion cut into `count`.
+#[derive(Clone, Copy)]
+struct Parts {
+    first: usize,
+    end: usize,
+    count: usize,
+}
+
+impl Parts {
+    /// Every one of `count` parts.
+    fn all(count: usize) -> Parts {
+        Parts {
+            first: 0,
+            end: count,
+            count,
+        }
+    }
+}
+
 /// Whether some suspect still fails on a single one of parts `first..end` of `count` (of the
 /// motion), where `suspects` fail the check over them as a whole: places the arms (`K` of
 /// them) at the parts' middle boundary (for the suspects' capsules only, by `placer`, which
@@ -724,11 +753,8 @@ where
 /// Cost: one placing per split (one rake per three levels). Stack: `K` [`ArmPose`]s (about
 /// 2.2 KB each) per level, and `K` rakes (about 7.8 KB each) per three, at most
 /// `log2(2 * MAX_SWEEP_CHECKS)` levels.
-#[allow(clippy::too_many_arguments)]
 fn refine<S: Copy, P: Placer<S, K>, const K: usize>(
-    first: usize,
-    end: usize,
-    count: usize,
+    Parts { first, end, count }: Parts,
     ends: [[&ArmPose; K]; 2],
     suspects: S,
     ahead: Option<(&P::Ahead, usize)>,
@@ -761,7 +787,12 @@ fn refine<S: Copy, P: Placer<S, K>, const K: usize>(
             Found::Touch => true,
             Found::Suspects(left) => {
                 let below = (half < rake::RAKE_PARTS).then_some((ahead, half));
-                refine(lo, hi, count, ends, left, below, placer, check)
+                let parts = Parts {
+                    first: lo,
+                    end: hi,
+                    count,
+                };
+                refine(parts, ends, left, below, placer, check)
             }
         };
         if hit {

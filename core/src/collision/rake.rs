@@ -55,6 +55,16 @@ pub(super) struct Rake {
     radius: [f64; MAX_POSE_CAPSULES],
 }
 
+/// An arm's straight motion as [`Rake::place`] reads it: model `model`, base `base`,
+/// carrying `tool`, from `q0` by `dq`.
+pub(super) struct Moving<'a, const D: usize> {
+    pub(super) model: u8,
+    pub(super) base: &'a Frame,
+    pub(super) tool: &'a Tool,
+    pub(super) q0: &'a [f64; D],
+    pub(super) dq: &'a [f64; D],
+}
+
 impl Rake {
     pub(super) const EMPTY: Rake = Rake {
         a: [[F64s::splat(0.0); 3]; MAX_POSE_CAPSULES],
@@ -62,24 +72,25 @@ impl Rake {
         radius: [0.0; MAX_POSE_CAPSULES],
     };
 
-    /// Places the capsules `only` of the arm of model `model` (base `base`, carrying `tool`)
-    /// at `q0 + dq * s`, `s` a fraction of the motion per lane: [`super::Sweep::at`] and
-    /// [`ArmPose::place_only`], lane by lane.
-    #[allow(clippy::too_many_arguments)]
+    /// Places the capsules `only` of `arm` at `q0 + dq * s`, `s` a fraction of the motion
+    /// per lane: [`super::Sweep::at`] and [`ArmPose::place_only`], lane by lane.
     pub(super) fn place<M: Models<D>, const D: usize>(
         &mut self,
-        model: u8,
-        base: &Frame,
-        tool: &Tool,
-        q0: &[f64; D],
-        dq: &[f64; D],
+        arm: &Moving<'_, D>,
         s: F64s,
         only: u32,
     ) {
-        let q = core::array::from_fn(|j| F64s::splat(q0[j]) + F64s::splat(dq[j]) * s);
-        place_ends::<M, D>(model, base, tool, &q, only, |i, a, b, radius, _| {
-            (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
-        });
+        let q = core::array::from_fn(|j| F64s::splat(arm.q0[j]) + F64s::splat(arm.dq[j]) * s);
+        place_ends::<M, D>(
+            arm.model,
+            arm.base,
+            arm.tool,
+            &q,
+            only,
+            |i, a, b, radius, _| {
+                (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
+            },
+        );
     }
 
     /// Lane `k`'s capsules `only` and their boxes into `out`, an empty pose, the rest of

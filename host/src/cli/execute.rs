@@ -32,13 +32,8 @@ pub struct Args {
     /// needs one.
     #[arg(long = "arm", value_name = "NAME=SPEC", value_parser = parse_arm)]
     arms: Vec<(String, String)>,
-    /// Kortex user name (else the environment's OMCBSA_KORTEX_USER).
-    #[arg(long, value_name = "USER")]
-    kortex_user: Option<String>,
-    /// A file whose first line is the Kortex password (else the environment's
-    /// OMCBSA_KORTEX_PASSWORD). Never printed or logged.
-    #[arg(long, value_name = "FILE")]
-    kortex_password_file: Option<PathBuf>,
+    #[command(flatten)]
+    kortex: KortexArgs,
     /// Interpolate and check every command, send nothing (the buses are not opened).
     #[arg(long)]
     dry_run: bool,
@@ -57,11 +52,23 @@ pub struct Args {
     watch: WatchArgs,
 }
 
+/// Who Kortex arms are reached as, for the commands that drive arms.
+#[derive(clap::Args)]
+pub struct KortexArgs {
+    /// Kortex user name (else the environment's OMCBSA_KORTEX_USER).
+    #[arg(long, value_name = "USER")]
+    kortex_user: Option<String>,
+    /// A file whose first line is the Kortex password (else the environment's
+    /// OMCBSA_KORTEX_PASSWORD). Never printed or logged.
+    #[arg(long, value_name = "FILE")]
+    kortex_password_file: Option<PathBuf>,
+}
+
 /// `--rt-priority`: a `SCHED_FIFO` priority, or none.
 #[derive(Clone, Copy, Debug)]
-struct RtPriority(Option<u8>);
+pub struct RtPriority(pub Option<u8>);
 
-fn parse_priority(s: &str) -> Result<RtPriority, String> {
+pub fn parse_priority(s: &str) -> Result<RtPriority, String> {
     if s == "off" {
         return Ok(RtPriority(None));
     }
@@ -112,7 +119,7 @@ pub fn run(args: &Args) -> ExitCode {
     };
     let mut ports = Vec::new();
     if !args.dry_run {
-        let credentials = match credentials(args, kortex) {
+        let credentials = match args.kortex.credentials(kortex) {
             Ok(c) => c,
             Err(e) => return bad_input(e),
         };
@@ -140,25 +147,27 @@ pub fn run(args: &Args) -> ExitCode {
     }
 }
 
-/// The Kortex credentials from the options, else the environment; none needed without a
-/// Kortex arm.
-fn credentials(args: &Args, kortex: bool) -> Result<Credentials, String> {
-    if !kortex {
-        return Ok(Credentials {
-            username: String::new(),
-            password: String::new(),
-        });
-    }
-    let password = (args.kortex_password_file.as_ref())
-        .map(|path| {
-            load::read_text(path)
-                .map(|t| t.lines().next().unwrap_or("").to_string())
-                .map_err(|e| format!("--kortex-password-file {}: {e}", path.display()))
+impl KortexArgs {
+    /// The Kortex credentials from the options, else the environment; none needed without a
+    /// Kortex arm.
+    pub fn credentials(&self, kortex: bool) -> Result<Credentials, String> {
+        if !kortex {
+            return Ok(Credentials {
+                username: String::new(),
+                password: String::new(),
+            });
+        }
+        let password = (self.kortex_password_file.as_ref())
+            .map(|path| {
+                load::read_text(path)
+                    .map(|t| t.lines().next().unwrap_or("").to_string())
+                    .map_err(|e| format!("--kortex-password-file {}: {e}", path.display()))
+            })
+            .transpose()?;
+        Credentials::resolve(self.kortex_user.clone(), password, |k| {
+            std::env::var(k).ok()
         })
-        .transpose()?;
-    Credentials::resolve(args.kortex_user.clone(), password, |k| {
-        std::env::var(k).ok()
-    })
+    }
 }
 
 /// Reads both files, validates the solution, and builds the plan for the `--arm` names.

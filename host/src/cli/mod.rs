@@ -13,6 +13,7 @@ pub mod gen_bench;
 pub mod ik;
 pub mod import;
 mod lines;
+mod live;
 pub mod online;
 pub mod plan;
 pub mod validate;

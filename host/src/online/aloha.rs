@@ -186,26 +186,63 @@ fn read_text(path: &Path) -> Result<String, String> {
 /// Reads the family in `dir`: its index and every episode the index lists. Every value is
 /// checked; the error names the file and the field.
 pub fn read_family(dir: &Path) -> Result<Family, String> {
+    let (index, tool) = read_index(dir)?;
     let index_path = dir.join(INDEX_FILE);
-    let index: Index =
-        load::parse(&read_text(&index_path)?, INDEX_FORMAT).map_err(|e| in_file(&index_path, e))?;
-    let tool = check_index(&index).map_err(|e| in_file(&index_path, e))?;
     let mut episodes = Vec::with_capacity(index.episodes.len());
     for (i, entry) in index.episodes.iter().enumerate() {
         let path = episode_path(dir, entry)
             .map_err(|e| in_file(&index_path, e.within(&format!("episodes[{i}].file")).into()))?;
-        let file: EpisodeFile =
-            load::parse(&read_text(&path)?, EPISODE_FORMAT).map_err(|e| in_file(&path, e))?;
-        let hands = check_episode(&index, entry, &file).map_err(|e| in_file(&path, e))?;
-        episodes.push(Recorded {
-            entry: entry.clone(),
-            hands,
-        });
+        episodes.push(read_recorded(&index, entry, &path)?);
     }
     Ok(Family {
         index,
         tool,
         episodes,
+    })
+}
+
+/// Reads one episode of a family, from its file (`<task>_<seed>.json.gz`) in the family's
+/// directory, beside the index that lists it: a family of that one episode. Every value is
+/// checked; the error names the file and the field.
+pub fn read_episode(path: &Path) -> Result<Family, String> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let (index, tool) = read_index(dir)?;
+    let name = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default();
+    let entry = (index.episodes.iter().find(|e| e.file == name)).ok_or_else(|| {
+        format!(
+            "{}: not an episode that {} lists",
+            path.display(),
+            dir.join(INDEX_FILE).display()
+        )
+    })?;
+    let recorded = read_recorded(&index, entry, path)?;
+    Ok(Family {
+        index,
+        tool,
+        episodes: vec![recorded],
+    })
+}
+
+/// The family's index in `dir`, checked, and per hand the rotation to our tool frame.
+fn read_index(dir: &Path) -> Result<(Index, Vec<Matrix3<f64>>), String> {
+    let index_path = dir.join(INDEX_FILE);
+    let index: Index =
+        load::parse(&read_text(&index_path)?, INDEX_FORMAT).map_err(|e| in_file(&index_path, e))?;
+    let tool = check_index(&index).map_err(|e| in_file(&index_path, e))?;
+    Ok((index, tool))
+}
+
+/// The episode of `entry`, read from `path` and checked against the index.
+fn read_recorded(index: &Index, entry: &Entry, path: &Path) -> Result<Recorded, String> {
+    let file: EpisodeFile =
+        load::parse(&read_text(path)?, EPISODE_FORMAT).map_err(|e| in_file(path, e))?;
+    let hands = check_episode(index, entry, &file).map_err(|e| in_file(path, e))?;
+    Ok(Recorded {
+        entry: entry.clone(),
+        hands,
     })
 }
 

@@ -2,24 +2,34 @@
 //! would send it, without the caller splitting it (a core problem holds at most `MAX_STEPS`
 //! poses; an episode at 50 Hz is often longer).
 
-use super::{Embodier, OnlineError};
+use super::{ChunkReport, Embodier, OnlineError};
 use crate::error::{Errors, InputError};
 use crate::format::Pose;
 use crate::planners::DOF;
 use crate::pose;
 
+/// An episode embodied.
+#[derive(Clone, Debug)]
+pub struct Embodied {
+    /// Every robot's timeline from index 0: `initial`, the approach, then one configuration
+    /// per policy step.
+    pub timeline: Vec<Vec<[f64; DOF]>>,
+    /// The report on the episode's last chunk (how it was planned, how far behind the arms
+    /// are at its end).
+    pub last: ChunkReport,
+}
+
 impl Embodier {
     /// Embodies an episode on a fresh Embodier: `hands[j][k]` is hand `j`'s pose at policy
     /// step `k`. Chunks of `chunk_len` poses (at most `max_chunk_len`) are planned in order,
     /// each from where the one before left the arms, and sent as they are planned. Returns
-    /// every robot's timeline from index 0: `initial`, the approach, then one configuration
-    /// per policy step. Memory: the Embodier's window stays one chunk long; the timeline
-    /// returned grows with the episode (it is the answer).
+    /// every robot's timeline and the last chunk's report. Memory: the Embodier's window stays
+    /// one chunk long; the timeline returned grows with the episode (it is the answer).
     pub fn embody(
         &mut self,
         hands: &[Vec<Pose>],
         chunk_len: usize,
-    ) -> Result<Vec<Vec<[f64; DOF]>>, OnlineError> {
+    ) -> Result<Embodied, OnlineError> {
         let mut errors = Errors::default();
         if self.origin.is_some() {
             errors.push(
@@ -61,18 +71,22 @@ impl Embodier {
             .map_err(|e: InputError| OnlineError::Input(e))?;
         let n = self.robot_names().len();
         let mut timeline: Vec<Vec<[f64; DOF]>> = vec![Vec::new(); n];
+        // At least one step (checked above): at least one chunk.
         let mut start = 0;
-        while start < steps {
+        let last = loop {
             let end = (start + chunk_len).min(steps);
             if let Some(index) = self.timeline_index(start as u64) {
                 self.send(&mut timeline, index);
             }
             let chunk: Vec<Vec<Pose>> = hands.iter().map(|h| h[start..end].to_vec()).collect();
-            self.push_chunk(start as u64, &chunk)?;
+            let report = self.push_chunk(start as u64, &chunk)?;
             start = end;
-        }
+            if start >= steps {
+                break report;
+            }
+        };
         self.send(&mut timeline, self.end());
-        Ok(timeline)
+        Ok(Embodied { timeline, last })
     }
 
     /// Appends to `timeline` every configuration before `until` not yet in it, and commits it.

@@ -24,6 +24,7 @@
 pub mod aloha;
 pub mod bench;
 pub mod bimanual;
+mod checkpoint;
 mod chunk;
 pub(crate) mod diagnose;
 mod embody;
@@ -34,8 +35,12 @@ pub mod record;
 mod recover;
 pub mod run;
 mod scaling;
+#[cfg(test)]
+pub(crate) mod testing;
 mod timeline;
 
+pub use checkpoint::Checkpoint;
+pub use embody::Embodied;
 pub use error::OnlineError;
 pub use timeline::Target;
 
@@ -442,6 +447,11 @@ impl Embodier {
     /// Robot names, in the setup's order.
     pub fn robot_names(&self) -> &[String] {
         &self.names
+    }
+
+    /// Where the arms are and what is around them, as given.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
     }
 
     /// Per robot, the hand it holds (`None`: it holds still), once the first chunk chose it.

@@ -99,29 +99,6 @@ impl RunRecord {
         Ok(order)
     }
 
-    /// Where the robot holding hand `j` put its tool centre point at timeline index `index`
-    /// (the identity when no robot holds it or nothing was sent there).
-    fn planned_hand(&self, setup: &Setup, embodier: &Embodier, j: usize, index: usize) -> Pose {
-        let robot = embodier
-            .assignment()
-            .and_then(|a| a.iter().position(|&h| h == Some(j)));
-        let found = robot.and_then(|i| {
-            let q = self.sent.get(i)?.get(index)?;
-            let spec = setup.robots.get(i)?;
-            let model = ModelKind::from_name(&spec.model)?.id();
-            let base = pose::to_frame(&spec.base).ok()?;
-            let tcp = spec
-                .tcp
-                .as_ref()
-                .map_or(Ok(Frame::IDENTITY), pose::to_frame)
-                .ok()?;
-            Some(pose::from_frame(
-                &base.compose(&Fleet::fk(model, q)).compose(&tcp),
-            ))
-        });
-        found.unwrap_or(Pose::IDENTITY)
-    }
-
     /// The problem (poses of the steps sent) and the solution (approach and paths sent).
     /// `None` before the first chunk's first step was sent.
     pub fn files(&self, setup: &Setup, embodier: &Embodier) -> Option<(ProblemFile, SolutionFile)> {
@@ -168,66 +145,114 @@ impl RunRecord {
         steps: std::ops::Range<usize>,
     ) -> (ProblemFile, SolutionFile) {
         let a = embodier.approach_len();
-        let hands = embodier
-            .assignment()
-            .map_or(0, |a| a.iter().flatten().count());
-        let name = format!("online_run_{}", steps.start);
         let from = a + 1 + steps.start;
+        let span = |r: std::ops::Range<usize>| -> Vec<Vec<[f64; DOF]>> {
+            self.sent.iter().map(|s| s[r.clone()].to_vec()).collect()
+        };
+        let (initial, approach) = match steps.start {
+            0 => (None, Some(span(1..a + 1))),
+            _ => (Some(self.sent.iter().map(|s| s[from]).collect()), None),
+        };
+        let window = Window {
+            name: format!("online_run_{}", steps.start),
+            initial,
+            approach,
+            path: span(a + 1 + steps.start..a + 1 + steps.end),
+        };
+        window.files(setup, embodier, |k| match self.targets.get(from + k) {
+            Some((_, Some(p))) => Some(p.clone()),
+            _ => None,
+        })
+    }
+}
+
+/// Part of a timeline as a problem and solution file pair, for the validator.
+#[derive(Clone, Debug)]
+pub struct Window {
+    /// The problem's and the solution's name.
+    pub name: String,
+    /// Per robot, where it stands before the window (`None`: the setup's `initial`).
+    pub initial: Option<Vec<[f64; DOF]>>,
+    /// Per robot, the configurations between `initial` and `path` (the solution's approach:
+    /// its limits, speeds and collisions are checked, from `initial` to `path[0]`, an empty one
+    /// for that step alone), or `None`.
+    pub approach: Option<Vec<Vec<[f64; DOF]>>>,
+    /// Per robot, the configurations tracking the hands (the solution's joint paths).
+    pub path: Vec<Vec<[f64; DOF]>>,
+}
+
+impl Window {
+    /// The problem and the solution; `poses(k)` gives every hand's pose at path step `k`, or
+    /// `None` where the hands were free (the approach, a hold): there a hand is taken to be
+    /// where the robot holding it put it.
+    pub fn files(
+        &self,
+        setup: &Setup,
+        embodier: &Embodier,
+        poses: impl Fn(usize) -> Option<Vec<Pose>>,
+    ) -> (ProblemFile, SolutionFile) {
+        let assignment = embodier.assignment().unwrap_or(&[]);
+        let hands = assignment.iter().flatten().count();
         let mut robots = setup.robots.clone();
-        if steps.start > 0 {
-            for (r, sent) in robots.iter_mut().zip(&self.sent) {
-                r.initial = Some(sent[from].to_vec());
+        if let Some(initial) = &self.initial {
+            for (r, q) in robots.iter_mut().zip(initial) {
+                r.initial = Some(q.to_vec());
             }
         }
+        let steps = self.path.first().map_or(0, Vec::len);
+        let tracked: Vec<Vec<Pose>> = (0..steps)
+            .map(|k| {
+                poses(k).unwrap_or_else(|| {
+                    (0..hands)
+                        .map(|j| {
+                            let robot = assignment.iter().position(|&h| h == Some(j));
+                            let q = robot.and_then(|i| Some((i, self.path.get(i)?.get(k)?)));
+                            q.and_then(|(i, q)| hand_pose(setup.robots.get(i)?, q))
+                                .unwrap_or(Pose::IDENTITY)
+                        })
+                        .collect()
+                })
+            })
+            .collect();
         let problem = ProblemFile {
             format: PROBLEM_FORMAT.to_string(),
-            name: name.clone(),
+            name: self.name.clone(),
             dt: setup.dt,
             robots,
             trajectories: (0..hands)
                 .map(|j| TrajectorySpec {
                     name: format!("hand_{j}"),
-                    // An index that tracked no pose (a hold and the approach after it)
-                    // tracks where the plan put the hand.
-                    poses: steps
-                        .clone()
-                        .map(|k| match self.targets.get(a + 1 + k) {
-                            Some((_, Some(p))) => p[j],
-                            _ => self.planned_hand(setup, embodier, j, a + 1 + k),
-                        })
-                        .collect(),
+                    poses: tracked.iter().map(|p| p[j]).collect(),
                 })
                 .collect(),
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
         };
-        let approach = (steps.start == 0).then(|| {
-            joint_paths_value(
-                &self
-                    .sent
-                    .iter()
-                    .map(|s| s[1..=a].to_vec())
-                    .collect::<Vec<_>>(),
-            )
-        });
         let solution = SolutionFile {
             format: SOLUTION_FORMAT.to_string(),
-            problem: name,
+            problem: self.name.clone(),
             planner: "online".to_string(),
             status: Status::Solved,
             message: String::new(),
             planning_time_s: 0.0,
-            assignment: embodier.assignment().unwrap_or(&[]).to_vec(),
-            approach,
-            joint_paths: Some(joint_paths_value(
-                &self
-                    .sent
-                    .iter()
-                    .map(|s| s[a + 1 + steps.start..a + 1 + steps.end].to_vec())
-                    .collect::<Vec<_>>(),
-            )),
+            assignment: assignment.to_vec(),
+            approach: self.approach.as_deref().map(joint_paths_value),
+            joint_paths: Some(joint_paths_value(&self.path)),
             stats: Map::new(),
         };
         (problem, solution)
     }
+}
+
+/// Where robot `spec` at `q` puts its tool centre point, in the world (`None` for an unknown
+/// model or a pose that is not one).
+fn hand_pose(spec: &crate::format::RobotSpec, q: &[f64; DOF]) -> Option<Pose> {
+    let model = ModelKind::from_name(&spec.model)?.id();
+    let base = pose::to_frame(&spec.base).ok()?;
+    let tcp = (spec.tcp.as_ref())
+        .map_or(Ok(Frame::IDENTITY), pose::to_frame)
+        .ok()?;
+    Some(pose::from_frame(
+        &base.compose(&Fleet::fk(model, q)).compose(&tcp),
+    ))
 }

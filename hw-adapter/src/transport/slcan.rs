@@ -117,8 +117,10 @@ impl SlcanTransport {
             pending: Vec::new(),
         };
         // Close first in case a previous user left the channel open; a closed adapter answers
-        // this with a bell, which is fine, so the reply is only drained.
+        // this with a bell, which is fine. Its one reply is awaited (a late one would be taken
+        // for the next command's), then anything else left is drained.
         t.write_all(b"C\r", COMMAND_ACK_TIMEOUT)?;
+        let _closed_or_bell = t.next_line(Instant::now() + COMMAND_ACK_TIMEOUT);
         t.drain_replies(Duration::from_millis(20))?;
         t.command(speed)?;
         t.command("O")?;
