@@ -46,7 +46,7 @@ pub struct Embodier {
 }
 
 /// The Embodier's keyword options: its setup as arrays, and how chunks are planned.
-const OPTIONS: [&str; 17] = [
+const OPTIONS: [&str; 18] = [
     "bases",
     "initial",
     "dt",
