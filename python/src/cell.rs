@@ -97,7 +97,7 @@ pub struct Cell {
 }
 
 /// The cell's keyword options.
-const OPTIONS: [&str; 14] = [
+const OPTIONS: &[&str] = &[
     "time_scale",
     "rate",
     "records",
@@ -361,7 +361,7 @@ impl Cell {
         arms: HashMap<String, String>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Cell> {
-        let o = Options::new("Cell", options, &OPTIONS)?;
+        let o = Options::new("Cell", options, OPTIONS)?;
         let mut urls = Vec::with_capacity(arms.len());
         for (name, url) in &arms {
             let parsed =

@@ -46,7 +46,7 @@ pub struct Embodier {
 }
 
 /// The Embodier's keyword options: its setup as arrays, and how chunks are planned.
-const OPTIONS: [&str; 18] = [
+const OPTIONS: &[&str] = &[
     "bases",
     "initial",
     "dt",
@@ -197,7 +197,7 @@ impl Embodier {
         setup: Option<&Problem>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Embodier> {
-        let o = Options::new("Embodier", options, &OPTIONS)?;
+        let o = Options::new("Embodier", options, OPTIONS)?;
         let d = OnlineOptions::default();
         let planner = o.get::<Option<String>>("planner", "a planner name, or None")?;
         let assignment =

@@ -23,7 +23,7 @@ use crate::guard;
 use crate::options::Options;
 
 /// The keyword options of `Problem.from_arrays`.
-const FROM_ARRAYS: [&str; 6] = ["initial", "tcp", "obstacles", "tolerance", "name", "model"];
+const FROM_ARRAYS: &[&str] = &["initial", "tcp", "obstacles", "tolerance", "name", "model"];
 
 pub use omcbsa::models::DOF;
 use omcbsa::models::{Fleet, ModelKind};
@@ -151,7 +151,7 @@ impl Problem {
         dt: f64,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Problem> {
-        let o = Options::new("from_arrays", options, &FROM_ARRAYS)?;
+        let o = Options::new("from_arrays", options, FROM_ARRAYS)?;
         let array = "an array of poses";
         let initial = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("initial", array)?;
         let tcp = o.get::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>("tcp", array)?;
