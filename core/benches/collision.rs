@@ -97,13 +97,17 @@ fn scene(bases: &[Frame]) -> Vec<Obstacle> {
 struct Fleet {
     bases: Vec<Frame>,
     obstacles: Vec<Obstacle>,
+    /// The obstacles' boxes, made once as a planner makes them.
+    boxes: Vec<Aabb>,
 }
 
 impl Fleet {
     fn new(arms: usize) -> Fleet {
         let bases = bases(arms);
+        let obstacles = scene(&bases);
         Fleet {
-            obstacles: scene(&bases),
+            boxes: obstacles.iter().map(Obstacle::aabb).collect(),
+            obstacles,
             bases,
         }
     }
@@ -131,7 +135,7 @@ impl Fleet {
         let mut hit = 0;
         for ((a, b), q) in arms.iter_mut().zip(&self.bases).zip(qs) {
             a.place_lanes::<M, D>(0, b, &Tool::NONE, q, !hit, u32::MAX);
-            hit |= a.obstacle_hits(&self.obstacles, 0.0);
+            hit |= a.obstacle_hits_boxed((&self.obstacles, &self.boxes), 0.0);
             hit |= a.self_hits(0.0);
         }
         for i in 0..arms.len() {
@@ -167,6 +171,7 @@ fn configs<M: Model<D>>(fleet: &Fleet, free: bool, rng: &mut Rng) -> Vec<Vec<[f6
                 let part = Fleet {
                     bases: fleet.bases[..n].to_vec(),
                     obstacles: fleet.obstacles.clone(),
+                    boxes: fleet.boxes.clone(),
                 };
                 if !free || !part.collides::<M>(&candidate, &mut poses[..n]) {
                     qs = candidate;

@@ -27,6 +27,7 @@
 //! core/benches/kinematics.rs: 1000 draws within the limits from seed 42, per model) with
 //! each one's tool pose, for a peer to time the same configurations and check its chain.
 
+use std::cell::RefCell;
 use std::fmt::Write as _;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -38,7 +39,7 @@ use omcbsa::error::Errors;
 use omcbsa::format::ObstacleSpec;
 use omcbsa::load;
 use omcbsa_core::collision::{ArmLanes, ArmPose, Placing, Sweep};
-use omcbsa_core::geometry::Obstacle;
+use omcbsa_core::geometry::{Aabb, Obstacle};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
 use omcbsa_core::motion::MOTION_STEP;
@@ -74,6 +75,13 @@ enum Command {
         /// About how long one pass lasts, ms.
         #[arg(long, default_value_t = 5.0)]
         pass_ms: f64,
+        /// Only the cases whose name contains this (all when not given).
+        #[arg(long)]
+        only: Option<String>,
+        /// Repetitions of the items per pass, in place of `--pass-ms` (a fixed amount of work,
+        /// for counting cycles or instructions with a profiler).
+        #[arg(long)]
+        reps: Option<usize>,
     },
     /// Fill the scene's configuration lists from its `generate` settings (rewrites the file).
     Generate { scene: PathBuf },
@@ -219,12 +227,49 @@ fn motion_free(obstacles: &[Obstacle], [from, to]: &[[f64; D]; 2], placing: Plac
         .arm_collides(&Frame::IDENTITY, obstacles)
 }
 
+/// How the cases are timed, and which: those whose name contains `only`.
+struct Timer {
+    passes: usize,
+    pass_ms: f64,
+    only: Option<String>,
+    reps: Option<usize>,
+}
+
+impl Timer {
+    /// Times `op` over `items` as case `case` of `n` items and prints its row, unless the case
+    /// is left out. Each of `items` stands for `per` items of the row (a batch), the time per
+    /// item; `hits`, when given, counts the hits instead of `op`'s true answers.
+    fn case<T>(
+        &self,
+        case: &str,
+        n: usize,
+        items: &[T],
+        per: f64,
+        hits: impl FnOnce() -> Option<usize>,
+        op: impl FnMut(&T) -> bool,
+    ) {
+        if self
+            .only
+            .as_ref()
+            .is_some_and(|o| !case.contains(o.as_str()))
+        {
+            return;
+        }
+        let counted = hits();
+        let (found, ns) = measure(items, self.passes, (self.pass_ms, self.reps), op);
+        let [median, min, max] = ns.map(|t| t / per);
+        let hits = counted.unwrap_or(found);
+        println!("omcbsa\t{case}\t{n}\t{hits}\t{median:.1}\t{min:.1}\t{max:.1}");
+    }
+}
+
 /// Time per item of `op` over `items`: median, least and most over `passes` passes, after an
-/// untimed pass that counts the items for which `op` is true.
+/// untimed pass that counts the items for which `op` is true. A pass repeats the items `reps`
+/// times, or as often as lasts about `pass_ms`.
 fn measure<T>(
     items: &[T],
     passes: usize,
-    pass_ms: f64,
+    (pass_ms, reps): (f64, Option<usize>),
     mut op: impl FnMut(&T) -> bool,
 ) -> (usize, [f64; 3]) {
     let hits = items.iter().filter(|x| op(black_box(x))).count();
@@ -239,17 +284,15 @@ fn measure<T>(
         black_box(n);
         start.elapsed().as_secs_f64() * 1e9
     };
-    let once = pass(1).max(1.0);
-    let reps = ((pass_ms * 1e6 / once).ceil() as usize).max(1);
+    let reps = reps.unwrap_or_else(|| {
+        let once = pass(1).max(1.0);
+        ((pass_ms * 1e6 / once).ceil() as usize).max(1)
+    });
     let mut ns: Vec<f64> = (0..passes.max(1))
         .map(|_| pass(reps) / (reps * items.len().max(1)) as f64)
         .collect();
     ns.sort_by(f64::total_cmp);
     (hits, [ns[ns.len() / 2], ns[0], ns[ns.len() - 1]])
-}
-
-fn row(case: &str, items: usize, (hits, [median, min, max]): (usize, [f64; 3])) {
-    println!("omcbsa\t{case}\t{items}\t{hits}\t{median:.1}\t{min:.1}\t{max:.1}");
 }
 
 fn fk_configs<M: Model<D>>() -> Vec<[f64; D]> {
@@ -259,89 +302,130 @@ fn fk_configs<M: Model<D>>() -> Vec<[f64; D]> {
         .collect()
 }
 
-fn fk_row<M: Model<D>>(passes: usize, pass_ms: f64) {
+fn fk_rows<M: Model<D>>(timer: &Timer) {
     let qs = fk_configs::<M>();
     // No hits; the pose goes through black_box so that FK is not optimised away.
-    let timed = measure(&qs, passes, pass_ms, |q| {
-        black_box(M::fk(q));
-        false
-    });
-    row(&format!("fk_{}", M::NAME), qs.len(), timed);
+    timer.case(
+        &format!("fk_{}", M::NAME),
+        qs.len(),
+        &qs,
+        1.0,
+        || None,
+        |q| {
+            black_box(M::fk(q));
+            false
+        },
+    );
     let batches: Vec<[F64s; D]> = (qs.chunks_exact(LANES))
         .map(|b| core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| b[k][j]))))
         .collect();
-    let (hits, ns) = measure(&batches, passes, pass_ms, |q| {
-        black_box(M::fk_lanes(q));
-        false
-    });
     let name = format!("fk_{}_batched", M::NAME);
-    row(
+    timer.case(
         &name,
-        batches.len() * LANES,
-        (hits, ns.map(|t| t / LANES as f64)),
+        qs.len(),
+        &batches,
+        LANES as f64,
+        || None,
+        |q| {
+            black_box(M::fk_lanes(q));
+            false
+        },
     );
 }
 
-fn run(path: &Path, passes: usize, pass_ms: f64) -> Result<()> {
+fn run(path: &Path, timer: &Timer) -> Result<()> {
     let (_, s) = read_scene(path)?;
     let obstacles = &s.obstacles[..];
     println!("system\tcase\titems\thits\tmedian_ns\tmin_ns\tmax_ns");
     let mut pose = ArmPose::EMPTY;
-    let mut lanes = ArmLanes::EMPTY;
+    let lanes = RefCell::new(ArmLanes::EMPTY);
+    // The obstacles' boxes, made once as a planner makes them.
+    let boxes: Vec<Aabb> = obstacles.iter().map(Obstacle::aabb).collect();
     for (case, qs) in [("check_random", &s.random), ("check_free", &s.free)] {
-        let timed = measure(qs, passes, pass_ms, |q| collides(&mut pose, obstacles, q));
-        row(case, qs.len(), timed);
-        // The same configurations LANES at a time (time and hits per configuration).
-        let batches: Vec<&[[f64; D]]> = qs.chunks(LANES).collect();
-        let hits = (batches.iter())
-            .map(|qs| collides_lanes(&mut lanes, obstacles, qs).count_ones() as usize)
-            .sum();
-        let (_, ns) = measure(&batches, passes, pass_ms, |qs| {
-            collides_lanes(&mut lanes, obstacles, qs) != 0
-        });
-        let per = qs.len() as f64 / batches.len() as f64;
-        row(
-            &format!("{case}_batched"),
+        timer.case(
+            case,
             qs.len(),
-            (hits, ns.map(|t| t / per)),
+            qs,
+            1.0,
+            || None,
+            |q| collides(&mut pose, obstacles, q),
         );
+        // The same configurations LANES at a time (time and hits per configuration), a lane
+        // left alone once it hits.
+        let batches = lane_batches(&qs.chunks(LANES).collect::<Vec<_>>());
+        let collides = |(q, live): &([F64s; D], Mask)| {
+            let mut lanes = lanes.borrow_mut();
+            lanes.place_lanes::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, u32::MAX);
+            let hit = lanes.obstacle_hits_boxed((obstacles, &boxes), 0.0);
+            lanes.keep(!hit);
+            hit | lanes.self_hits(0.0)
+        };
+        let hits = || {
+            Some(
+                batches
+                    .iter()
+                    .map(|b| collides(b).count_ones() as usize)
+                    .sum(),
+            )
+        };
+        let per = qs.len() as f64 / batches.len() as f64;
+        let name = format!("{case}_batched");
+        timer.case(&name, qs.len(), &batches, per, hits, |b| collides(b) != 0);
     }
     // What one batched call of a peer answers: whether any of 8 collides (stopping at the
     // first that does), per configuration.
     let eights: Vec<&[[f64; D]]> = s.random.chunks_exact(8).collect();
-    let (hits, ns) = measure(&eights, passes, pass_ms, |qs| {
-        qs.iter().any(|q| collides(&mut pose, obstacles, q))
-    });
-    row("any8_random", eights.len(), (hits, ns.map(|t| t / 8.0)));
-    // The same question asked of one batch: the self check only when no obstacle is hit.
-    let (hits, ns) = measure(&eights, passes, pass_ms, |qs| {
-        lanes.place::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, qs);
-        lanes.obstacle_hits(obstacles, 0.0) != 0 || lanes.self_hits(0.0) != 0
-    });
-    row(
+    timer.case(
+        "any8_random",
+        eights.len(),
+        &eights,
+        8.0,
+        || None,
+        |qs| qs.iter().any(|q| collides(&mut pose, obstacles, q)),
+    );
+    // The same question asked of one batch, which stops at its first hit in any lane.
+    let batches = lane_batches(&eights);
+    timer.case(
         "any8_random_batched",
         eights.len(),
-        (hits, ns.map(|t| t / 8.0)),
+        &batches,
+        8.0,
+        || None,
+        |(q, live)| {
+            let mut lanes = lanes.borrow_mut();
+            lanes.place_lanes::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, u32::MAX);
+            lanes.any_hit((obstacles, &boxes), 0.0)
+        },
     );
     for (length, pairs) in &s.motions {
         for (suffix, placing) in [("", Placing::Single), ("_batched", Placing::Rake)] {
-            let timed = measure(pairs, passes, pass_ms, |m| {
-                !motion_free(obstacles, m, placing)
-            });
-            row(&format!("motion_{length}{suffix}"), pairs.len(), timed);
+            let name = format!("motion_{length}{suffix}");
+            timer.case(
+                &name,
+                pairs.len(),
+                pairs,
+                1.0,
+                || None,
+                |m| !motion_free(obstacles, m, placing),
+            );
         }
     }
-    fk_row::<Panda>(passes, pass_ms);
-    fk_row::<KinovaGen3>(passes, pass_ms);
+    fk_rows::<Panda>(timer);
+    fk_rows::<KinovaGen3>(timer);
     Ok(())
 }
 
-/// Which of `qs` (at most [`LANES`]) collide, a bit each, checked as one batch.
-fn collides_lanes(lanes: &mut ArmLanes, obstacles: &[Obstacle], qs: &[[f64; D]]) -> Mask {
-    lanes.place::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, qs);
-    let hit = lanes.obstacle_hits(obstacles, 0.0);
-    lanes.keep(!hit);
-    hit | lanes.self_hits(0.0)
+/// Each group of at most [`LANES`] configurations as one batch: a lane per configuration
+/// (the last repeated in the lanes left over) and the lanes holding one.
+fn lane_batches(groups: &[&[[f64; D]]]) -> Vec<([F64s; D], Mask)> {
+    (groups.iter())
+        .map(|qs| {
+            let last = qs.len().min(LANES) - 1;
+            let q =
+                core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| qs[k.min(last)][j])));
+            (q, ((1u16 << (last + 1)) - 1) as Mask)
+        })
+        .collect()
 }
 
 /// `q` rounded to `decimals`, or `None` when rounding takes it outside the limits.
@@ -500,7 +584,17 @@ fn main() -> ExitCode {
             scene,
             passes,
             pass_ms,
-        } => run(&scene, passes, pass_ms),
+            only,
+            reps,
+        } => run(
+            &scene,
+            &Timer {
+                passes,
+                pass_ms,
+                only,
+                reps,
+            },
+        ),
         Command::Generate { scene } => {
             generated(&scene).and_then(|text| Ok(std::fs::write(&scene, text)?))
         }

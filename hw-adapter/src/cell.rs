@@ -210,8 +210,14 @@ impl Cell {
         options: &CellOptions,
         records: &Path,
     ) -> Result<ArmPort, String> {
+        // A cell's mock lives as long as the cell: it exits when the cell closes its pty or
+        // connection, not after the mocks' own backstop for a test that leaks one (a minute or
+        // ten). The URL's flags come after, so that a query may still set one.
         let flags = |f: &[(String, String)]| -> Vec<String> {
-            f.iter().map(|(k, v)| format!("--{k}={v}")).collect()
+            let own = f.iter().map(|(k, v)| format!("--{k}={v}"));
+            std::iter::once("--max-seconds=inf".to_string())
+                .chain(own)
+                .collect()
         };
         let record = records.join(format!("{}.jsonl", a.name));
         let at = |e: String| format!("arm {:?} ({}): {e}", a.name, a.url);

@@ -10,10 +10,13 @@ where the hands are), the other two hold still. south_west and north_west are mo
 Kortex, north_east and south_east mock arms on CAN: one arm of each kind moves, one holds.
 
 The arms follow slower than the policy's 50 Hz: the executor keeps every joint within the Gen3's
-acceleration limits (1 rad/s^2 for joints 1-4), with every queued tail ending at rest, and the
-episode's first 40 steps need a uniform slow-down of about 10 (the whole episode about 15). At
-``TIME_SCALE`` 12 a step lasts 24 control cycles of the mocks' 10 ms, so that every waypoint is
-commanded exactly at a cycle.
+acceleration limits (Kinova's 1 rad/s^2 for joints 1-4), with every queued tail ending at rest;
+this episode's embodied timeline alone needs a uniform slow-down of about 8 on joints 3-4, the
+tails at rest about 15. At ``TIME_SCALE`` 15 a step lasts 30 control cycles of the mocks' 10 ms,
+so that every waypoint is commanded exactly at a cycle. The policy keeps its rate as the arms
+do: chunk ``s`` is pushed ``LEAD`` steps before step ``s`` is due, a step lasting the cell's step
+time (as a policy that watches the arms and infers ahead would, and as ``omcbsa online --hands
+FILE`` replays).
 """
 
 import sys
@@ -27,12 +30,16 @@ import omcbsa
 ROOT = Path(__file__).resolve().parents[2]
 EPISODE = ROOT / "data" / "aloha_sim" / "transfer_100.json.gz"
 
-#: Steps of the episode's 401 pushed (its first 0.8 s at 50 Hz).
+#: Steps of the episode's 401 pushed by the tests that stop the arms mid-motion (its first 0.8 s
+#: at 50 Hz); the test of the record and the command line's push all of them.
 PREFIX = 40
 CHUNK, STRIDE = 16, 8
-TIME_SCALE = 12.0
+#: Steps a chunk is pushed before its first step is due (the command line's default --lead;
+#: the cell keeps at least the two steps after the one streamed out of a new plan's reach).
+LEAD = 4
+TIME_SCALE = 15.0
 #: Control cycles per policy step: TIME_SCALE times the episode's 20 ms over the mocks' 10 ms.
-STEP_CYCLES = 24
+STEP_CYCLES = 30
 
 ARMS = {
     "south_west": "mock-kortex",
@@ -50,8 +57,8 @@ CLI_RELAXED = ["--missed-cycles", "25", "--heartbeat-factor", "3", "--feedback-t
                "250", "--sdo-timeout-ms", "500"]
 
 
-def episode():
-    """(setup Problem, hands (2, PREFIX, 7)): the hand-taking arms start at the first poses."""
+def episode(steps=PREFIX):
+    """(setup Problem, hands (2, steps, 7)): the hand-taking arms start at the first poses."""
     setup, hands = omcbsa.aloha_episode(EPISODE, arms=4)
     d = setup.to_dict()
     for i in range(2):
@@ -61,7 +68,7 @@ def episode():
                           base=pose(r["base"]), tcp=pose(r["tcp"]))
         assert ok, f"robot {i} cannot reach hand {i}'s first pose"
         r["initial"] = q.tolist()
-    return omcbsa.Problem(d), hands[:, :PREFIX]
+    return omcbsa.Problem(d), hands[:, :steps]
 
 
 def chunks(hands):
@@ -70,14 +77,14 @@ def chunks(hands):
     return [(s, hands[:, s:min(s + CHUNK, steps)]) for s in range(0, steps, STRIDE)]
 
 
-def replay(cell, embodier, hands, dt, on_push=None):
-    """Pushes the chunks at the policy's rate (chunk s at s * dt after the first); returns the
-    embodied timeline (robots, n, 7): index 0 where the arms stood, then every push's tail
-    replacing the plan from its first waypoint."""
+def replay(cell, embodier, hands, on_push=None):
+    """Pushes the chunks at the policy's rate as the arms keep it (chunk s at s - LEAD times the
+    cell's step time after the first); returns the embodied timeline (robots, n, 7): index 0
+    where the arms stood, then every push's tail replacing the plan from its first waypoint."""
     timeline = None
     start = time.monotonic()
     for s, chunk in chunks(hands):
-        time.sleep(max(0.0, start + s * dt - time.monotonic()))
+        time.sleep(max(0.0, start + (s - LEAD) * cell.step_time - time.monotonic()))
         pushed = cell.push(s, chunk)
         f = pushed["from"]
         if timeline is None:
@@ -98,12 +105,12 @@ def main(records, how="finish"):
         # Held by the module, so that only the interpreter's exit ends it (atexit).
         global CELL
         CELL = omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records, **RELAXED)
-        replay(CELL, e, hands, setup.dt, on_push=announce)
+        replay(CELL, e, hands, on_push=announce)
         time.sleep(0.5)
         print("leaving", flush=True)
         return
     with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records, **RELAXED) as cell:
-        replay(cell, e, hands, setup.dt, on_push=announce)
+        replay(cell, e, hands, on_push=announce)
         if how == "raise":
             time.sleep(0.5)
             raise RuntimeError("the policy failed")

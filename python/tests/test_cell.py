@@ -1,9 +1,9 @@
-"""The live cell end to end: a recorded ALOHA episode (its first PREFIX steps, see
-aloha_cell.py) pushed chunk by chunk at its rate through omcbsa.Cell drives two mock Gen3s on
-Kortex and two mock arms on CAN; what every mock received is the embodied timeline; a fault
-stops every arm within 3 periods and the next call raises ArmFault; Ctrl-C stops every arm; the
-same episode through `omcbsa online --hands FILE` exits 0, and 1 with a fault. Measured from the
-mocks' own records and bus logs."""
+"""The live cell end to end: a recorded ALOHA episode (all 401 steps, see aloha_cell.py) pushed
+chunk by chunk at its rate through omcbsa.Cell drives two mock Gen3s on Kortex and two mock arms
+on CAN; what every mock received is the embodied timeline; a fault stops every arm within 3
+periods and the next call raises ArmFault; Ctrl-C stops every arm; the same episode through
+`omcbsa online --hands FILE` exits 0, and 1 with a fault. Measured from the mocks' own records
+and bus logs. The tests that stop the arms mid-motion push the episode's first PREFIX steps."""
 
 import json
 import math
@@ -28,6 +28,11 @@ TOLERANCE = 1e-6
 @pytest.fixture(scope="module")
 def cell_episode():
     return episode()
+
+
+@pytest.fixture(scope="module")
+def whole_episode():
+    return episode(steps=None)
 
 
 def read_record(path):
@@ -136,9 +141,10 @@ def stops(records, wall_minus_monotonic):
     return out
 
 
-def test_an_episode_at_its_rate_drives_every_arm_along_the_embodied_timeline(cell_episode,
+def test_an_episode_at_its_rate_drives_every_arm_along_the_embodied_timeline(whole_episode,
                                                                             tmp_path):
-    setup, hands = cell_episode
+    setup, hands = whole_episode
+    assert hands.shape[1] == 401
     e = omcbsa.Embodier(setup)
     started = time.monotonic()
     with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=tmp_path, **RELAXED) as cell:
@@ -148,9 +154,14 @@ def test_an_episode_at_its_rate_drives_every_arm_along_the_embodied_timeline(cel
         assert m == STEP_CYCLES
         before = cell.status()
         assert all(a["state"] == "holding" for a in before["arms"].values())
-        reports = []
-        timeline = replay(cell, e, hands, setup.dt, on_push=lambda s, p: reports.append(p))
-        during = cell.status()
+        reports, during = [], []
+
+        def pushed(s, p):
+            reports.append(p)
+            if s == 200:
+                during.append(cell.status())
+
+        timeline = replay(cell, e, hands, on_push=pushed)
         # The cell's Embodier takes chunks only through the cell.
         with pytest.raises(RuntimeError, match="push chunks with cell.push"):
             e.push_chunk(100, hands[:, :4])
@@ -163,9 +174,9 @@ def test_an_episode_at_its_rate_drives_every_arm_along_the_embodied_timeline(cel
     assert e.last_report["total_lag_s"] == reports[-1]["total_lag_s"]
     for key in ("time_factor", "lag_s", "total_lag_s"):
         assert key in e.last_report
-    # The policy ran ahead: the arms were moving the first chunks while it pushed the rest.
-    assert during["arms"]["south_west"]["state"] == "moving"
-    assert during["arms"]["south_west"]["queue_depth"] > 0
+    # Mid-episode the arms were moving what was pushed before while the policy pushed the rest.
+    assert during[0]["arms"]["south_west"]["state"] == "moving"
+    assert during[0]["arms"]["south_west"]["queue_depth"] > 0
     # Two arms take the hands, two hold still.
     assert e.assignment == [0, 1, None, None]
     assert np.ptp(timeline[2:], axis=1).max() == 0.0
@@ -181,12 +192,13 @@ def test_a_fault_mid_episode_stops_every_arm_within_3_periods_and_raises_arm_fau
                                                                                   tmp_path):
     setup, hands = cell_episode
     e = omcbsa.Embodier(setup)
-    # north_east (CAN, moving) sends an EMCY at SYNC 300, 3 s into the motion of about 10 s.
+    # north_east (CAN, moving) sends an EMCY at SYNC 300, 3 s into the motion of about 12 s,
+    # while the policy is still pushing: the push or the status call after it raises.
     arms = dict(ARMS, north_east="mock-can?emcy-at-sync=300")
     cell = omcbsa.Cell(e, arms, time_scale=TIME_SCALE, records=tmp_path, **RELAXED)
-    replay(cell, e, hands, setup.dt)
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + 40
     with pytest.raises(omcbsa.ArmFault) as fault:
+        replay(cell, e, hands)
         while time.monotonic() < deadline:
             cell.status()
             time.sleep(0.01)
@@ -262,20 +274,19 @@ def test_an_exception_or_the_interpreters_exit_stops_every_arm(tmp_path, how):
     assert_stopped_while_moving(tmp_path, since)
 
 
-def test_the_same_episode_through_the_command_line_exits_0_and_1_with_a_fault(cell_episode, cli,
-                                                                              omcbsa_bin, tmp_path):
+def test_the_same_episode_through_the_command_line_exits_0_and_1_with_a_fault(
+        cell_episode, whole_episode, cli, omcbsa_bin, tmp_path):
     setup, hands = cell_episode
     (tmp_path / "setup.json").write_text(setup.to_json())
     arms = [f"--arm={n}={u}" for n, u in ARMS.items()]
     common = ["online", "--setup", tmp_path / "setup.json", "--time-scale", str(TIME_SCALE),
               *CLI_RELAXED]
-    # The recorded episode itself, cut into the same chunks.
-    code, out, err = cli(omcbsa_bin, *common, "--hands", EPISODE, "--steps", PREFIX,
-                         "--chunk-len", "16", "--stride", "8", "--records", tmp_path / "ok",
-                         *arms)
+    # The whole recorded episode itself, cut into the same chunks.
+    code, out, err = cli(omcbsa_bin, *common, "--hands", EPISODE, "--chunk-len", "16",
+                         "--stride", "8", "--records", tmp_path / "ok", *arms)
     print(out, err)
     assert code == 0, err
-    assert f"done: {len(chunks(hands))} chunks streamed, 0 not" in out
+    assert f"done: {len(chunks(whole_episode[1]))} chunks streamed, 0 not" in out
     for name in ARMS:
         record = read_record(tmp_path / "ok" / f"{name}.jsonl")
         assert not [x for x in record if x.get("kind") == "violation" or x.get("event") == "refused"]

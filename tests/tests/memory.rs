@@ -322,3 +322,46 @@ fn both_models_kinematics_allocate_nothing() {
     assert_eq!(run::<KinovaGen3>(), 0, "Gen3");
     assert_eq!(run::<FrankaPanda>(), 0, "Panda");
 }
+
+/// The batched kernel allocates nothing: 8 configurations placed, checked against obstacles,
+/// themselves and a second arm, and a motion checked with a rake of placings per call (what
+/// the planners use on an x86-64-v3 build, the workspace's; `lanes::WIDE` says so).
+#[test]
+fn batched_checks_allocate_nothing() {
+    use omcbsa_core::collision::{ArmLanes, ArmPose, Placing, Sweep};
+    use omcbsa_core::geometry::{Obstacle, Shape};
+    use omcbsa_core::model::{Frame, KinovaGen3};
+    use omcbsa_core::nalgebra::Vector3;
+    use omcbsa_core::tool::Tool;
+    const { assert!(!cfg!(target_arch = "x86_64") || omcbsa_core::lanes::WIDE) };
+    let ball = Obstacle {
+        shape: Shape::Sphere { radius: 0.1 },
+        pose: Frame {
+            pos: Vector3::new(0.3, 0.0, 0.6),
+            ..Frame::IDENTITY
+        },
+    };
+    let qs: Vec<[f64; 7]> = (0..8)
+        .map(|k| [0.2 * k as f64, 0.5, 0.0, 1.0, 0.0, 0.5, 0.0])
+        .collect();
+    let other_base = Frame {
+        pos: Vector3::new(0.7, 0.0, 0.0),
+        ..Frame::IDENTITY
+    };
+    let other = ArmPose::new::<KinovaGen3, 7>(0, &other_base, &Tool::NONE, &[0.0; 7]);
+    let (mut a, mut b) = (ArmLanes::EMPTY, ArmLanes::EMPTY);
+    let (hits, n) = allocations(|| {
+        a.place::<KinovaGen3, 7>(0, &Frame::IDENTITY, &Tool::NONE, &qs);
+        b.place::<KinovaGen3, 7>(0, &other_base, &Tool::NONE, &qs);
+        let sweep = Sweep::<KinovaGen3, 7>::new(0, &Tool::NONE, &qs[0], &qs[7], 0.01);
+        let moving = sweep.with_placing(Placing::Rake);
+        [
+            a.obstacle_hits(&[ball], 0.0),
+            a.self_hits(0.0),
+            a.arm_hits(&b, 0.0),
+            a.arm_hits_pose(&other, 0.0),
+            u8::from(moving.arm_collides(&Frame::IDENTITY, &[ball])),
+        ]
+    });
+    assert_eq!(n, 0, "the batched checks allocated {n} times ({hits:?})");
+}

@@ -6,18 +6,22 @@
 //! Lane `k` is, bit for bit, the [`ArmPose`] of configuration `k`: the generated kinematics
 //! run once over [`F64s`] ([`crate::model::Model::link_frames_lanes`]), and the placing here
 //! takes [`ArmPose::place_only`]'s operations in its order ([`FrameOf`]). The checks test the
-//! same boxes with the same comparisons in SIMD, then run the scalar exact query
-//! ([`Capsule::contact`], [`Obstacle::hits_capsule`]) on the few lanes whose boxes meet, so a
-//! lane hits exactly when the [`ArmPose`] check of its configuration does
-//! (`core/tests/batch.rs` checks it on random cases, hits and misses alike).
+//! same boxes with the same comparisons in SIMD, a link's box first (around its capsules'
+//! boxes: [`super::groups`]), then the exact query on what is left: capsule pairs in SIMD
+//! with the scalar code's operations ([`Segments::hits`]), obstacles with the scalar query
+//! ([`Obstacle::hits_capsule`]) on the lanes that a cheap conservative test in SIMD does not
+//! clear ([`Segments::apart_from`]). So a lane hits exactly when the [`ArmPose`] check of its
+//! configuration does (`core/tests/batch.rs` checks it on random cases, hits and misses
+//! alike).
 
 use nalgebra::Vector3;
 
-use super::pose::{ArmPose, MAX_POSE_CAPSULES};
+use super::groups::{Groups, MAX_GROUPS};
+use super::pose::{at_origin, bits, ArmPose, MAX_POSE_CAPSULES};
 pub(super) use crate::geometry::lanes::Point;
 use crate::geometry::lanes::Segments;
 use crate::geometry::{Aabb, Capsule, Obstacle};
-use crate::lanes::{lane, lanes_of, lt, max, min, F64s, Mask, ALL, LANES};
+use crate::lanes::{lane, lanes_of, max, min, F64s, Mask, LANES};
 use crate::model::{Frame, FrameOf, Models};
 use crate::tool::Tool;
 
@@ -58,11 +62,11 @@ impl Boxes {
     #[inline(always)]
     pub fn near(&self, other: &Boxes, margin: f64) -> Mask {
         let m = F64s::splat(margin);
-        let mut near = ALL;
-        for i in 0..3 {
-            near &= lt(self.min[i], other.max[i] + m) & lt(other.min[i], self.max[i] + m);
-        }
-        near
+        // One mask of all six comparisons, turned into bits once.
+        let axis = |i: usize| {
+            self.min[i].simd_lt(other.max[i] + m) & other.min[i].simd_lt(self.max[i] + m)
+        };
+        (axis(0) & axis(1) & axis(2)).to_bitmask() as Mask
     }
 
     /// Lane `k`'s box.
@@ -93,6 +97,11 @@ pub struct ArmLanes {
     /// The lanes holding a configuration; the others repeat one of them and are never
     /// reported.
     lanes: Mask,
+    /// The capsules by link, and around each link's capsules a box.
+    groups: Groups,
+    group_boxes: [Boxes; MAX_GROUPS],
+    /// The capsules placed.
+    only: u32,
 }
 
 impl ArmLanes {
@@ -110,6 +119,9 @@ impl ArmLanes {
         aabb: Boxes::EMPTY,
         moving_aabb: Boxes::EMPTY,
         lanes: 0,
+        groups: Groups::EMPTY,
+        group_boxes: [Boxes::EMPTY; MAX_GROUPS],
+        only: 0,
     };
 
     /// The lanes holding a configuration.
@@ -153,13 +165,37 @@ impl ArmLanes {
         lanes: Mask,
         only: u32,
     ) {
+        self.begin::<M, D>(model, tool, lanes, only);
+        place_ends::<M, D>(model, base, tool, q, only, |i, a, b, radius, on_base| {
+            self.put(i, a, b, radius, on_base);
+        });
+        self.finish();
+    }
+
+    /// The arm's fields of model `model` carrying `tool`, no capsule placed yet (those not
+    /// in `only` empty, as they stay).
+    fn begin<M: Models<D>, const D: usize>(
+        &mut self,
+        model: u8,
+        tool: &Tool,
+        lanes: Mask,
+        only: u32,
+    ) {
         self.len = M::capsules(model).len() + tool.capsules().len();
         self.links = M::capsules(model).len();
         self.self_pairs = M::self_pairs(model);
         self.tool_self = M::tool_self_capsules(model);
+        let capsules = M::capsules(model);
+        (self.groups).update(capsules, self.self_pairs, self.tool_self, self.len);
+        // A group's box is set by its first capsule placed: the first of all when every
+        // capsule is placed (`put`), else from empty.
+        self.only = only;
+        if only != u32::MAX {
+            for g in bits(self.groups.used) {
+                self.group_boxes[g] = Boxes::EMPTY;
+            }
+        }
         self.on_base = 0;
-        self.aabb = Boxes::EMPTY;
-        self.moving_aabb = Boxes::EMPTY;
         self.lanes = lanes;
         for i in 0..self.len {
             if only & (1 << i) == 0 {
@@ -168,22 +204,39 @@ impl ArmLanes {
                 self.boxes[i] = Boxes::EMPTY;
             }
         }
-        place_ends::<M, D>(model, base, tool, q, only, |i, a, b, radius, on_base| {
-            // `Capsule::aabb`.
-            let r = F64s::splat(radius);
-            let aabb = Boxes {
-                min: core::array::from_fn(|i| min(a[i], b[i]) - r),
-                max: core::array::from_fn(|i| max(a[i], b[i]) + r),
-            };
-            (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
-            self.boxes[i] = aabb;
-            self.aabb = self.aabb.union(&aabb);
-            if on_base {
-                self.on_base |= 1 << i;
+    }
+
+    /// Capsule `i` placed: its ends, its box, the arm's boxes grown by it.
+    #[inline(always)]
+    fn put(&mut self, i: usize, a: &Point, b: &Point, radius: f64, on_base: bool) {
+        // `Capsule::aabb`.
+        let r = F64s::splat(radius);
+        let aabb = Boxes {
+            min: core::array::from_fn(|i| min(a[i], b[i]) - r),
+            max: core::array::from_fn(|i| max(a[i], b[i]) + r),
+        };
+        (self.a[i], self.b[i], self.radius[i]) = (*a, *b, radius);
+        self.boxes[i] = aabb;
+        let g = usize::from(self.groups.group[i]);
+        self.group_boxes[g] =
+            if self.only == u32::MAX && self.groups.members[g].trailing_zeros() == i as u32 {
+                aabb
             } else {
-                self.moving_aabb = self.moving_aabb.union(&aabb);
-            }
-        });
+                self.group_boxes[g].union(&aabb)
+            };
+        if on_base {
+            self.on_base |= 1 << i;
+        }
+    }
+
+    /// The boxes around the arm, from its groups': the base link's is group 0.
+    fn finish(&mut self) {
+        let mut moving = Boxes::EMPTY;
+        for g in bits(self.groups.used & !1) {
+            moving = moving.union(&self.group_boxes[g]);
+        }
+        self.moving_aabb = moving;
+        self.aabb = moving.union(&self.group_boxes[0]);
     }
 
     /// The axes of capsule `i`.
@@ -228,17 +281,64 @@ impl ArmLanes {
     /// The lanes where a capsule off the base link comes closer to an obstacle than
     /// `margin`: [`ArmPose::obstacle_hit`]`.is_some()`, lane by lane.
     pub fn obstacle_hits(&self, obstacles: &[Obstacle], margin: f64) -> Mask {
+        self.obstacle_hits_until((obstacles, &[]), margin, self.lanes)
+    }
+
+    /// [`ArmLanes::obstacle_hits`] with the obstacles' boxes made once for many calls:
+    /// `boxes[n]` is [`Obstacle::aabb`] of `obstacles[n]` (for an obstacle past its end,
+    /// made here).
+    pub fn obstacle_hits_boxed(&self, scene: (&[Obstacle], &[Aabb]), margin: f64) -> Mask {
+        self.obstacle_hits_until(scene, margin, self.lanes)
+    }
+
+    /// The lanes where a self-collision pair comes closer than `margin`:
+    /// [`ArmPose::self_hit`]`.is_some()`, lane by lane.
+    pub fn self_hits(&self, margin: f64) -> Mask {
+        self.self_hits_until(margin, self.lanes)
+    }
+
+    /// Whether any lane's configuration comes closer than `margin` to an obstacle or to
+    /// itself: `obstacle_hits(..) | self_hits(..) != 0`, stopping at the first hit.
+    /// The obstacles' boxes as in [`ArmLanes::obstacle_hits_boxed`].
+    pub fn any_hit(&self, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
+        self.lanes != 0
+            && (self.obstacle_hits_until(scene, margin, 0) != 0
+                || self.self_hits_until(margin, 0) != 0)
+    }
+
+    /// [`ArmLanes::obstacle_hits`], stopping once a lane outside `wait` hits (with `wait` the
+    /// lanes, once every lane does): then some hitting lanes may be missing.
+    fn obstacle_hits_until(
+        &self,
+        (obstacles, boxes): (&[Obstacle], &[Aabb]),
+        margin: f64,
+        wait: Mask,
+    ) -> Mask {
         let mut hit: Mask = 0;
-        for o in obstacles {
-            let ob = Boxes::splat(&o.aabb());
+        for (n, o) in obstacles.iter().enumerate() {
+            let ob = Boxes::splat(&boxes.get(n).copied().unwrap_or_else(|| o.aabb()));
             let near = ob.near(&self.moving_aabb, margin) & self.lanes & !hit;
             if near == 0 {
                 continue;
             }
-            for i in (0..self.len).filter(|&i| self.on_base & (1 << i) == 0) {
-                for k in lanes_of(self.boxes[i].near(&ob, margin) & near & !hit) {
-                    if o.hits_capsule(&self.capsule(i, k), margin) {
-                        hit |= 1 << k;
+            // The base link's group (0) is never checked against obstacles.
+            for g in bits(self.groups.used & !1) {
+                let near = self.group_boxes[g].near(&ob, margin) & near & !hit;
+                if near == 0 {
+                    continue;
+                }
+                for i in bits(self.groups.members[g] & !self.on_base) {
+                    let mut near = self.boxes[i].near(&ob, margin) & near & !hit;
+                    if near != 0 {
+                        near &= !self.segments(i).apart_from(o, self.radius[i] + margin);
+                    }
+                    for k in lanes_of(near) {
+                        if o.hits_capsule(&self.capsule(i, k), margin) {
+                            hit |= 1 << k;
+                            if !wait & (1 << k) != 0 {
+                                return hit;
+                            }
+                        }
                     }
                 }
             }
@@ -249,20 +349,26 @@ impl ArmLanes {
         hit
     }
 
-    /// The lanes where a self-collision pair comes closer than `margin`:
-    /// [`ArmPose::self_hit`]`.is_some()`, lane by lane.
-    pub fn self_hits(&self, margin: f64) -> Mask {
+    /// [`ArmLanes::self_hits`], stopping as [`ArmLanes::obstacle_hits_until`] does.
+    fn self_hits_until(&self, margin: f64, wait: Mask) -> Mask {
         let mut hit: Mask = 0;
-        let links = self.self_pairs.iter().map(|&(a, b)| (a.into(), b.into()));
-        let tool = (self.links..self.len)
-            .flat_map(|t| self.tool_self.iter().map(move |&c| (t, usize::from(c))));
-        for (a, b) in links.chain(tool) {
-            let near = self.boxes[a].near(&self.boxes[b], margin) & self.lanes & !hit;
-            if near != 0 {
-                let reach = self.radius[a] + self.radius[b];
-                hit |= near & self.segments(a).hits(&self.segments(b), reach, margin);
-                if hit == self.lanes {
-                    break;
+        let groups = &self.groups;
+        for g in bits(groups.used) {
+            for h in bits(groups.pair_groups[g]) {
+                let near = self.group_boxes[g].near(&self.group_boxes[h], margin);
+                let near = near & self.lanes & !hit;
+                if near == 0 {
+                    continue;
+                }
+                for (a, b) in groups.pairs(g, h) {
+                    let near = self.boxes[a].near(&self.boxes[b], margin) & near & !hit;
+                    if near != 0 {
+                        let reach = self.radius[a] + self.radius[b];
+                        hit |= near & self.segments(a).hits(&self.segments(b), reach, margin);
+                        if hit == self.lanes || hit & !wait != 0 {
+                            return hit;
+                        }
+                    }
                 }
             }
         }
@@ -273,9 +379,37 @@ impl ArmLanes {
     /// links included: [`ArmPose::arm_hit`]`.is_some()`, lane by lane. Of the lanes both
     /// hold.
     pub fn arm_hits(&self, other: &ArmLanes, margin: f64) -> Mask {
-        let lanes = self.lanes & other.lanes;
-        let capsule = |j| (other.boxes[j], other.segments(j), other.radius[j]);
-        self.arm_hits_with(lanes, &other.aabb, other.len, capsule, margin)
+        let near = self.aabb.near(&other.aabb, margin) & self.lanes & other.lanes;
+        let mut hit: Mask = 0;
+        if near == 0 {
+            return 0;
+        }
+        // Link by link (a link's box around its capsules'), then the links' capsules.
+        for g in bits(self.groups.used) {
+            let row = self.group_boxes[g].near(&other.aabb, margin) & near;
+            if row == 0 {
+                continue;
+            }
+            for h in bits(other.groups.used) {
+                let cell = self.group_boxes[g].near(&other.group_boxes[h], margin) & row & !hit;
+                if cell == 0 {
+                    continue;
+                }
+                for i in bits(self.groups.members[g]) {
+                    for j in bits(other.groups.members[h]) {
+                        let n = self.boxes[i].near(&other.boxes[j], margin) & cell & !hit;
+                        if n != 0 {
+                            let reach = self.radius[i] + other.radius[j];
+                            hit |= n & self.segments(i).hits(&other.segments(j), reach, margin);
+                        }
+                    }
+                }
+                if hit == near {
+                    return hit;
+                }
+            }
+        }
+        hit
     }
 
     /// [`ArmLanes::arm_hits`] against one pose in every lane (an arm standing).
@@ -341,9 +475,10 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
     tool: &Tool,
     q: &[F64s; D],
     only: u32,
-    mut each: impl FnMut(usize, Point, Point, f64, bool),
+    mut each: impl FnMut(usize, &Point, &Point, f64, bool),
 ) {
     const { M::CHECKED };
+    let world = !at_origin(base);
     let base = FrameOf::<F64s>::splat(base);
     let capsules = M::capsules(model);
     // Each link's capsules as its frame comes (they are in link order: `check_model`), the
@@ -354,7 +489,15 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
         if !on_link(next) {
             return;
         }
-        let frame = base.compose(f);
+        // Into the world, where the base frame is not the world's (else the frame as it is,
+        // not copied).
+        let composed;
+        let frame = if world {
+            composed = base.compose(f);
+            &composed
+        } else {
+            f
+        };
         while on_link(next) {
             let c = &capsules[next];
             if only & (1 << next) != 0 {
@@ -362,7 +505,7 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
                     frame.apply(&c.a.map(F64s::splat)),
                     frame.apply(&c.b.map(F64s::splat)),
                 );
-                each(next, a, b, c.radius, link == 0);
+                each(next, &a, &b, c.radius, link == 0);
             }
             next += 1;
         }
@@ -370,13 +513,17 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
     let links = capsules.len();
     let tools = tool.capsules().iter().enumerate();
     if tools.clone().any(|(t, _)| only & (1 << (links + t)) != 0) {
-        let flange = base.compose(&tool_frame);
+        let flange = if world {
+            base.compose(&tool_frame)
+        } else {
+            tool_frame
+        };
         for (t, c) in tools.filter(|(t, _)| only & (1 << (links + t)) != 0) {
             let (a, b) = (
                 flange.apply(&c.a.map(F64s::splat)),
                 flange.apply(&c.b.map(F64s::splat)),
             );
-            each(links + t, a, b, c.radius, false);
+            each(links + t, &a, &b, c.radius, false);
         }
     }
 }

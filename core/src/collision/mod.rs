@@ -49,6 +49,7 @@
 use core::marker::PhantomData;
 
 mod batch;
+mod groups;
 mod pose;
 mod rake;
 

@@ -104,11 +104,18 @@ impl ArmPose {
         const { M::CHECKED };
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
         let linked = &mut frames[..M::link_names(model).len()];
-        let flange = base.compose(&M::link_frames(model, q, linked));
-        // Into the world once per link, not once per capsule.
-        for f in linked.iter_mut() {
-            *f = base.compose(f);
-        }
+        let tool_frame = M::link_frames(model, q, linked);
+        // Into the world once per link, not once per capsule; not at all for an arm whose
+        // base frame is the world's (composing with the identity changes at most the sign
+        // of a zero).
+        let flange = if at_origin(base) {
+            tool_frame
+        } else {
+            for f in linked.iter_mut() {
+                *f = base.compose(f);
+            }
+            base.compose(&tool_frame)
+        };
         let capsules = M::capsules(model);
         let links = capsules.len();
         self.len = links + tool.capsules().len();
@@ -305,6 +312,12 @@ impl ArmPose {
         }
         deepest.map(|(_, p)| p)
     }
+}
+
+/// Whether `base` is the world frame, so that placing in it skips composing with it.
+#[inline]
+pub(super) fn at_origin(base: &Frame) -> bool {
+    *base == Frame::IDENTITY
 }
 
 /// The indices of the set bits of `m`, lowest first.

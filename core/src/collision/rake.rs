@@ -88,7 +88,7 @@ impl Rake {
             &q,
             only,
             |i, a, b, radius, _| {
-                (self.a[i], self.b[i], self.radius[i]) = (a, b, radius);
+                (self.a[i], self.b[i], self.radius[i]) = (*a, *b, radius);
             },
         );
     }

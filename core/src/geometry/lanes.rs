@@ -9,6 +9,8 @@
 
 use crate::lanes::{F64s, Mask};
 
+use super::{Obstacle, Shape};
+
 use super::segment::PARALLEL_SIN2;
 
 /// Three coordinates, a lane each.
@@ -147,5 +149,51 @@ impl Segments {
         let r = splat(reach + margin);
         let within = d2.simd_lt(r * r) | d2.simd_eq(splat(0.0));
         within.to_bitmask() as Mask
+    }
+}
+
+/// Relative and absolute slack (metres) of [`Segments::apart_from`] over the rounding of the
+/// exact query it stands in front of: far more than that query's error, far less than a
+/// distance that matters.
+const APART_REL: f64 = 1e-9;
+const APART_ABS: f64 = 1e-9;
+
+impl Segments {
+    /// The lanes where capsules on these segments, of radius and margin adding up to `reach`,
+    /// certainly keep farther than that from the solid obstacle `o` (a box or a cylinder;
+    /// none for another shape): in the obstacle's frame, both ends lie beyond one face of the
+    /// box around the solid by more than `reach`, with room to spare for rounding. A cheap
+    /// test ahead of [`Obstacle::hits_capsule`], whose exact query is an iteration: no lane
+    /// it clears is a hit there (NaN is never apart).
+    #[inline(always)]
+    pub fn apart_from(&self, o: &Obstacle, reach: f64) -> Mask {
+        let half = match o.shape {
+            Shape::Box { half_extents } => half_extents,
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => [radius, radius, half_length],
+            Shape::Sphere { .. } | Shape::Capsule { .. } => return 0,
+        };
+        let (r, c) = (&o.pose.rot, &o.pose.pos);
+        // `rot^T (p - c)`: the point in the obstacle's frame.
+        let local = |p: &Point| -> Point {
+            let d = [p[0] - splat(c[0]), p[1] - splat(c[1]), p[2] - splat(c[2])];
+            core::array::from_fn(|j| {
+                d[0] * splat(r[(0, j)]) + d[1] * splat(r[(1, j)]) + d[2] * splat(r[(2, j)])
+            })
+        };
+        let (a, b) = (local(&self.a), local(&self.b));
+        let room = reach * (1.0 + APART_REL) + APART_ABS;
+        let mut apart = splat(0.0).simd_ne(splat(0.0));
+        for j in 0..3 {
+            let beyond = splat(half[j] + room);
+            let (lo, hi) = (
+                a[j].simd_lt(b[j]).select(a[j], b[j]),
+                a[j].simd_gt(b[j]).select(a[j], b[j]),
+            );
+            apart |= lo.simd_gt(beyond) | hi.simd_lt(-beyond);
+        }
+        apart.to_bitmask() as Mask
     }
 }

@@ -43,9 +43,10 @@ pub struct LiveArgs {
     arms: Vec<(String, ArmUrl)>,
     /// The policy's hand chunks: `-` reads JSON lines from stdin and plans each as it comes
     /// ({"start_step": S, "hands": [[{"position": [x,y,z], "quat_xyzw": [x,y,z,w]}, ...],
-    /// ...]}); a .jsonl file of such lines is replayed at the policy's rate (each line at its
-    /// start_step times dt); a recorded aloha-sim episode (.json.gz beside its index.json) is
-    /// cut into chunks of --chunk-len poses every --stride poses, replayed at its rate.
+    /// ...]}); a .jsonl file of such lines is replayed at the policy's rate as the arms keep
+    /// it (each line at its start_step times dt times the time scale); a recorded aloha-sim
+    /// episode (.json.gz beside its index.json) is cut into chunks of --chunk-len poses every
+    /// --stride poses, replayed likewise.
     #[arg(long, value_name = "-|FILE")]
     hands: Option<String>,
     /// The robots (each with its initial configuration, where its arm stands), obstacles,
@@ -66,6 +67,12 @@ pub struct LiveArgs {
     /// An aloha-sim episode's first N steps only.
     #[arg(long, value_name = "N")]
     steps: Option<usize>,
+    /// A replayed chunk (file or episode) is pushed this many policy steps before its first
+    /// step is due, as a policy that infers ahead would send it (the cell keeps the next steps
+    /// after the one being streamed, at least two, out of a new plan's reach: a chunk pushed
+    /// later has its first poses dropped as late).
+    #[arg(long, value_name = "STEPS", default_value_t = 4)]
+    lead: u64,
     /// Planning time per chunk, seconds.
     #[arg(long, default_value = "1", value_parser = positive_seconds)]
     chunk_timeout: f64,
@@ -117,9 +124,9 @@ enum Source {
     /// Lines from stdin, read by a thread of their own (so that the arms are watched while
     /// waiting): (line number, the line or why it could not be read).
     Stdin(Receiver<(usize, Result<String, String>)>),
-    /// A file of lines, replayed at the policy's rate.
+    /// A file of lines, replayed at the policy's rate as the arms keep it.
     Lines(BufReader<std::fs::File>, usize),
-    /// An episode's chunks, replayed at its rate.
+    /// An episode's chunks, replayed likewise.
     Episode(std::vec::IntoIter<ChunkLine>),
 }
 
@@ -352,7 +359,19 @@ fn live(args: &LiveArgs, planner: PlannerKind, watch: &WatchArgs) -> Result<Exit
         cell.records().display()
     ));
     let _ = print(&watch);
-    match stream(&mut cell, &mut embodier, &mut source, setup.dt) {
+    // A replay keeps the policy's rate as the arms do: a step lasts dt times the time scale,
+    // so that the queue stays a chunk or two ahead of the arms (a policy that observes the arms
+    // runs at their pace), not the whole episode.
+    let step_time = setup.dt * cell.time_scale();
+    match stream(
+        &mut cell,
+        &mut embodier,
+        &mut source,
+        Pace {
+            step_time,
+            lead: args.lead,
+        },
+    ) {
         Ok(outcome) => finish(cell, outcome),
         Err(stop) => Err(stopped(cell, stop)),
     }
@@ -368,12 +387,20 @@ struct Outcome {
     bad_line: Option<String>,
 }
 
-/// Plans and pushes every chunk of `source`; a file's at the policy's rate.
+/// When a replayed chunk is pushed: `lead` policy steps before its first step is due, a step
+/// lasting `step_time` seconds.
+#[derive(Clone, Copy)]
+struct Pace {
+    step_time: f64,
+    lead: u64,
+}
+
+/// Plans and pushes every chunk of `source`; a file's at `pace`.
 fn stream(
     cell: &mut LiveCell,
     embodier: &mut Embodier,
     source: &mut Source,
-    dt: f64,
+    pace: Pace,
 ) -> Result<Outcome, Stop> {
     let mut outcome = Outcome::default();
     let paced = source.paced();
@@ -392,7 +419,11 @@ fn stream(
         };
         if paced {
             let (t0, s0) = *clock.get_or_insert((Instant::now(), chunk.start_step));
-            let due = t0 + Duration::from_secs_f64(chunk.start_step.saturating_sub(s0) as f64 * dt);
+            let steps = chunk
+                .start_step
+                .saturating_sub(s0)
+                .saturating_sub(pace.lead);
+            let due = t0 + Duration::from_secs_f64(steps as f64 * pace.step_time);
             while Instant::now() < due {
                 watch_arms(cell)?;
                 std::thread::sleep(POLL.min(due.saturating_duration_since(Instant::now())));
