@@ -146,10 +146,9 @@ fn a_chunk_after_a_hold_is_reached_by_an_approach() {
     let mut e = embodier(&policy);
     let mut rec = RunRecord::default();
     run(&policy, &mut e, &mut rec, 0..1);
-    // The policy goes quiet; it comes back seven chunks later, the box turned on (six later,
-    // the hands are back where the arms hold, one step away: no approach is needed).
+    // The policy goes quiet; it comes back six chunks later, the box turned on.
     let end = e.end();
-    let chunk = policy.chunk(7);
+    let chunk = policy.chunk(6);
     let due = e.timeline_index(chunk.start_step).unwrap();
     assert!(due > end + 4, "the chunk starts well after the plan's end");
     rec.send(&e, end);

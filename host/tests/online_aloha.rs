@@ -123,12 +123,16 @@ fn a_recorded_episode_that_failed_on_joint_speed_is_embodied() {
 /// Started from the first pose's IK answer nearest where it stood, the arm that takes the
 /// cube tracked the first chunk in a self-motion family whose joints had no room for the
 /// lift at step ~180 (joint 6 past its limit), and the null space offered no way out of it
-/// in the 80 steps the second chunk gave: that chunk was caught up, 99 poses dropped. A
-/// first chunk this long now starts where the joints' reserve is largest.
+/// in the 80 steps the second chunk gave: that chunk was caught up, 99 poses dropped. With
+/// `rank_starts`, a first chunk this long starts where the joints' reserve is largest.
 #[test]
 fn a_first_chunk_starts_where_the_later_motions_can_be_followed() {
     on_big_stack(|| {
-        let run = run_episode(&transfer_on(113, 4), &at_rate_100(), hundred(100, 0)).unwrap();
+        let options = OnlineOptions {
+            rank_starts: true,
+            ..at_rate_100()
+        };
+        let run = run_episode(&transfer_on(113, 4), &options, hundred(100, 0)).unwrap();
         assert!(run.embodied, "{:?}", run.error);
         assert_eq!((run.planned, run.recovered), (run.chunks, 0));
     });

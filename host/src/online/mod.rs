@@ -122,6 +122,12 @@ pub struct OnlineOptions {
     /// ([`omcbsa_core::search::OmegaParams::w_r`]): a chunk ends where the hands can start
     /// the next chunk's motion, whichever it is.
     pub reserve_weight: f64,
+    /// Start each arm of a first chunk of at least [`RANKED_START_S`] where its joints'
+    /// reserve is largest ([`omcbsa_core::search::OmegaParams::rank_starts`]) rather than at
+    /// the first pose's IK answer nearest where it stands: a self-motion family from which
+    /// later fast motions can be followed, at the cost of a longer approach (on the box flip
+    /// at 10 Hz, 153 steps: more than the streaming executor queues). Off by default.
+    pub rank_starts: bool,
     /// When a chunk cannot be followed at the policy's rate, slow its timing (the hands'
     /// path and the order of the poses kept) by the least factor that makes it feasible,
     /// rather than stop: the arms lag behind the policy by the time added (reported per chunk
@@ -176,6 +182,7 @@ impl Default for OnlineOptions {
             axis_weight: AXIS_WEIGHT,
             headroom_weight: HEADROOM_WEIGHT,
             reserve_weight: RESERVE_WEIGHT,
+            rank_starts: false,
             time_scaling: true,
             catch_up: true,
         }
@@ -637,7 +644,7 @@ impl Embodier {
         // its start nearest `initial` could follow unprepared: only chunks that see it
         // coming let it.
         let long = hands.first().map_or(0, |t| t.len()) as f64 * self.setup.dt >= RANKED_START_S;
-        self.storage.cbs_params.low.rank_starts = long;
+        self.storage.cbs_params.low.rank_starts = self.options.rank_starts && long;
         let outcome = self.solve_under(&mut problem, start_step, &rule);
         self.storage.cbs_params.low.rank_starts = false;
         let outcome = outcome?;
