@@ -23,14 +23,14 @@ use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
 use crate::planner::{
     Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
 };
-use crate::problem::{Problem, Robot, MAX_ROBOTS};
+use crate::problem::{Problem, Robot, Start, MAX_ROBOTS};
 use crate::rng::Rng;
 use crate::search::refine::{level_params, EXHAUSTED, FIRST_ROUND, LEVELS, LEVEL_CAP};
 use crate::search::{
     plan, Deadline, OmegaParams, OpenEntry, OpenList, OtherArm, OthersMode, PointConstraint, Query,
     SearchError, SearchStats, StartCache, StartIk, Validity, Workspace,
 };
-use crate::tracking::{track, Steps};
+use crate::tracking::{ranked_starts, track, Steps, RANKED_SEEDS};
 
 /// Margin (m) of the witness of two arms that touch at a step without overlapping.
 const TOUCH: f64 = 1e-6;
@@ -586,15 +586,25 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             }
             let key = (i as u64) << 32 | j as u64 | u64::from(restart) << 48;
             let mut rng = Rng::new(self.low.seed ^ key);
+            let traj = &self.pr.trajectories[j];
+            let mut seeds = [[0.0; D]; RANKED_SEEDS];
+            let ranked = match steps {
+                Steps::Steered(p)
+                    if p.rank_starts && p.w_r > 0.0 && robot.start == Start::Sampled =>
+                {
+                    ranked_starts::<M, D>(&robot, traj, p, &mut rng, &mut seeds)
+                }
+                _ => 0,
+            };
             for attempt in 0..self.params.warm_start_seeds {
                 if warm.expired() {
                     return None;
                 }
                 let seed = match (attempt, robot.initial) {
-                    (0, Some(init)) => init,
+                    (a, _) if (a as usize) < ranked => seeds[a as usize],
+                    (0, Some(init)) if ranked == 0 => init,
                     _ => rng.configuration(M::lower(robot.model), M::upper(robot.model)),
                 };
-                let traj = &self.pr.trajectories[j];
                 if track::<M, D>(&robot, traj, &seed, &valid, steps, self.scratch).is_some() {
                     return Some(j as u8);
                 }

@@ -37,6 +37,7 @@ use crate::kinematics::null_space_basis;
 use crate::kinematics::twist;
 use crate::model::{Frame, Models};
 use crate::problem::{Robot, Start, Trajectory};
+use crate::rng::Rng;
 use crate::search::Validity;
 use crate::search::{step_cost, OmegaParams};
 use nalgebra::Vector6;
@@ -154,6 +155,65 @@ pub fn track<M: Models<D>, const D: usize>(
     Some(c)
 }
 
+/// First-pose IK answers drawn when the warm start ranks its starts: seeds from
+/// `initial` (when given) and random ones.
+pub const RANKED_SEEDS: usize = 32;
+
+/// Two ranked starts closer than this in every joint (rad) are one.
+const DISTINCT_START: f64 = 0.1;
+
+/// The warm start's first configurations for `traj` when starts are ranked
+/// ([`OmegaParams::rank_starts`], with the joints' reserve weighed: [`OmegaParams::w_r`]): the first pose's IK answers from `initial` and random seeds,
+/// best reserve first (its [`step_cost`] for a hand at rest; the seeds' order breaks ties),
+/// distinct, written to `out`. Returns how many. A start fixes which of the arm's self-motion
+/// families the chunks that follow can reach: the one nearest where the arm stands may leave
+/// its joints no room for the hand's later motions, and no null-space motion leads out of it
+/// in time once they come.
+pub fn ranked_starts<M: Models<D>, const D: usize>(
+    robot: &Robot<D>,
+    traj: &Trajectory,
+    p: &OmegaParams,
+    rng: &mut Rng,
+    out: &mut [[f64; D]; RANKED_SEEDS],
+) -> usize {
+    let Some(first) = traj.first() else {
+        return 0;
+    };
+    let target = robot
+        .base
+        .inverse()
+        .compose(first)
+        .compose(&robot.tcp.inverse());
+    let (lower, upper) = (M::lower(robot.model), M::upper(robot.model));
+    let mut scored = [(f64::INFINITY, 0usize); RANKED_SEEDS];
+    let mut n = 0;
+    for k in 0..RANKED_SEEDS {
+        let seed = match (k, robot.initial) {
+            (0, Some(init)) => init,
+            _ => rng.configuration(lower, upper),
+        };
+        let Ok(q) = ik::<M, D>(robot.model, &target, &seed, &p.ik) else {
+            continue;
+        };
+        out[n] = q;
+        scored[n] = (step_cost::<M, D>(robot.model, &q, &Vector6::zeros(), p), n);
+        n += 1;
+    }
+    scored[..n].sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    // Distinct starts only: a second try from where the first failed would fail again.
+    let answers = *out;
+    let mut kept = 0;
+    for (_, k) in &scored[..n] {
+        let q = answers[*k];
+        let near = |o: &[f64; D]| (0..D).all(|i| libm::fabs(o[i] - q[i]) < DISTINCT_START);
+        if !out[..kept].iter().any(near) {
+            out[kept] = q;
+            kept += 1;
+        }
+    }
+    kept
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,5 +281,46 @@ mod tests {
             let err = (<KinovaGen3 as Model<7>>::fk(q).pos - hand.pos).norm();
             assert!(err < 1e-3, "the hand moved {err} m");
         }
+    }
+
+    /// The ranked starts reach the first pose, are distinct, and come best reserve first;
+    /// the same seed gives the same starts.
+    #[test]
+    fn ranked_starts_come_best_reserve_first_and_distinct() {
+        let q0 = [0.0, 0.26, 3.0, -2.27, 0.0, 0.96, 1.57];
+        let mut robot = Robot::at(0, Frame::IDENTITY);
+        robot.initial = Some(q0);
+        let hand = <KinovaGen3 as Model<7>>::fk(&[0.3, 0.6, -0.2, 1.6, 0.1, 0.9, 0.4]);
+        let traj: Trajectory = (0..4).map(|_| hand).collect();
+        let p = OmegaParams {
+            w_r: 1.0,
+            ..OmegaParams::default()
+        };
+        let rank = |out: &mut [[f64; 7]; RANKED_SEEDS]| {
+            ranked_starts::<KinovaGen3, 7>(&robot, &traj, &p, &mut Rng::new(3), out)
+        };
+        let (mut a, mut b) = ([[0.0; 7]; RANKED_SEEDS], [[0.0; 7]; RANKED_SEEDS]);
+        let n = rank(&mut a);
+        assert!(n >= 2, "{n} starts");
+        assert_eq!((n, a), (rank(&mut b), b));
+        let cost = |q: &[f64; 7]| step_cost::<KinovaGen3, 7>(0, q, &Vector6::zeros(), &p);
+        for w in a[..n].windows(2) {
+            assert!(cost(&w[0]) <= cost(&w[1]));
+        }
+        for (k, q) in a[..n].iter().enumerate() {
+            let err = crate::kinematics::pose_error(&<KinovaGen3 as Model<7>>::fk(q), &hand);
+            assert!(err.norm() < 1e-3, "start {k}: {err:?}");
+            for o in &a[..k] {
+                assert!((0..7).any(|i| (o[i] - q[i]).abs() >= DISTINCT_START));
+            }
+        }
+        // The answer nearest where the arm stood is not the best here: the ranking moved it.
+        let nearest = ik::<KinovaGen3, 7>(0, &hand, &q0, &p.ik).unwrap();
+        assert!(
+            cost(&a[0]) < cost(&nearest),
+            "{} {}",
+            cost(&a[0]),
+            cost(&nearest)
+        );
     }
 }

@@ -16,6 +16,11 @@ use omcbsa_core::model::{KinovaGen3, Model};
 /// that takes the cube turns its last joint past 1.22 rad/s at step ~320 when its chunks
 /// were planned without regard for what comes next.
 fn transfer(seed: u32) -> Episode {
+    transfer_on(seed, 2)
+}
+
+/// A recorded transfer episode on `arms` Gen3s at the table's corners.
+fn transfer_on(seed: u32, arms: usize) -> Episode {
     let family = read_family(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/aloha_sim"))
         .expect("the committed family reads");
     let i = (family.episodes.iter())
@@ -24,7 +29,7 @@ fn transfer(seed: u32) -> Episode {
     let cell = Cell {
         layout: Layout::Corners,
         fleet: FleetKind::Gen3,
-        arms: 2,
+        arms,
     };
     family.episode(i, &cell)
 }
@@ -47,6 +52,23 @@ fn at_rate() -> OnlineOptions {
     OnlineOptions {
         time_scaling: false,
         ..OnlineOptions::default()
+    }
+}
+
+/// [`at_rate`] with room for ACT's 100-step chunks.
+fn at_rate_100() -> OnlineOptions {
+    OnlineOptions {
+        max_chunk_len: 100,
+        ..at_rate()
+    }
+}
+
+/// ACT's 100-step chunks, one every `stride` steps, arriving `lead` steps early.
+fn hundred(stride: usize, lead: usize) -> Chunking {
+    Chunking {
+        len: 100,
+        stride,
+        lead,
     }
 }
 
@@ -94,6 +116,25 @@ fn a_recorded_episode_that_failed_on_joint_speed_is_embodied() {
         assert!(run.embodied, "{:?}", run.error);
         assert_eq!((run.planned, run.recovered), (run.chunks, 0));
         assert_eq!(run.lag_s, 0.0);
+    });
+}
+
+/// Transfer 113 on four Gen3s, 100-step chunks every 100 steps (ACT's default) at the rate.
+/// Started from the first pose's IK answer nearest where it stood, the arm that takes the
+/// cube tracked the first chunk in a self-motion family whose joints had no room for the
+/// lift at step ~180 (joint 6 past its limit), and the null space offered no way out of it
+/// in the 80 steps the second chunk gave: that chunk was caught up, 99 poses dropped. With
+/// `rank_starts`, a first chunk this long starts where the joints' reserve is largest.
+#[test]
+fn a_first_chunk_starts_where_the_later_motions_can_be_followed() {
+    on_big_stack(|| {
+        let options = OnlineOptions {
+            rank_starts: true,
+            ..at_rate_100()
+        };
+        let run = run_episode(&transfer_on(113, 4), &options, hundred(100, 0)).unwrap();
+        assert!(run.embodied, "{:?}", run.error);
+        assert_eq!((run.planned, run.recovered), (run.chunks, 0));
     });
 }
 
@@ -174,16 +215,7 @@ fn a_time_scaled_timeline_is_valid_and_within_every_speed_limit() {
 fn a_chunk_every_step_keeps_what_the_arms_were_sent() {
     on_big_stack(|| {
         let ep = transfer(100);
-        let options = OnlineOptions {
-            max_chunk_len: 100,
-            ..at_rate()
-        };
-        let every_step = Chunking {
-            len: 100,
-            stride: 1,
-            lead: 4,
-        };
-        let run = run_episode(&ep, &options, every_step).unwrap();
+        let run = run_episode(&ep, &at_rate_100(), hundred(1, 4)).unwrap();
         assert_eq!(run.chunks, ep.hands[0].len() - 100 + 1);
         // After every chunk the plan still starts from the last configuration sent
         // (`broken_commitments`), and what was sent is one valid timeline.

@@ -176,6 +176,9 @@ class Embodier:
     - ``headroom_weight`` (2.0): the cost of a step that brings a joint near its speed limit
       along the hands' motion; ``reserve_weight`` (1.0): the cost of a chunk ending where the
       joints have little room for any next motion.
+    - ``rank_starts`` (False): a first chunk of at least 1 s starts each arm where its
+      joints' reserve is largest, not nearest where it stands (room for the hands' later fast
+      motions, at the cost of a longer approach).
     - ``time_scaling`` (True): a chunk the arms cannot follow at the policy's rate is slowed
       where it must be (the arms fall behind: ``last_report["lag_s"]``), rather than stopped.
     - ``catch_up`` (True): a chunk that cannot be planned otherwise is reached by an approach
@@ -203,6 +206,7 @@ class Embodier:
         axis_weight: float = 0.0,
         headroom_weight: float = 2.0,
         reserve_weight: float = 1.0,
+        rank_starts: bool = False,
         time_scaling: bool = True,
         catch_up: bool = True,
     ) -> None: ...

@@ -63,6 +63,7 @@ const OPTIONS: &[&str] = &[
     "axis_weight",
     "headroom_weight",
     "reserve_weight",
+    "rank_starts",
     "time_scaling",
     "catch_up",
 ];
@@ -211,6 +212,7 @@ impl Embodier {
             axis_weight: o.or("axis_weight", "a number", d.axis_weight)?,
             headroom_weight: o.or("headroom_weight", "a number", d.headroom_weight)?,
             reserve_weight: o.or("reserve_weight", "a number", d.reserve_weight)?,
+            rank_starts: o.or("rank_starts", "a bool", d.rank_starts)?,
             time_scaling: o.or("time_scaling", "a bool", d.time_scaling)?,
             catch_up: o.or("catch_up", "a bool", d.catch_up)?,
             ..d

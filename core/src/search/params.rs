@@ -38,6 +38,12 @@ pub struct OmegaParams {
     ///
     /// [`speed_ratio`]: crate::kinematics::speed_ratio
     pub w_r: f64,
+    /// Whether a robot that starts free (not where it stands) starts where its joints'
+    /// reserve is largest rather than at the first pose's IK answer nearest `initial`
+    /// ([`crate::tracking::ranked_starts`]; counts only with `w_r`). Online planning sets it
+    /// for a first chunk long enough to let the chunks after it see the hands' fast motions
+    /// coming.
+    pub rank_starts: bool,
     /// The reference twists' speeds: metres per second along, radians per second about, each
     /// of the tool's axes.
     pub reserve_speed: (f64, f64),
@@ -97,6 +103,7 @@ impl Default for OmegaParams {
             speed_margin: 0.5,
             w_r: 0.0,
             reserve_speed: (0.5, 2.0),
+            rank_starts: false,
             start_solutions: 16,
             start_attempts: 96,
             resolution: 0.6,

@@ -86,6 +86,10 @@ pub struct Args {
     /// none).
     #[arg(long, default_value_t = omcbsa::online::RESERVE_WEIGHT)]
     reserve_weight: f64,
+    /// Start the arms of a first chunk of at least 1 s where their joints' reserve is
+    /// largest, not nearest where they stand (the Embodier's `rank_starts`).
+    #[arg(long)]
+    rank_starts: bool,
     /// Slow a chunk the arms cannot follow at the policy's rate instead of failing it (the
     /// Embodier's `time_scaling`; off by default here, so that the rows measure the policy's
     /// rate).
@@ -125,6 +129,7 @@ pub fn run(args: &Args) -> ExitCode {
         axis_weight: args.axis_weight,
         headroom_weight: args.headroom_weight,
         reserve_weight: args.reserve_weight,
+        rank_starts: args.rank_starts,
         time_scaling: args.time_scaling,
         max_chunk_len: defaults.max_chunk_len.max(args.chunk_len),
         ..defaults
