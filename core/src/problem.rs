@@ -114,6 +114,14 @@ impl<const D: usize> Robot<D> {
             excluded: StartExclusions::NONE,
         }
     }
+
+    /// The IK target of a hand pose: the pose of the model's tool frame, in the base frame,
+    /// that puts the tool centre point at the hand's world pose. The two inverses are taken
+    /// once, for all the poses of a trajectory.
+    pub fn ik_target(&self) -> impl Fn(&Frame) -> Frame {
+        let (base_inv, tcp_inv) = (self.base.inverse(), self.tcp.inverse());
+        move |hand| base_inv.compose(hand).compose(&tcp_inv)
+    }
 }
 
 /// Most start configurations excluded per robot at once.

@@ -122,9 +122,7 @@ pub fn track<M: Models<D>, const D: usize>(
         rate.set(alpha);
         Some(next)
     };
-    let base_inv = robot.base.inverse();
-    let tcp_inv = robot.tcp.inverse();
-    let target = |x: &Frame| base_inv.compose(x).compose(&tcp_inv);
+    let target = robot.ik_target();
     let mut q = match (robot.start, robot.initial) {
         // Online: the path begins where the arm is (pose 0 is not tracked).
         (Start::AtInitial, Some(q)) => q,
@@ -179,11 +177,7 @@ pub fn ranked_starts<M: Models<D>, const D: usize>(
     let Some(first) = traj.first() else {
         return 0;
     };
-    let target = robot
-        .base
-        .inverse()
-        .compose(first)
-        .compose(&robot.tcp.inverse());
+    let target = robot.ik_target()(first);
     let (lower, upper) = (M::lower(robot.model), M::upper(robot.model));
     let mut scored = [(f64::INFINITY, 0usize); RANKED_SEEDS];
     let mut n = 0;

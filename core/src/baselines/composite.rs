@@ -186,12 +186,7 @@ impl<M: Models<D>, const D: usize> Search<'_, M, D> {
     }
 
     fn target(&self, r: usize, j: usize, t: usize) -> Frame {
-        let robot = &self.pr.robots[r];
-        robot
-            .base
-            .inverse()
-            .compose(&self.pr.trajectories[j][t])
-            .compose(&robot.tcp.inverse())
+        self.pr.robots[r].ik_target()(&self.pr.trajectories[j][t])
     }
 
     fn push(&mut self, node: CompositeNode<D>) -> Result<(), Status> {

@@ -5,7 +5,7 @@
 //! through the layers. The next order, then the next assignment, on failure.
 
 use crate::ik::{ik, IkParams};
-use crate::model::{Frame, Models};
+use crate::model::Models;
 use crate::planner::{Horizon, Planner, PlannerKind, Request, Stats, Status, Takes, Until};
 use crate::pp::Orders;
 use crate::problem::{Robot, Trajectory, MAX_ROBOTS};
@@ -205,8 +205,7 @@ impl<const D: usize> Descartes<'_, D> {
     ) -> Option<usize> {
         let k = self.params.samples;
         let h = traj.len();
-        let (base_inv, tcp_inv) = (robot.base.inverse(), robot.tcp.inverse());
-        let target = |x: &Frame| base_inv.compose(x).compose(&tcp_inv);
+        let target = robot.ik_target();
         let mut rng = Rng::new(self.params.seed ^ ((r as u64) << 32 | j as u64));
         for t in 0..h {
             if deadline.expired() {
