@@ -176,14 +176,17 @@ impl ArmLanes {
     }
 
     /// [`ArmLanes::place_lanes`] of every capsule, answering [`ArmLanes::any_hit`] on the
-    /// way: each link is checked as soon as its capsules are placed, against the obstacles
-    /// and against the links placed before it that it forms self-collision pairs with, and
-    /// the kinematics stop at the first hit in any lane. Configurations that collide mostly
-    /// do so with a link well before the hand (on the Panda's random configurations, the
-    /// forearm decides 55 of 64 batches of 8), so a batch that holds one is rarely placed
-    /// whole. The links nearest the base (those before the first link paired with an earlier
-    /// one) move least and rarely meet an obstacle: they are checked against the obstacles
-    /// last, once the rest is clear.
+    /// way, the likeliest hits first, stopping at the first hit in any lane.
+    ///
+    /// - The links from the first one paired with an earlier link for self-collision
+    ///   (the forearm on the Panda) to the tool, each checked as soon as it is placed
+    ///   against the obstacles and against those of them it forms pairs with; the kinematics
+    ///   stop at the first hit. These links reach farthest: on the Panda's random
+    ///   configurations the forearm decides 55 of 64 batches of 8, so a batch that holds a
+    ///   hit is rarely placed whole.
+    /// - Then the links before them, nearest the base (the first of all never against
+    ///   obstacles): placed (the kinematics again, up to the last of them), their
+    ///   self-collision pairs, then the obstacles.
     ///
     /// True when some lane hits: then the arm is left part placed, with no lane (no later
     /// check reports anything). False: the arm is placed as `place_lanes` places it, every
@@ -200,32 +203,37 @@ impl ArmLanes {
         margin: f64,
     ) -> bool {
         self.begin::<M, D>(model, tool, lanes, u32::MAX);
-        let hit = lanes != 0
-            && place_ends::<M, D>(
-                model,
-                base,
-                tool,
-                q,
-                u32::MAX,
-                |i, a, b, radius, on_base| {
-                    self.put(i, a, b, radius, on_base);
-                    let g = usize::from(self.groups.group[i]);
-                    // A link's checks once its last capsule is placed.
-                    let last = u32::BITS - self.groups.members[g].leading_zeros() == i as u32 + 1;
-                    if last && self.group_hits(g, scene, margin) {
+        let near_base = self.groups.near_base;
+        let near = bits(near_base).fold(0, |m, g| m | self.groups.members[g]);
+        // Each group's capsules come in order, the first setting its box (`put`): a group
+        // is placed whole in one pass or the other.
+        let far = place_ends::<M, D>(model, base, tool, q, !near, |i, a, b, radius, on_base| {
+            self.put(i, a, b, radius, on_base);
+            let g = usize::from(self.groups.group[i]);
+            // A link's checks once its last capsule is placed.
+            let last = u32::BITS - self.groups.members[g].leading_zeros() == i as u32 + 1;
+            if last && self.far_group_hits(g, scene, margin) {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
+        let hit = far.is_break()
+            || near != 0 && {
+                let last = (u32::BITS - 1 - near.leading_zeros()) as usize;
+                let _ = place_ends::<M, D>(model, base, tool, q, near, |i, a, b, radius, on| {
+                    self.put(i, a, b, radius, on);
+                    if i == last {
                         ControlFlow::Break(())
                     } else {
                         ControlFlow::Continue(())
                     }
-                },
-            )
-            .is_break();
-        // The links nearest the base, within the box around them.
-        let near_base = self.groups.near_base & !1;
-        let hit = hit || {
-            let around = bits(near_base).fold(Boxes::EMPTY, |b, g| b.union(&self.group_boxes[g]));
-            self.obstacle_hits_until(scene, margin, 0, Some(&around), near_base) != 0
-        };
+                });
+                let groups = near_base & !1;
+                let around = bits(groups).fold(Boxes::EMPTY, |b, g| b.union(&self.group_boxes[g]));
+                self.self_hits_until(margin, 0, near_base, u32::MAX) != 0
+                    || self.obstacle_hits_until(scene, margin, 0, Some(&around), groups) != 0
+            };
         if hit {
             self.lanes = 0;
         } else {
@@ -234,14 +242,15 @@ impl ArmLanes {
         hit
     }
 
-    /// Whether group `g`, placed, hits in some lane: its capsules against the obstacles
-    /// (unless it is near the base), then its self-collision pairs with the groups before it
-    /// and itself.
-    fn group_hits(&self, g: usize, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
+    /// Whether group `g`, placed, hits in some lane, `g` not near the base: its capsules
+    /// against the obstacles (unless it is the base link's, in an arm with no link near the
+    /// base), then its self-collision pairs with the groups before it not near the base and
+    /// itself.
+    fn far_group_hits(&self, g: usize, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
         let groups = 1 << g;
-        let later = groups & !self.groups.near_base & !1;
-        (later != 0 && self.obstacle_hits_until(scene, margin, 0, None, later) != 0)
-            || self.self_hits_until(margin, 0, groups) != 0
+        let far = !self.groups.near_base;
+        (g != 0 && self.obstacle_hits_until(scene, margin, 0, None, groups) != 0)
+            || self.self_hits_until(margin, 0, far, groups) != 0
     }
 
     /// The arm's fields of model `model` carrying `tool`, no capsule placed yet (those not
@@ -368,7 +377,7 @@ impl ArmLanes {
     /// The lanes where a self-collision pair comes closer than `margin`:
     /// [`ArmPose::self_hit`]`.is_some()`, lane by lane.
     pub fn self_hits(&self, margin: f64) -> Mask {
-        self.self_hits_until(margin, self.lanes, u32::MAX)
+        self.self_hits_until(margin, self.lanes, u32::MAX, u32::MAX)
     }
 
     /// Whether any lane's configuration comes closer than `margin` to an obstacle or to
@@ -378,7 +387,7 @@ impl ArmLanes {
         let groups = self.groups.used & !1;
         self.lanes != 0
             && (self.obstacle_hits_until(scene, margin, 0, Some(&self.moving_aabb), groups) != 0
-                || self.self_hits_until(margin, 0, u32::MAX) != 0)
+                || self.self_hits_until(margin, 0, u32::MAX, u32::MAX) != 0)
     }
 
     /// [`ArmLanes::obstacle_hits`] of the capsules of `groups` (not the base link's), all
@@ -443,12 +452,13 @@ impl ArmLanes {
         hit
     }
 
-    /// [`ArmLanes::self_hits`] of the pairs whose second group (the later one) is in
-    /// `groups`, stopping as [`ArmLanes::obstacle_hits_until`] does.
-    fn self_hits_until(&self, margin: f64, wait: Mask, later: u32) -> Mask {
+    /// [`ArmLanes::self_hits`] of the pairs whose first group is in `earlier` and whose
+    /// second (the later one, or the same) is in `later`, stopping as
+    /// [`ArmLanes::obstacle_hits_until`] does.
+    fn self_hits_until(&self, margin: f64, wait: Mask, earlier: u32, later: u32) -> Mask {
         let mut hit: Mask = 0;
         let groups = &self.groups;
-        for g in bits(groups.used) {
+        for g in bits(groups.used & earlier) {
             for h in bits(groups.pair_groups[g] & later) {
                 let near = self.group_boxes[g].near(&self.group_boxes[h], margin);
                 let near = near & self.lanes & !hit;

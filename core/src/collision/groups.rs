@@ -32,8 +32,7 @@ pub(super) struct Groups {
     /// capsules.
     pub(super) pair_groups: [u32; MAX_GROUPS],
     /// The groups before the first one paired with an earlier group: the links nearest the
-    /// base, which an arm's own links cannot reach (the self-collision pairs leave them out)
-    /// and which move least.
+    /// base, which move least. Pairs have both groups near the base or the later one not.
     pub(super) near_base: u32,
 }
 
