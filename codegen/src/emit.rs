@@ -423,15 +423,22 @@ fn fk_body(chain: &Chain) -> String {
 
 /// The body of `link_frames_of<T, B>`: hands every link frame to `out` (with its index) as
 /// it is computed, and returns the tool frame; stops, computing no further frame, when `out`
-/// breaks.
-fn link_frames_body(chain: &Chain) -> String {
+/// breaks. The joints' sines and cosines all first (what one configuration's latency wants:
+/// they overlap), or with `stepwise` each as its frame needs it (what a batch that may stop
+/// early wants: none past the stop).
+fn link_frames_body(chain: &Chain, stepwise: bool) -> String {
     let mut e = Emitter::generic();
     let steps = all_steps(chain);
-    sincos(&mut e, &steps);
+    if !stepwise {
+        sincos(&mut e, &steps);
+    }
     e.line("out(0, &crate::model::FrameOf::identity())?;");
     let mut frame = Frame::Local(Local::literal(&Transform::IDENTITY));
     for (i, s) in steps.iter().enumerate() {
         let t = i.to_string();
+        if stepwise {
+            sincos(&mut e, core::slice::from_ref(s));
+        }
         frame = frame.then(&mut e, &t, &Local::of(s));
         let code = frame.emit(&mut e, &t).code(true);
         e.line(&format!("let f{t} = {code};"));
@@ -562,8 +569,16 @@ pub fn model(
         "    /// [`crate::model::Model::link_frames`] over any numbers: link frame `i` goes to \
          `out(i, ..)`, and once `out` breaks no further frame is computed.\n    #[inline(always)]\n    \
          pub fn link_frames_of<T: crate::trig::Angle, B>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>) -> ::core::ops::ControlFlow<B>) \
+         -> ::core::ops::ControlFlow<B, crate::model::FrameOf<T>> {{\n{}    }}\n",
+        link_frames_body(chain, false)
+    );
+    let _ = writeln!(
+        w,
+        "    /// `link_frames_of` with each joint's sine and cosine computed as its frame needs \
+         it: a caller that stops early computes none past the stop.\n    #[inline(always)]\n    \
+         pub fn link_frames_stepwise_of<T: crate::trig::Angle, B>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>) -> ::core::ops::ControlFlow<B>) \
          -> ::core::ops::ControlFlow<B, crate::model::FrameOf<T>> {{\n{}    }}",
-        link_frames_body(chain)
+        link_frames_body(chain, true)
     );
     let _ = writeln!(w, "}}\n");
     let _ = writeln!(
@@ -669,7 +684,7 @@ pub fn model(
         w,
         "    #[inline]\n    fn link_frames_lanes(q: &[crate::lanes::F64s; {d}], out: impl crate::model::LinkSink) \
          -> ::core::ops::ControlFlow<(), crate::model::FrameOf<crate::lanes::F64s>> {{\n        \
-         Self::link_frames_of(q, out)\n    }}\n"
+         Self::link_frames_stepwise_of(q, out)\n    }}\n"
     );
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(
