@@ -8,11 +8,13 @@
 //! takes [`ArmPose::place_only`]'s operations in its order ([`FrameOf`]). The checks test the
 //! same boxes with the same comparisons in SIMD, a link's box first (around its capsules'
 //! boxes: [`super::groups`]), then the exact query on what is left: capsule pairs in SIMD
-//! with the scalar code's operations ([`Segments::hits`]), obstacles with the scalar query
-//! ([`Obstacle::hits_capsule`]) on the lanes that a cheap conservative test in SIMD does not
-//! clear ([`Segments::apart_from`]). So a lane hits exactly when the [`ArmPose`] check of its
-//! configuration does (`core/tests/batch.rs` checks it on random cases, hits and misses
-//! alike).
+//! with the scalar code's operations ([`Segments::hits`]), obstacles on the lanes that a
+//! cheap conservative test in SIMD does not clear ([`Segments::apart_from`]): in SIMD where
+//! the scalar query needs no iteration ([`Segments::obstacle_decided`]), else with the scalar
+//! query ([`Obstacle::hits_capsule`]). So a lane hits exactly when the [`ArmPose`] check of
+//! its configuration does (`core/tests/batch.rs` checks it on random cases, hits and misses
+//! alike). Whether any lane hits can be asked while placing ([`ArmLanes::place_any_hit`]),
+//! which stops at the first hit.
 
 use core::ops::ControlFlow;
 
