@@ -65,10 +65,21 @@ impl Boxes {
     /// The lanes where [`Aabb::near`] holds.
     #[inline(always)]
     pub fn near(&self, other: &Boxes, margin: f64) -> Mask {
-        let m = F64s::splat(margin);
+        if margin == 0.0 {
+            // Adding a zero changes at most the sign of a zero, which `<` does not see.
+            self.near_grown(other, |v| v)
+        } else {
+            let m = F64s::splat(margin);
+            self.near_grown(other, |v| v + m)
+        }
+    }
+
+    /// The lanes where each box's least corner is below the other's greatest, `grow`n.
+    #[inline(always)]
+    fn near_grown(&self, other: &Boxes, grow: impl Fn(F64s) -> F64s) -> Mask {
         // One mask of all six comparisons, turned into bits once.
         let axis = |i: usize| {
-            self.min[i].simd_lt(other.max[i] + m) & other.min[i].simd_lt(self.max[i] + m)
+            self.min[i].simd_lt(grow(other.max[i])) & other.min[i].simd_lt(grow(self.max[i]))
         };
         (axis(0) & axis(1) & axis(2)).to_bitmask() as Mask
     }
