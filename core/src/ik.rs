@@ -19,7 +19,7 @@
 
 use core::f64::consts::PI;
 
-use nalgebra::{SMatrix, Vector6};
+use nalgebra::{Cholesky, SMatrix, Vector6};
 
 use crate::kinematics::pose_error;
 use crate::model::{Frame, Models};
@@ -234,19 +234,19 @@ fn step<M: Models<D>, const D: usize>(
     lambda: f64,
     max_step: f64,
 ) -> [f64; D] {
-    let mut used = [true; D];
-    let mut dq = dls(jac, &used, err, lambda);
+    let mut j = *jac;
+    let mut dq = dls(&j, err, lambda);
     let mut blocked = false;
     for i in 0..D {
         let pushed_out = (dq[i] < 0.0 && q[i] <= M::lower(model)[i])
             || (dq[i] > 0.0 && q[i] >= M::upper(model)[i]);
         if pushed_out {
-            used[i] = false;
+            j.column_mut(i).fill(0.0);
             blocked = true;
         }
     }
     if blocked {
-        dq = dls(jac, &used, err, lambda);
+        dq = dls(&j, err, lambda);
     }
     let largest = dq.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let scale = if largest > max_step {
@@ -257,79 +257,21 @@ fn step<M: Models<D>, const D: usize>(
     core::array::from_fn(|i| dq[i] * scale)
 }
 
-/// Runs `$body` six times with `$i` bound to 0, 1, ..., 5 (constants, so that loops over
-/// `0..$i` inside have fixed bounds and unroll too).
-macro_rules! unroll6 {
-    ($i:ident => $body:block) => {
-        unroll6!(@ $i => $body; 0usize, 1usize, 2usize, 3usize, 4usize, 5usize)
-    };
-    (@ $i:ident => $body:block; $($n:expr),*) => {
-        $({
-            let $i = $n;
-            $body
-        })*
-    };
-}
-
-/// `J^T (J J^T + lambda I)^-1 e` over the columns of `J` that are `used` (the others count as
-/// zero, and so does their step); zero if the system is not positive definite (only possible
+/// `J^T (J J^T + lambda I)^-1 e`; zero if the system is not positive definite (only possible
 /// with non-finite values, which the caller's error check then rejects).
-///
-/// Written out for the 6 x 6 system (the lower triangle of `J J^T`, Cholesky-Banachiewicz,
-/// the two triangular solves) rather than through nalgebra's general Cholesky: this is the
-/// inner loop of every IK iteration, and written out it halves the time of an IK solve from
-/// a random seed (Gen3, release build). Every sum is taken in the order nalgebra takes it
-/// (`J * J^T`, `Cholesky::new`, `solve`, `J^T x`), so the answers are the same to the bit, and
-/// so is everything computed from them (the suite's witnesses, the plans).
 fn dls<const D: usize>(
     j: &SMatrix<f64, 6, D>,
-    used: &[bool; D],
     err: &Vector6<f64>,
     lambda: f64,
-) -> [f64; D] {
-    // J's rows, the columns not used zeroed.
-    let rows: [[f64; D]; 6] =
-        core::array::from_fn(|r| core::array::from_fn(|k| if used[k] { j[(r, k)] } else { 0.0 }));
-    let dot = |a: &[f64; D], b: &[f64; D]| a.iter().zip(b).fold(0.0, |s, (x, y)| s + x * y);
-    // The lower triangle of J J^T + lambda I, then its Cholesky factor L in place. The row
-    // and column loops are unrolled by `unroll6!`: as loops (an inner bound depending on an
-    // outer index) the compiler kept them rolled, and the solve took twice as long.
-    let mut l = [[0.0f64; 6]; 6];
-    unroll6!(r => {
-        unroll6!(c => {
-            if c < r {
-                let mut sum = dot(&rows[r], &rows[c]);
-                for (x, y) in l[r][..c].iter().zip(&l[c][..c]) {
-                    sum -= x * y;
-                }
-                l[r][c] = sum / l[c][c];
-            }
-        });
-        let mut d = dot(&rows[r], &rows[r]) + lambda;
-        for x in &l[r][..r] {
-            d -= x * x;
-        }
-        // Not positive (or NaN): no step.
-        if d.is_nan() || d <= 0.0 {
-            return [0.0; D];
-        }
-        l[r][r] = libm::sqrt(d);
-    });
-    // L L^T y = e: forward, then back substitution.
-    let mut y = [0.0f64; 6];
-    unroll6!(r => {
-        let mut sum = err[r];
-        for (x, yk) in l[r][..r].iter().zip(&y[..r]) {
-            sum -= x * yk;
-        }
-        y[r] = sum / l[r][r];
-    });
-    unroll6!(i => {
-        let r = 5 - i;
-        let below = (r + 1..6).fold(0.0, |s, k| s + l[k][r] * y[k]);
-        y[r] = (y[r] - below) / l[r][r];
-    });
-    core::array::from_fn(|k| (0..6).fold(0.0, |s, r| s + rows[r][k] * y[r]))
+) -> SMatrix<f64, D, 1> {
+    let mut a = j * j.transpose();
+    for k in 0..6 {
+        a[(k, k)] += lambda;
+    }
+    match Cholesky::new(a) {
+        Some(chol) => j.tr_mul(&chol.solve(err)),
+        None => SMatrix::zeros(),
+    }
 }
 
 fn within(err: &Vector6<f64>, params: &IkParams) -> bool {
@@ -475,44 +417,4 @@ fn separation<M: Models<D>, const D: usize>(model: u8, a: &[f64; D], b: &[f64; D
             }
         })
         .fold(0.0, f64::max)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use nalgebra::Cholesky;
-
-    /// The written-out solve gives nalgebra's Cholesky solution to the bit, with and without
-    /// columns left out, damped lightly or heavily.
-    #[test]
-    fn dls_is_nalgebras_cholesky_to_the_bit() {
-        let mut rng = Rng::new(11);
-        let (lo, hi) = ([-2.0; 7], [2.0; 7]);
-        for case in 0..2000 {
-            let j = SMatrix::<f64, 6, 7>::from_fn(|r, c| rng.configuration(&lo, &hi)[(r + c) % 7]);
-            let e = Vector6::from_fn(|r, _| rng.configuration(&lo, &hi)[r]);
-            let used: [bool; 7] = core::array::from_fn(|k| (case >> k) & 1 == 0 || k == 0);
-            let lambda = if case % 2 == 0 { 1e-6 } else { 3.0 };
-            let mut jm = j;
-            for k in (0..7).filter(|&k| !used[k]) {
-                jm.column_mut(k).fill(0.0);
-            }
-            let mut a = jm * jm.transpose();
-            for k in 0..6 {
-                a[(k, k)] += lambda;
-            }
-            let expected = jm.tr_mul(&Cholesky::new(a).unwrap().solve(&e));
-            let got = dls(&j, &used, &e, lambda);
-            for k in 0..7 {
-                assert_eq!(
-                    got[k].to_bits(),
-                    expected[k].to_bits(),
-                    "case {case}: {got:?} vs {expected}"
-                );
-            }
-        }
-        // Not positive definite (a NaN): no step.
-        let nan = SMatrix::<f64, 6, 7>::from_element(f64::NAN);
-        assert_eq!(dls(&nan, &[true; 7], &Vector6::zeros(), 1.0), [0.0; 7]);
-    }
 }
