@@ -83,3 +83,45 @@ impl NearBoxes {
             .unwrap_or(0)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+    use nalgebra::Vector3;
+
+    fn random_box(rng: &mut Rng) -> Aabb {
+        let c = Vector3::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        let h = Vector3::from_fn(|_, _| rng.uniform(0.0, 0.3));
+        Aabb {
+            min: c - h,
+            max: c + h,
+        }
+    }
+
+    /// What the culling leaves out, the exact test (the boxes' distances against the travel)
+    /// rules out too; it keeps only obstacles asked about; and it leaves out most far ones.
+    #[test]
+    fn reachable_leaves_out_only_what_the_box_test_rules_out() {
+        let mut rng = Rng::new(5);
+        let mut left_out = 0;
+        for round in 0..2000 {
+            let n = 1 + round % MAX_OBSTACLES;
+            let obstacles: [Aabb; MAX_OBSTACLES] = core::array::from_fn(|_| random_box(&mut rng));
+            let near = NearBoxes::new(obstacles[..n].iter());
+            let at = [random_box(&mut rng), random_box(&mut rng)];
+            let travel = rng.uniform(0.0, 1.0);
+            let of = rng.next_u64();
+            let kept = near.reachable(of, [&at[0], &at[1]], travel);
+            assert_eq!(kept & !of, 0);
+            assert_eq!(near.all(), u64::MAX >> (64 - n));
+            for (k, ob) in obstacles[..n].iter().enumerate() {
+                if of & 1 << k != 0 && kept & 1 << k == 0 {
+                    assert!(ob.distance(&at[0]) + ob.distance(&at[1]) > travel);
+                    left_out += 1;
+                }
+            }
+        }
+        assert!(left_out > 10_000, "{left_out}");
+    }
+}
