@@ -421,24 +421,32 @@ fn fk_body(chain: &Chain) -> String {
     e.code
 }
 
-/// The body of `link_frames_of<T>`: hands every link frame to `out` (with its index) and
-/// returns the tool frame.
-fn link_frames_body(chain: &Chain) -> String {
+/// The body of `link_frames_of<T, B>`: hands every link frame to `out` (with its index) as
+/// it is computed, and returns the tool frame; stops, computing no further frame, when `out`
+/// breaks. The joints' sines and cosines all first (what one configuration's latency wants:
+/// they overlap), or with `stepwise` each as its frame needs it (what a batch that may stop
+/// early wants: none past the stop).
+fn link_frames_body(chain: &Chain, stepwise: bool) -> String {
     let mut e = Emitter::generic();
     let steps = all_steps(chain);
-    sincos(&mut e, &steps);
-    e.line("out(0, &crate::model::FrameOf::identity());");
+    if !stepwise {
+        sincos(&mut e, &steps);
+    }
+    e.line("out(0, &crate::model::FrameOf::identity())?;");
     let mut frame = Frame::Local(Local::literal(&Transform::IDENTITY));
     for (i, s) in steps.iter().enumerate() {
         let t = i.to_string();
+        if stepwise {
+            sincos(&mut e, core::slice::from_ref(s));
+        }
         frame = frame.then(&mut e, &t, &Local::of(s));
         let code = frame.emit(&mut e, &t).code(true);
         e.line(&format!("let f{t} = {code};"));
-        e.line(&format!("out({}, &f{t});", i + 1));
+        e.line(&format!("out({}, &f{t})?;", i + 1));
     }
     match steps.len() {
-        0 => e.line("crate::model::FrameOf::identity()"),
-        n => e.line(&format!("f{}", n - 1)),
+        0 => e.line("::core::ops::ControlFlow::Continue(crate::model::FrameOf::identity())"),
+        n => e.line(&format!("::core::ops::ControlFlow::Continue(f{})", n - 1)),
     }
     e.code
 }
@@ -559,10 +567,18 @@ pub fn model(
     let _ = writeln!(
         w,
         "    /// [`crate::model::Model::link_frames`] over any numbers: link frame `i` goes to \
-         `out(i, ..)`.\n    #[inline(always)]\n    \
-         pub fn link_frames_of<T: crate::trig::Angle>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>)) \
-         -> crate::model::FrameOf<T> {{\n{}    }}",
-        link_frames_body(chain)
+         `out(i, ..)`, and once `out` breaks no further frame is computed.\n    #[inline(always)]\n    \
+         pub fn link_frames_of<T: crate::trig::Angle, B>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>) -> ::core::ops::ControlFlow<B>) \
+         -> ::core::ops::ControlFlow<B, crate::model::FrameOf<T>> {{\n{}    }}\n",
+        link_frames_body(chain, false)
+    );
+    let _ = writeln!(
+        w,
+        "    /// `link_frames_of` with each joint's sine and cosine computed as its frame needs \
+         it: a caller that stops early computes none past the stop.\n    #[inline(always)]\n    \
+         pub fn link_frames_stepwise_of<T: crate::trig::Angle, B>(q: &[T; {d}], mut out: impl FnMut(usize, &crate::model::FrameOf<T>) -> ::core::ops::ControlFlow<B>) \
+         -> ::core::ops::ControlFlow<B, crate::model::FrameOf<T>> {{\n{}    }}",
+        link_frames_body(chain, true)
     );
     let _ = writeln!(w, "}}\n");
     let _ = writeln!(
@@ -655,7 +671,9 @@ pub fn model(
         w,
         "    fn link_frames(q: &[f64; {d}], out: &mut [crate::model::Frame]) -> crate::model::Frame {{\n        \
          debug_assert!(out.len() >= {links});\n        \
-         Self::link_frames_of(q, |i, f| if let Some(slot) = out.get_mut(i) {{ *slot = f.into(); }}).into()\n    }}\n"
+         let ::core::ops::ControlFlow::<::core::convert::Infallible, _>::Continue(tool) = \
+         Self::link_frames_of(q, |i, f| {{ if let Some(slot) = out.get_mut(i) {{ *slot = f.into(); }} ::core::ops::ControlFlow::Continue(()) }});\n        \
+         tool.into()\n    }}\n"
     );
     let _ = writeln!(
         w,
@@ -665,8 +683,8 @@ pub fn model(
     let _ = writeln!(
         w,
         "    #[inline]\n    fn link_frames_lanes(q: &[crate::lanes::F64s; {d}], out: impl crate::model::LinkSink) \
-         -> crate::model::FrameOf<crate::lanes::F64s> {{\n        \
-         Self::link_frames_of(q, out)\n    }}\n"
+         -> ::core::ops::ControlFlow<(), crate::model::FrameOf<crate::lanes::F64s>> {{\n        \
+         Self::link_frames_stepwise_of(q, out)\n    }}\n"
     );
     let _ = writeln!(w, "    #[inline]");
     let _ = writeln!(

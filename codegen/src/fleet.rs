@@ -33,7 +33,7 @@ const QUERIES: [(&str, &str, &str); 18] = [
     (
         "link_frames_lanes",
         "q: &[crate::lanes::F64s; D], out: impl crate::model::LinkSink",
-        "crate::model::FrameOf<crate::lanes::F64s>",
+        "::core::ops::ControlFlow<(), crate::model::FrameOf<crate::lanes::F64s>>",
     ),
     (
         "jacobian",

@@ -26,6 +26,8 @@
 //! assert!(hand.pos.norm() < 1.3);
 //! ```
 
+use core::ops::ControlFlow;
+
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::lanes::{lane, F64s, Real, LANES};
@@ -273,10 +275,11 @@ impl From<&FrameOf<f64>> for Frame {
     }
 }
 
-/// Where a batch's link frames go, one at a time: `(link index, frame)`.
-pub trait LinkSink: FnMut(usize, &FrameOf<F64s>) {}
+/// Where a batch's link frames go, one at a time: `(link index, frame)`. Breaking stops the
+/// kinematics: no further frame is computed.
+pub trait LinkSink: FnMut(usize, &FrameOf<F64s>) -> ControlFlow<()> {}
 
-impl<F: FnMut(usize, &FrameOf<F64s>)> LinkSink for F {}
+impl<F: FnMut(usize, &FrameOf<F64s>) -> ControlFlow<()>> LinkSink for F {}
 
 /// Configuration `k` of a batch.
 #[inline]
@@ -368,8 +371,10 @@ pub trait Model<const D: usize>: 'static {
     }
 
     /// [`Model::link_frames`] of a batch of configurations, as [`Model::fk_lanes`]: link
-    /// frame `i` goes to `out(i, ..)`, in chain order, as it is computed.
-    fn link_frames_lanes(q: &[F64s; D], mut out: impl LinkSink) -> FrameOf<F64s> {
+    /// frame `i` goes to `out(i, ..)`, in chain order, as it is computed; the tool frame
+    /// comes back unless `out` breaks, which stops the kinematics there (a caller that has
+    /// its answer before the last link).
+    fn link_frames_lanes(q: &[F64s; D], mut out: impl LinkSink) -> ControlFlow<(), FrameOf<F64s>> {
         const N: usize = crate::collision::MAX_LINK_FRAMES;
         let n = Self::LINK_NAMES.len().min(N);
         let (mut one, mut all) = ([Frame::IDENTITY; N], [FrameOf::identity(); N]);
@@ -381,9 +386,9 @@ pub trait Model<const D: usize>: 'static {
             }
         }
         for (i, f) in all[..n].iter().enumerate() {
-            out(i, f);
+            out(i, f)?;
         }
-        tool
+        ControlFlow::Continue(tool)
     }
 }
 
@@ -447,7 +452,11 @@ pub trait Models<const D: usize>: 'static {
     /// [`Model::fk_lanes`] of model `id`.
     fn fk_lanes(id: u8, q: &[F64s; D]) -> FrameOf<F64s>;
     /// [`Model::link_frames_lanes`] of model `id`.
-    fn link_frames_lanes(id: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s>;
+    fn link_frames_lanes(
+        id: u8,
+        q: &[F64s; D],
+        out: impl LinkSink,
+    ) -> ControlFlow<(), FrameOf<F64s>>;
 
     /// The index of the model called `name` ([`Model::NAME`]).
     fn find(name: &str) -> Option<u8> {
@@ -517,7 +526,11 @@ impl<M: Model<D>, const D: usize> Models<D> for M {
         M::fk_lanes(q)
     }
     #[inline]
-    fn link_frames_lanes(_: u8, q: &[F64s; D], out: impl LinkSink) -> FrameOf<F64s> {
+    fn link_frames_lanes(
+        _: u8,
+        q: &[F64s; D],
+        out: impl LinkSink,
+    ) -> ControlFlow<(), FrameOf<F64s>> {
         M::link_frames_lanes(q, out)
     }
 }

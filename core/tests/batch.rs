@@ -5,6 +5,7 @@
 //! with hits and misses of each check counted so that both are exercised.
 
 use std::cell::RefCell;
+use std::ops::ControlFlow;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use omcbsa_core::collision::{sweeps_collide, ArmLanes, ArmPose, Placing, Sweep};
@@ -108,11 +109,14 @@ fn case<M: Model<D>>() -> impl Strategy<Value = Case> {
         )
 }
 
-/// Hits and misses seen per check: obstacles, self, arms.
+/// Hits and misses seen per check: obstacles, self, arms; and of the any-hit questions
+/// asked, how many were answered yes.
 #[derive(Default, Debug)]
 struct Seen {
     configurations: u32,
     hits: [u32; 3],
+    questions: u32,
+    any: u32,
 }
 
 /// The bits of a number, every NaN alike (which of two NaN operands an operation passes on is
@@ -198,6 +202,40 @@ fn check<M: Model<D>>(c: &Case, seen: &mut Seen) -> Result<(), TestCaseError> {
         })
         .fold(0, |m, b| m | b);
     prop_assert_eq!(mine.arm_hits_pose(&standing, c.margin), against);
+    // Whether any lane hits, of a placed batch and placing it link by link; over every lane
+    // and over the first alone (a lane of many hits more often than not).
+    let scene = (c.obstacles.as_slice(), &[][..]);
+    let q: [F64s; D] =
+        core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| c.qs[k.min(n - 1)][j])));
+    for live in [mine.lanes(), 1] {
+        let any = (obstacles | itself) & live != 0;
+        let mut placed = mine;
+        placed.keep(live);
+        prop_assert_eq!(
+            placed.any_hit(scene, c.margin),
+            any,
+            "any_hit, lanes {:b}",
+            live
+        );
+        let mut progressive = ArmLanes::EMPTY;
+        let hit = progressive.place_any_hit::<M, D>(0, &c.base, &c.tool, &q, live, scene, c.margin);
+        prop_assert_eq!(hit, any, "place_any_hit, lanes {:b}", live);
+        if hit {
+            prop_assert_eq!(progressive.lanes(), 0);
+        } else {
+            // Placed whole, as `place` places it.
+            prop_assert_eq!(progressive.lanes(), live);
+            for k in 0..n {
+                same_pose(
+                    &progressive,
+                    k,
+                    &ArmPose::new::<M, D>(0, &c.base, &c.tool, &c.qs[k]),
+                )?;
+            }
+        }
+        seen.questions += 1;
+        seen.any += u32::from(any);
+    }
     seen.configurations += n as u32;
     for (h, m) in seen.hits.iter_mut().zip([obstacles, itself, arms]) {
         *h += m.count_ones();
@@ -226,6 +264,8 @@ fn equals_scalar<M: Model<D>>() {
         let share = f64::from(h) / f64::from(seen.configurations);
         assert!((0.05..=0.95).contains(&share), "{}: {seen:?}", M::NAME);
     }
+    let share = f64::from(seen.any) / f64::from(seen.questions);
+    assert!((0.05..=0.95).contains(&share), "{}: {seen:?}", M::NAME);
 }
 
 #[test]
@@ -448,7 +488,13 @@ fn kinematics_of_a_batch_equal_single_configurations() {
             let tool = M::fk_lanes(&q);
             let n = M::LINK_NAMES.len();
             let mut frames = [FrameOf::<F64s>::identity(); 16];
-            let last = M::link_frames_lanes(&q, |i: usize, f: &FrameOf<F64s>| frames[i] = *f);
+            let frame = |i: usize, f: &FrameOf<F64s>| {
+                frames[i] = *f;
+                ControlFlow::Continue(())
+            };
+            let ControlFlow::Continue(last) = M::link_frames_lanes(&q, frame) else {
+                return Err(TestCaseError::fail("the frames stopped"));
+            };
             for (k, qk) in qs.iter().enumerate() {
                 let same = |a: &Frame, b: &Frame| frame_bits(a) == frame_bits(b);
                 prop_assert!(same(&tool.lane(k), &M::fk(qk)), "fk, lane {k}");

@@ -393,8 +393,8 @@ fn run(path: &Path, timer: &Timer) -> Result<()> {
         || None,
         |(q, live)| {
             let mut lanes = lanes.borrow_mut();
-            lanes.place_lanes::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, u32::MAX);
-            lanes.any_hit((obstacles, &boxes), 0.0)
+            let scene = (obstacles, boxes.as_slice());
+            lanes.place_any_hit::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, scene, 0.0)
         },
     );
     for (length, pairs) in &s.motions {

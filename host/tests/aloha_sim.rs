@@ -10,6 +10,9 @@ use omcbsa::online::bench::{run_episode, whole_windows};
 use omcbsa::online::reach::out_of_reach;
 use omcbsa::online::OnlineOptions;
 
+mod common;
+use common::on_big_stack;
+
 fn committed() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/aloha_sim")
 }
@@ -143,25 +146,20 @@ fn a_broken_file_is_an_error_naming_the_file_and_the_field() {
 /// arm's reach, and planned whole (in windows) into a timeline the validator accepts.
 #[test]
 fn a_recorded_episode_is_embodied_whole() {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(|| {
-            let family = read_family(&committed()).unwrap();
-            let i = (family.episodes.iter())
-                .position(|e| e.entry.task == "insertion")
-                .unwrap();
-            let cell = Cell {
-                layout: Layout::Corners,
-                fleet: FleetKind::Gen3,
-                arms: 2,
-            };
-            let episode = family.episode(i, &cell);
-            assert_eq!(out_of_reach(&episode).unwrap(), None);
-            let (options, chunking) = whole_windows(&OnlineOptions::default());
-            let run = run_episode(&episode, &options, chunking).unwrap();
-            assert!(run.embodied, "{}: {:?}", episode.name, run.error);
-        })
-        .unwrap()
-        .join()
-        .unwrap();
+    on_big_stack(|| {
+        let family = read_family(&committed()).unwrap();
+        let i = (family.episodes.iter())
+            .position(|e| e.entry.task == "insertion")
+            .unwrap();
+        let cell = Cell {
+            layout: Layout::Corners,
+            fleet: FleetKind::Gen3,
+            arms: 2,
+        };
+        let episode = family.episode(i, &cell);
+        assert_eq!(out_of_reach(&episode).unwrap(), None);
+        let (options, chunking) = whole_windows(&OnlineOptions::default());
+        let run = run_episode(&episode, &options, chunking).unwrap();
+        assert!(run.embodied, "{}: {:?}", episode.name, run.error);
+    });
 }

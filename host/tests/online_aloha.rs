@@ -12,6 +12,9 @@ use omcbsa::online::bimanual::Episode;
 use omcbsa::online::{OnlineOptions, Recovery};
 use omcbsa_core::model::{KinovaGen3, Model};
 
+mod common;
+use common::on_big_stack;
+
 /// A recorded transfer episode on two Gen3s at the table's corners. Transfer 100: the arm
 /// that takes the cube turns its last joint past 1.22 rad/s at step ~320 when its chunks
 /// were planned without regard for what comes next.
@@ -77,15 +80,6 @@ const JUST_IN_TIME: Chunking = Chunking {
     stride: 16,
     lead: 0,
 };
-
-fn on_big_stack(f: fn()) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap();
-}
 
 /// The first chunk that could not be planned from where the last one left the arms because
 /// a joint would turn too fast, and that error.

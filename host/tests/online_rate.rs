@@ -10,6 +10,9 @@ use omcbsa::pose::to_frame;
 use omcbsa_core::model::{KinovaGen3, Model};
 use omcbsa_core::problem::MAX_STEPS;
 
+mod common;
+use common::on_big_stack;
+
 const HZ: f64 = 50.0;
 
 fn transfer(arms: usize, seed: u64) -> Episode {
@@ -75,17 +78,6 @@ fn greedy() -> OnlineOptions {
         catch_up: false,
         ..OnlineOptions::default()
     }
-}
-
-/// Runs `f` on a thread with a main thread's stack: the loader's and the validator's core
-/// problems (200 kB each) live on the stack.
-fn on_big_stack(f: fn()) {
-    std::thread::Builder::new()
-        .stack_size(8 << 20)
-        .spawn(f)
-        .unwrap()
-        .join()
-        .unwrap();
 }
 
 fn dead_end_recovered() {

@@ -2,8 +2,9 @@
 //! `LiveCell`): `push` plans a chunk with the GIL released and hands it to the executor,
 //! whose threads stream it; `status` says where every arm is; a fault stops every arm and the
 //! next call raises `ArmFault`. Leaving the cell stops every arm: the `with` block's end, an
-//! exception, Ctrl-C (a `KeyboardInterrupt` that leaves the block or the program), the
-//! interpreter's exit (atexit), the object's collection.
+//! exception, Ctrl-C (a `KeyboardInterrupt` that leaves the block or the program), SIGTERM
+//! (a `SystemExit`, when the program has no handler of its own), the interpreter's exit
+//! (atexit), the object's collection.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -75,6 +76,32 @@ pub fn stop_all_cells(py: Python<'_>) {
             let _ = end(&slot, "the interpreter exited", false);
         }
     });
+}
+
+/// Makes SIGTERM leave the program as an exception does (`SystemExit(143)`: the `with` block's
+/// end and atexit stop the arms) when the program has left it at its default, which ends the
+/// process at once with the arms still commanded. A handler of the program's own is kept.
+/// Python runs signal handlers on the main thread only, so a cell started elsewhere leaves it.
+fn exit_on_sigterm(py: Python<'_>) -> PyResult<()> {
+    let threading = py.import("threading")?;
+    let main = threading.call_method0("main_thread")?;
+    if !threading.call_method0("current_thread")?.is(&main) {
+        return Ok(());
+    }
+    let signal = py.import("signal")?;
+    let term = signal.getattr("SIGTERM")?;
+    if signal.call_method1("getsignal", (&term,))?.is(&signal.getattr("SIG_DFL")?) {
+        let handler = wrap_pyfunction!(sigterm_exit, py)?;
+        signal.call_method1("signal", (term, handler))?;
+    }
+    Ok(())
+}
+
+/// The SIGTERM handler of [`exit_on_sigterm`]: exit status 128 + the signal's number, as the
+/// default's.
+#[pyfunction]
+fn sigterm_exit(signum: i32, _frame: Bound<'_, PyAny>) -> PyResult<()> {
+    Err(pyo3::exceptions::PySystemExit::new_err(128 + signum))
 }
 
 /// The arms an Embodier plans for, streamed while a policy runs.
@@ -362,6 +389,7 @@ impl Cell {
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Cell> {
         let o = Options::new("Cell", options, OPTIONS)?;
+        exit_on_sigterm(py)?;
         let mut urls = Vec::with_capacity(arms.len());
         for (name, url) in &arms {
             let parsed =

@@ -264,6 +264,17 @@ def test_ctrl_c_stops_every_arm(tmp_path):
     assert_stopped_while_moving(tmp_path, since)
 
 
+def test_sigterm_stops_every_arm(tmp_path):
+    def terminate(proc):
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGTERM)
+
+    code, out, err, since = run_cell_script(tmp_path, "finish", terminate)
+    assert "finished" not in out
+    assert code == 128 + signal.SIGTERM, err
+    assert_stopped_while_moving(tmp_path, since)
+
+
 @pytest.mark.parametrize("how", ["raise", "exit"])
 def test_an_exception_or_the_interpreters_exit_stops_every_arm(tmp_path, how):
     code, out, err, since = run_cell_script(tmp_path, how)

@@ -8,11 +8,15 @@
 //! takes [`ArmPose::place_only`]'s operations in its order ([`FrameOf`]). The checks test the
 //! same boxes with the same comparisons in SIMD, a link's box first (around its capsules'
 //! boxes: [`super::groups`]), then the exact query on what is left: capsule pairs in SIMD
-//! with the scalar code's operations ([`Segments::hits`]), obstacles with the scalar query
-//! ([`Obstacle::hits_capsule`]) on the lanes that a cheap conservative test in SIMD does not
-//! clear ([`Segments::apart_from`]). So a lane hits exactly when the [`ArmPose`] check of its
-//! configuration does (`core/tests/batch.rs` checks it on random cases, hits and misses
-//! alike).
+//! with the scalar code's operations ([`Segments::hits`]), obstacles on the lanes that a
+//! cheap conservative test in SIMD does not clear ([`Segments::apart_from`]): in SIMD where
+//! the scalar query needs no iteration ([`Segments::obstacle_decided`]), else with the scalar
+//! query ([`Obstacle::hits_capsule`]). So a lane hits exactly when the [`ArmPose`] check of
+//! its configuration does (`core/tests/batch.rs` checks it on random cases, hits and misses
+//! alike). Whether any lane hits can be asked while placing ([`ArmLanes::place_any_hit`]),
+//! which stops at the first hit.
+
+use core::ops::ControlFlow;
 
 use nalgebra::Vector3;
 
@@ -61,10 +65,21 @@ impl Boxes {
     /// The lanes where [`Aabb::near`] holds.
     #[inline(always)]
     pub fn near(&self, other: &Boxes, margin: f64) -> Mask {
-        let m = F64s::splat(margin);
+        if margin == 0.0 {
+            // Adding a zero changes at most the sign of a zero, which `<` does not see.
+            self.near_grown(other, |v| v)
+        } else {
+            let m = F64s::splat(margin);
+            self.near_grown(other, |v| v + m)
+        }
+    }
+
+    /// The lanes where each box's least corner is below the other's greatest, `grow`n.
+    #[inline(always)]
+    fn near_grown(&self, other: &Boxes, grow: impl Fn(F64s) -> F64s) -> Mask {
         // One mask of all six comparisons, turned into bits once.
         let axis = |i: usize| {
-            self.min[i].simd_lt(other.max[i] + m) & other.min[i].simd_lt(self.max[i] + m)
+            self.min[i].simd_lt(grow(other.max[i])) & other.min[i].simd_lt(grow(self.max[i]))
         };
         (axis(0) & axis(1) & axis(2)).to_bitmask() as Mask
     }
@@ -166,10 +181,89 @@ impl ArmLanes {
         only: u32,
     ) {
         self.begin::<M, D>(model, tool, lanes, only);
-        place_ends::<M, D>(model, base, tool, q, only, |i, a, b, radius, on_base| {
+        let _ = place_ends::<M, D>(model, base, tool, q, only, |i, a, b, radius, on_base| {
             self.put(i, a, b, radius, on_base);
+            ControlFlow::Continue(())
         });
         self.finish();
+    }
+
+    /// [`ArmLanes::place_lanes`] of every capsule, answering [`ArmLanes::any_hit`] on the
+    /// way, the likeliest hits first, stopping at the first hit in any lane.
+    ///
+    /// - The links from the first one paired with an earlier link for self-collision
+    ///   (the forearm on the Panda) to the tool, each checked as soon as it is placed
+    ///   against the obstacles and against those of them it forms pairs with; the kinematics
+    ///   stop at the first hit. These links reach farthest: on the Panda's random
+    ///   configurations the forearm decides 55 of 64 batches of 8, so a batch that holds a
+    ///   hit is rarely placed whole.
+    /// - Then the links before them, nearest the base (the first of all never against
+    ///   obstacles): placed (the kinematics again, up to the last of them), their
+    ///   self-collision pairs, then the obstacles.
+    ///
+    /// True when some lane hits: then the arm is left part placed, with no lane (no later
+    /// check reports anything). False: the arm is placed as `place_lanes` places it, every
+    /// lane clear of the obstacles and itself.
+    #[allow(clippy::too_many_arguments)]
+    pub fn place_any_hit<M: Models<D>, const D: usize>(
+        &mut self,
+        model: u8,
+        base: &Frame,
+        tool: &Tool,
+        q: &[F64s; D],
+        lanes: Mask,
+        scene: (&[Obstacle], &[Aabb]),
+        margin: f64,
+    ) -> bool {
+        self.begin::<M, D>(model, tool, lanes, u32::MAX);
+        let near_base = self.groups.near_base;
+        let near = bits(near_base).fold(0, |m, g| m | self.groups.members[g]);
+        // Each group's capsules come in order, the first setting its box (`put`): a group
+        // is placed whole in one pass or the other.
+        let far = place_ends::<M, D>(model, base, tool, q, !near, |i, a, b, radius, on_base| {
+            self.put(i, a, b, radius, on_base);
+            let g = usize::from(self.groups.group[i]);
+            // A link's checks once its last capsule is placed.
+            let last = u32::BITS - self.groups.members[g].leading_zeros() == i as u32 + 1;
+            if last && self.far_group_hits(g, scene, margin) {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
+        let hit = far.is_break()
+            || near != 0 && {
+                let last = (u32::BITS - 1 - near.leading_zeros()) as usize;
+                let _ = place_ends::<M, D>(model, base, tool, q, near, |i, a, b, radius, on| {
+                    self.put(i, a, b, radius, on);
+                    if i == last {
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
+                    }
+                });
+                let groups = near_base & !1;
+                let around = bits(groups).fold(Boxes::EMPTY, |b, g| b.union(&self.group_boxes[g]));
+                self.self_hits_until(margin, 0, near_base, u32::MAX) != 0
+                    || self.obstacle_hits_until(scene, margin, 0, Some(&around), groups) != 0
+            };
+        if hit {
+            self.lanes = 0;
+        } else {
+            self.finish();
+        }
+        hit
+    }
+
+    /// Whether group `g`, placed, hits in some lane, `g` not near the base: its capsules
+    /// against the obstacles (unless it is the base link's, in an arm with no link near the
+    /// base), then its self-collision pairs with the groups before it not near the base and
+    /// itself.
+    fn far_group_hits(&self, g: usize, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
+        let groups = 1 << g;
+        let far = !self.groups.near_base;
+        (g != 0 && self.obstacle_hits_until(scene, margin, 0, None, groups) != 0)
+            || self.self_hits_until(margin, 0, far, groups) != 0
     }
 
     /// The arm's fields of model `model` carrying `tool`, no capsule placed yet (those not
@@ -281,56 +375,78 @@ impl ArmLanes {
     /// The lanes where a capsule off the base link comes closer to an obstacle than
     /// `margin`: [`ArmPose::obstacle_hit`]`.is_some()`, lane by lane.
     pub fn obstacle_hits(&self, obstacles: &[Obstacle], margin: f64) -> Mask {
-        self.obstacle_hits_until((obstacles, &[]), margin, self.lanes)
+        self.obstacle_hits_boxed((obstacles, &[]), margin)
     }
 
     /// [`ArmLanes::obstacle_hits`] with the obstacles' boxes made once for many calls:
     /// `boxes[n]` is [`Obstacle::aabb`] of `obstacles[n]` (for an obstacle past its end,
     /// made here).
     pub fn obstacle_hits_boxed(&self, scene: (&[Obstacle], &[Aabb]), margin: f64) -> Mask {
-        self.obstacle_hits_until(scene, margin, self.lanes)
+        // The base link's group (0) is never checked against obstacles.
+        let groups = self.groups.used & !1;
+        self.obstacle_hits_until(scene, margin, self.lanes, Some(&self.moving_aabb), groups)
     }
 
     /// The lanes where a self-collision pair comes closer than `margin`:
     /// [`ArmPose::self_hit`]`.is_some()`, lane by lane.
     pub fn self_hits(&self, margin: f64) -> Mask {
-        self.self_hits_until(margin, self.lanes)
+        self.self_hits_until(margin, self.lanes, u32::MAX, u32::MAX)
     }
 
     /// Whether any lane's configuration comes closer than `margin` to an obstacle or to
     /// itself: `obstacle_hits(..) | self_hits(..) != 0`, stopping at the first hit.
     /// The obstacles' boxes as in [`ArmLanes::obstacle_hits_boxed`].
     pub fn any_hit(&self, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
+        let groups = self.groups.used & !1;
         self.lanes != 0
-            && (self.obstacle_hits_until(scene, margin, 0) != 0
-                || self.self_hits_until(margin, 0) != 0)
+            && (self.obstacle_hits_until(scene, margin, 0, Some(&self.moving_aabb), groups) != 0
+                || self.self_hits_until(margin, 0, u32::MAX, u32::MAX) != 0)
     }
 
-    /// [`ArmLanes::obstacle_hits`], stopping once a lane outside `wait` hits (with `wait` the
-    /// lanes, once every lane does): then some hitting lanes may be missing.
+    /// [`ArmLanes::obstacle_hits`] of the capsules of `groups` (not the base link's), all
+    /// within `around` if given, stopping once a lane outside `wait` hits (with `wait` the lanes,
+    /// once every lane does): then some hitting lanes may be missing.
     fn obstacle_hits_until(
         &self,
         (obstacles, boxes): (&[Obstacle], &[Aabb]),
         margin: f64,
         wait: Mask,
+        around: Option<&Boxes>,
+        groups: u32,
     ) -> Mask {
         let mut hit: Mask = 0;
         for (n, o) in obstacles.iter().enumerate() {
             let ob = Boxes::splat(&boxes.get(n).copied().unwrap_or_else(|| o.aabb()));
-            let near = ob.near(&self.moving_aabb, margin) & self.lanes & !hit;
+            let near = around.map_or(self.lanes, |a| ob.near(a, margin) & self.lanes) & !hit;
             if near == 0 {
                 continue;
             }
-            // The base link's group (0) is never checked against obstacles.
-            for g in bits(self.groups.used & !1) {
+            for g in bits(groups) {
                 let near = self.group_boxes[g].near(&ob, margin) & near & !hit;
                 if near == 0 {
                     continue;
                 }
+                // A group of one capsule has that capsule's box, bit for bit.
+                let one = self.groups.members[g].count_ones() == 1;
                 for i in bits(self.groups.members[g] & !self.on_base) {
-                    let mut near = self.boxes[i].near(&ob, margin) & near & !hit;
+                    let mut near = if one {
+                        near
+                    } else {
+                        self.boxes[i].near(&ob, margin) & near & !hit
+                    };
                     if near != 0 {
                         near &= !self.segments(i).apart_from(o, self.radius[i] + margin);
+                    }
+                    if near.count_ones() > 2 {
+                        // In SIMD what needs no iteration, where enough lanes share it to
+                        // pay for the whole batch's; the scalar query for the rest.
+                        let segments = self.segments(i);
+                        let (hits, clear) = segments.obstacle_decided(o, self.radius[i], margin);
+                        hit |= near & hits;
+                        if hit & !wait != 0 {
+                            return hit;
+                        }
+                        near &= !(hits | clear);
                     }
                     for k in lanes_of(near) {
                         if o.hits_capsule(&self.capsule(i, k), margin) {
@@ -349,12 +465,14 @@ impl ArmLanes {
         hit
     }
 
-    /// [`ArmLanes::self_hits`], stopping as [`ArmLanes::obstacle_hits_until`] does.
-    fn self_hits_until(&self, margin: f64, wait: Mask) -> Mask {
+    /// [`ArmLanes::self_hits`] of the pairs whose first group is in `earlier` and whose
+    /// second (the later one, or the same) is in `later`, stopping as
+    /// [`ArmLanes::obstacle_hits_until`] does.
+    fn self_hits_until(&self, margin: f64, wait: Mask, earlier: u32, later: u32) -> Mask {
         let mut hit: Mask = 0;
         let groups = &self.groups;
-        for g in bits(groups.used) {
-            for h in bits(groups.pair_groups[g]) {
+        for g in bits(groups.used & earlier) {
+            for h in bits(groups.pair_groups[g] & later) {
                 let near = self.group_boxes[g].near(&self.group_boxes[h], margin);
                 let near = near & self.lanes & !hit;
                 if near == 0 {
@@ -467,7 +585,7 @@ impl ArmLanes {
 /// Places the arm of model `model` of `M`, its base frame at `base`, carrying `tool`, at
 /// configuration `q` (a lane each) and hands each capsule in `only`, in order, to
 /// `each(index, a, b, radius, on the base link)`: [`ArmPose::place_only`]'s operations, lane
-/// by lane.
+/// by lane. Stops, placing nothing more (the kinematics too), when `each` breaks.
 #[inline(always)]
 pub(super) fn place_ends<M: Models<D>, const D: usize>(
     model: u8,
@@ -475,8 +593,8 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
     tool: &Tool,
     q: &[F64s; D],
     only: u32,
-    mut each: impl FnMut(usize, &Point, &Point, f64, bool),
-) {
+    mut each: impl FnMut(usize, &Point, &Point, f64, bool) -> ControlFlow<()>,
+) -> ControlFlow<()> {
     const { M::CHECKED };
     let world = !at_origin(base);
     let base = FrameOf::<F64s>::splat(base);
@@ -487,7 +605,7 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
     let tool_frame = M::link_frames_lanes(model, q, |link: usize, f: &FrameOf<F64s>| {
         let on_link = |i: usize| capsules.get(i).is_some_and(|c| usize::from(c.link) == link);
         if !on_link(next) {
-            return;
+            return ControlFlow::Continue(());
         }
         // Into the world, where the base frame is not the world's (else the frame as it is,
         // not copied).
@@ -505,11 +623,12 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
                     frame.apply(&c.a.map(F64s::splat)),
                     frame.apply(&c.b.map(F64s::splat)),
                 );
-                each(next, &a, &b, c.radius, link == 0);
+                each(next, &a, &b, c.radius, link == 0)?;
             }
             next += 1;
         }
-    });
+        ControlFlow::Continue(())
+    })?;
     let links = capsules.len();
     let tools = tool.capsules().iter().enumerate();
     if tools.clone().any(|(t, _)| only & (1 << (links + t)) != 0) {
@@ -523,7 +642,8 @@ pub(super) fn place_ends<M: Models<D>, const D: usize>(
                 flange.apply(&c.a.map(F64s::splat)),
                 flange.apply(&c.b.map(F64s::splat)),
             );
-            each(links + t, &a, &b, c.radius, false);
+            each(links + t, &a, &b, c.radius, false)?;
         }
     }
+    ControlFlow::Continue(())
 }

@@ -31,6 +31,9 @@ pub(super) struct Groups {
     /// Per group, the groups from it on (itself included) holding a partner of one of its
     /// capsules.
     pub(super) pair_groups: [u32; MAX_GROUPS],
+    /// The groups before the first one paired with an earlier group: the links nearest the
+    /// base, which move least. Pairs have both groups near the base or the later one not.
+    pub(super) near_base: u32,
 }
 
 impl Groups {
@@ -42,6 +45,7 @@ impl Groups {
         used: 0,
         partners: [0; MAX_POSE_CAPSULES],
         pair_groups: [0; MAX_GROUPS],
+        near_base: 0,
     };
 
     /// The groups of an arm with the model's `capsules` and self-collision `pairs`, and
@@ -82,6 +86,11 @@ impl Groups {
             self.partners[b] |= 1 << a;
             let (g, h) = (self.group[a], self.group[b]);
             self.pair_groups[usize::from(g.min(h))] |= 1 << g.max(h);
+        }
+        // The first group paired with one before it.
+        let later = (0..MAX_GROUPS).fold(0u32, |m, g| m | self.pair_groups[g] & !(1 << g));
+        if later != 0 {
+            self.near_base = self.used & ((1 << later.trailing_zeros()) - 1);
         }
     }
 

@@ -10,6 +10,8 @@
 //! where the bisection goes three levels down, and places some configurations no check reads
 //! where it stops sooner.
 
+use core::ops::ControlFlow;
+
 use super::batch::{place_ends, Point};
 use super::pose::{ArmPose, MAX_POSE_CAPSULES};
 use nalgebra::Vector3;
@@ -81,7 +83,7 @@ impl Rake {
         only: u32,
     ) {
         let q = core::array::from_fn(|j| F64s::splat(arm.q0[j]) + F64s::splat(arm.dq[j]) * s);
-        place_ends::<M, D>(
+        let _ = place_ends::<M, D>(
             arm.model,
             arm.base,
             arm.tool,
@@ -89,6 +91,7 @@ impl Rake {
             only,
             |i, a, b, radius, _| {
                 (self.a[i], self.b[i], self.radius[i]) = (*a, *b, radius);
+                ControlFlow::Continue(())
             },
         );
     }

@@ -158,6 +158,25 @@ impl Segments {
 const APART_REL: f64 = 1e-9;
 const APART_ABS: f64 = 1e-9;
 
+/// `rot^T (p - c)` of `o`'s pose, as `Obstacle::local_point` computes it: the point in the
+/// obstacle's frame.
+#[inline(always)]
+fn local(o: &Obstacle, p: &Point) -> Point {
+    let (r, c) = (&o.pose.rot, &o.pose.pos);
+    let d = [p[0] - splat(c[0]), p[1] - splat(c[1]), p[2] - splat(c[2])];
+    core::array::from_fn(|j| {
+        d[0] * splat(r[(0, j)]) + d[1] * splat(r[(1, j)]) + d[2] * splat(r[(2, j)])
+    })
+}
+
+/// `within(d2, reach)` of `geometry`: cores `d2` apart squared, inflated by `reach` in all,
+/// come closer than that or meet.
+#[inline(always)]
+fn within(d2: F64s, reach: f64) -> Mask {
+    let r = splat(reach);
+    (d2.simd_lt(r * r) | d2.simd_eq(splat(0.0))).to_bitmask() as Mask
+}
+
 impl Segments {
     /// The lanes where capsules on these segments, of radius and margin adding up to `reach`,
     /// certainly keep farther than that from the solid obstacle `o` (a box or a cylinder;
@@ -175,15 +194,7 @@ impl Segments {
             } => [radius, radius, half_length],
             Shape::Sphere { .. } | Shape::Capsule { .. } => return 0,
         };
-        let (r, c) = (&o.pose.rot, &o.pose.pos);
-        // `rot^T (p - c)`: the point in the obstacle's frame.
-        let local = |p: &Point| -> Point {
-            let d = [p[0] - splat(c[0]), p[1] - splat(c[1]), p[2] - splat(c[2])];
-            core::array::from_fn(|j| {
-                d[0] * splat(r[(0, j)]) + d[1] * splat(r[(1, j)]) + d[2] * splat(r[(2, j)])
-            })
-        };
-        let (a, b) = (local(&self.a), local(&self.b));
+        let (a, b) = (local(o, &self.a), local(o, &self.b));
         let room = reach * (1.0 + APART_REL) + APART_ABS;
         let mut apart = splat(0.0).simd_ne(splat(0.0));
         for j in 0..3 {
@@ -195,5 +206,70 @@ impl Segments {
             apart |= lo.simd_gt(beyond) | hi.simd_lt(-beyond);
         }
         apart.to_bitmask() as Mask
+    }
+
+    /// What [`Obstacle::hits_capsule`] answers for capsules of radius `radius` on these
+    /// segments against `margin`, where it needs no iteration: the lanes it decides as hits
+    /// and as clear; the others are left to it. A sphere or a capsule is decided in every
+    /// lane. A box is decided where its exact query stops at the segment's ends (its first
+    /// two evaluations: the closest point is an end, or an end comes within reach), a
+    /// cylinder nowhere. Each lane takes the scalar code's operations in its order, so it is
+    /// bit for bit the scalar answer.
+    #[inline(always)]
+    pub fn obstacle_decided(&self, o: &Obstacle, radius: f64, margin: f64) -> (Mask, Mask) {
+        let decided = |hit: Mask, done: Mask| (hit & done, !hit & done);
+        match o.shape {
+            Shape::Sphere { radius: inflate } => {
+                // `Segment::distance2_to_point` of the centre.
+                let p = [0, 1, 2].map(|i| splat(o.pose.pos[i]));
+                let t = param_toward(&sub(&self.b, &self.a), &sub(&p, &self.a));
+                let d = sub(&self.at(t), &p);
+                decided(
+                    within(splat(0.0) + dot(&d, &d), radius + inflate + margin),
+                    !0,
+                )
+            }
+            Shape::Capsule {
+                radius: inflate,
+                half_length,
+            } => {
+                let z = o.pose.rot.column(2) * half_length;
+                let (a, b) = (o.pose.pos - z, o.pose.pos + z);
+                let axis = Segments {
+                    a: [0, 1, 2].map(|i| splat(a[i])),
+                    b: [0, 1, 2].map(|i| splat(b[i])),
+                };
+                decided(within(self.distance2(&axis), radius + inflate + margin), !0)
+            }
+            Shape::Box { half_extents } => {
+                // `solid::segment_distance2` with `Want::Below(reach^2)` up to its loop, in
+                // the box's frame.
+                let local = Segments {
+                    a: local(o, &self.a),
+                    b: local(o, &self.b),
+                };
+                let d = sub(&local.b, &local.a);
+                let eval = |t: f64| {
+                    let p = local.at(splat(t));
+                    let v: Point = core::array::from_fn(|i| {
+                        let h = splat(half_extents[i]);
+                        // `f64::clamp(p, -h, h)`.
+                        let x = p[i].simd_lt(-h).select(-h, p[i]);
+                        p[i] - x.simd_gt(h).select(h, x)
+                    });
+                    (splat(0.0) + dot(&v, &v), dot(&v, &d))
+                };
+                let reach = splat(radius + margin);
+                let below = reach * reach;
+                let ((g_lo, h_lo), (g_hi, h_hi)) = (eval(0.0), eval(1.0));
+                let at_lo = h_lo.simd_ge(splat(0.0)) | g_lo.simd_lt(below);
+                let at_hi = !at_lo & (h_hi.simd_le(splat(0.0)) | g_hi.simd_lt(below));
+                let g = at_lo.select(g_lo, g_hi);
+                let done = (at_lo | at_hi).to_bitmask() as Mask;
+                // `contact` adds the radius's inflation, 0 for a solid: the same square.
+                decided(within(g, radius + margin), done)
+            }
+            Shape::Cylinder { .. } => (0, 0),
+        }
     }
 }

@@ -117,3 +117,14 @@ pub fn two_robots() -> (ProblemFile, SolutionFile) {
     let solution = solution(vec![Some(0), None], vec![path.to_vec(), vec![Q0; 3]]);
     (problem, solution)
 }
+
+/// Runs `f` on a thread with a main thread's stack: the loader's and the validator's core
+/// problems (200 kB each) live on the stack.
+pub fn on_big_stack(f: impl FnOnce() + Send + 'static) {
+    std::thread::Builder::new()
+        .stack_size(8 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap();
+}
