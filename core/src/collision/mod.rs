@@ -49,13 +49,12 @@
 use core::marker::PhantomData;
 
 mod batch;
-mod cull;
 mod groups;
 mod pose;
 mod rake;
 
 pub use batch::{ArmLanes, Boxes};
-use pose::{bits, bits64};
+use pose::bits;
 pub use pose::{ArmPose, MAX_POSE_CAPSULES};
 pub use rake::Placing;
 use rake::Rake;
@@ -160,34 +159,27 @@ impl<M: Models<D>, const D: usize> Copy for Sweep<M, D> {}
 /// capsule `j` of the other (or of the same arm).
 type Pairs = [u32; MAX_POSE_CAPSULES];
 
-/// What one arm's motion may still hit: per capsule, the obstacles it may meet (bit `k`: the
-/// `k`-th of the obstacles near the motion), and self pairs.
+/// What one arm's motion may still hit: capsules that may meet an obstacle, and self pairs.
 #[derive(Clone, Copy)]
 struct Suspects {
-    obstacles: [u64; MAX_POSE_CAPSULES],
+    obstacles: u32,
     pairs: Pairs,
 }
 
-// The obstacles near a motion are kept as bit sets.
-const _: () = assert!(MAX_OBSTACLES <= u64::BITS as usize);
-
 impl Suspects {
     const NONE: Suspects = Suspects {
-        obstacles: [0; MAX_POSE_CAPSULES],
+        obstacles: 0,
         pairs: [0; MAX_POSE_CAPSULES],
     };
 
     fn any(&self) -> bool {
-        self.obstacles.iter().any(|&r| r != 0) || self.pairs.iter().any(|&r| r != 0)
+        self.obstacles != 0 || self.pairs.iter().any(|&r| r != 0)
     }
 
     /// The capsules in question.
     fn capsules(&self) -> u32 {
         let (rows, columns) = rows_and_columns(&self.pairs);
-        let near = (self.obstacles.iter().enumerate())
-            .filter(|(_, &row)| row != 0)
-            .fold(0, |m, (i, _)| m | 1 << i);
-        near | rows | columns
+        self.obstacles | rows | columns
     }
 }
 
@@ -374,45 +366,39 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             .map(|o| (o, o.aabb()))
             .filter(|(_, ob)| ob.near(&moving, self.length))
             .collect();
-        let boxes = cull::NearBoxes::new(near.iter().map(|(_, b)| b));
         let mut all = Suspects::NONE;
-        let every = boxes.all();
-        for i in (0..e0.len).filter(|&i| !e0.on_base(i)) {
-            all.obstacles[i] = every;
+        if !near.is_empty() {
+            all.obstacles = (0..e0.len)
+                .filter(|&i| !e0.on_base(i))
+                .fold(0, |m, i| m | 1 << i);
         }
+        // Each self pair's travel, computed once for every part of the motion.
+        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
         for (a, b) in e0.self_pairs() {
             all.pairs[a] |= 1 << b;
+            pair_travel[a][b] = self.pair_travel(a, b);
         }
-        // Each self pair's travel, computed once for every part of the motion, for the pairs
-        // that the capsules' own reaches leave in question (`known`).
-        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
-        let mut known: Pairs = [0; MAX_POSE_CAPSULES];
         let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
             let ends = [ends[0][0], ends[1][0]];
             let reach = self.reaches_over(ends, width, sus.capsules());
             let mut left = Suspects::NONE;
-            for (i, &row) in sus.obstacles.iter().enumerate() {
-                let at = [&ends[0].boxes[i], &ends[1].boxes[i]];
-                for k in bits64(boxes.reachable(row, at, reach[i])) {
-                    let (o, ob) = &near[k];
-                    match obstacle_contact_over(o, ob, ends, i, reach[i]) {
-                        Contact::Touch => return Found::Touch,
-                        Contact::Near => left.obstacles[i] |= 1 << k,
-                        Contact::Clear => {}
-                    }
+            for i in bits(sus.obstacles) {
+                let mut contact = near
+                    .iter()
+                    .map(|(o, ob)| obstacle_contact_over(o, ob, ends, i, reach[i]));
+                match contact
+                    .find(|&c| c != Contact::Clear)
+                    .unwrap_or(Contact::Clear)
+                {
+                    Contact::Touch => return Found::Touch,
+                    Contact::Near => left.obstacles |= 1 << i,
+                    Contact::Clear => {}
                 }
             }
             for (a, &row) in sus.pairs.iter().enumerate() {
                 for b in bits(row) {
-                    let relative = || {
-                        if known[a] & 1 << b == 0 {
-                            pair_travel[a][b] = self.pair_travel(a, b);
-                            known[a] |= 1 << b;
-                        }
-                        pair_travel[a][b] * width
-                    };
-                    let t = reach[a] + reach[b];
-                    match ArmPose::pair_contact_within(ends, a, ends, b, t, relative) {
+                    let t = (pair_travel[a][b] * width).min(reach[a] + reach[b]);
+                    match ArmPose::pair_contact_over(ends, a, ends, b, t) {
                         Contact::Touch => return Found::Touch,
                         Contact::Near => left.pairs[a] |= 1 << b,
                         Contact::Clear => {}

@@ -232,20 +232,6 @@ impl ArmPose {
         j: usize,
         travel: f64,
     ) -> Contact {
-        Self::pair_contact_within(ends, i, other, j, travel, || travel)
-    }
-
-    /// [`ArmPose::pair_contact_over`] for the smaller of two bounds on the travel: `travel`,
-    /// and `tighter()`, computed only for a pair that the first leaves in question.
-    #[inline]
-    pub(super) fn pair_contact_within(
-        ends: [&ArmPose; 2],
-        i: usize,
-        other: [&ArmPose; 2],
-        j: usize,
-        travel: f64,
-        tighter: impl FnOnce() -> f64,
-    ) -> Contact {
         let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
         if gap(0) + gap(1) > travel {
             return Contact::Clear;
@@ -254,7 +240,7 @@ impl ArmPose {
         let (c0, c1) = (clearance(0), clearance(1));
         if c0 < 0.0 || c1 < 0.0 {
             Contact::Touch
-        } else if c0 + c1 > travel || c0 + c1 > tighter() {
+        } else if c0 + c1 > travel {
             Contact::Clear
         } else {
             Contact::Near
@@ -335,12 +321,7 @@ pub(super) fn at_origin(base: &Frame) -> bool {
 }
 
 /// The indices of the set bits of `m`, lowest first.
-pub(super) fn bits(m: u32) -> impl Iterator<Item = usize> {
-    bits64(u64::from(m))
-}
-
-/// The indices of the set bits of `m`, lowest first.
-pub(super) fn bits64(mut m: u64) -> impl Iterator<Item = usize> {
+pub(super) fn bits(mut m: u32) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
         (m != 0).then(|| {
             let i = m.trailing_zeros() as usize;
