@@ -17,11 +17,14 @@
 //!   places and checks [`LANES`] composite configurations per call (`ArmLanes`), time per
 //!   configuration; `parry` places the arms as `single` and runs parry's intersection tests
 //!   on the pairs whose boxes meet (the same box tests first).
-//! - `motion` (1 and 3 arms): a collision-free composite motion, every joint of every arm turning by 0.1, 1
-//!   or 5 rad (random signs) or less where a joint's limits are closer: each arm against the
-//!   obstacles and itself along the motion, and every pair (`sweeps_collide`); `single` places
-//!   one configuration at a time along the sweeps' bisection, `batched` a rake of them per
-//!   call. Both give the same answer (`core/tests/batch.rs`).
+//! - `motion` (1 and 3 arms): a valid composite motion, each arm moving straight in joint space
+//!   by 0.1, 1 or 5 rad of Euclidean joint distance (the length of a motion in VAMP and in
+//!   `docs/bench/collision.md`'s peer scene), in a random direction, within its limits, from
+//!   a collision-free configuration to another, collision-free all along: each arm against
+//!   the obstacles and itself along the motion, and every pair (`sweeps_collide`), as the
+//!   planners check a composite step. `single` places one configuration at a time,
+//!   `batched` (the default placing) a rake of them per call. Both give the same answer
+//!   (`core/tests/batch.rs`).
 
 use std::cell::OnceCell;
 use std::hint::black_box;
@@ -93,6 +96,9 @@ fn scene(bases: &[Frame]) -> Vec<Obstacle> {
         .collect()
 }
 
+/// Most arms of a bench's problem.
+const MAX_ARMS: usize = 6;
+
 /// A problem's arms and scene.
 struct Fleet {
     bases: Vec<Frame>,
@@ -155,33 +161,38 @@ fn config<M: Model<D>>(rng: &mut Rng) -> [f64; D] {
     rng.configuration(&lo, &hi)
 }
 
+/// A composite configuration, collision-free if `free`: drawn arm by arm (collision-free
+/// configurations of many arms are rare drawn all at once). `None` when an arm found no place.
+fn composite<M: Model<D>>(
+    fleet: &Fleet,
+    free: bool,
+    rng: &mut Rng,
+    poses: &mut [ArmPose],
+) -> Option<Vec<[f64; D]>> {
+    let mut qs: Vec<[f64; D]> = Vec::new();
+    for n in 1..=fleet.bases.len() {
+        let part = Fleet {
+            bases: fleet.bases[..n].to_vec(),
+            obstacles: fleet.obstacles.clone(),
+            boxes: fleet.boxes.clone(),
+        };
+        let q = (0..10_000).map(|_| config::<M>(rng)).find(|q| {
+            qs.push(*q);
+            let ok = !free || !part.collides::<M>(&qs, &mut poses[..n]);
+            qs.pop();
+            ok
+        })?;
+        qs.push(q);
+    }
+    Some(qs)
+}
+
 /// `CASES` composite configurations, collision-free ones only if `free`.
 fn configs<M: Model<D>>(fleet: &Fleet, free: bool, rng: &mut Rng) -> Vec<Vec<[f64; D]>> {
-    let arms = fleet.bases.len();
-    let mut poses = fleet.poses::<M>(&vec![[0.0; D]; arms]);
+    let mut poses = fleet.poses::<M>(&vec![[0.0; D]; fleet.bases.len()]);
     let mut out = Vec::new();
     while out.len() < CASES {
-        // Collision-free configurations of many arms are rare drawn all at once: arm by arm.
-        let mut qs: Vec<[f64; D]> = Vec::new();
-        for _ in 0..arms {
-            for _ in 0..10_000 {
-                let mut candidate = qs.clone();
-                candidate.push(config::<M>(rng));
-                let n = candidate.len();
-                let part = Fleet {
-                    bases: fleet.bases[..n].to_vec(),
-                    obstacles: fleet.obstacles.clone(),
-                    boxes: fleet.boxes.clone(),
-                };
-                if !free || !part.collides::<M>(&candidate, &mut poses[..n]) {
-                    qs = candidate;
-                    break;
-                }
-            }
-        }
-        if qs.len() == arms {
-            out.push(qs);
-        }
+        out.extend(composite::<M>(fleet, free, rng, &mut poses));
     }
     out
 }
@@ -367,36 +378,34 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
 }
 
 /// Whether the composite motion `from -> to` collides, placing as `placing` says: each arm
-/// against the obstacles and itself, then every pair, as the approach's composite check.
+/// against the obstacles and itself, then every pair, as the approach's composite check. The
+/// arms are placed at the ends into `ends` (per arm, its poses at both ends), as a planner
+/// places the states it keeps.
 fn motion_collides<M: Model<D>>(
     fleet: &Fleet,
     from: &[[f64; D]],
     to: &[[f64; D]],
     placing: Placing,
+    ends: &mut [[ArmPose; 2]],
 ) -> bool {
-    let sweeps: Vec<Sweep<M, D>> = (from.iter().zip(to))
-        .map(|(a, b)| Sweep::new(0, &Tool::NONE, a, b, MOTION_STEP).with_placing(placing))
-        .collect();
-    let ends: Vec<[ArmPose; 2]> = (sweeps.iter().zip(&fleet.bases))
-        .map(|(s, b)| s.ends(b))
-        .collect();
-    for ((s, b), e) in sweeps.iter().zip(&fleet.bases).zip(&ends) {
-        if s.arm_collides_posed(b, &fleet.obstacles, [&e[0], &e[1]]) {
-            return true;
-        }
+    let n = fleet.bases.len();
+    let sweep: [Sweep<M, D>; MAX_ARMS] = core::array::from_fn(|i| {
+        let (a, b) = (&from[i.min(n - 1)], &to[i.min(n - 1)]);
+        Sweep::new(0, &Tool::NONE, a, b, MOTION_STEP).with_placing(placing)
+    });
+    for (i, (e, b)) in ends.iter_mut().zip(&fleet.bases).enumerate() {
+        e[0].place::<M, D>(0, b, &Tool::NONE, &from[i]);
+        e[1].place::<M, D>(0, b, &Tool::NONE, &to[i]);
     }
-    let n = sweeps.len();
+    let ends = &*ends;
+    let posed = |i: usize| [&ends[i][0], &ends[i][1]];
+    if (0..n).any(|i| sweep[i].arm_collides_posed(&fleet.bases[i], &fleet.obstacles, posed(i))) {
+        return true;
+    }
     (0..n).any(|i| {
         (i + 1..n).any(|k| {
-            let (ei, ek) = (&ends[i], &ends[k]);
-            sweeps_collide_posed(
-                &sweeps[i],
-                &fleet.bases[i],
-                [&ei[0], &ei[1]],
-                &sweeps[k],
-                &fleet.bases[k],
-                [&ek[0], &ek[1]],
-            )
+            let (b, c) = (&fleet.bases[i], &fleet.bases[k]);
+            sweeps_collide_posed(&sweep[i], b, posed(i), &sweep[k], c, posed(k))
         })
     })
 }
@@ -404,25 +413,36 @@ fn motion_collides<M: Model<D>>(
 /// A composite motion: every arm's configuration before and after.
 type Motion = (Vec<[f64; D]>, Vec<[f64; D]>);
 
-/// `CASES` collision-free composite motions from collision-free configurations, every joint
-/// turning by `turn` (random sign; less where its limits are closer).
-fn motions<M: Model<D>>(fleet: &Fleet, turn: f64, rng: &mut Rng) -> Vec<Motion> {
+/// Composite motions drawn per length.
+const MOTIONS: usize = CASES / 4;
+
+/// `MOTIONS` collision-free composite motions from collision-free configurations: each arm
+/// moves `length` rad of Euclidean joint distance, straight, in a random direction (uniform
+/// per joint in `-1..1`, scaled to the length), staying within its limits.
+fn motions<M: Model<D>>(fleet: &Fleet, length: f64, rng: &mut Rng) -> Vec<Motion> {
+    let (lo, hi) = (M::LOWER.map(|l| l.max(-3.1)), M::UPPER.map(|u| u.min(3.1)));
+    let within = |q: &[f64; D]| (0..D).all(|j| (lo[j]..=hi[j]).contains(&q[j]));
     let mut out = Vec::new();
     let mut poses = fleet.poses::<M>(&vec![[0.0; D]; fleet.bases.len()]);
-    while out.len() < CASES / 4 {
-        let from = configs::<M>(fleet, true, rng).swap_remove(0);
+    let mut ends = vec![[ArmPose::EMPTY; 2]; fleet.bases.len()];
+    while out.len() < MOTIONS {
+        let Some(from) = composite::<M>(fleet, true, rng, &mut poses) else {
+            continue;
+        };
+        let mut step = |q: &[f64; D]| {
+            (0..1000).find_map(|_| {
+                let dir: [f64; D] = core::array::from_fn(|_| rng.uniform(-1.0, 1.0));
+                let norm = dir.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let to = core::array::from_fn(|j| q[j] + length * dir[j] / norm);
+                within(&to).then_some(to)
+            })
+        };
         for _ in 0..100 {
-            let to: Vec<[f64; D]> = (from.iter())
-                .map(|q| {
-                    core::array::from_fn(|j| {
-                        let sign = if rng.next_f64() < 0.5 { -1.0 } else { 1.0 };
-                        let (lo, hi) = (M::LOWER[j].max(-3.1), M::UPPER[j].min(3.1));
-                        (q[j] + sign * turn).clamp(lo, hi)
-                    })
-                })
-                .collect();
+            let Some(to) = from.iter().map(&mut step).collect::<Option<Vec<_>>>() else {
+                break;
+            };
             if !fleet.collides::<M>(&to, &mut poses)
-                && !motion_collides::<M>(fleet, &from, &to, Placing::Single)
+                && !motion_collides::<M>(fleet, &from, &to, Placing::Single, &mut ends)
             {
                 out.push((from, to));
                 break;
@@ -435,20 +455,22 @@ fn motions<M: Model<D>>(fleet: &Fleet, turn: f64, rng: &mut Rng) -> Vec<Motion> 
 fn motion_checks<M: Model<D>>(c: &mut Criterion, name: &str) {
     for arms in [1, 3] {
         let fleet = Fleet::new(arms);
-        for turn in [0.1, 1.0, 5.0] {
+        for length in [0.1, 1.0, 5.0] {
             let cases = OnceCell::new();
             let cases = || {
-                cases.get_or_init(|| motions::<M>(&fleet, turn, &mut Rng::new(11 + arms as u64)))
+                cases.get_or_init(|| motions::<M>(&fleet, length, &mut Rng::new(11 + arms as u64)))
             };
-            let mut g = c.benchmark_group(format!("motion/{name}/{arms}arms/{turn}rad"));
+            let mut g = c.benchmark_group(format!("motion/{name}/{arms}arms/{length}rad"));
             for (label, placing) in [("single", Placing::Single), ("batched", Placing::Rake)] {
                 g.bench_function(label, |b| {
                     let cases = cases();
+                    let mut ends = vec![[ArmPose::EMPTY; 2]; arms];
                     let mut i = 0;
                     b.iter(|| {
                         i = (i + 1) % cases.len();
                         let (from, to) = &cases[i];
-                        motion_collides::<M>(&fleet, black_box(from), black_box(to), placing)
+                        let (from, to) = (black_box(from), black_box(to));
+                        motion_collides::<M>(&fleet, from, to, placing, &mut ends)
                     })
                 });
             }
