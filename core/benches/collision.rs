@@ -31,7 +31,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{Rotation3, Vector3};
-use omcbsa_core::collision::{sweeps_collide_posed, ArmLanes, ArmPose, Placing, Sweep};
+use omcbsa_core::collision::{sweeps_collide_posed, ArmLanes, ArmPose, Placing, Scene, Sweep};
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
 use omcbsa_core::lanes::{F64s, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
@@ -141,7 +141,11 @@ impl Fleet {
         let mut hit = 0;
         for ((a, b), q) in arms.iter_mut().zip(&self.bases).zip(qs) {
             a.place_lanes::<M, D>(0, b, &Tool::NONE, q, !hit, u32::MAX);
-            hit |= a.obstacle_hits_boxed((&self.obstacles, &self.boxes), 0.0);
+            hit |= a.obstacle_hits_boxed(&Scene {
+                obstacles: &self.obstacles,
+                boxes: &self.boxes,
+                margin: 0.0,
+            });
             hit |= a.self_hits(0.0);
         }
         for i in 0..arms.len() {

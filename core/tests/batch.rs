@@ -8,7 +8,7 @@ use std::cell::RefCell;
 use std::ops::ControlFlow;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
-use omcbsa_core::collision::{sweeps_collide, ArmLanes, ArmPose, Placing, Sweep};
+use omcbsa_core::collision::{sweeps_collide, ArmLanes, ArmPose, Placing, Scene, Sweep};
 use omcbsa_core::geometry::lanes::Segments;
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Segment, Shape};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
@@ -204,21 +204,20 @@ fn check<M: Model<D>>(c: &Case, seen: &mut Seen) -> Result<(), TestCaseError> {
     prop_assert_eq!(mine.arm_hits_pose(&standing, c.margin), against);
     // Whether any lane hits, of a placed batch and placing it link by link; over every lane
     // and over the first alone (a lane of many hits more often than not).
-    let scene = (c.obstacles.as_slice(), &[][..]);
+    let scene = Scene {
+        obstacles: &c.obstacles,
+        boxes: &[],
+        margin: c.margin,
+    };
     let q: [F64s; D] =
         core::array::from_fn(|j| F64s::new(core::array::from_fn(|k| c.qs[k.min(n - 1)][j])));
     for live in [mine.lanes(), 1] {
         let any = (obstacles | itself) & live != 0;
         let mut placed = mine;
         placed.keep(live);
-        prop_assert_eq!(
-            placed.any_hit(scene, c.margin),
-            any,
-            "any_hit, lanes {:b}",
-            live
-        );
+        prop_assert_eq!(placed.any_hit(&scene), any, "any_hit, lanes {:b}", live);
         let mut progressive = ArmLanes::EMPTY;
-        let hit = progressive.place_any_hit::<M, D>(0, &c.base, &c.tool, &q, live, scene, c.margin);
+        let hit = progressive.place_any_hit::<M, D>(0, &c.base, &c.tool, &q, live, &scene);
         prop_assert_eq!(hit, any, "place_any_hit, lanes {:b}", live);
         if hit {
             prop_assert_eq!(progressive.lanes(), 0);

@@ -38,7 +38,7 @@ use clap::{Parser, Subcommand};
 use omcbsa::error::Errors;
 use omcbsa::format::ObstacleSpec;
 use omcbsa::load;
-use omcbsa_core::collision::{ArmLanes, ArmPose, Placing, Sweep};
+use omcbsa_core::collision::{ArmLanes, ArmPose, Placing, Scene as Surroundings, Sweep};
 use omcbsa_core::geometry::{Aabb, Obstacle};
 use omcbsa_core::lanes::{F64s, Mask, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
@@ -356,7 +356,11 @@ fn run(path: &Path, timer: &Timer) -> Result<()> {
         let collides = |(q, live): &([F64s; D], Mask)| {
             let mut lanes = lanes.borrow_mut();
             lanes.place_lanes::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, u32::MAX);
-            let hit = lanes.obstacle_hits_boxed((obstacles, &boxes), 0.0);
+            let hit = lanes.obstacle_hits_boxed(&Surroundings {
+                obstacles,
+                boxes: &boxes,
+                margin: 0.0,
+            });
             lanes.keep(!hit);
             hit | lanes.self_hits(0.0)
         };
@@ -393,8 +397,12 @@ fn run(path: &Path, timer: &Timer) -> Result<()> {
         || None,
         |(q, live)| {
             let mut lanes = lanes.borrow_mut();
-            let scene = (obstacles, boxes.as_slice());
-            lanes.place_any_hit::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, scene, 0.0)
+            let scene = Surroundings {
+                obstacles,
+                boxes: &boxes,
+                margin: 0.0,
+            };
+            lanes.place_any_hit::<Panda, D>(0, &Frame::IDENTITY, &Tool::NONE, q, *live, &scene)
         },
     );
     for (length, pairs) in &s.motions {

@@ -93,6 +93,19 @@ impl Boxes {
     }
 }
 
+/// The obstacles a batched check keeps the arm clear of, and by how much.
+#[derive(Clone, Copy, Debug)]
+pub struct Scene<'a> {
+    /// The obstacles.
+    pub obstacles: &'a [Obstacle],
+    /// Their boxes made once for many checks, as a planner can for a fixed scene:
+    /// `boxes[n]` is [`Obstacle::aabb`] of `obstacles[n]` (for an obstacle past its end, made
+    /// by each check).
+    pub boxes: &'a [Aabb],
+    /// The least distance kept (m).
+    pub margin: f64,
+}
+
 /// An arm's collision capsules in the world at [`LANES`] configurations: lane `k` of every
 /// field is the [`ArmPose`] of configuration `k`.
 #[derive(Clone, Copy, Debug)]
@@ -204,7 +217,6 @@ impl ArmLanes {
     /// True when some lane hits: then the arm is left part placed, with no lane (no later
     /// check reports anything). False: the arm is placed as `place_lanes` places it, every
     /// lane clear of the obstacles and itself.
-    #[allow(clippy::too_many_arguments)]
     pub fn place_any_hit<M: Models<D>, const D: usize>(
         &mut self,
         model: u8,
@@ -212,8 +224,7 @@ impl ArmLanes {
         tool: &Tool,
         q: &[F64s; D],
         lanes: Mask,
-        scene: (&[Obstacle], &[Aabb]),
-        margin: f64,
+        scene: &Scene<'_>,
     ) -> bool {
         self.begin::<M, D>(model, tool, lanes, u32::MAX);
         let near_base = self.groups.near_base;
@@ -225,7 +236,7 @@ impl ArmLanes {
             let g = usize::from(self.groups.group[i]);
             // A link's checks once its last capsule is placed.
             let last = u32::BITS - self.groups.members[g].leading_zeros() == i as u32 + 1;
-            if last && self.far_group_hits(g, scene, margin) {
+            if last && self.far_group_hits(g, scene) {
                 ControlFlow::Break(())
             } else {
                 ControlFlow::Continue(())
@@ -244,8 +255,8 @@ impl ArmLanes {
                 });
                 let groups = near_base & !1;
                 let around = bits(groups).fold(Boxes::EMPTY, |b, g| b.union(&self.group_boxes[g]));
-                self.self_hits_until(margin, 0, near_base, u32::MAX) != 0
-                    || self.obstacle_hits_until(scene, margin, 0, Some(&around), groups) != 0
+                self.self_hits_until(scene.margin, 0, near_base, u32::MAX) != 0
+                    || self.obstacle_hits_until(scene, 0, Some(&around), groups) != 0
             };
         if hit {
             self.lanes = 0;
@@ -259,11 +270,11 @@ impl ArmLanes {
     /// against the obstacles (unless it is the base link's, in an arm with no link near the
     /// base), then its self-collision pairs with the groups before it not near the base and
     /// itself.
-    fn far_group_hits(&self, g: usize, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
+    fn far_group_hits(&self, g: usize, scene: &Scene<'_>) -> bool {
         let groups = 1 << g;
         let far = !self.groups.near_base;
-        (g != 0 && self.obstacle_hits_until(scene, margin, 0, None, groups) != 0)
-            || self.self_hits_until(margin, 0, far, groups) != 0
+        (g != 0 && self.obstacle_hits_until(scene, 0, None, groups) != 0)
+            || self.self_hits_until(scene.margin, 0, far, groups) != 0
     }
 
     /// The arm's fields of model `model` carrying `tool`, no capsule placed yet (those not
@@ -375,16 +386,19 @@ impl ArmLanes {
     /// The lanes where a capsule off the base link comes closer to an obstacle than
     /// `margin`: [`ArmPose::obstacle_hit`]`.is_some()`, lane by lane.
     pub fn obstacle_hits(&self, obstacles: &[Obstacle], margin: f64) -> Mask {
-        self.obstacle_hits_boxed((obstacles, &[]), margin)
+        let scene = Scene {
+            obstacles,
+            boxes: &[],
+            margin,
+        };
+        self.obstacle_hits_boxed(&scene)
     }
 
-    /// [`ArmLanes::obstacle_hits`] with the obstacles' boxes made once for many calls:
-    /// `boxes[n]` is [`Obstacle::aabb`] of `obstacles[n]` (for an obstacle past its end,
-    /// made here).
-    pub fn obstacle_hits_boxed(&self, scene: (&[Obstacle], &[Aabb]), margin: f64) -> Mask {
+    /// [`ArmLanes::obstacle_hits`] of `scene`, its obstacles' boxes made once for many calls.
+    pub fn obstacle_hits_boxed(&self, scene: &Scene<'_>) -> Mask {
         // The base link's group (0) is never checked against obstacles.
         let groups = self.groups.used & !1;
-        self.obstacle_hits_until(scene, margin, self.lanes, Some(&self.moving_aabb), groups)
+        self.obstacle_hits_until(scene, self.lanes, Some(&self.moving_aabb), groups)
     }
 
     /// The lanes where a self-collision pair comes closer than `margin`:
@@ -393,14 +407,14 @@ impl ArmLanes {
         self.self_hits_until(margin, self.lanes, u32::MAX, u32::MAX)
     }
 
-    /// Whether any lane's configuration comes closer than `margin` to an obstacle or to
-    /// itself: `obstacle_hits(..) | self_hits(..) != 0`, stopping at the first hit.
-    /// The obstacles' boxes as in [`ArmLanes::obstacle_hits_boxed`].
-    pub fn any_hit(&self, scene: (&[Obstacle], &[Aabb]), margin: f64) -> bool {
+    /// Whether any lane's configuration comes closer than the scene's margin to one of its
+    /// obstacles or to itself: `obstacle_hits(..) | self_hits(..) != 0`, stopping at the first
+    /// hit.
+    pub fn any_hit(&self, scene: &Scene<'_>) -> bool {
         let groups = self.groups.used & !1;
         self.lanes != 0
-            && (self.obstacle_hits_until(scene, margin, 0, Some(&self.moving_aabb), groups) != 0
-                || self.self_hits_until(margin, 0, u32::MAX, u32::MAX) != 0)
+            && (self.obstacle_hits_until(scene, 0, Some(&self.moving_aabb), groups) != 0
+                || self.self_hits_until(scene.margin, 0, u32::MAX, u32::MAX) != 0)
     }
 
     /// [`ArmLanes::obstacle_hits`] of the capsules of `groups` (not the base link's), all
@@ -408,8 +422,11 @@ impl ArmLanes {
     /// once every lane does): then some hitting lanes may be missing.
     fn obstacle_hits_until(
         &self,
-        (obstacles, boxes): (&[Obstacle], &[Aabb]),
-        margin: f64,
+        &Scene {
+            obstacles,
+            boxes,
+            margin,
+        }: &Scene<'_>,
         wait: Mask,
         around: Option<&Boxes>,
         groups: u32,

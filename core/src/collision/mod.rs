@@ -53,7 +53,7 @@ mod groups;
 mod pose;
 mod rake;
 
-pub use batch::{ArmLanes, Boxes};
+pub use batch::{ArmLanes, Boxes, Scene};
 use pose::bits;
 pub use pose::{ArmPose, MAX_POSE_CAPSULES};
 pub use rake::Placing;
