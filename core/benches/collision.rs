@@ -20,7 +20,9 @@
 //! - `motion` (1 and 3 arms): a valid composite motion, each arm moving straight in joint space
 //!   by 0.1, 1 or 5 rad of Euclidean joint distance (the length of a motion in VAMP and in
 //!   `docs/bench/collision.md`'s peer scene), in a random direction, within its limits, from
-//!   a collision-free configuration to another, collision-free all along: each arm against
+//!   a collision-free configuration to another, clear of everything by 1 cm at samples at
+//!   most 4 mm apart (a test independent of the check measured, so every version of it is
+//!   timed on the same motions, which it must find free): each arm against
 //!   the obstacles and itself along the motion, and every pair (`sweeps_collide`), as the
 //!   planners check a composite step. `single` places one configuration at a time,
 //!   `batched` (the default placing) a rake of them per call. Both give the same answer
@@ -96,9 +98,6 @@ fn scene(bases: &[Frame]) -> Vec<Obstacle> {
         .collect()
 }
 
-/// Most arms of a bench's problem.
-const MAX_ARMS: usize = 6;
-
 /// A problem's arms and scene.
 struct Fleet {
     bases: Vec<Frame>,
@@ -126,14 +125,27 @@ impl Fleet {
 
     /// Whether the composite configuration collides: one configuration at a time.
     fn collides<M: Model<D>>(&self, qs: &[[f64; D]], poses: &mut [ArmPose]) -> bool {
+        self.closer_than::<M>(qs, poses, 0.0)
+    }
+
+    /// Whether some part of the composite configuration is within `clearance` of an obstacle,
+    /// another part of its arm it may hit, or another arm.
+    fn closer_than<M: Model<D>>(
+        &self,
+        qs: &[[f64; D]],
+        poses: &mut [ArmPose],
+        clearance: f64,
+    ) -> bool {
         for ((p, b), q) in poses.iter_mut().zip(&self.bases).zip(qs) {
             p.place::<M, D>(0, b, &Tool::NONE, q);
-            if p.obstacle_hit(&self.obstacles, 0.0).is_some() || p.self_hit(0.0).is_some() {
+            if p.obstacle_hit(&self.obstacles, clearance).is_some()
+                || p.self_hit(clearance).is_some()
+            {
                 return true;
             }
         }
         (0..poses.len())
-            .any(|i| (i + 1..poses.len()).any(|k| poses[i].arm_hit(&poses[k], 0.0).is_some()))
+            .any(|i| (i + 1..poses.len()).any(|k| poses[i].arm_hit(&poses[k], clearance).is_some()))
     }
 
     /// Which of [`LANES`] composite configurations (`qs[arm][lane]`) collide, a lane bit each.
@@ -392,10 +404,23 @@ fn motion_collides<M: Model<D>>(
     placing: Placing,
     ends: &mut [[ArmPose; 2]],
 ) -> bool {
-    let n = fleet.bases.len();
-    let sweep: [Sweep<M, D>; MAX_ARMS] = core::array::from_fn(|i| {
-        let (a, b) = (&from[i.min(n - 1)], &to[i.min(n - 1)]);
-        Sweep::new(0, &Tool::NONE, a, b, MOTION_STEP).with_placing(placing)
+    match fleet.bases.len() {
+        1 => arms_collide::<M, 1>(fleet, from, to, placing, ends),
+        3 => arms_collide::<M, 3>(fleet, from, to, placing, ends),
+        n => unreachable!("motions of {n} arms are not measured"),
+    }
+}
+
+/// [`motion_collides`] for `N` arms, their sweeps kept on the stack as a planner keeps them.
+fn arms_collide<M: Model<D>, const N: usize>(
+    fleet: &Fleet,
+    from: &[[f64; D]],
+    to: &[[f64; D]],
+    placing: Placing,
+    ends: &mut [[ArmPose; 2]],
+) -> bool {
+    let sweep: [Sweep<M, D>; N] = core::array::from_fn(|i| {
+        Sweep::new(0, &Tool::NONE, &from[i], &to[i], MOTION_STEP).with_placing(placing)
     });
     for (i, (e, b)) in ends.iter_mut().zip(&fleet.bases).enumerate() {
         e[0].place::<M, D>(0, b, &Tool::NONE, &from[i]);
@@ -403,11 +428,11 @@ fn motion_collides<M: Model<D>>(
     }
     let ends = &*ends;
     let posed = |i: usize| [&ends[i][0], &ends[i][1]];
-    if (0..n).any(|i| sweep[i].arm_collides_posed(&fleet.bases[i], &fleet.obstacles, posed(i))) {
+    if (0..N).any(|i| sweep[i].arm_collides_posed(&fleet.bases[i], &fleet.obstacles, posed(i))) {
         return true;
     }
-    (0..n).any(|i| {
-        (i + 1..n).any(|k| {
+    (0..N).any(|i| {
+        (i + 1..N).any(|k| {
             let (b, c) = (&fleet.bases[i], &fleet.bases[k]);
             sweeps_collide_posed(&sweep[i], b, posed(i), &sweep[k], c, posed(k))
         })
@@ -419,10 +444,33 @@ type Motion = (Vec<[f64; D]>, Vec<[f64; D]>);
 
 /// Composite motions drawn per length.
 const MOTIONS: usize = CASES / 4;
+/// How far apart a drawn motion is sampled, at most, by any point's travel.
+const DRAWN_STEP: f64 = 0.004;
+/// How far a drawn motion clears everything at its samples.
+const DRAWN_CLEARANCE: f64 = 0.01;
+
+/// Whether the composite motion `from -> to` clears everything by [`DRAWN_CLEARANCE`] at
+/// samples [`DRAWN_STEP`] apart, ends included.
+fn clear_sampled<M: Model<D>>(fleet: &Fleet, from: &[[f64; D]], to: &[[f64; D]]) -> bool {
+    let mut poses = fleet.poses::<M>(from);
+    let sweeps: Vec<Sweep<M, D>> = (from.iter().zip(to))
+        .map(|(a, b)| Sweep::new(0, &Tool::NONE, a, b, DRAWN_STEP))
+        .collect();
+    let pieces = sweeps.iter().map(Sweep::count).max().unwrap_or(1);
+    (0..=pieces).all(|k| {
+        let s = k as f64 / pieces as f64;
+        let qs: Vec<[f64; D]> = sweeps.iter().map(|w| w.at(s)).collect();
+        !fleet.closer_than::<M>(&qs, &mut poses, DRAWN_CLEARANCE)
+    })
+}
 
 /// `MOTIONS` collision-free composite motions from collision-free configurations: each arm
 /// moves `length` rad of Euclidean joint distance, straight, in a random direction (uniform
-/// per joint in `-1..1`, scaled to the length), staying within its limits.
+/// per joint in `-1..1`, scaled to the length), staying within its limits. A motion is kept
+/// when every arm clears everything by [`DRAWN_CLEARANCE`] at placings no point of it moves
+/// more than [`DRAWN_STEP`] between: a test that does not depend on the motion check under
+/// measure, so every version of the check is timed on the same motions (the check must then
+/// find each one clear, asserted: by its margin, at most half of [`MOTION_STEP`]).
 fn motions<M: Model<D>>(fleet: &Fleet, length: f64, rng: &mut Rng) -> Vec<Motion> {
     let (lo, hi) = (M::LOWER.map(|l| l.max(-3.1)), M::UPPER.map(|u| u.min(3.1)));
     let within = |q: &[f64; D]| (0..D).all(|j| (lo[j]..=hi[j]).contains(&q[j]));
@@ -445,9 +493,14 @@ fn motions<M: Model<D>>(fleet: &Fleet, length: f64, rng: &mut Rng) -> Vec<Motion
             let Some(to) = from.iter().map(&mut step).collect::<Option<Vec<_>>>() else {
                 break;
             };
-            if !fleet.collides::<M>(&to, &mut poses)
-                && !motion_collides::<M>(fleet, &from, &to, Placing::Single, &mut ends)
-            {
+            if clear_sampled::<M>(fleet, &from, &to) {
+                assert!(!motion_collides::<M>(
+                    fleet,
+                    &from,
+                    &to,
+                    Placing::Single,
+                    &mut ends
+                ));
                 out.push((from, to));
                 break;
             }

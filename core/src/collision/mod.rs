@@ -49,12 +49,13 @@
 use core::marker::PhantomData;
 
 mod batch;
+mod cull;
 mod groups;
 mod pose;
 mod rake;
 
 pub use batch::{ArmLanes, Boxes, Scene};
-use pose::bits;
+use pose::{bits, bits64};
 pub use pose::{ArmPose, MAX_POSE_CAPSULES};
 pub use rake::Placing;
 use rake::Rake;
@@ -159,27 +160,40 @@ impl<M: Models<D>, const D: usize> Copy for Sweep<M, D> {}
 /// capsule `j` of the other (or of the same arm).
 type Pairs = [u32; MAX_POSE_CAPSULES];
 
-/// What one arm's motion may still hit: capsules that may meet an obstacle, and self pairs.
+/// What one arm's motion may still hit: per capsule, the obstacles it may meet (bit `k`: the
+/// `k`-th of the obstacles near the motion), and self pairs.
 #[derive(Clone, Copy)]
 struct Suspects {
-    obstacles: u32,
+    /// The capsules with some obstacle in question: the rows of `obstacles` that are set.
+    near: u32,
+    obstacles: [u64; MAX_POSE_CAPSULES],
     pairs: Pairs,
 }
 
+// The obstacles near a motion are kept as bit sets.
+const _: () = assert!(MAX_OBSTACLES <= u64::BITS as usize);
+
 impl Suspects {
     const NONE: Suspects = Suspects {
-        obstacles: 0,
+        near: 0,
+        obstacles: [0; MAX_POSE_CAPSULES],
         pairs: [0; MAX_POSE_CAPSULES],
     };
 
     fn any(&self) -> bool {
-        self.obstacles != 0 || self.pairs.iter().any(|&r| r != 0)
+        self.near != 0 || self.pairs.iter().any(|&r| r != 0)
     }
 
     /// The capsules in question.
     fn capsules(&self) -> u32 {
         let (rows, columns) = rows_and_columns(&self.pairs);
-        self.obstacles | rows | columns
+        self.near | rows | columns
+    }
+
+    /// Obstacle `k` stays in question for capsule `i`.
+    fn keep_obstacle(&mut self, i: usize, k: usize) {
+        self.near |= 1 << i;
+        self.obstacles[i] |= 1 << k;
     }
 }
 
@@ -359,49 +373,80 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         ends: [&ArmPose; 2],
     ) -> bool {
         let [e0, e1] = ends;
-        // The obstacles the moving capsules may reach at all, with their boxes.
+        // The obstacles the moving capsules may reach at all, with their boxes: a point's
+        // distances from where it is at the two ends add up to at most the motion's length, so
+        // it stays within half that of one end or the other.
         let moving = e0.moving_aabb.union(&e1.moving_aabb);
         let near: heapless::Vec<(&Obstacle, Aabb), MAX_OBSTACLES> = obstacles
             .iter()
             .map(|o| (o, o.aabb()))
-            .filter(|(_, ob)| ob.near(&moving, self.length))
+            .filter(|(_, ob)| ob.near(&moving, 0.5 * self.length))
             .collect();
+        let boxes = cull::NearBoxes::new(near.iter().map(|(_, b)| b));
         let mut all = Suspects::NONE;
         if !near.is_empty() {
-            all.obstacles = (0..e0.len)
-                .filter(|&i| !e0.on_base(i))
-                .fold(0, |m, i| m | 1 << i);
+            for i in (0..e0.len).filter(|&i| !e0.on_base(i)) {
+                all.near |= 1 << i;
+                all.obstacles[i] = boxes.all();
+            }
         }
-        // Each self pair's travel, computed once for every part of the motion.
-        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
         for (a, b) in e0.self_pairs() {
             all.pairs[a] |= 1 << b;
-            pair_travel[a][b] = self.pair_travel(a, b);
         }
+        // Each self pair's travel, computed once for every part of the motion, for the pairs
+        // that the capsules' own reaches leave in question (`known`).
+        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
+        let mut known: Pairs = [0; MAX_POSE_CAPSULES];
         let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
             let ends = [ends[0][0], ends[1][0]];
             let reach = self.reaches_over(ends, width, sus.capsules());
             let mut left = Suspects::NONE;
-            for i in bits(sus.obstacles) {
-                let mut contact = near
-                    .iter()
-                    .map(|(o, ob)| obstacle_contact_over(o, ob, ends, i, reach[i]));
-                match contact
-                    .find(|&c| c != Contact::Clear)
-                    .unwrap_or(Contact::Clear)
-                {
-                    Contact::Touch => return Found::Touch,
-                    Contact::Near => left.obstacles |= 1 << i,
-                    Contact::Clear => {}
+            for i in bits(sus.near) {
+                let at = [&ends[0].boxes[i], &ends[1].boxes[i]];
+                let mut reachable = bits64(boxes.reachable(sus.obstacles[i], at, reach[i]));
+                for k in reachable.by_ref() {
+                    let (o, ob) = &near[k];
+                    match obstacle_contact_over(o, ob, ends, i, reach[i]) {
+                        Contact::Touch => return Found::Touch,
+                        Contact::Near => {
+                            left.keep_obstacle(i, k);
+                            break;
+                        }
+                        Contact::Clear => {}
+                    }
+                }
+                // The capsule is split on anyway: the others its box leaves in reach are
+                // kept untested, for the halves to tell (an obstacle it touches at this
+                // part's end it touches at the half's).
+                for k in reachable {
+                    left.keep_obstacle(i, k);
                 }
             }
             for (a, &row) in sus.pairs.iter().enumerate() {
-                for b in bits(row) {
-                    let t = (pair_travel[a][b] * width).min(reach[a] + reach[b]);
-                    match ArmPose::pair_contact_over(ends, a, ends, b, t) {
+                let mut others = bits(row);
+                for b in others.by_ref() {
+                    let relative = || {
+                        if known[a] & 1 << b == 0 {
+                            pair_travel[a][b] = self.pair_travel(a, b);
+                            known[a] |= 1 << b;
+                        }
+                        pair_travel[a][b] * width
+                    };
+                    let t = reach[a] + reach[b];
+                    match ArmPose::pair_contact_within(ends, a, ends, b, t, relative) {
                         Contact::Touch => return Found::Touch,
-                        Contact::Near => left.pairs[a] |= 1 << b,
+                        Contact::Near => {
+                            left.pairs[a] |= 1 << b;
+                            break;
+                        }
                         Contact::Clear => {}
+                    }
+                }
+                // As for the obstacles: the rest of the row its boxes leave in question is
+                // kept for the halves, untested.
+                for b in others {
+                    if !ArmPose::boxes_apart(ends, a, ends, b, reach[a] + reach[b]) {
+                        left.pairs[a] |= 1 << b;
                     }
                 }
             }
@@ -518,11 +563,23 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         );
         let mut left: Pairs = [0; MAX_POSE_CAPSULES];
         for (i, &row) in pairs.iter().enumerate() {
-            for j in bits(row) {
+            let mut columns = bits(row);
+            for j in columns.by_ref() {
                 match ArmPose::pair_contact_over(a_at, i, b_at, j, ra[i] + rb[j]) {
                     Contact::Touch => return Found::Touch,
-                    Contact::Near => left[i] |= 1 << j,
+                    Contact::Near => {
+                        left[i] |= 1 << j;
+                        break;
+                    }
                     Contact::Clear => {}
+                }
+            }
+            // The capsule is split on anyway: the rest of its row that the boxes leave in
+            // question is kept for the halves, untested (a touch at this part's end is one
+            // at a half's).
+            for j in columns {
+                if !ArmPose::boxes_apart(a_at, i, b_at, j, ra[i] + rb[j]) {
+                    left[i] |= 1 << j;
                 }
             }
         }

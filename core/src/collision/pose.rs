@@ -232,19 +232,47 @@ impl ArmPose {
         j: usize,
         travel: f64,
     ) -> Contact {
-        let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
-        if gap(0) + gap(1) > travel {
+        Self::pair_contact_within(ends, i, other, j, travel, || travel)
+    }
+
+    /// [`ArmPose::pair_contact_over`] for the smaller of two bounds on the travel: `travel`,
+    /// and `tighter()`, computed only for a pair that the first leaves in question.
+    #[inline]
+    pub(super) fn pair_contact_within(
+        ends: [&ArmPose; 2],
+        i: usize,
+        other: [&ArmPose; 2],
+        j: usize,
+        travel: f64,
+        tighter: impl FnOnce() -> f64,
+    ) -> Contact {
+        if Self::boxes_apart(ends, i, other, j, travel) {
             return Contact::Clear;
         }
         let clearance = |k: usize| ends[k].capsules[i].signed_distance(&other[k].capsules[j]);
         let (c0, c1) = (clearance(0), clearance(1));
         if c0 < 0.0 || c1 < 0.0 {
             Contact::Touch
-        } else if c0 + c1 > travel {
+        } else if c0 + c1 > travel || c0 + c1 > tighter() {
             Contact::Clear
         } else {
             Contact::Near
         }
+    }
+
+    /// Whether the boxes of capsule `i` of the arm at `ends` and of capsule `j` of `other`
+    /// are farther apart at the two ends, added up, than `travel`: the first test of
+    /// [`ArmPose::pair_contact_over`], which rules contact out.
+    #[inline]
+    pub(super) fn boxes_apart(
+        ends: [&ArmPose; 2],
+        i: usize,
+        other: [&ArmPose; 2],
+        j: usize,
+        travel: f64,
+    ) -> bool {
+        let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
+        gap(0) + gap(1) > travel
     }
 
     /// The first pair of capsules (this arm's, the other's), base links included, closer
@@ -321,7 +349,12 @@ pub(super) fn at_origin(base: &Frame) -> bool {
 }
 
 /// The indices of the set bits of `m`, lowest first.
-pub(super) fn bits(mut m: u32) -> impl Iterator<Item = usize> {
+pub(super) fn bits(m: u32) -> impl Iterator<Item = usize> {
+    bits64(u64::from(m))
+}
+
+/// The indices of the set bits of `m`, lowest first.
+pub(super) fn bits64(mut m: u64) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
         (m != 0).then(|| {
             let i = m.trailing_zeros() as usize;
