@@ -157,8 +157,46 @@ impl<M: Models<D>, const D: usize> Clone for Sweep<M, D> {
 impl<M: Models<D>, const D: usize> Copy for Sweep<M, D> {}
 
 /// Capsule pairs still in question: bit `j` of row `i` stands for capsule `i` of one arm and
-/// capsule `j` of the other (or of the same arm).
-type Pairs = [u32; MAX_POSE_CAPSULES];
+/// capsule `j` of the other (or of the same arm). Which rows are not empty is kept too, so
+/// that a check over a few pairs reads only their rows.
+#[derive(Clone, Copy)]
+struct Pairs {
+    rows: u32,
+    row: [u32; MAX_POSE_CAPSULES],
+}
+
+impl Pairs {
+    const NONE: Pairs = Pairs {
+        rows: 0,
+        row: [0; MAX_POSE_CAPSULES],
+    };
+
+    fn insert(&mut self, i: usize, j: usize) {
+        self.rows |= 1 << i;
+        self.row[i] |= 1 << j;
+    }
+
+    /// Row `i` becomes `row`.
+    fn set_row(&mut self, i: usize, row: u32) {
+        self.rows = self.rows & !(1 << i) | u32::from(row != 0) << i;
+        self.row[i] = row;
+    }
+
+    fn any(&self) -> bool {
+        self.rows != 0
+    }
+
+    /// The rows that are not empty, with their columns.
+    fn rows(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        bits(self.rows).map(|i| (i, self.row[i]))
+    }
+
+    /// The capsules of each side still in some pair: the rows that are not empty, and the
+    /// columns set in any row.
+    fn sides(&self) -> (u32, u32) {
+        (self.rows, self.rows().fold(0, |c, (_, row)| c | row))
+    }
+}
 
 /// What one arm's motion may still hit: per capsule, the obstacles it may meet (bit `k`: the
 /// `k`-th of the obstacles near the motion), and self pairs.
@@ -177,16 +215,16 @@ impl Suspects {
     const NONE: Suspects = Suspects {
         near: 0,
         obstacles: [0; MAX_POSE_CAPSULES],
-        pairs: [0; MAX_POSE_CAPSULES],
+        pairs: Pairs::NONE,
     };
 
     fn any(&self) -> bool {
-        self.near != 0 || self.pairs.iter().any(|&r| r != 0)
+        self.near != 0 || self.pairs.any()
     }
 
     /// The capsules in question.
     fn capsules(&self) -> u32 {
-        let (rows, columns) = rows_and_columns(&self.pairs);
+        let (rows, columns) = self.pairs.sides();
         self.near | rows | columns
     }
 
@@ -195,15 +233,6 @@ impl Suspects {
         self.near |= 1 << i;
         self.obstacles[i] |= 1 << k;
     }
-}
-
-/// The capsules of each side still in some pair: the rows that are not empty, and the
-/// columns set in any row.
-fn rows_and_columns(pairs: &Pairs) -> (u32, u32) {
-    let live = pairs.iter().enumerate().filter(|(_, &row)| row != 0);
-    live.fold((0, 0), |(rows, columns), (i, &row)| {
-        (rows | 1 << i, columns | row)
-    })
 }
 
 impl<M: Models<D>, const D: usize> Sweep<M, D> {
@@ -266,7 +295,12 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         let mut reach = [0.0; MAX_POSE_CAPSULES];
         for i in bits(of) {
             let (c0, c1) = (&ends[0].capsules[i].segment, &ends[1].capsules[i].segment);
-            let chord = (c1.a - c0.a).norm().max((c1.b - c0.b).norm());
+            // One root for the two ends' (the root is monotone: the same as two).
+            let chord = libm::sqrt(
+                (c1.a - c0.a)
+                    .norm_squared()
+                    .max((c1.b - c0.b).norm_squared()),
+            );
             let straight = chord + 2.0 * self.bow[i] * width * width;
             let travel = self.travel[i] * width;
             reach[i] = if straight < travel { straight } else { travel };
@@ -391,12 +425,12 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
         }
         for (a, b) in e0.self_pairs() {
-            all.pairs[a] |= 1 << b;
+            all.pairs.insert(a, b);
         }
         // Each self pair's travel, computed once for every part of the motion, for the pairs
         // that the capsules' own reaches leave in question (`known`).
         let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
-        let mut known: Pairs = [0; MAX_POSE_CAPSULES];
+        let mut known = [0u32; MAX_POSE_CAPSULES];
         let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
             let ends = [ends[0][0], ends[1][0]];
             let reach = self.reaches_over(ends, width, sus.capsules());
@@ -422,7 +456,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                     left.keep_obstacle(i, k);
                 }
             }
-            for (a, &row) in sus.pairs.iter().enumerate() {
+            for (a, row) in sus.pairs.rows() {
                 let mut others = bits(row);
                 for b in others.by_ref() {
                     let relative = || {
@@ -436,7 +470,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                     match ArmPose::pair_contact_within(ends, a, ends, b, t, relative) {
                         Contact::Touch => return Found::Touch,
                         Contact::Near => {
-                            left.pairs[a] |= 1 << b;
+                            left.pairs.insert(a, b);
                             break;
                         }
                         Contact::Clear => {}
@@ -446,7 +480,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 // kept for the halves, untested.
                 for b in others {
                     if !ArmPose::boxes_apart(ends, a, ends, b, reach[a] + reach[b]) {
-                        left.pairs[a] |= 1 << b;
+                        left.pairs.insert(a, b);
                     }
                 }
             }
@@ -548,7 +582,7 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         b.dq.iter().all(|&d| d == 0.0),
     );
     let check = &mut |ends: [[&ArmPose; 2]; 2], width: f64, pairs: &Pairs| {
-        let (rows, columns) = rows_and_columns(pairs);
+        let (rows, columns) = pairs.sides();
         let a_at = [
             if a_still { a0 } else { ends[0][0] },
             if a_still { a0 } else { ends[1][0] },
@@ -561,14 +595,14 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
             a.reaches_over(a_at, width, rows),
             b.reaches_over(b_at, width, columns),
         );
-        let mut left: Pairs = [0; MAX_POSE_CAPSULES];
-        for (i, &row) in pairs.iter().enumerate() {
+        let mut left = Pairs::NONE;
+        for (i, row) in pairs.rows() {
             let mut columns = bits(row);
             for j in columns.by_ref() {
                 match ArmPose::pair_contact_over(a_at, i, b_at, j, ra[i] + rb[j]) {
                     Contact::Touch => return Found::Touch,
                     Contact::Near => {
-                        left[i] |= 1 << j;
+                        left.insert(i, j);
                         break;
                     }
                     Contact::Clear => {}
@@ -579,14 +613,14 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
             // at a half's).
             for j in columns {
                 if !ArmPose::boxes_apart(a_at, i, b_at, j, ra[i] + rb[j]) {
-                    left[i] |= 1 << j;
+                    left.insert(i, j);
                 }
             }
         }
-        Found::left(left.iter().any(|&r| r != 0), left)
+        Found::left(left.any(), left)
     };
     let place = |s: f64, pairs: &Pairs, at: &mut [ArmPose; 2]| {
-        let (rows, columns) = rows_and_columns(pairs);
+        let (rows, columns) = pairs.sides();
         if !a_still {
             at[0].place_only::<A, DA>(a.model, base_a, &a.tool, &a.at(s), rows);
         }
@@ -595,7 +629,7 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         }
     };
     let rake = |s: F64s, pairs: &Pairs, rakes: &mut [Rake; 2]| {
-        let (rows, columns) = rows_and_columns(pairs);
+        let (rows, columns) = pairs.sides();
         if !a_still {
             rakes[0].place::<A, DA>(&a.moving(base_a), s, rows);
         }
@@ -604,7 +638,7 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         }
     };
     let pose = |rakes: &[Rake; 2], k: usize, pairs: &Pairs, at: &mut [ArmPose; 2]| {
-        let (rows, columns) = rows_and_columns(pairs);
+        let (rows, columns) = pairs.sides();
         if !a_still {
             rakes[0].pose(k, rows, a0, &mut at[0]);
         }
@@ -613,12 +647,10 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         }
     };
     // The rows and columns the filter above keeps, as the pairs in question.
-    let mut all: Pairs = [0; MAX_POSE_CAPSULES];
+    let mut all = Pairs::NONE;
     if columns != 0 {
-        for (i, row) in all.iter_mut().enumerate().take(a0.len) {
-            if near_other(a_ends, i, b_ends, ra[i] + b_far) {
-                *row = columns;
-            }
+        for i in (0..a0.len).filter(|&i| near_other(a_ends, i, b_ends, ra[i] + b_far)) {
+            all.set_row(i, columns);
         }
     }
     let ends = [[a_ends[0], b_ends[0]], [a_ends[1], b_ends[1]]];

@@ -105,19 +105,21 @@ impl ArmPose {
         let mut frames = [Frame::IDENTITY; MAX_LINK_FRAMES];
         let linked = &mut frames[..M::link_names(model).len()];
         let tool_frame = M::link_frames(model, q, linked);
-        // Into the world once per link, not once per capsule; not at all for an arm whose
-        // base frame is the world's (composing with the identity changes at most the sign
-        // of a zero).
+        let capsules = M::capsules(model);
+        let links = capsules.len();
+        // Into the world once per link that carries a capsule placed, not once per capsule;
+        // not at all for an arm whose base frame is the world's (composing with the identity
+        // changes at most the sign of a zero).
         let flange = if at_origin(base) {
             tool_frame
         } else {
-            for f in linked.iter_mut() {
-                *f = base.compose(f);
+            let carried =
+                bits(only & ((1 << links) - 1)).fold(0u32, |m, i| m | 1 << capsules[i].link);
+            for l in bits(carried) {
+                linked[l] = base.compose(&linked[l]);
             }
             base.compose(&tool_frame)
         };
-        let capsules = M::capsules(model);
-        let links = capsules.len();
         self.len = links + tool.capsules().len();
         self.links = links;
         self.self_pairs = M::self_pairs(model);
