@@ -228,10 +228,10 @@ impl Suspects {
         self.near | rows | columns
     }
 
-    /// Obstacle `k` stays in question for capsule `i`.
-    fn keep_obstacle(&mut self, i: usize, k: usize) {
-        self.near |= 1 << i;
-        self.obstacles[i] |= 1 << k;
+    /// The obstacles `kept` (bit `k`: obstacle `k`) stay in question for capsule `i`.
+    fn set_obstacles(&mut self, i: usize, kept: u64) {
+        self.near = self.near & !(1 << i) | u32::from(kept != 0) << i;
+        self.obstacles[i] = kept;
     }
 }
 
@@ -437,28 +437,16 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             let mut left = Suspects::NONE;
             for i in bits(sus.near) {
                 let at = [&ends[0].boxes[i], &ends[1].boxes[i]];
-                let mut reachable = bits64(boxes.reachable(sus.obstacles[i], at, reach[i]));
-                for k in reachable.by_ref() {
-                    let (o, ob) = &near[k];
-                    match obstacle_contact_over(o, ob, ends, i, reach[i]) {
-                        Contact::Touch => return Found::Touch,
-                        Contact::Near => {
-                            left.keep_obstacle(i, k);
-                            break;
-                        }
-                        Contact::Clear => {}
-                    }
-                }
-                // The capsule is split on anyway: the others its box leaves in reach are
-                // kept untested, for the halves to tell (an obstacle it touches at this
-                // part's end it touches at the half's).
-                for k in reachable {
-                    left.keep_obstacle(i, k);
-                }
+                let reachable = bits64(boxes.reachable(sus.obstacles[i], at, reach[i]));
+                let contact =
+                    |k: usize| obstacle_contact_over(near[k].0, &near[k].1, ends, i, reach[i]);
+                let Some(kept) = still_in_question(reachable, contact, |_| true) else {
+                    return Found::Touch;
+                };
+                left.set_obstacles(i, kept);
             }
             for (a, row) in sus.pairs.rows() {
-                let mut others = bits(row);
-                for b in others.by_ref() {
+                let contact = |b: usize| {
                     let relative = || {
                         if known[a] & 1 << b == 0 {
                             pair_travel[a][b] = self.pair_travel(a, b);
@@ -467,22 +455,13 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                         pair_travel[a][b] * width
                     };
                     let t = reach[a] + reach[b];
-                    match ArmPose::pair_contact_within(ends, a, ends, b, t, relative) {
-                        Contact::Touch => return Found::Touch,
-                        Contact::Near => {
-                            left.pairs.insert(a, b);
-                            break;
-                        }
-                        Contact::Clear => {}
-                    }
-                }
-                // As for the obstacles: the rest of the row its boxes leave in question is
-                // kept for the halves, untested.
-                for b in others {
-                    if !ArmPose::boxes_apart(ends, a, ends, b, reach[a] + reach[b]) {
-                        left.pairs.insert(a, b);
-                    }
-                }
+                    ArmPose::pair_contact_within(ends, a, ends, b, t, relative)
+                };
+                let boxed = |b: usize| !ArmPose::boxes_apart(ends, a, ends, b, reach[a] + reach[b]);
+                let Some(kept) = still_in_question(bits(row), contact, boxed) else {
+                    return Found::Touch;
+                };
+                left.pairs.set_row(a, kept as u32);
             }
             Found::left(left.any(), left)
         };
@@ -514,6 +493,29 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
         }
     }
+}
+
+/// Which of one capsule's `candidates` (obstacles, or the other capsules of its pairs) stay
+/// in question over a part of a motion, as a bit set: `contact` tests them in order up to the
+/// first that stays in question (`Near`); the capsule is then split on anyway, so that one
+/// and the rest that the cheap `in_reach` leaves in question are kept, untested, for the
+/// halves to tell (a touch at this part's end is a touch at a half's). `None`: a touch.
+fn still_in_question(
+    mut candidates: impl Iterator<Item = usize>,
+    mut contact: impl FnMut(usize) -> Contact,
+    mut in_reach: impl FnMut(usize) -> bool,
+) -> Option<u64> {
+    for k in candidates.by_ref() {
+        match contact(k) {
+            Contact::Touch => return None,
+            Contact::Near => {
+                let rest = candidates.filter(|&j| in_reach(j));
+                return Some(rest.fold(1 << k, |kept, j| kept | 1 << j));
+            }
+            Contact::Clear => {}
+        }
+    }
+    Some(0)
 }
 
 /// Whether capsule `i` of the arm at `ends` may meet obstacle `o` (its box `ob`) while its
@@ -597,25 +599,12 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
         );
         let mut left = Pairs::NONE;
         for (i, row) in pairs.rows() {
-            let mut columns = bits(row);
-            for j in columns.by_ref() {
-                match ArmPose::pair_contact_over(a_at, i, b_at, j, ra[i] + rb[j]) {
-                    Contact::Touch => return Found::Touch,
-                    Contact::Near => {
-                        left.insert(i, j);
-                        break;
-                    }
-                    Contact::Clear => {}
-                }
-            }
-            // The capsule is split on anyway: the rest of its row that the boxes leave in
-            // question is kept for the halves, untested (a touch at this part's end is one
-            // at a half's).
-            for j in columns {
-                if !ArmPose::boxes_apart(a_at, i, b_at, j, ra[i] + rb[j]) {
-                    left.insert(i, j);
-                }
-            }
+            let contact = |j: usize| ArmPose::pair_contact_over(a_at, i, b_at, j, ra[i] + rb[j]);
+            let boxed = |j: usize| !ArmPose::boxes_apart(a_at, i, b_at, j, ra[i] + rb[j]);
+            let Some(kept) = still_in_question(bits(row), contact, boxed) else {
+                return Found::Touch;
+            };
+            left.set_row(i, kept as u32);
         }
         Found::left(left.any(), left)
     };
