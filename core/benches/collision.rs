@@ -33,7 +33,9 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{Rotation3, Vector3};
-use omcbsa_core::collision::{sweeps_collide_posed, ArmLanes, ArmPose, Placing, Scene, Sweep};
+use omcbsa_core::collision::{
+    sweeps_collide_posed, ArmLanes, ArmPose, Obstacles, Placing, Scene, Sweep,
+};
 use omcbsa_core::geometry::{Aabb, Capsule, Obstacle, Shape};
 use omcbsa_core::lanes::{F64s, LANES};
 use omcbsa_core::model::{Frame, FrankaPanda, KinovaGen3, Model};
@@ -101,17 +103,21 @@ fn scene(bases: &[Frame]) -> Vec<Obstacle> {
 /// A problem's arms and scene.
 struct Fleet {
     bases: Vec<Frame>,
-    obstacles: Vec<Obstacle>,
-    /// The obstacles' boxes, made once as a planner makes them.
+    /// Kept for the whole run (leaked), as a planner keeps a problem's.
+    obstacles: &'static [Obstacle],
+    /// The obstacles' boxes, made once as a planner makes them: for configurations, and in
+    /// lanes for motions.
     boxes: Vec<Aabb>,
+    scene: Obstacles<'static>,
 }
 
 impl Fleet {
     fn new(arms: usize) -> Fleet {
         let bases = bases(arms);
-        let obstacles = scene(&bases);
+        let obstacles: &'static [Obstacle] = scene(&bases).leak();
         Fleet {
             boxes: obstacles.iter().map(Obstacle::aabb).collect(),
+            scene: Obstacles::new(obstacles).expect("at most MAX_OBSTACLES obstacles"),
             obstacles,
             bases,
         }
@@ -138,7 +144,7 @@ impl Fleet {
     ) -> bool {
         for ((p, b), q) in poses.iter_mut().zip(&self.bases).zip(qs) {
             p.place::<M, D>(0, b, &Tool::NONE, q);
-            if p.obstacle_hit(&self.obstacles, clearance).is_some()
+            if p.obstacle_hit(self.obstacles, clearance).is_some()
                 || p.self_hit(clearance).is_some()
             {
                 return true;
@@ -154,7 +160,7 @@ impl Fleet {
         for ((a, b), q) in arms.iter_mut().zip(&self.bases).zip(qs) {
             a.place_lanes::<M, D>(0, b, &Tool::NONE, q, !hit, u32::MAX);
             hit |= a.obstacle_hits_boxed(&Scene {
-                obstacles: &self.obstacles,
+                obstacles: self.obstacles,
                 boxes: &self.boxes,
                 margin: 0.0,
             });
@@ -189,8 +195,9 @@ fn composite<M: Model<D>>(
     for n in 1..=fleet.bases.len() {
         let part = Fleet {
             bases: fleet.bases[..n].to_vec(),
-            obstacles: fleet.obstacles.clone(),
+            obstacles: fleet.obstacles,
             boxes: fleet.boxes.clone(),
+            scene: fleet.scene,
         };
         let q = (0..10_000).map(|_| config::<M>(rng)).find(|q| {
             qs.push(*q);
@@ -344,7 +351,7 @@ fn fk<M: Model<D>>(c: &mut Criterion, name: &str) {
 fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
     for arms in [1, 2, 3, 6] {
         let fleet = Fleet::new(arms);
-        let scene = parry_scene(&fleet.obstacles);
+        let scene = parry_scene(fleet.obstacles);
         for free in [false, true] {
             // Drawn once, when a benchmark of the group first runs (not at all when filtered
             // out: collision-free configurations of six arms take a while to find).
@@ -428,7 +435,8 @@ fn arms_collide<M: Model<D>, const N: usize>(
     }
     let ends = &*ends;
     let posed = |i: usize| [&ends[i][0], &ends[i][1]];
-    if (0..N).any(|i| sweep[i].arm_collides_posed(&fleet.bases[i], &fleet.obstacles, posed(i))) {
+    let obstacles = &fleet.scene;
+    if (0..N).any(|i| sweep[i].arm_collides_among(&fleet.bases[i], obstacles, posed(i))) {
         return true;
     }
     (0..N).any(|i| {

@@ -47,7 +47,7 @@
 
 use nalgebra::Vector3;
 
-use crate::collision::{sweeps_collide_posed, ArmPose, Sweep};
+use crate::collision::{sweeps_collide_posed, ArmPose, Obstacles, Sweep};
 use crate::geometry::Obstacle;
 use crate::model::{Frame, Models};
 use crate::tool::Tool;
@@ -105,15 +105,16 @@ pub fn motion_is_free<M: Models<D>, const D: usize>(
     !m.sweep::<M>(max_step).arm_collides(m.base, obstacles)
 }
 
-/// [`motion_is_free`] for a caller that already placed the arm at both ends of the step.
+/// [`motion_is_free`] for a caller that already placed the arm at both ends of the step, among
+/// obstacles whose boxes it made once for many checks.
 pub fn motion_is_free_posed<M: Models<D>, const D: usize>(
     m: &ArmMotion<'_, D>,
     ends: [&ArmPose; 2],
-    obstacles: &[Obstacle],
+    obstacles: &Obstacles<'_>,
     max_step: f64,
 ) -> bool {
     !m.sweep::<M>(max_step)
-        .arm_collides_posed(m.base, obstacles, ends)
+        .arm_collides_among(m.base, obstacles, ends)
 }
 
 /// Whether two arms' simultaneous motions come too close (see

@@ -3,7 +3,7 @@
 //! composite motion moves every arm along its straight joint-space segment at the same pace,
 //! so a piece of it is again a composite motion (what the time parametrisation relies on).
 
-use crate::collision::ArmPose;
+use crate::collision::{ArmPose, Obstacles};
 use crate::model::{Frame, Models};
 use crate::motion::{motion_is_free_posed, motions_collide_posed, ArmMotion};
 use crate::problem::{Problem, MAX_ROBOTS};
@@ -65,6 +65,8 @@ pub(crate) struct Fleet<'p, M, const D: usize> {
 /// What a [`Fleet`] checks, without its scratch.
 struct Arms<'p, M, const D: usize> {
     problem: &'p Problem<D>,
+    /// The problem's obstacles with their boxes, for the motion checks.
+    obstacles: Obstacles<'p>,
     n: usize,
     active: [bool; MAX_ROBOTS],
     motion_step: f64,
@@ -186,6 +188,7 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
         let n = problem.robots.len();
         Arms {
             problem,
+            obstacles: Obstacles::from(&problem.obstacles),
             n,
             active: core::array::from_fn(|i| i < n),
             motion_step,
@@ -394,7 +397,7 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
         !motion_is_free_posed::<M, D>(
             &self.motion(r, from, to),
             [&ends[0], &ends[1]],
-            &self.problem.obstacles,
+            &self.obstacles,
             self.motion_step,
         )
     }
@@ -439,7 +442,7 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
             core::array::from_fn(|i| i < self.n && self.active[i] && a[i] != b[i]);
         let ends = |i: usize| [self.at(placed, i, 0), self.at(placed, i, 1)];
         let motion = |i: usize| self.motion(i, &a[i], &b[i]);
-        let obstacles = &self.problem.obstacles;
+        let obstacles = &self.obstacles;
         for i in (0..self.n).filter(|&i| moving[i]) {
             if !motion_is_free_posed::<M, D>(&motion(i), ends(i), obstacles, self.motion_step) {
                 return Some((i, None));

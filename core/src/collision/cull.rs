@@ -1,14 +1,68 @@
-//! The obstacles near a motion, their boxes kept [`LANES`] to a batch ([`Boxes`]), so that a
-//! motion check rules most of them out for a capsule over a part of the motion in a few SIMD
-//! operations ([`NearBoxes::reachable`]) before it runs its exact tests on the few left.
+//! A scene's obstacles with their boxes kept [`LANES`] to a batch ([`Boxes`]), made once for
+//! many motion checks ([`Obstacles`]), so that a check rules most of them out for a capsule
+//! over a part of a motion in a few SIMD operations ([`NearBoxes::reachable`]) before it runs
+//! its exact tests on the few left.
 
 use super::batch::Boxes;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Obstacle};
 use crate::lanes::{lt, F64s, LANES};
 use crate::problem::MAX_OBSTACLES;
 
+/// The obstacles motion checks keep an arm clear of ([`super::Sweep::arm_collides_among`]),
+/// with their boxes in lanes: made once for a fixed scene (a problem's obstacles), as a
+/// planner checks many motions among them. About 6 KB.
+#[derive(Clone, Copy)]
+pub struct Obstacles<'a> {
+    pub(super) shapes: &'a [Obstacle],
+    /// Per obstacle, its box, for the exact tests that follow the culling.
+    pub(super) aabbs: [Aabb; MAX_OBSTACLES],
+    pub(super) boxes: NearBoxes,
+}
+
+impl<'a> Obstacles<'a> {
+    /// `shapes` with their boxes; `None` for more than [`MAX_OBSTACLES`] of them (a
+    /// problem's never are).
+    pub fn new(shapes: &'a [Obstacle]) -> Option<Obstacles<'a>> {
+        (shapes.len() <= MAX_OBSTACLES).then(|| Obstacles::of(shapes))
+    }
+
+    /// `shapes`, at most [`MAX_OBSTACLES`] of them.
+    fn of(shapes: &'a [Obstacle]) -> Obstacles<'a> {
+        let mut aabbs = [Aabb::EMPTY; MAX_OBSTACLES];
+        for (b, o) in aabbs.iter_mut().zip(shapes) {
+            *b = o.aabb();
+        }
+        Obstacles {
+            shapes,
+            aabbs,
+            boxes: NearBoxes::new(aabbs.into_iter().take(shapes.len())),
+        }
+    }
+
+    /// The obstacles.
+    pub fn shapes(&self) -> &'a [Obstacle] {
+        self.shapes
+    }
+}
+
+/// A problem's obstacles, never more than [`MAX_OBSTACLES`].
+impl<'a> From<&'a heapless::Vec<Obstacle, MAX_OBSTACLES>> for Obstacles<'a> {
+    fn from(shapes: &'a heapless::Vec<Obstacle, MAX_OBSTACLES>) -> Self {
+        Obstacles::of(shapes)
+    }
+}
+
+impl core::fmt::Debug for Obstacles<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Obstacles")
+            .field("shapes", &self.shapes)
+            .finish()
+    }
+}
+
 /// Batches of obstacle boxes: obstacle `k` in lane `k % LANES` of batch `k / LANES`; lanes
 /// past the last obstacle hold [`Aabb::EMPTY`], infinitely far from everything.
+#[derive(Clone, Copy)]
 pub(super) struct NearBoxes {
     batches: [Boxes; MAX_OBSTACLES / LANES],
     len: usize,
@@ -18,7 +72,7 @@ const _: () = assert!(MAX_OBSTACLES.is_multiple_of(LANES));
 
 impl NearBoxes {
     /// The boxes, at most [`MAX_OBSTACLES`] of them.
-    pub(super) fn new<'a>(boxes: impl Iterator<Item = &'a Aabb>) -> NearBoxes {
+    pub(super) fn new(boxes: impl Iterator<Item = Aabb>) -> NearBoxes {
         let mut near = NearBoxes {
             batches: [Boxes::EMPTY; MAX_OBSTACLES / LANES],
             len: 0,

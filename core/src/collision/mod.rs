@@ -55,6 +55,7 @@ mod pose;
 mod rake;
 
 pub use batch::{ArmLanes, Boxes, Scene};
+pub use cull::Obstacles;
 use pose::{bits, bits64};
 pub use pose::{ArmPose, MAX_POSE_CAPSULES};
 pub use rake::Placing;
@@ -69,6 +70,9 @@ use crate::tool::Tool;
 pub use crate::model::{MAX_ARM_CAPSULES, MAX_LINK_FRAMES};
 /// Most configurations a [`Sweep`] checks; beyond that its margin grows instead.
 pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
+/// Longest motion (m, its [`Sweep::length`]) that [`Sweep::arm_collides`] checks as a whole
+/// before it splits it: a longer one it splits at once, at its middle.
+pub const WHOLE_CHECK_LENGTH: f64 = 0.5;
 
 /// A straight joint-space motion of model `M` from `q0` to `q1`, split into `count` equal
 /// pieces. Moving joint `j` by `dq` moves no link point by more than `REACH[j] * |dq|`, so
@@ -82,7 +86,9 @@ pub const MAX_SWEEP_CHECKS: usize = 1 << 16;
 /// two placings of the arm: clearance falls by at most the distance the pair's points travel
 /// towards each other, from either end, so a pair whose clearances at the two ends add up to
 /// more than that cannot meet in between and is dropped. First over the whole motion, from
-/// its ends; the pairs left are checked on its halves (one more placing, at the middle), then
+/// its ends (for one arm's own motion only up to [`WHOLE_CHECK_LENGTH`]: a longer one almost
+/// never clears as a whole, and its halves would test again all it left in question); the
+/// pairs left are checked on its halves (one more placing, at the middle), then
 /// on the halves' halves where that fails, for those pairs alone, down to half pieces. A
 /// motion is reported as colliding when a pair meets at a placing, or fails over a half
 /// piece: then both are within half that piece's travel at one of its ends, a piece's
@@ -393,44 +399,41 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             .sum()
     }
 
-    /// Whether the arm may hit an obstacle or itself anywhere along the motion.
+    /// Whether the arm may hit an obstacle or itself anywhere along the motion. More than
+    /// [`MAX_OBSTACLES`] obstacles are not checked: the answer is then that it may.
     pub fn arm_collides(&self, base: &Frame, obstacles: &[Obstacle]) -> bool {
         let [e0, e1] = self.ends(base);
-        self.arm_collides_posed(base, obstacles, [&e0, &e1])
+        let Some(obstacles) = Obstacles::new(obstacles) else {
+            return true;
+        };
+        self.arm_collides_among(base, &obstacles, [&e0, &e1])
     }
 
-    /// [`Sweep::arm_collides`] for a caller that already placed the arm at both ends.
-    pub fn arm_collides_posed(
+    /// [`Sweep::arm_collides`] for a caller that already placed the arm at both ends, among
+    /// obstacles whose boxes it made once for many checks.
+    pub fn arm_collides_among(
         &self,
         base: &Frame,
-        obstacles: &[Obstacle],
+        obstacles: &Obstacles<'_>,
         ends: [&ArmPose; 2],
     ) -> bool {
         let [e0, e1] = ends;
-        // The obstacles the moving capsules may reach at all, with their boxes: a point's
-        // distances from where it is at the two ends add up to at most the motion's length, so
-        // it stays within half that of one end or the other.
-        let moving = e0.moving_aabb.union(&e1.moving_aabb);
-        let near: heapless::Vec<(&Obstacle, Aabb), MAX_OBSTACLES> = obstacles
-            .iter()
-            .map(|o| (o, o.aabb()))
-            .filter(|(_, ob)| ob.near(&moving, 0.5 * self.length))
-            .collect();
-        let boxes = cull::NearBoxes::new(near.iter().map(|(_, b)| b));
+        let (shapes, aabbs, boxes) = (obstacles.shapes, &obstacles.aabbs, &obstacles.boxes);
+        // The obstacles the moving capsules may reach at all: a point's distances from where
+        // it is at the two ends add up to at most the motion's length, so it stays within half
+        // that of one end or the other.
+        let moving = [&e0.moving_aabb, &e1.moving_aabb];
+        let near = boxes.reachable(boxes.all(), moving, self.length);
         let mut all = Suspects::NONE;
-        if !near.is_empty() {
+        if near != 0 {
             for i in (0..e0.len).filter(|&i| !e0.on_base(i)) {
                 all.near |= 1 << i;
-                all.obstacles[i] = boxes.all();
+                all.obstacles[i] = near;
             }
         }
         for (a, b) in e0.self_pairs() {
             all.pairs.insert(a, b);
         }
-        // Each self pair's travel, computed once for every part of the motion, for the pairs
-        // that the capsules' own reaches leave in question (`known`).
-        let mut pair_travel = [[0.0; MAX_POSE_CAPSULES]; MAX_POSE_CAPSULES];
-        let mut known = [0u32; MAX_POSE_CAPSULES];
         let check = &mut |ends: [[&ArmPose; 1]; 2], width: f64, sus: &Suspects| {
             let ends = [ends[0][0], ends[1][0]];
             let reach = self.reaches_over(ends, width, sus.capsules());
@@ -439,7 +442,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
                 let at = [&ends[0].boxes[i], &ends[1].boxes[i]];
                 let reachable = bits64(boxes.reachable(sus.obstacles[i], at, reach[i]));
                 let contact =
-                    |k: usize| obstacle_contact_over(near[k].0, &near[k].1, ends, i, reach[i]);
+                    |k: usize| obstacle_contact_over(&shapes[k], &aabbs[k], ends, i, reach[i]);
                 let Some(kept) = still_in_question(reachable, contact, |_| true) else {
                     return Found::Touch;
                 };
@@ -447,13 +450,7 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
             for (a, row) in sus.pairs.rows() {
                 let contact = |b: usize| {
-                    let relative = || {
-                        if known[a] & 1 << b == 0 {
-                            pair_travel[a][b] = self.pair_travel(a, b);
-                            known[a] |= 1 << b;
-                        }
-                        pair_travel[a][b] * width
-                    };
+                    let relative = || self.pair_travel(a, b) * width;
                     let t = reach[a] + reach[b];
                     ArmPose::pair_contact_within(ends, a, ends, b, t, relative)
                 };
@@ -465,10 +462,19 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
             }
             Found::left(left.any(), left)
         };
-        let left = match check([[e0], [e1]], 1.0, &all) {
-            Found::Clear => return false,
-            Found::Touch => return true,
-            Found::Suspects(left) => left,
+        // A long motion is split before it is checked at all: checked whole, it almost never
+        // clears (its capsules' reach covers more than the clearances of a work cell), and its
+        // halves would test again all that it leaves in question.
+        let left = if !all.any() {
+            return false;
+        } else if self.length > WHOLE_CHECK_LENGTH {
+            all
+        } else {
+            match check([[e0], [e1]], 1.0, &all) {
+                Found::Clear => return false,
+                Found::Touch => return true,
+                Found::Suspects(left) => left,
+            }
         };
         let halves = 2 * self.count;
         let ends = [[e0], [e1]];

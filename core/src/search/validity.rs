@@ -3,7 +3,7 @@
 
 use core::cell::RefCell;
 
-use crate::collision::{ArmLanes, ArmPose};
+use crate::collision::{ArmLanes, ArmPose, Obstacles};
 use crate::geometry::Obstacle;
 use crate::lanes::{lanes_of, F64s, Mask, LANES, WIDE};
 use crate::model::{Frame, Models};
@@ -64,7 +64,10 @@ pub struct Validity<'q, M, const D: usize> {
     /// What the robot carries.
     pub tool: Tool,
     /// The fixed obstacles.
-    pub obstacles: &'q [Obstacle],
+    obstacles: &'q [Obstacle],
+    /// The same with their boxes for motion checks (`None` past [`crate::problem::MAX_OBSTACLES`]: every
+    /// motion is then refused).
+    scene: Option<Obstacles<'q>>,
     /// The other robots' paths (fewer than [`MAX_ROBOTS`], each covering every step asked
     /// about: a shorter one panics).
     pub others: &'q [OtherArm<'q, D>],
@@ -106,6 +109,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             base: robot.base,
             tool: robot.tool,
             obstacles,
+            scene: Obstacles::new(obstacles),
             others: &[],
             others_mode: OthersMode::Avoid,
             points: &[],
@@ -118,6 +122,11 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             batch: RefCell::new(ArmLanes::EMPTY),
             _model: core::marker::PhantomData,
         }
+    }
+
+    /// The fixed obstacles.
+    pub fn obstacles(&self) -> &'q [Obstacle] {
+        self.obstacles
     }
 
     /// The same checker with the other robots' paths, avoided or counted (`mode`).
@@ -312,7 +321,8 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             from: a,
             to: b,
         };
-        if !motion_is_free_posed::<M, D>(&me, ends, self.obstacles, self.motion_step) {
+        let scene = self.scene.as_ref()?;
+        if !motion_is_free_posed::<M, D>(&me, ends, scene, self.motion_step) {
             return None;
         }
         for pc in self.points {
