@@ -124,9 +124,9 @@ impl ArmPose {
         self.links = links;
         self.self_pairs = M::self_pairs(model);
         self.tool_self = M::tool_self_capsules(model);
-        self.on_base = 0;
-        self.aabb = Aabb::EMPTY;
-        self.moving_aabb = Aabb::EMPTY;
+        // The boxes around the arm gathered in locals and stored once: updated in place, each
+        // capsule's would wait on the last one's store.
+        let (mut all, mut moving, mut on_base) = (Aabb::EMPTY, Aabb::EMPTY, 0);
         let placed = capsules
             .iter()
             .map(|c| (frames[usize::from(c.link)], c.a, c.b, c.radius))
@@ -141,13 +141,14 @@ impl ArmPose {
             let aabb = capsule.aabb();
             self.capsules[i] = capsule;
             self.boxes[i] = aabb;
-            self.aabb = self.aabb.union(&aabb);
+            all = all.union(&aabb);
             if i < links && capsules[i].link == 0 {
-                self.on_base |= 1 << i;
+                on_base |= 1 << i;
             } else {
-                self.moving_aabb = self.moving_aabb.union(&aabb);
+                moving = moving.union(&aabb);
             }
         }
+        (self.aabb, self.moving_aabb, self.on_base) = (all, moving, on_base);
     }
 
     /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
