@@ -534,7 +534,7 @@ fn obstacle_contact_over(
     i: usize,
     travel: f64,
 ) -> Contact {
-    if ob.distance(&ends[0].boxes[i]) + ob.distance(&ends[1].boxes[i]) > travel {
+    if Aabb::apart_over([ob, ob], [&ends[0].boxes[i], &ends[1].boxes[i]], travel) {
         return Contact::Clear;
     }
     let d0 = o.distance_to_capsule(&ends[0].capsules[i]);
@@ -576,8 +576,8 @@ pub fn sweeps_collide_posed<A: Models<DA>, const DA: usize, B: Models<DB>, const
     // each pair's, taken once per capsule, which leaves out most rows and columns of pairs
     // of two arms working side by side.
     let near_other = |ends: [&ArmPose; 2], i: usize, other: [&ArmPose; 2], travel: f64| {
-        ends[0].boxes[i].distance(&other[0].aabb) + ends[1].boxes[i].distance(&other[1].aabb)
-            <= travel
+        let at = [&ends[0].boxes[i], &ends[1].boxes[i]];
+        !Aabb::apart_over(at, [&other[0].aabb, &other[1].aabb], travel)
     };
     let (ra, rb) = (a.reaches(a_ends), b.reaches(b_ends));
     let (a_far, b_far) = (farthest(&ra), farthest(&rb));

@@ -274,8 +274,8 @@ impl ArmPose {
         j: usize,
         travel: f64,
     ) -> bool {
-        let gap = |k: usize| ends[k].boxes[i].distance(&other[k].boxes[j]);
-        gap(0) + gap(1) > travel
+        let (a, b) = (&ends.map(|e| &e.boxes[i]), &other.map(|e| &e.boxes[j]));
+        Aabb::apart_over(*a, *b, travel)
     }
 
     /// The first pair of capsules (this arm's, the other's), base links included, closer

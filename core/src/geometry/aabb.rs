@@ -47,13 +47,28 @@ impl Aabb {
     /// between any two shapes inside them.
     #[inline]
     pub fn distance(&self, other: &Aabb) -> f64 {
+        libm::sqrt(self.distance2(other))
+    }
+
+    /// [`Aabb::distance`] squared.
+    #[inline]
+    pub fn distance2(&self, other: &Aabb) -> f64 {
         let gap = |i: usize| {
             (other.min[i] - self.max[i])
                 .max(self.min[i] - other.max[i])
                 .max(0.0)
         };
         let (x, y, z) = (gap(0), gap(1), gap(2));
-        libm::sqrt(x * x + y * y + z * z)
+        x * x + y * y + z * z
+    }
+
+    /// Whether the distances between `a[0]` and `b[0]` and between `a[1]` and `b[1]` add up
+    /// to more than `limit`: as that sum, computed with two roots only where the sum is at
+    /// least the root of the squares' sum does not already tell (most boxes far apart).
+    #[inline]
+    pub fn apart_over(a: [&Aabb; 2], b: [&Aabb; 2], limit: f64) -> bool {
+        let (d0, d1) = (a[0].distance2(b[0]), a[1].distance2(b[1]));
+        d0 + d1 > limit * limit || libm::sqrt(d0) + libm::sqrt(d1) > limit
     }
 
     /// Whether `p` lies in the box, boundary included.
