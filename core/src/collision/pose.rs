@@ -127,26 +127,33 @@ impl ArmPose {
         // The boxes around the arm gathered in locals and stored once: updated in place, each
         // capsule's would wait on the last one's store.
         let (mut all, mut moving, mut on_base) = (Aabb::EMPTY, Aabb::EMPTY, 0);
-        let placed = capsules
-            .iter()
-            .map(|c| (frames[usize::from(c.link)], c.a, c.b, c.radius))
-            .chain((tool.capsules().iter()).map(|c| (flange, c.a, c.b, c.radius)));
-        for (i, (frame, a, b, radius)) in placed.enumerate() {
-            if only & (1 << i) == 0 {
-                self.capsules[i] = ArmPose::EMPTY.capsules[0];
-                self.boxes[i] = Aabb::EMPTY;
-                continue;
-            }
-            let capsule = Capsule::new(frame.apply(&a.into()), frame.apply(&b.into()), radius);
-            let aabb = capsule.aabb();
-            self.capsules[i] = capsule;
-            self.boxes[i] = aabb;
+        let placed = |frame: &Frame, a: &[f64; 3], b: &[f64; 3], radius: f64| {
+            let capsule =
+                Capsule::new(frame.apply(&(*a).into()), frame.apply(&(*b).into()), radius);
+            (capsule, capsule.aabb())
+        };
+        for i in bits(only & ((1 << links) - 1)) {
+            let c = &capsules[i];
+            let (capsule, aabb) = placed(&frames[usize::from(c.link)], &c.a, &c.b, c.radius);
+            (self.capsules[i], self.boxes[i]) = (capsule, aabb);
             all = all.union(&aabb);
-            if i < links && capsules[i].link == 0 {
+            if c.link == 0 {
                 on_base |= 1 << i;
             } else {
                 moving = moving.union(&aabb);
             }
+        }
+        for (k, c) in tool.capsules().iter().enumerate() {
+            if only & (1 << (links + k)) != 0 {
+                let (capsule, aabb) = placed(&flange, &c.a, &c.b, c.radius);
+                (self.capsules[links + k], self.boxes[links + k]) = (capsule, aabb);
+                all = all.union(&aabb);
+                moving = moving.union(&aabb);
+            }
+        }
+        for i in bits(!only & ((1u64 << self.len) - 1) as u32) {
+            self.capsules[i] = ArmPose::EMPTY.capsules[0];
+            self.boxes[i] = Aabb::EMPTY;
         }
         (self.aabb, self.moving_aabb, self.on_base) = (all, moving, on_base);
     }
