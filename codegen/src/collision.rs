@@ -4,7 +4,7 @@
 use serde::Deserialize;
 
 use crate::chain::{Chain, Motion};
-use crate::transform::{norm, Vec3};
+use crate::transform::{dot, norm, Vec3};
 use crate::Error;
 
 /// The collision file: `{"model", "capsules": [{"link", "a", "b", "radius"}], "disabled_pairs"}`.
@@ -48,6 +48,8 @@ pub struct Geometry {
     pub tool_self_capsules: Vec<u8>,
     /// Per actuated joint; see [`tool_reach`].
     pub tool_reach: Vec<f64>,
+    /// Per actuated joint; see [`axis_cos`].
+    pub axis_cos: Vec<f64>,
 }
 
 /// `file` is `(name for messages, JSON text)`; without one the model has no capsules.
@@ -61,6 +63,7 @@ pub fn geometry(chain: &Chain, model: &str, file: Option<(&str, &str)>) -> Resul
     let capsule_reach = capsule_reach(chain, &capsules);
     let tool_self_capsules = tool_self_capsules(chain, &capsules);
     let tool_reach = tool_reach(chain);
+    let axis_cos = axis_cos(chain);
     Ok(Geometry {
         capsules,
         self_pairs,
@@ -68,6 +71,7 @@ pub fn geometry(chain: &Chain, model: &str, file: Option<(&str, &str)>) -> Resul
         capsule_reach,
         tool_self_capsules,
         tool_reach,
+        axis_cos,
     })
 }
 
@@ -263,6 +267,38 @@ fn tool_reach(chain: &Chain) -> Vec<f64> {
     row
 }
 
+/// Per actuated joint `k`, a bound on `|cos|` of the angle between its axis and the axis of
+/// the actuated joint before it: only fixed joints lie between the two, so one rigid body
+/// carries both axes and the angle is the same in every configuration. 1 (no bound) for the
+/// first joint and next to a prismatic one. Rounded up, so that the core's bounds on how far a
+/// motion bows stay bounds.
+fn axis_cos(chain: &Chain) -> Vec<f64> {
+    let mut out = Vec::new();
+    // The previous revolute joint's axis, in the frame of the link the walk has reached.
+    let mut previous: Option<Vec3> = None;
+    for joint in &chain.joints {
+        let rot = &joint.origin.rot;
+        match joint.motion {
+            Motion::Fixed => {
+                // Into the child frame: the transpose of the origin's rotation.
+                previous =
+                    previous.map(|a| [0, 1, 2].map(|j| (0..3).map(|i| rot[i][j] * a[i]).sum()));
+            }
+            Motion::Revolute { axis } => {
+                let here = joint.origin.rotate(axis);
+                out.push(previous.map_or(1.0, |a| (dot(a, here).abs() + 1e-9).min(1.0)));
+                // The axis is the same in the child frame, whatever the joint's angle.
+                previous = Some(axis);
+            }
+            Motion::Prismatic { .. } => {
+                out.push(1.0);
+                previous = None;
+            }
+        }
+    }
+    out
+}
+
 /// Farthest point of a capsule from its link's origin.
 fn capsule_extent(c: &Capsule) -> f64 {
     norm(c.a).max(norm(c.b)) + c.radius
@@ -280,6 +316,8 @@ fn joint_offset(joint: &crate::chain::Joint) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::FRAC_PI_3;
+
     use super::*;
     use crate::chain::Joint;
     use crate::transform::Transform;
@@ -345,5 +383,25 @@ mod tests {
             assert!((r - e).abs() < 1e-12, "{reach:?}");
         }
         assert_eq!(reach.len(), 4);
+    }
+
+    /// Consecutive axes at a fixed angle, carried through a fixed joint's rotation; no bound
+    /// for the first joint nor across a prismatic one.
+    #[test]
+    fn axis_cosines_follow_the_rigid_links_between_joints() {
+        let mut chain = chain();
+        assert_eq!(axis_cos(&chain), [1.0, 1.0, 1.0, 1.0]);
+        // The fixed joint turns the next frame by 60 degrees about x: r2's z axis meets r1's
+        // at 60 degrees.
+        chain.joints[1].origin = Transform::from_xyz_rpy([2.0, 0.0, 0.0], [FRAC_PI_3, 0.0, 0.0]);
+        let cos = axis_cos(&chain);
+        assert!((cos[1] - 0.5).abs() < 1e-8 && cos[1] >= 0.5, "{cos:?}");
+        // r2 about x, turned as above: its axis stays perpendicular to r1's z.
+        chain.joints[2].motion = Motion::Revolute {
+            axis: [1.0, 0.0, 0.0],
+        };
+        let cos = axis_cos(&chain);
+        assert!(cos[1] < 1e-8, "{cos:?}");
+        assert_eq!((cos[0], cos[2], cos[3]), (1.0, 1.0, 1.0));
     }
 }

@@ -660,6 +660,11 @@ pub fn model(
         "    const TOOL_REACH: [f64; {d}] = [{}];",
         list(&geometry.tool_reach, |&r| limit(r))
     );
+    let _ = writeln!(
+        w,
+        "    const AXIS_COS: [f64; {d}] = [{}];",
+        list(&geometry.axis_cos, |&c| lit(c))
+    );
     let _ = writeln!(w);
     let links = chain.links.len();
     let _ = writeln!(

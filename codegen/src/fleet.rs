@@ -5,7 +5,7 @@
 use std::fmt::Write;
 
 /// One `Models` function: its name, its parameters after `id: u8` and its return type.
-const QUERIES: [(&str, &str, &str); 18] = [
+const QUERIES: [(&str, &str, &str); 19] = [
     ("name", "", "&'static str"),
     ("link_names", "", "&'static [&'static str]"),
     ("joint_names", "", "&'static [&'static str; D]"),
@@ -19,6 +19,7 @@ const QUERIES: [(&str, &str, &str); 18] = [
     ("capsule_reach", "", "&'static [[f64; D]]"),
     ("tool_self_capsules", "", "&'static [u8]"),
     ("tool_reach", "", "&'static [f64; D]"),
+    ("axis_cos", "", "&'static [f64; D]"),
     ("fk", "q: &[f64; D]", "crate::model::Frame"),
     (
         "link_frames",

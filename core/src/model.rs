@@ -346,6 +346,12 @@ pub trait Model<const D: usize>: 'static {
     /// ([`Model::REACH`] bounds it too): a tool point `r` from that origin moves at most
     /// `(TOOL_REACH[j] + r) * |dq|` when joint `j` moves by `dq`.
     const TOOL_REACH: [f64; D] = Self::REACH;
+    /// For each joint `k`, a bound on `|cos|` of the angle between its axis and joint
+    /// `k - 1`'s, the same in every configuration when only a rigid link lies between them
+    /// (0 for the perpendicular axes of most arms): it tightens the bound on how far a
+    /// straight joint-space motion bows. 1 (no bound) for joint 0, next to a prismatic joint,
+    /// and by default.
+    const AXIS_COS: [f64; D] = [1.0; D];
 
     /// Pose of the tool frame in the base frame.
     fn fk(q: &[f64; D]) -> Frame;
@@ -443,6 +449,8 @@ pub trait Models<const D: usize>: 'static {
     fn tool_self_capsules(id: u8) -> &'static [u8];
     /// [`Model::TOOL_REACH`] of model `id`.
     fn tool_reach(id: u8) -> &'static [f64; D];
+    /// [`Model::AXIS_COS`] of model `id`.
+    fn axis_cos(id: u8) -> &'static [f64; D];
     /// [`Model::fk`] of model `id`.
     fn fk(id: u8, q: &[f64; D]) -> Frame;
     /// [`Model::link_frames`] of model `id`.
@@ -508,6 +516,9 @@ impl<M: Model<D>, const D: usize> Models<D> for M {
     }
     fn tool_reach(_: u8) -> &'static [f64; D] {
         &M::TOOL_REACH
+    }
+    fn axis_cos(_: u8) -> &'static [f64; D] {
+        &M::AXIS_COS
     }
     #[inline]
     fn fk(_: u8, q: &[f64; D]) -> Frame {

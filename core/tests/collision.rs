@@ -372,11 +372,28 @@ fn reaches_bound_how_far_capsules_stray<MM: Model<DD>, const DD: usize>(seed: u6
         let reach = sweep.reaches([&start, &end]);
         let n = start.capsules().len();
         let mut worst = vec![0.0f64; n];
+        let ends = |p: &ArmPose, i: usize| [p.capsules()[i].segment.a, p.capsules()[i].segment.b];
+        // Where the chord-and-bow bound is the reach, the bow it adds twice.
+        let bow: Vec<Option<f64>> = (0..n)
+            .map(|i| {
+                let (first, last) = (ends(&start, i), ends(&end, i));
+                let chord = (0..2)
+                    .map(|e| (last[e] - first[e]).norm())
+                    .fold(0.0, f64::max);
+                (reach[i] < sweep.travel(i) - 1e-12).then(|| 0.5 * (reach[i] - chord))
+            })
+            .collect();
         for k in 1..100 {
-            let arm = at(k as f64 / 100.0);
+            let s = k as f64 / 100.0;
+            let arm = at(s);
             for i in 0..n {
-                let ends = |p: &ArmPose| [p.capsules()[i].segment.a, p.capsules()[i].segment.b];
-                let (now, first, last) = (ends(&arm), ends(&start), ends(&end));
+                let (now, first, last) = (ends(&arm, i), ends(&start, i), ends(&end, i));
+                if let Some(bow) = bow[i] {
+                    for e in 0..2 {
+                        let off = (now[e] - first[e].lerp(&last[e], s)).norm();
+                        assert!(off <= bow + 1e-9, "capsule {i} bows {off} > {bow} at {s}");
+                    }
+                }
                 for e in 0..2 {
                     let away = (now[e] - first[e]).norm() + (now[e] - last[e]).norm();
                     assert!(

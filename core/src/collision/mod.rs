@@ -252,9 +252,10 @@ impl<M: Models<D>, const D: usize> Sweep<M, D> {
         let arm_length = moved(M::reach(model));
         let (mut travel, mut bows) = ([0.0; MAX_POSE_CAPSULES], [0.0; MAX_POSE_CAPSULES]);
         let links = M::capsules(model).len();
+        let rates = turn_rates(&dq, M::axis_cos(model));
         for i in 0..links + tool.capsules().len() {
             (travel[i], bows[i]) = match capsule_reach::<M, D>(model, tool, i) {
-                Some(reach) => (moved(&reach), bow(&reach, &dq)),
+                Some(reach) => (moved(&reach), bow(&reach, &rates)),
                 None => (arm_length, f64::INFINITY),
             };
         }
@@ -693,24 +694,37 @@ fn farthest(bounds: &[f64; MAX_POSE_CAPSULES]) -> f64 {
     bounds.iter().fold(0.0, |m, &t| if t > m { t } else { m })
 }
 
-/// How far a point strays from the straight line between where it is at the two ends of the
-/// joint-space motion `dq`, for a point that joint `m` moves at most `reach[m]` per radian (or
-/// metre) of it ([`capsule_reach`], 0 for joints that do not carry it). The point's
-/// distance from that line is at most an eighth of its largest acceleration along the
-/// motion; its second derivative by joints `j` and `k` of a serial chain is at most the
-/// reach of the later of the two (for revolute joints: a turn of the earlier one turns the
-/// later one's velocity field, or the later one turns the point about its axis; for
-/// prismatic ones a unit vector turns, and their reach is 1), so the acceleration is at most
-/// `sum_jk reach[max(j, k)] |dq_j| |dq_k|`. Quadratic in the motion: small for short ones.
-fn bow<const D: usize>(reach: &[f64; D], dq: &[f64; D]) -> f64 {
-    let mut before = 0.0;
-    let mut acceleration = 0.0;
-    for (r, d) in reach.iter().zip(dq) {
-        let d = libm::fabs(*d);
-        acceleration += r * d * (d + 2.0 * before);
-        before += d;
+/// How far a point strays from the straight line between where it is at the two ends of a
+/// joint-space motion, for a point that joint `k` moves at most `reach[k]` per radian (or
+/// metre) of it ([`capsule_reach`], 0 for joints that do not carry it), `rates` the motion's
+/// [`turn_rates`]: at most an eighth of the point's largest acceleration along the motion,
+/// which is at most `sum_k reach[k] rates[k]`. Quadratic in the motion: small for short ones.
+fn bow<const D: usize>(reach: &[f64; D], rates: &[f64; D]) -> f64 {
+    reach.iter().zip(rates).map(|(r, m)| r * m).sum::<f64>() / 8.0
+}
+
+/// Per joint `k`, a bound on `|dq_k| |dq_k w_k + 2 W_k|` along the joint-space motion `dq`,
+/// `w_k` the unit vector of joint `k`'s axis (0 for a prismatic joint) and `W_k = sum_j<k dq_j
+/// w_j` the angular velocity the joints before it give its link. A point's acceleration along
+/// the motion is `sum_k (dq_k w_k + 2 W_k) x v_k`, `v_k` the velocity joint `k` gives it, at
+/// most `reach[k] |dq_k|` long (the second derivative of a serial chain by joints `j <= k` is
+/// `w_j x (w_k x r_k)`; for a prismatic joint its unit vector turns), so `sum_k reach[k]
+/// rates[k]` bounds it. `|dq_k w_k + 2 W_k|^2` is bounded term by term: consecutive axes
+/// meet at a fixed angle (`cos`, [`crate::model::Model::AXIS_COS`]), the others at any
+/// (`|w_i . w_j| <= 1`); with `cos` all 1 the bound is `|dq_k| + 2 sum_j<k |dq_j|`.
+fn turn_rates<const D: usize>(dq: &[f64; D], cos: &[f64; D]) -> [f64; D] {
+    let mut rates = [0.0; D];
+    // Bound on |W_k|^2; sum_j<k-1 |dq_j|; |dq_k-1|.
+    let (mut turn2, mut earlier, mut last) = (0.0, 0.0, 0.0);
+    for k in 0..D {
+        let d = libm::fabs(dq[k]);
+        // Bound on |w_k . W_k|.
+        let along = last * cos[k] + earlier;
+        rates[k] = d * libm::sqrt(d * d + 4.0 * d * along + 4.0 * turn2);
+        turn2 += d * d + 2.0 * d * along;
+        (earlier, last) = (earlier + last, d);
     }
-    acceleration / 8.0
+    rates
 }
 
 /// What one check of [`refine`] found over a part of the motion, from its two ends.

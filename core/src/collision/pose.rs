@@ -126,7 +126,7 @@ impl ArmPose {
         self.tool_self = M::tool_self_capsules(model);
         // The boxes around the arm gathered in locals and stored once: updated in place, each
         // capsule's would wait on the last one's store.
-        let (mut all, mut moving, mut on_base) = (Aabb::EMPTY, Aabb::EMPTY, 0);
+        let (mut still, mut moving, mut on_base) = (Aabb::EMPTY, Aabb::EMPTY, 0);
         let placed = |frame: &Frame, a: &[f64; 3], b: &[f64; 3], radius: f64| {
             let capsule =
                 Capsule::new(frame.apply(&(*a).into()), frame.apply(&(*b).into()), radius);
@@ -136,9 +136,9 @@ impl ArmPose {
             let c = &capsules[i];
             let (capsule, aabb) = placed(&frames[usize::from(c.link)], &c.a, &c.b, c.radius);
             (self.capsules[i], self.boxes[i]) = (capsule, aabb);
-            all = all.union(&aabb);
             if c.link == 0 {
                 on_base |= 1 << i;
+                still = still.union(&aabb);
             } else {
                 moving = moving.union(&aabb);
             }
@@ -147,7 +147,6 @@ impl ArmPose {
             if only & (1 << (links + k)) != 0 {
                 let (capsule, aabb) = placed(&flange, &c.a, &c.b, c.radius);
                 (self.capsules[links + k], self.boxes[links + k]) = (capsule, aabb);
-                all = all.union(&aabb);
                 moving = moving.union(&aabb);
             }
         }
@@ -155,7 +154,8 @@ impl ArmPose {
             self.capsules[i] = ArmPose::EMPTY.capsules[0];
             self.boxes[i] = Aabb::EMPTY;
         }
-        (self.aabb, self.moving_aabb, self.on_base) = (all, moving, on_base);
+        (self.aabb, self.moving_aabb) = (moving.union(&still), moving);
+        self.on_base = on_base;
     }
 
     /// The world capsules, in the order of `Model::CAPSULES`, then the tool's.
