@@ -178,10 +178,12 @@ fn self_pairs(chain: &Chain, capsules: &[Capsule], disabled: &[LinkPair]) -> Vec
 }
 
 /// For each actuated joint, an upper bound valid in every configuration on the distance from
-/// the joint's origin (hence from its axis) to any downstream capsule point or link frame
-/// origin: by the triangle inequality, the sum of the downstream joint offsets (plus each
-/// downstream prismatic joint's largest extension) plus the point's distance from its own
-/// link's origin. A prismatic joint moves every downstream point by exactly `|dq|`: 1.
+/// the joint's axis to any downstream capsule point or link frame origin: by the triangle
+/// inequality, the sum of the downstream joint offsets (plus each downstream prismatic joint's
+/// largest extension) plus the point's distance from its own link's origin, where what is
+/// rigid with the joint's child link (its capsules, the next joint's origin) counts only its
+/// distance from the axis, the same in every configuration ([`off_axis`]). A prismatic joint
+/// moves every downstream point by exactly `|dq|`: 1.
 fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
     // farthest[l]: farthest point of link l's capsules from the link's origin (0: its origin)
     let mut farthest = vec![0.0f64; chain.links.len()];
@@ -193,12 +195,17 @@ fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
         match joint.motion {
             Motion::Fixed => {}
             Motion::Prismatic { .. } => reach.push(1.0),
-            Motion::Revolute { .. } => {
-                // joint j's origin is the origin of link j + 1
+            Motion::Revolute { axis } => {
+                // joint j's origin is the origin of link j + 1, on its axis
+                let own = capsules.iter().filter(|c| c.link == j + 1);
+                let mut bound = own.fold(0.0f64, |b, c| b.max(capsule_off_axis(c, axis)));
                 let mut path = 0.0;
-                let mut bound = farthest[j + 1];
                 for (k, next) in chain.joints.iter().enumerate().skip(j + 1) {
-                    path += joint_offset(next);
+                    path += if k == j + 1 {
+                        offset_off_axis(next, axis)
+                    } else {
+                        joint_offset(next)
+                    };
                     bound = bound.max(path + farthest[k + 1]);
                 }
                 reach.push(bound);
@@ -210,9 +217,9 @@ fn reach(chain: &Chain, capsules: &[Capsule]) -> Vec<f64> {
 
 /// For each capsule and actuated joint, the same bound as [`reach`] for that capsule's points
 /// alone: 0 for a joint downstream of the capsule's link (it does not move it), else the
-/// offsets from the joint to the capsule's link plus the capsule's extent. Proximal capsules
-/// get far smaller bounds than the whole arm's, so their motions are checked with far
-/// smaller margins.
+/// offsets from the joint to the capsule's link plus the capsule's extent (off the axis only,
+/// for what is rigid with the joint's child link). Proximal capsules get far smaller bounds
+/// than the whole arm's, so their motions are checked with far smaller margins.
 fn capsule_reach(chain: &Chain, capsules: &[Capsule]) -> Vec<Vec<f64>> {
     capsules
         .iter()
@@ -224,10 +231,14 @@ fn capsule_reach(chain: &Chain, capsules: &[Capsule]) -> Vec<Vec<f64>> {
                     Motion::Fixed => {}
                     _ if !upstream => row.push(0.0),
                     Motion::Prismatic { .. } => row.push(1.0),
-                    Motion::Revolute { .. } => {
-                        // joint j's origin is the origin of link j + 1; joint k leads to k + 1
-                        let path: f64 = chain.joints[j + 1..c.link].iter().map(joint_offset).sum();
-                        row.push(path + capsule_extent(c));
+                    // joint j's origin is the origin of link j + 1; joint k leads to k + 1
+                    Motion::Revolute { axis } if c.link == j + 1 => {
+                        row.push(capsule_off_axis(c, axis));
+                    }
+                    Motion::Revolute { axis } => {
+                        let rest: f64 = chain.joints[j + 2..c.link].iter().map(joint_offset).sum();
+                        let first = offset_off_axis(&chain.joints[j + 1], axis);
+                        row.push(first + rest + capsule_extent(c));
                     }
                 }
             }
@@ -258,9 +269,16 @@ fn tool_reach(chain: &Chain) -> Vec<f64> {
         match joint.motion {
             Motion::Fixed => {}
             Motion::Prismatic { .. } => row.push(1.0),
-            Motion::Revolute { .. } => {
+            Motion::Revolute { axis } => {
                 // joint j's origin is the origin of link j + 1
-                row.push(chain.joints[j + 1..].iter().map(joint_offset).sum());
+                let rest = chain.joints[j + 1..].iter().enumerate();
+                row.push(
+                    rest.map(|(k, next)| match k {
+                        0 => offset_off_axis(next, axis),
+                        _ => joint_offset(next),
+                    })
+                    .sum(),
+                );
             }
         }
     }
@@ -297,6 +315,25 @@ fn axis_cos(chain: &Chain) -> Vec<f64> {
         }
     }
     out
+}
+
+/// Distance of `p` from the line through the origin along the unit vector `axis`.
+fn off_axis(p: Vec3, axis: Vec3) -> f64 {
+    let along = dot(p, axis);
+    norm([0, 1, 2].map(|i| p[i] - along * axis[i]))
+}
+
+/// Farthest point of capsule `c` from the axis `axis` through its link's origin (the axis of
+/// the joint that leads to its link, which turns it about that axis).
+fn capsule_off_axis(c: &Capsule, axis: Vec3) -> f64 {
+    off_axis(c.a, axis).max(off_axis(c.b, axis)) + c.radius
+}
+
+/// [`joint_offset`] of `joint`, its origin counted by its distance from `axis` through its
+/// parent link's origin (the axis of the joint that leads to that link): the origin is rigid
+/// with the link, so it turns about that axis at that distance.
+fn offset_off_axis(joint: &crate::chain::Joint, axis: Vec3) -> f64 {
+    joint_offset(joint) - norm(joint.origin.pos) + off_axis(joint.origin.pos, axis)
 }
 
 /// Farthest point of a capsule from its link's origin.
@@ -383,6 +420,29 @@ mod tests {
             assert!((r - e).abs() < 1e-12, "{reach:?}");
         }
         assert_eq!(reach.len(), 4);
+    }
+
+    /// What is rigid with a joint's child link counts only its distance from the joint's axis:
+    /// here the next origin lies 3 along x, 1 off a joint turning about x.
+    #[test]
+    fn reach_counts_the_child_link_off_the_axis_only() {
+        let mut chain = chain();
+        chain.joints[2].motion = Motion::Revolute {
+            axis: [1.0, 0.0, 0.0],
+        };
+        chain.joints[3].origin.pos = [4.0, 1.0, 0.0];
+        let caps = [capsule(3, 1.0), capsule(5, 0.5)];
+        // r2 (about x): `c` capsule off the axis by its radius only; `e` capsule: 1 (the
+        // next origin off the axis) + 0.5 (extension) + 5 + 0.6.
+        let reach = reach(&chain, &caps);
+        assert!((reach[1] - 7.1).abs() < 1e-12, "{reach:?}");
+        let rows = capsule_reach(&chain, &caps);
+        assert!((rows[0][1] - 0.1).abs() < 1e-12, "{rows:?}");
+        assert!((rows[1][1] - 7.1).abs() < 1e-12, "{rows:?}");
+        // r1 (about z): everything downstream as before, the fixed joint's origin 2 off it.
+        let offsets = 2.0 + 3.0 + (17.0f64.sqrt() + 0.5) + 5.0;
+        assert!((rows[1][0] - (offsets + 0.6)).abs() < 1e-12, "{rows:?}");
+        assert!((tool_reach(&chain)[1] - 6.5).abs() < 1e-12);
     }
 
     /// Consecutive axes at a fixed angle, carried through a fixed joint's rotation; no bound

@@ -116,8 +116,8 @@ pub const WHOLE_CHECK_LENGTH: f64 = 0.5;
 /// let sweep = Sweep::<KinovaGen3, 7>::new(0, &Tool::NONE, &from, &to, 0.01);
 /// // No point moves more than 1 cm within a piece, so the margin is at most 5 mm.
 /// assert!(sweep.margin() <= 0.005);
-/// // Joint 1 turns 1 rad, and no point of the arm is farther than 1.06 m from its axis.
-/// assert!(sweep.length() > 1.0 && sweep.length() < 1.06);
+/// // Joint 1 turns 1 rad, and no point of the arm is farther than 0.94 m from its axis.
+/// assert!(sweep.length() > 0.9 && sweep.length() < 0.94);
 ///
 /// let base = Frame::IDENTITY;
 /// let ball = Obstacle {
