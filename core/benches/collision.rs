@@ -24,8 +24,8 @@
 //!   most 4 mm apart (a test independent of the check measured, so every version of it is
 //!   timed on the same motions, which it must find free): each arm against
 //!   the obstacles and itself along the motion, and every pair (`sweeps_collide`), as the
-//!   planners check a composite step. `single` places one configuration at a time,
-//!   `batched` (the default placing) a rake of them per call. Both give the same answer
+//!   planners check a composite step. `single` (the default placing) places one configuration
+//!   at a time, `batched` a rake of them per call. Both give the same answer
 //!   (`core/tests/batch.rs`).
 
 use std::cell::OnceCell;

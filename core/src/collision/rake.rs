@@ -22,25 +22,17 @@ use crate::model::{Frame, Models};
 use crate::tool::Tool;
 
 /// How a motion check ([`super::Sweep`]) places the arms between the motion's ends. The
-/// answers are the same either way; only the time differs. By default a rake where the
-/// build's SIMD is wide enough ([`crate::lanes::WIDE`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// answers are the same either way; only the time differs. By default one at a time: the
+/// bisection reads about two placings per arm between the ends of a 1-rad motion, where a
+/// rake places seven (`docs/bench/collision.md` has both, and the planners with each).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Placing {
     /// One configuration at a time, as the bisection asks for it.
+    #[default]
     Single,
     /// The middle of a part, of its halves and of its quarters, placed together in one
     /// batched call ahead of the bisection.
     Rake,
-}
-
-impl Default for Placing {
-    fn default() -> Self {
-        if crate::lanes::WIDE {
-            Placing::Rake
-        } else {
-            Placing::Single
-        }
-    }
 }
 
 /// Parts of the motion one rake places the middle of: a part, its halves, its quarters. Part
