@@ -100,7 +100,8 @@ pub const WHOLE_CHECK_LENGTH: f64 = 0.5;
 /// space, its hand nearly still, moves its joints far but its hand capsules little, and the
 /// first bound alone counts every joint's turn at its full reach.
 ///
-/// Cost: two placings of the arm for a motion far from everything, one more per split; the
+/// Cost: two placings of the arm for a motion far from everything (three for one arm's own
+/// motion longer than [`WHOLE_CHECK_LENGTH`]), one more per split; the
 /// bisection's stack is bounded (about `log2(2 * MAX_SWEEP_CHECKS)` levels of a few arm
 /// poses). A Gen3 turning about its first joint past a ball it clears at both ends:
 ///
