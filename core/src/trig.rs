@@ -80,7 +80,7 @@ pub trait Angle: Real {
     fn turn(shifted: Self) -> (Self, Self);
     /// Whether every lane is within `LIMIT` (NaN is not).
     fn in_range(self) -> bool;
-    /// `(sin, cos)` of each lane through [`one`].
+    /// `(sin, cos)` of each lane through `one`.
     fn each(self) -> (Self, Self);
 }
 

@@ -281,8 +281,11 @@ impl ArmPose {
         j: usize,
         travel: f64,
     ) -> bool {
-        let (a, b) = (&ends.map(|e| &e.boxes[i]), &other.map(|e| &e.boxes[j]));
-        Aabb::apart_over(*a, *b, travel)
+        Aabb::apart_over(
+            ends.map(|e| &e.boxes[i]),
+            other.map(|e| &e.boxes[j]),
+            travel,
+        )
     }
 
     /// The first pair of capsules (this arm's, the other's), base links included, closer
