@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
 """Mock Kinova Gen3 arm for hardware-in-the-loop tests of the omcbsa executor.
 
-Plays a Lawicel-compatible SLCAN adapter on a pseudo-terminal (the host opens the printed pty
-path as its serial adapter) with seven CiA 402 joint drives behind it, node ids 1..7.
+Plays a Lawicel-compatible SLCAN adapter on a Unix socket (the host connects to the printed
+socket path as its adapter's serial line) with seven CiA 402 joint drives behind it, node ids
+1..7. A socket rather than a pseudo-terminal: a pty's bytes cross the kernel in a worker thread
+that a loaded machine delays by tens of milliseconds, which the host's watchdog rightly takes
+for a drive that stopped answering.
 
 Each drive is a node of the `canopen` library (CiA 301): a LocalNode whose object dictionary is
 loaded from gen3_joint_drive.eds. The library answers SDO requests (and aborts those the object
@@ -21,7 +24,7 @@ EMCY 0x8611).
 
 Every frame received from the host is recorded and written, as JSON lines, to --record at exit;
 --bus-log writes every frame in both directions as a candump log (python-can's writer; R = from
-the host, T = from the drives). The mock exits when the host closes the pty (or after
+the host, T = from the drives). The mock exits when the host closes its connection (or after
 --max-seconds).
 
 Fault injection (all on node 3 unless said otherwise): --stop-after-syncs N (every drive goes
@@ -33,20 +36,23 @@ monitoring faults them).
 """
 
 import argparse
-import errno
+import gc
 import json
 import math
 import os
 import select
 import signal
+import socket
 import sys
+import tempfile
 import threading
 import time
-import tty
 
 import can
 import canopen
 from canopen.sdo import SdoAbortedError
+
+import drive_clock
 
 EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "gen3_joint_drive.eds")
 COUNTS_PER_RAD = 1e7
@@ -86,7 +92,7 @@ REMOTE = 0x0200  # statusword bit 9: controlled over the bus
 
 
 class SlcanAdapterBus(can.BusABC):
-    """The adapter end of SLCAN on a pty master: host commands in, bus frames out.
+    """The adapter end of SLCAN on a connected socket: host commands in, bus frames out.
 
     Sending is thread-safe (the library's heartbeats come from their own threads). Every frame is
     written to `log` (a python-can writer) if given, when the mock has caught up with the host;
@@ -98,13 +104,12 @@ class SlcanAdapterBus(can.BusABC):
         self.log = log
         self.inbuf = b""
         self.channel_open = False
-        self.connected = False
         self.silent = False
         self.delay = 0.0
         self.delayed = []  # (due, message), in order
         self.unlogged = []  # (time, id, data, from host?) for the log, written when there is time
         self.lock = threading.Lock()
-        super().__init__(channel="pty", **kwargs)
+        super().__init__(channel="slcan-socket", **kwargs)
 
     def _reply(self, data):
         with self.lock:
@@ -112,7 +117,10 @@ class SlcanAdapterBus(can.BusABC):
 
     def _write(self, data):
         while data:
-            n = os.write(self.fd, data)
+            try:
+                n = os.write(self.fd, data)
+            except (BrokenPipeError, ConnectionResetError) as e:
+                raise EOFError("the host closed the connection") from e
             data = data[n:]
 
     def _line(self, line):
@@ -180,17 +188,10 @@ class SlcanAdapterBus(can.BusABC):
                 return None, False
             try:
                 chunk = os.read(self.fd, 4096)
-            except OSError as e:
-                if e.errno != errno.EIO:
-                    raise
-                if self.connected:
-                    raise EOFError("host closed the pty") from e
-                # Nobody has opened the pty yet.
-                time.sleep(0.005)
-                if deadline is not None and time.monotonic() >= deadline:
-                    return None, False
-                continue
-            self.connected = True
+            except ConnectionResetError as e:
+                raise EOFError("the host closed the connection") from e
+            if not chunk:
+                raise EOFError("the host closed the connection")
             self.inbuf += chunk
 
     def send(self, msg, timeout=None):
@@ -675,25 +676,35 @@ def parse_args(argv):
 
 def main(argv):
     args = parse_args(argv)
-    try:
-        # Real drives have processors of their own: ask not to wait behind the host's other work
-        # (a root-only request; without it the mock runs at normal priority).
-        os.setpriority(os.PRIO_PROCESS, 0, -10)
-    except PermissionError:
-        pass
+    # Real drives have processors of their own: the mock must not wait behind the host's work.
+    sched = drive_clock.realtime()
+    if not sched.startswith("SCHED_FIFO"):
+        print("mock arm: " + sched + ": it may answer late on a busy machine", file=sys.stderr, flush=True)
+    # The record and the unlogged frames hold no cycles; a full collection of a heap that grows
+    # with the run (tens of ms after a minute) would answer late.
+    gc.disable()
     # The drives answer from the main thread; the library's heartbeat threads must not keep it
     # waiting for the interpreter lock for the default 5 ms.
     sys.setswitchinterval(0.0002)
-    master, slave = os.openpty()
-    tty.setraw(slave)
-    path = os.ttyname(slave)
-    # Only the host keeps the slave open, so that its closing shows here as EIO.
-    os.close(slave)
-    log = can.CanutilsLogWriter(args.bus_log, channel="can0") if args.bus_log else None
-    bus = SlcanAdapterBus(master, log)
-    arm = MockArm(args, bus)
+    folder = tempfile.mkdtemp(prefix="omcbsa-mock-arm-")
+    path = os.path.join(folder, "slcan.sock")
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(path)
+    listener.listen(1)
+    listener.settimeout(args.max_seconds)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
-    print("PTY " + path, flush=True)
+    print("SOCKET " + path, flush=True)
+    try:
+        conn, _ = listener.accept()
+    except socket.timeout:
+        return 1
+    finally:
+        listener.close()
+        os.unlink(path)
+        os.rmdir(folder)
+    log = can.CanutilsLogWriter(args.bus_log, channel="can0") if args.bus_log else None
+    bus = SlcanAdapterBus(conn.fileno(), log)
+    arm = MockArm(args, bus)
     try:
         arm.run()
     except EOFError:

@@ -12,7 +12,7 @@ use crate::cia402::{self, counts_to_rad};
 use crate::frame::CanFrame;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, CycleFault, ExecConfig, Fault, Measured, Span, JOINTS};
+use crate::run::{Command, CycleFault, ExecConfig, Fault, Measured, JOINTS};
 use crate::transport::{Transport, TransportError};
 use crate::watchdog::CycleAccount;
 use std::time::{Duration, Instant};
@@ -117,7 +117,7 @@ impl ArmBus {
             stop_wait: cfg
                 .watch
                 .heartbeat_consumer_time()
-                .max(cfg.feedback_timeout),
+                .max(cfg.watch.feedback_timeout),
         }
     }
 
@@ -254,7 +254,7 @@ impl ArmBus {
             // (a backlog); a wait with no SYNC sent is no silence.
             let owed = self.account.owed(j).and_then(|k| self.account.record(k));
             if let Some(&(t, _)) = owed {
-                if now.duration_since(t) > cfg.feedback_timeout {
+                if now.duration_since(t) > cfg.watch.feedback_timeout {
                     return Err(Fault::FeedbackLost {
                         node,
                         silent_for: now.duration_since(t),
@@ -317,7 +317,7 @@ impl ArmLink for ArmBus {
     fn configure(
         &mut self,
         cfg: &ExecConfig,
-        plan: (&Command, &Span, &[f64; JOINTS]),
+        plan: &crate::link::StartPlan,
         stop: &std::sync::atomic::AtomicBool,
     ) -> Result<(), String> {
         ArmBus::configure(self, cfg, plan, stop)

@@ -210,7 +210,7 @@ impl Cell {
         options: &CellOptions,
         records: &Path,
     ) -> Result<ArmPort, String> {
-        // A cell's mock lives as long as the cell: it exits when the cell closes its pty or
+        // A cell's mock lives as long as the cell: it exits when the cell closes its connection or
         // connection, not after the mocks' own backstop for a test that leaks one (a minute or
         // ten). The URL's flags come after, so that a query may still set one.
         let flags = |f: &[(String, String)]| -> Vec<String> {

@@ -246,6 +246,11 @@ fn launch(
     finishing: bool,
     info: RunInfo,
 ) -> Result<StreamHandle, ExecError> {
+    if let Some(duration) = config.preflight {
+        crate::timing::measure(config.period, duration, config.realtime_priority)
+            .and_then(|j| j.holds())
+            .map_err(ExecError::Timing)?;
+    }
     let log = crate::log::open(config.log_path.as_deref())?;
     let clock = Instant::now();
     let links = (arms.into_iter())

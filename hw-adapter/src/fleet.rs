@@ -1,5 +1,5 @@
 //! Mock arms of either kind for runs that start their own (`omcbsa demo`, `omcbsa online`,
-//! tests): the CAN mock (`mock.rs`, SLCAN ptys) or the Kortex mock Gen3 (`mock_gen3.rs`, loopback
+//! tests): the CAN mock (`mock.rs`, SLCAN on Unix sockets) or the Kortex mock Gen3 (`mock_gen3.rs`, loopback
 //! TCP and UDP), started, connected, and their records checked, the same way for both.
 
 use crate::mock::{self, MockArm, MockArmOptions};

@@ -21,7 +21,8 @@
 //!   alike, [`record`] and [`buslog`] check what they received; [`sim`]: simulated arms in
 //!   process, at the default rates; [`testing`] holds joint limits for tests and examples run
 //!   without the host.
-//! - [`priority`]: real-time scheduling of the arm threads; [`log`]: the command log.
+//! - [`priority`]: real-time scheduling of the arm threads; [`timing`]: whether the machine
+//!   holds a control rate (the preflight of every run); [`log`]: the command log.
 //!
 //! A dry run computes and checks every command of a plan without any arm:
 //!
@@ -77,6 +78,7 @@ pub mod sim;
 pub mod spline;
 pub mod stream;
 pub mod testing;
+pub mod timing;
 pub mod transport;
 pub mod watchdog;
 

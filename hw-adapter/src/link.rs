@@ -6,6 +6,18 @@ use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+/// What an arm's start-up checks it against, before anything moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartPlan {
+    /// The command the arm holds first: where it must stand (within
+    /// [`ExecConfig::start_tolerance`]).
+    pub first: Command,
+    /// The range (bus counts) every command of the run stays in, per joint.
+    pub span: Span,
+    /// The joints' peak commanded speeds, rad/s (the drives' following-error windows).
+    pub speed: [f64; JOINTS],
+}
+
 /// One arm, as the executor's loop drives it: two start-up phases that every arm finishes
 /// before the next begins, then one command per control cycle with the feedback watched in
 /// between, and a stop.
@@ -18,14 +30,13 @@ pub trait ArmLink: Send {
     fn name(&self) -> &str;
     /// Frames (CAN frames or Kortex frames) sent so far.
     fn frames_sent(&self) -> usize;
-    /// Phase 1: checks the arm and reads back what must hold before any motion (start
-    /// position within [`ExecConfig::start_tolerance`] of `start`, every command within `span`;
-    /// `speed`: the joints' peak speeds, rad/s), enabling nothing. Returns `Ok` early, sending
-    /// nothing more, once `stop` is raised.
+    /// Phase 1: checks the arm and reads back what must hold before any motion (`plan`: where
+    /// it starts, the range of its commands, its joints' peak speeds), enabling nothing.
+    /// Returns `Ok` early, sending nothing more, once `stop` is raised.
     fn configure(
         &mut self,
         cfg: &ExecConfig,
-        plan: (&Command, &Span, &[f64; JOINTS]),
+        plan: &StartPlan,
         stop: &AtomicBool,
     ) -> Result<(), String>;
     /// Phase 2: puts the arm where it follows one command per cycle; sends no motion command.

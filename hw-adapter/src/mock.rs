@@ -4,7 +4,8 @@
 
 use crate::plan::Plan;
 use crate::record;
-use crate::transport::{self, ArmBuses, Transport, TransportError};
+use crate::transport::slcan::{self, SlcanTransport};
+use crate::transport::{ArmBuses, Transport, TransportError};
 use crate::ExecConfig;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
@@ -97,15 +98,15 @@ pub const MOCK_PERIOD: Duration = Duration::from_millis(10);
 pub struct MockArm {
     /// The arm's name.
     pub name: String,
-    /// The pseudo-terminal to open as an SLCAN adapter.
-    pub pty: String,
+    /// The Unix socket its SLCAN adapter listens on.
+    pub socket: String,
     /// Where it writes its record at exit.
     pub record: Option<PathBuf>,
     child: Child,
 }
 
 impl MockArm {
-    /// Starts the mock `script` with `python` and waits for it to report its pty.
+    /// Starts the mock `script` with `python` and waits for it to report its socket.
     pub fn spawn(
         python: &Path,
         script: &Path,
@@ -138,10 +139,10 @@ impl MockArm {
             .stdout
             .take()
             .map(|out| BufReader::new(out).read_line(&mut line));
-        match (read, line.trim().strip_prefix("PTY ")) {
+        match (read, line.trim().strip_prefix("SOCKET ")) {
             (Some(Ok(_)), Some(path)) => Ok(MockArm {
                 name: name.to_string(),
-                pty: path.to_string(),
+                socket: path.to_string(),
                 record: opts.record.clone(),
                 child,
             }),
@@ -149,24 +150,25 @@ impl MockArm {
                 let _ = child.kill();
                 let status = child.wait().map(|s| s.to_string()).unwrap_or_default();
                 Err(format!(
-                    "mock arm {name:?} did not report its pty (first line {:?}, {status})",
+                    "mock arm {name:?} did not report its socket (first line {:?}, {status})",
                     line.trim()
                 ))
             }
         }
     }
 
-    /// Opens the mock's pty as an SLCAN bus.
+    /// Connects to the mock's SLCAN adapter as a bus.
     pub fn open_bus(&self) -> Result<Box<dyn Transport>, TransportError> {
-        transport::open(&format!("slcan:{}", self.pty))
+        let bus = SlcanTransport::connect(&self.socket, slcan::DEFAULT_BITRATE)?;
+        Ok(Box::new(bus))
     }
 
-    /// Waits for the mock to exit (it does once its pty is closed) and returns its record
+    /// Waits for the mock to exit (it does once its connection is closed) and returns its record
     /// (empty without one).
     pub fn finish(mut self) -> Result<Vec<Value>, String> {
         wait_exit(&mut self.child).map_err(|()| {
             format!(
-                "mock arm {:?} did not exit after its pty was closed",
+                "mock arm {:?} did not exit after its connection was closed",
                 self.name
             )
         })?;

@@ -21,16 +21,3 @@ pub fn arm_limits() -> ArmLimits {
 pub fn fleet_limits(arms: usize) -> Vec<ArmLimits> {
     vec![arm_limits(); arms]
 }
-
-/// The watchdog of tests about streaming, not about fault detection: 25 missed cycles (250 ms
-/// at the default period) before a stop, heartbeat and following error at their defaults.
-/// Python mock arms on a shared 2-core machine (and CI's) are descheduled for tens of
-/// milliseconds at times, which the default accounting (a cycle unanswered 2 periods later)
-/// rightly stops; the watchdog's own bound is tested with the defaults (tests/faults.rs,
-/// tests/watchdog_bound.rs, the fault runs of tests/kortex.rs).
-pub fn streaming_watch() -> crate::WatchSettings {
-    crate::WatchSettings {
-        missed_cycles: 25,
-        ..crate::WatchSettings::default()
-    }
-}

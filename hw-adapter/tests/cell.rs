@@ -69,12 +69,6 @@ fn options(arms: &[CellArm], dir: &std::path::Path) -> CellOptions {
     let probe = chunk(&arms.iter().map(|a| a.start).collect::<Vec<_>>(), 10);
     let limits = omcbsa_hw::testing::fleet_limits(arms.len());
     o.time_scale = 1.5 * min_time_scale(probe.iter().map(|p| p.as_slice()), &limits, DT);
-    // About the cell, not the watchdog: four Python mocks start at once, so a 3-period heartbeat.
-    o.config.watch = omcbsa_hw::testing::streaming_watch();
-    o.config.watch.heartbeat_factor = 3.0;
-    o.config.feedback_timeout = Duration::from_millis(250);
-    // Likewise their SDO answers at start-up, four mocks starting at once.
-    o.config.sdo_timeout = Duration::from_millis(500);
     o.records = Some(dir.to_path_buf());
     o
 }

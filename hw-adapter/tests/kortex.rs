@@ -66,7 +66,6 @@ fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let log = record_path("ok", "log");
     let cfg = ExecConfig {
         log_path: Some(log.clone()),
-        watch: omcbsa_hw::testing::streaming_watch(),
         ..exec_config()
     };
     let mocks = spawn(&plan, "ok", &[]);
@@ -386,8 +385,12 @@ fn no_refresh_reaches_the_arm_after_the_mode_change_in_20_runs_with_udp_delayed_
     };
     let cfg = ExecConfig {
         settle_cycles: 5,
-        // About the order of the leaving frames, not the watchdog: answers 2 periods late.
-        watch: omcbsa_hw::testing::streaming_watch(),
+        // The mock is told to answer 2 periods late (the leaving frames' order is what this is
+        // about): one more period than that before the accounting calls it a fault.
+        watch: omcbsa_hw::WatchSettings {
+            missed_cycles: 3,
+            ..omcbsa_hw::WatchSettings::default()
+        },
         ..exec_config()
     };
     let delay = format!("--udp-delay-ms={}", 2 * cfg.period.as_millis());

@@ -116,7 +116,11 @@ fn the_mock_drives_keep_moving_toward_their_target_between_syncs() {
     ArmBus::configure(
         &mut arm,
         &cfg,
-        (&rest, &span, &speed),
+        &omcbsa_hw::link::StartPlan {
+            first: rest,
+            span,
+            speed,
+        },
         &AtomicBool::new(false),
     )
     .unwrap();

@@ -11,7 +11,7 @@ use common::*;
 use omcbsa_hw::interpolate::min_time_scale;
 use omcbsa_hw::record::check_followed;
 use omcbsa_hw::Command;
-use omcbsa_hw::{Event, ExecConfig, Executor, PushError, StreamHandle, JOINTS};
+use omcbsa_hw::{Event, Executor, PushError, StreamHandle, JOINTS};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -48,11 +48,7 @@ fn start(tag: &str) -> (Online, Vec<Path>) {
         DT,
         time_scale,
         &omcbsa_hw::testing::fleet_limits(starts.len()),
-        // About online streaming, not fault detection (tests/faults.rs keeps the defaults).
-        ExecConfig {
-            watch: omcbsa_hw::testing::streaming_watch(),
-            ..mock_config()
-        },
+        mock_config(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let online = Online {

@@ -42,12 +42,7 @@ fn start() -> (StreamHandle, Vec<CanSim>, f64) {
             (sim, (format!("arm{i}"), *q, bus))
         })
         .unzip();
-    // About the stream's status and stops, not the watchdog (tests/watchdog_bound.rs): this
-    // shared machine stalls the loop for a few milliseconds at times.
-    let cfg = ExecConfig {
-        watch: omcbsa_hw::testing::streaming_watch(),
-        ..ExecConfig::default()
-    };
+    let cfg = ExecConfig::default();
     let h = Executor::online(arms, DT, scale, &limits, cfg).unwrap();
     wait(&h, "start-up", |_| true);
     (h, sims, scale)

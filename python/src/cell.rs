@@ -164,6 +164,7 @@ fn live_options(py: Python<'_>, o: &Options<'_>, kortex: bool) -> PyResult<LiveO
             "a number",
             w.following_error_bound,
         )?,
+        feedback_timeout: ms("feedback_timeout_ms", w.feedback_timeout)?,
     };
     watch
         .check()
@@ -202,7 +203,6 @@ fn live_options(py: Python<'_>, o: &Options<'_>, kortex: bool) -> PyResult<LiveO
         period: rate.map(|r| Duration::from_secs_f64(1.0 / r)),
         config: ExecConfig {
             watch,
-            feedback_timeout: ms("feedback_timeout_ms", d.feedback_timeout)?,
             sdo_timeout: ms("sdo_timeout_ms", d.sdo_timeout)?,
             realtime_priority: priority.unwrap_or(d.realtime_priority),
             ..d

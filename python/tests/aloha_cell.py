@@ -48,15 +48,6 @@ ARMS = {
     "south_east": "mock-can",
 }
 
-#: Four Python mocks and the planner on a shared 2-core machine are descheduled for tens of
-#: milliseconds at times: the per-cycle accounting and the wall-clock backstops are relaxed as
-#: in hw-adapter's own cell tests (the watchdog's bound is shown by its fault matrix).
-RELAXED = dict(missed_cycles=25, heartbeat_factor=3.0, feedback_timeout_ms=250, sdo_timeout_ms=500)
-
-CLI_RELAXED = ["--missed-cycles", "25", "--heartbeat-factor", "3", "--feedback-timeout-ms",
-               "250", "--sdo-timeout-ms", "500"]
-
-
 def episode(steps=PREFIX):
     """(setup Problem, hands (2, steps, 7)): the hand-taking arms start at the first poses."""
     setup, hands = omcbsa.aloha_episode(EPISODE, arms=4)
@@ -104,12 +95,12 @@ def main(records, how="finish"):
     if how == "exit":
         # Held by the module, so that only the interpreter's exit ends it (atexit).
         global CELL
-        CELL = omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records, **RELAXED)
+        CELL = omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records)
         replay(CELL, e, hands, on_push=announce)
         time.sleep(0.5)
         print("leaving", flush=True)
         return
-    with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records, **RELAXED) as cell:
+    with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=records) as cell:
         replay(cell, e, hands, on_push=announce)
         if how == "raise":
             time.sleep(0.5)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import omcbsa
-from aloha_cell import (ARMS, CLI_RELAXED, EPISODE, PREFIX, RELAXED, STEP_CYCLES, TIME_SCALE, chunks,
+from aloha_cell import (ARMS, EPISODE, PREFIX, STEP_CYCLES, TIME_SCALE, chunks,
                         episode, replay)
 
 HERE = Path(__file__).resolve().parent
@@ -147,7 +147,7 @@ def test_an_episode_at_its_rate_drives_every_arm_along_the_embodied_timeline(who
     assert hands.shape[1] == 401
     e = omcbsa.Embodier(setup)
     started = time.monotonic()
-    with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=tmp_path, **RELAXED) as cell:
+    with omcbsa.Cell(e, ARMS, time_scale=TIME_SCALE, records=tmp_path) as cell:
         assert cell.robot_names == list(ARMS)
         m = round(cell.step_time / cell.period)
         assert m * cell.period == pytest.approx(cell.step_time)
@@ -195,7 +195,7 @@ def test_a_fault_mid_episode_stops_every_arm_within_3_periods_and_raises_arm_fau
     # north_east (CAN, moving) sends an EMCY at SYNC 300, 3 s into the motion of about 12 s,
     # while the policy is still pushing: the push or the status call after it raises.
     arms = dict(ARMS, north_east="mock-can?emcy-at-sync=300")
-    cell = omcbsa.Cell(e, arms, time_scale=TIME_SCALE, records=tmp_path, **RELAXED)
+    cell = omcbsa.Cell(e, arms, time_scale=TIME_SCALE, records=tmp_path)
     deadline = time.monotonic() + 40
     with pytest.raises(omcbsa.ArmFault) as fault:
         replay(cell, e, hands)
@@ -284,8 +284,7 @@ def test_the_same_episode_through_the_command_line_exits_0_and_1_with_a_fault(
     setup, hands = cell_episode
     (tmp_path / "setup.json").write_text(setup.to_json())
     arms = [f"--arm={n}={u}" for n, u in ARMS.items()]
-    common = ["online", "--setup", tmp_path / "setup.json", "--time-scale", str(TIME_SCALE),
-              *CLI_RELAXED]
+    common = ["online", "--setup", tmp_path / "setup.json", "--time-scale", str(TIME_SCALE)]
     # The whole recorded episode itself, cut into the same chunks.
     code, out, err = cli(omcbsa_bin, *common, "--hands", EPISODE, "--chunk-len", "16",
                          "--stride", "8", "--records", tmp_path / "ok", *arms)

@@ -51,7 +51,7 @@ fn stream_demo(kind: MockKind, tag: &str) -> (Plan, std::path::PathBuf, Report) 
         plan.clone(),
         &checked,
         &dir,
-        &omcbsa_hw::testing::streaming_watch(),
+        &omcbsa_hw::WatchSettings::default(),
         |_| {},
     )
     .unwrap_or_else(|e| panic!("{e}"));

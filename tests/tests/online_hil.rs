@@ -27,7 +27,6 @@ fn chunks_stream_to_three_mock_arms_without_stopping() {
     let dir = tempfile_dir("online-ok");
     let script = RunScript {
         chunks: 3,
-        watch: omcbsa_hw::testing::streaming_watch(),
         ..RunScript::default()
     };
     let out = run_big_stack(script, python, dir);
@@ -60,7 +59,6 @@ fn unreachable_and_late_chunks_hold_the_arms_safely_and_are_reported() {
         chunks: 3,
         unreachable_chunk: Some(1),
         late_chunk: Some(2),
-        watch: omcbsa_hw::testing::streaming_watch(),
         ..RunScript::default()
     };
     let out = run_big_stack(script, python, dir);

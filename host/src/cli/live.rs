@@ -84,9 +84,6 @@ pub struct LiveArgs {
     /// the mocks 100].
     #[arg(long, value_name = "HZ")]
     rate: Option<f64>,
-    /// Backstop on the wall clock: an answer missing this long stops every arm, ms.
-    #[arg(long, value_name = "MS", default_value_t = ExecConfig::default().feedback_timeout.as_millis() as u64)]
-    feedback_timeout_ms: u64,
     /// Longest wait for one answer at start-up (an SDO, a Kortex rpc), ms.
     #[arg(long, value_name = "MS", default_value_t = ExecConfig::default().sdo_timeout.as_millis() as u64)]
     sdo_timeout_ms: u64,
@@ -327,7 +324,6 @@ fn live(args: &LiveArgs, planner: PlannerKind, watch: &WatchArgs) -> Result<Exit
         period: args.rate.map(|r| Duration::from_secs_f64(1.0 / r)),
         config: ExecConfig {
             watch: watch.clone(),
-            feedback_timeout: Duration::from_millis(args.feedback_timeout_ms),
             sdo_timeout: Duration::from_millis(args.sdo_timeout_ms),
             realtime_priority: args.rt_priority.0,
             ..ExecConfig::default()

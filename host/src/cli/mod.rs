@@ -7,6 +7,7 @@
 pub mod bench;
 pub mod bench_online;
 pub mod demo;
+pub mod doctor;
 pub mod execute;
 pub mod fk;
 pub mod gen_bench;

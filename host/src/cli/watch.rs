@@ -31,6 +31,11 @@ pub struct WatchArgs {
     #[arg(long, value_name = "RAD",
           default_value_t = WatchSettings::default().following_error_bound)]
     following_error_bound: f64,
+    /// Backstop on the wall clock: an answer missing this long, or an arm this far behind the
+    /// common schedule, stops every arm, ms.
+    #[arg(long, value_name = "MS",
+          default_value_t = WatchSettings::default().feedback_timeout.as_millis() as u64)]
+    feedback_timeout_ms: u64,
 }
 
 impl WatchArgs {
@@ -43,6 +48,7 @@ impl WatchArgs {
             following_error_timeout_ms: self.following_error_timeout_ms,
             drive_lag: Duration::from_millis(self.drive_lag_ms),
             following_error_bound: self.following_error_bound,
+            feedback_timeout: Duration::from_millis(self.feedback_timeout_ms),
         };
         settings
             .check()

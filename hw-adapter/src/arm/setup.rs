@@ -14,7 +14,8 @@ use super::{node_id, ArmBus, NodeState};
 use crate::canopen::{self, NmtCommand, SdoReply, SdoValue};
 use crate::cia402::{self, counts_to_rad};
 use crate::frame::CanFrame;
-use crate::run::{Command, ExecConfig, Span, JOINTS};
+use crate::link::StartPlan;
+use crate::run::{ExecConfig, JOINTS};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -135,9 +136,14 @@ impl ArmBus {
     pub fn configure(
         &mut self,
         cfg: &ExecConfig,
-        (start, span, speed): (&Command, &Span, &[f64; JOINTS]),
+        plan: &StartPlan,
         stop: &AtomicBool,
     ) -> Result<(), String> {
+        let StartPlan {
+            first: start,
+            span,
+            speed,
+        } = plan;
         let period = cia402::interpolation_time_period(cfg.period).ok_or_else(|| {
             format!(
                 "the control period {:?} cannot be written as an interpolation time period \

@@ -22,9 +22,9 @@ use super::header::uid;
 use super::proto::{self, base, base_cyclic, common};
 use super::Connection;
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
-use crate::link::ArmLink;
+use crate::link::{ArmLink, StartPlan};
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS, MAX_MISSED_CYCLES};
+use crate::run::{Command, ExecConfig, Fault, Measured, JOINTS, MAX_MISSED_CYCLES};
 use crate::watchdog::CycleAccount;
 use prost::Message;
 use std::f64::consts::{PI, TAU};
@@ -94,7 +94,7 @@ impl StopAwaited {
         Self {
             last_refresh: None,
             estop: None,
-            drain: cfg.feedback_timeout.max(cfg.period * (m + 1)),
+            drain: cfg.watch.feedback_timeout.max(cfg.period * (m + 1)),
         }
     }
 
@@ -343,7 +343,7 @@ impl ArmLink for KortexArm {
     fn configure(
         &mut self,
         cfg: &ExecConfig,
-        (start, _, _): (&Command, &Span, &[f64; JOINTS]),
+        &StartPlan { first: start, .. }: &StartPlan,
         stop: &AtomicBool,
     ) -> Result<(), String> {
         let empty = common::Empty {}.encode_to_vec();

@@ -3,10 +3,10 @@
 //! and the stop (normal end, fault, or a stop asked for).
 
 use super::{lock, ArmEnd, ArmNow, Cycle, ProgressFn, RunInfo, Shared, FAULT_POLL};
-use crate::link::ArmLink;
+use crate::link::{ArmLink, StartPlan};
 use crate::log::LogSink;
 use crate::priority;
-use crate::run::{ArmState, ArmStop, Command, ExecConfig, Fault, Progress, Span, JOINTS};
+use crate::run::{ArmState, ArmStop, Command, ExecConfig, Fault, Progress, JOINTS};
 use crate::stream::Generator;
 use crate::StreamHandle;
 use std::collections::VecDeque;
@@ -14,19 +14,20 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Barrier, Mutex};
 use std::time::{Duration, Instant};
 
-/// One arm's whole run, on its own thread, from the command it holds first, the range its
-/// commands stay in and its joints' peak speeds.
+/// One arm's whole run, on its own thread: start-up together with the other arms, then one
+/// [`Streaming::step`] per control cycle until the run ends ([`Streaming::finish`]) or stops
+/// ([`Streaming::stop`]).
 pub(super) fn stream_arm(
     me: usize,
     bus: &mut dyn ArmLink,
-    (first, span, speed): (Command, Span, [f64; JOINTS]),
+    plan: &StartPlan,
     shared: &Shared,
     cfg: &ExecConfig,
     progress: Option<&(dyn Fn(Progress) + Send + Sync)>,
     total: Option<u64>,
 ) -> ArmEnd {
     // No drive of any arm is enabled unless every arm's drives are configured.
-    let configured = bus.configure(cfg, (&first, &span, &speed), &shared.startup_failed);
+    let configured = bus.configure(cfg, plan, &shared.startup_failed);
     if let Some(end) = startup_phase_end(me, bus, configured, shared) {
         return end;
     }
@@ -38,138 +39,245 @@ pub(super) fn stream_arm(
         a.state = ArmState::Moving;
         a.measured = bus.measured();
     });
-    // Every arm streams on the same schedule from a common start time.
-    let t0 = *lock(&shared.start).get_or_insert_with(|| Instant::now() + cfg.period);
+    let mut arm = Streaming::new(me, bus, shared, cfg, plan.first);
     let progress_every = (0.1 / cfg.period.as_secs_f64()).ceil().max(1.0) as usize;
-    let mut prev1 = first;
-    let mut max_fe: f64 = 0.0;
-    let mut max_late = Duration::ZERO;
-    let mut k: usize = 0;
     loop {
-        let due = t0 + cfg.period.mul_f64(k as f64);
-        max_late = max_late.max(Instant::now().saturating_duration_since(due));
-        let mut fe_now = 0.0;
-        let mut step = || -> Result<Option<(Command, Option<u64>)>, Fault> {
-            // Feedback is read while waiting too, so that a fault is seen when its frame
-            // arrives rather than at the next cycle.
-            // Once the cycle is due, the per-cycle accounting says whether it may be sent.
-            let mut watch = || -> Result<f64, Fault> {
-                bus.poll().map_err(Fault::Bus)?;
-                let now = Instant::now();
-                let fe = bus.check_feedback(now, cfg, &prev1)?;
-                if now >= due {
-                    bus.check_cycle()?;
-                }
-                shared.clear[me].store(bus.clear_until(), Ordering::SeqCst);
-                Ok(fe)
-            };
-            wait_turn(me, k, due, shared, cfg, &mut watch)?;
-            let fe = watch()?;
-            if shared.stopping() {
-                return Ok(None);
-            }
-            fe_now = fe;
-            // Checked against the limits by the generator.
-            let (cmd, end) = shared.command(me, k as u64)?;
-            bus.send_cycle(&cmd).map_err(Fault::Bus)?;
-            Ok(Some((cmd, end)))
-        };
-        let fault = match step() {
-            Ok(Some((cmd, end))) => {
-                shared.sent[me].store(k + 1, Ordering::SeqCst);
-                prev1 = cmd;
-                max_fe = max_fe.max(fe_now);
-                shared.publish(me, |a| {
-                    a.commanded = cmd;
-                    a.sent = k as u64 + 1;
-                    a.measured = bus.measured();
-                    a.following_error = fe_now;
-                });
-                let done = end.is_some_and(|e| k as u64 >= e + cfg.settle_cycles as u64);
+        match arm.step() {
+            Ok(Some(done)) => {
                 if let Some(p) = progress {
-                    if k.is_multiple_of(progress_every) || done {
+                    if (arm.k - 1).is_multiple_of(progress_every) || done {
                         p(Progress {
-                            arm: bus.name(),
-                            cycle: k + 1,
+                            arm: arm.bus.name(),
+                            cycle: arm.k,
                             cycles: total.map_or(0, |t| t as usize),
                         });
                     }
                 }
-                k += 1;
                 if done {
-                    break;
+                    return arm.finish();
                 }
-                continue;
             }
-            Ok(None) => None,
-            Err(f) => Some(f),
-        };
-        // A fault here or on another arm, or a stop asked for: quick stop, and nothing after.
+            Ok(None) => return arm.stop(None),
+            Err(f) => return arm.stop(Some(f)),
+        }
+    }
+}
+
+/// One arm's streaming, cycle by cycle, on the common schedule.
+struct Streaming<'a> {
+    me: usize,
+    bus: &'a mut dyn ArmLink,
+    shared: &'a Shared,
+    cfg: &'a ExecConfig,
+    /// The schedule's origin, common to every arm.
+    start: Instant,
+    /// The next cycle to send.
+    k: usize,
+    /// The last command sent (before the first cycle: the one the arm holds).
+    prev: Command,
+    max_fe: f64,
+    /// How late the cycles went out against the schedule.
+    max_late: Duration,
+    /// When this thread last looked at its bus: a gap much longer than its poll is time the
+    /// host was away (descheduled), which no answer could use.
+    seen: Instant,
+}
+
+impl<'a> Streaming<'a> {
+    fn new(
+        me: usize,
+        bus: &'a mut dyn ArmLink,
+        shared: &'a Shared,
+        cfg: &'a ExecConfig,
+        held: Command,
+    ) -> Self {
+        // Every arm streams on the same schedule from a common start time.
+        let start = *lock(&shared.start).get_or_insert_with(|| Instant::now() + cfg.period);
+        Self {
+            me,
+            bus,
+            shared,
+            cfg,
+            start,
+            k: 0,
+            prev: held,
+            max_fe: 0.0,
+            max_late: Duration::ZERO,
+            seen: Instant::now(),
+        }
+    }
+
+    /// Waits for cycle `k`'s turn and sends it: `Some(true)` if the run ends with it,
+    /// `Some(false)` if it goes on, `None` if the run is stopping (a fault elsewhere, or a stop
+    /// asked for).
+    fn step(&mut self) -> Result<Option<bool>, Fault> {
+        let due = self.wait_turn()?;
+        let fe = self.watch(true)?;
+        if self.shared.stopping() {
+            return Ok(None);
+        }
+        let k = self.k;
+        self.max_late = self.max_late.max(Instant::now().saturating_duration_since(due));
+        // Checked against the limits by the generator.
+        let (cmd, end) = self.shared.command(self.me, k as u64)?;
+        self.bus.send_cycle(&cmd).map_err(Fault::Bus)?;
+        self.shared.sent[self.me].store(k + 1, Ordering::SeqCst);
+        self.prev = cmd;
+        self.max_fe = self.max_fe.max(fe);
+        let measured = self.bus.measured();
+        self.shared.publish(self.me, |a| {
+            a.commanded = cmd;
+            a.sent = k as u64 + 1;
+            a.measured = measured;
+            a.following_error = fe;
+        });
+        self.k += 1;
+        Ok(Some(end.is_some_and(|e| k as u64 >= e + self.cfg.settle_cycles as u64)))
+    }
+
+    /// Handles the feedback received so far (so that a fault is seen when its frame arrives,
+    /// not at the next cycle) and, once the cycle is `due`, whether the per-cycle accounting
+    /// allows it; returns the following error.
+    fn watch(&mut self, due: bool) -> Result<f64, Fault> {
+        self.bus.poll().map_err(Fault::Bus)?;
+        let now = Instant::now();
+        self.seen = now;
+        let fe = self.bus.check_feedback(now, self.cfg, &self.prev)?;
+        if due {
+            self.bus.check_cycle()?;
+        }
+        self.shared.clear[self.me].store(self.bus.clear_until(), Ordering::SeqCst);
+        Ok(fe)
+    }
+
+    /// Waits until cycle `k` is due, every arm has sent cycle `k - 1` and every arm's
+    /// accounting allows cycle `k`, watching the feedback every [`FAULT_POLL`]; returns when
+    /// it was due, or early if a fault is raised here or on another arm, or a stop is asked
+    /// for. An arm that keeps the others waiting longer than the feedback timeout is a fault.
+    ///
+    /// A thread that wakes up [`away_after`] later than it asked was held up by the machine,
+    /// not by the arms: the answers owed had that time taken from them too (on one machine,
+    /// the mocks and simulators are held up alike), so the schedule slips to give them half a
+    /// period from now before the cycle is due.
+    fn wait_turn(&mut self) -> Result<Instant, Fault> {
+        let (shared, cfg, k) = (self.shared, self.cfg, self.k);
+        let mut asleep = Duration::ZERO;
+        let mut due = shared.due(self.start, k, cfg.period);
+        let mut give_up = due.max(Instant::now()) + cfg.watch.feedback_timeout;
+        loop {
+            if shared.stopping() {
+                return Ok(due);
+            }
+            let now = Instant::now();
+            if now.saturating_duration_since(self.seen) > asleep + away_after(cfg.period) {
+                shared.slip_to(self.start, k, cfg.period, now + cfg.period / 2);
+                due = shared.due(self.start, k, cfg.period);
+                give_up = give_up.max(due + cfg.watch.feedback_timeout);
+            }
+            self.watch(now >= due)?;
+            let behind = (shared.sent.iter())
+                .position(|c| c.load(Ordering::SeqCst) < k)
+                .or_else(|| {
+                    (shared.clear.iter()).position(|c| c.load(Ordering::SeqCst) <= k as u64)
+                });
+            if now >= due && behind.is_none() {
+                return Ok(due);
+            }
+            if now >= give_up {
+                let other = behind.unwrap_or(self.me);
+                return Err(Fault::Bus(format!(
+                    "arm {:?} fell more than {:?} behind the common schedule",
+                    shared.names[other], cfg.watch.feedback_timeout
+                )));
+            }
+            asleep = due
+                .saturating_duration_since(now)
+                .clamp(Duration::ZERO, FAULT_POLL)
+                .max(Duration::from_micros(20));
+            std::thread::sleep(asleep);
+            // Another arm may have slipped the schedule meanwhile.
+            due = due.max(shared.due(self.start, k, cfg.period));
+        }
+    }
+
+    /// A fault here (`fault`) or on another arm, or a stop asked for: quick stop, and nothing
+    /// after.
+    fn stop(self, fault: Option<Fault>) -> ArmEnd {
         let detected = match fault {
-            Some(f) => shared.raise(bus.name(), f, k),
-            None => lock(&shared.fault)
-                .as_ref()
-                .map_or_else(Instant::now, |f| f.3),
+            Some(f) => self.shared.raise(self.bus.name(), f, self.k),
+            None => self.shared.fault_detected().unwrap_or_else(Instant::now),
         };
-        let sent = bus.quick_stop(&prev1);
+        let sent = self.bus.quick_stop(&self.prev);
         // The bound is on the stop frames going out; the answers are waited for after.
         let latency = detected.elapsed();
-        shared.publish(me, |a| a.state = ArmState::Stopped);
-        let (error, unanswered) = match (sent, bus.leave()) {
+        self.shared.publish(self.me, |a| a.state = ArmState::Stopped);
+        let (error, unanswered) = match (sent, self.bus.leave()) {
             (Err(e), left) => (Some(e), left.unwrap_or_default()),
             (Ok(()), Ok(unanswered)) => (None, unanswered),
             (Ok(()), Err(e)) => (Some(e), Vec::new()),
         };
         let stop = ArmStop {
-            arm: bus.name().to_string(),
-            cycles_sent: k,
+            arm: self.bus.name().to_string(),
+            cycles_sent: self.k,
             latency,
             error,
             unanswered,
         };
-        return ArmEnd::Stopped {
+        ArmEnd::Stopped {
             stop,
-            frames: bus.frames_sent(),
-            max_following_error: max_fe,
-        };
-    }
-    shared.sent[me].store(usize::MAX, Ordering::SeqCst);
-    shared.clear[me].store(u64::MAX, Ordering::SeqCst);
-    // An arm that leaves a frame of its normal stop unanswered has not been seen to stop.
-    let ended = bus.finish(&prev1).and_then(|()| match bus.leave()? {
-        unanswered if unanswered.is_empty() => Ok(()),
-        unanswered => Err(format!(
-            "the arm did not answer its stop: {}",
-            unanswered.join("; ")
-        )),
-    });
-    match ended {
-        Ok(()) => {
-            shared.publish(me, |a| a.state = ArmState::Finished);
-            ArmEnd::Completed {
-                cycles: k,
-                frames: bus.frames_sent(),
-                max_following_error: max_fe,
-                max_lateness: max_late,
-            }
-        }
-        Err(e) => {
-            shared.publish(me, |a| a.state = ArmState::Stopped);
-            let detected = shared.raise(bus.name(), Fault::Bus(e.clone()), k);
-            let stop = ArmStop {
-                arm: bus.name().to_string(),
-                cycles_sent: k,
-                latency: detected.elapsed(),
-                error: Some(e),
-                unanswered: Vec::new(),
-            };
-            ArmEnd::Stopped {
-                stop,
-                frames: bus.frames_sent(),
-                max_following_error: max_fe,
-            }
+            frames: self.bus.frames_sent(),
+            max_following_error: self.max_fe,
         }
     }
+
+    /// The run's normal end: the arm's stop frames, answered.
+    fn finish(self) -> ArmEnd {
+        let (me, shared) = (self.me, self.shared);
+        shared.sent[me].store(usize::MAX, Ordering::SeqCst);
+        shared.clear[me].store(u64::MAX, Ordering::SeqCst);
+        // An arm that leaves a frame of its normal stop unanswered has not been seen to stop.
+        let ended = self.bus.finish(&self.prev).and_then(|()| match self.bus.leave()? {
+            unanswered if unanswered.is_empty() => Ok(()),
+            unanswered => Err(format!(
+                "the arm did not answer its stop: {}",
+                unanswered.join("; ")
+            )),
+        });
+        match ended {
+            Ok(()) => {
+                shared.publish(me, |a| a.state = ArmState::Finished);
+                ArmEnd::Completed {
+                    cycles: self.k,
+                    frames: self.bus.frames_sent(),
+                    max_following_error: self.max_fe,
+                    max_lateness: self.max_late,
+                }
+            }
+            Err(e) => {
+                shared.publish(me, |a| a.state = ArmState::Stopped);
+                let detected = shared.raise(self.bus.name(), Fault::Bus(e.clone()), self.k);
+                let stop = ArmStop {
+                    arm: self.bus.name().to_string(),
+                    cycles_sent: self.k,
+                    latency: detected.elapsed(),
+                    error: Some(e),
+                    unanswered: Vec::new(),
+                };
+                ArmEnd::Stopped {
+                    stop,
+                    frames: self.bus.frames_sent(),
+                    max_following_error: self.max_fe,
+                }
+            }
+        }
+    }
+}
+
+/// How much later than it asked a waiting thread may wake before it counts as held up by the
+/// machine: a quarter period, at least 250 µs (a thread's ordinary wake-up latency under load
+/// is tens of microseconds, see docs/HARDWARE.md).
+fn away_after(period: Duration) -> Duration {
+    (period / 4).max(Duration::from_micros(250))
 }
 
 /// Waits for every arm to finish a start-up phase with `result`; the arm's end if this arm or
@@ -200,46 +308,6 @@ fn startup_phase_end(
     Some(end)
 }
 
-/// Waits until cycle `k` is due, every arm has sent cycle `k - 1` and every arm's accounting
-/// allows cycle `k`, calling `watch` (this arm's feedback check) every [`FAULT_POLL`]; returns
-/// early if a fault is raised here or on another arm, or a stop is asked for. An arm that keeps
-/// the others waiting longer than the feedback timeout is a fault.
-fn wait_turn(
-    me: usize,
-    k: usize,
-    due: Instant,
-    shared: &Shared,
-    cfg: &ExecConfig,
-    watch: &mut dyn FnMut() -> Result<f64, Fault>,
-) -> Result<(), Fault> {
-    let give_up = due.max(Instant::now()) + cfg.feedback_timeout;
-    loop {
-        if shared.stopping() {
-            return Ok(());
-        }
-        watch()?;
-        let now = Instant::now();
-        let behind = (shared.sent.iter())
-            .position(|c| c.load(Ordering::SeqCst) < k)
-            .or_else(|| (shared.clear.iter()).position(|c| c.load(Ordering::SeqCst) <= k as u64));
-        if now >= due && behind.is_none() {
-            return Ok(());
-        }
-        if now >= give_up {
-            let other = behind.unwrap_or(me);
-            return Err(Fault::Bus(format!(
-                "arm {:?} fell more than {:?} behind the common schedule",
-                shared.names[other], cfg.feedback_timeout
-            )));
-        }
-        std::thread::sleep(
-            due.saturating_duration_since(now)
-                .clamp(Duration::ZERO, FAULT_POLL)
-                .max(Duration::from_micros(20)),
-        );
-    }
-}
-
 /// Starts one thread per link (link i streams the generator's arm i; `log` is the command
 /// log the links write to, finished with the run): start-up of every arm together, then
 /// streaming.
@@ -259,6 +327,7 @@ pub(crate) fn start(
         barrier: Barrier::new(links.len()),
         startup_failed: AtomicBool::new(false),
         start: Mutex::new(None),
+        slip_ns: AtomicU64::new(0),
         faulted: AtomicBool::new(false),
         halt: AtomicBool::new(false),
         realtime_refused: Mutex::new(None),
@@ -294,6 +363,7 @@ pub(crate) fn start(
         .zip(info.speeds.clone())
         .enumerate()
         .map(|(me, (((mut bus, first), span), speed))| {
+            let plan = StartPlan { first, span, speed };
             let (shared, config, progress) = (shared.clone(), config.clone(), progress.clone());
             let total = info.total_cycles;
             std::thread::spawn(move || {
@@ -304,7 +374,7 @@ pub(crate) fn start(
                 stream_arm(
                     me,
                     bus.as_mut(),
-                    (first, span, speed),
+                    &plan,
                     &shared,
                     &config,
                     progress,

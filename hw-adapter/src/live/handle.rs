@@ -57,8 +57,11 @@ impl StreamHandle {
         start_step: usize,
         waypoints: &[&[[f64; JOINTS]]],
     ) -> Result<u64, PushError> {
-        if let Some((arm, fault, ..)) = lock(&self.shared.fault).as_ref() {
-            return Err(PushError::Stopped(format!("fault on arm {arm:?}: {fault}")));
+        if let Some(f) = lock(&self.shared.fault).as_ref() {
+            return Err(PushError::Stopped(format!(
+                "fault on arm {:?}: {}",
+                f.arm, f.fault
+            )));
         }
         if self.shared.halt.load(Ordering::SeqCst) || self.threads.iter().all(|t| t.is_finished()) {
             return Err(PushError::Stopped("the stream has ended".into()));
@@ -214,7 +217,7 @@ fn finish_run(
     if !startup_errors.is_empty() {
         return Err(ExecError::Startup(startup_errors));
     }
-    if let Some((arm, fault, cycle, _)) = lock(&shared.fault).take() {
+    if let Some(first) = lock(&shared.fault).take() {
         // Arms that had already finished normally count as stopped at once.
         for a in arms {
             stops.push(ArmStop {
@@ -226,9 +229,9 @@ fn finish_run(
             });
         }
         return Err(ExecError::Fault(Box::new(FaultReport {
-            arm,
-            fault,
-            cycle,
+            arm: first.arm,
+            fault: first.fault,
+            cycle: first.cycle,
             stops,
             bound: cfg.period * STOP_BOUND_PERIODS,
         })));

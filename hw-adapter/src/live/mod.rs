@@ -112,11 +112,26 @@ struct Shared {
     /// ([`crate::link::ArmLink::clear_until`]; `u64::MAX` once it has finished): no arm sends a cycle that
     /// another arm's drives have not earned, so that a fault stops every arm at the same cycle.
     clear: Vec<AtomicU64>,
-    /// The first fault: arm, fault, cycle, when detected.
-    fault: Mutex<Option<(String, Fault, usize, Instant)>>,
+    /// How far the common schedule has slipped behind `start + k period`, ns: see
+    /// [`Shared::due`].
+    slip_ns: AtomicU64,
+    /// The first fault.
+    fault: Mutex<Option<FirstFault>>,
     cycle: Mutex<Cycle>,
     /// Per arm, what its thread last published.
     arms: Vec<Mutex<ArmNow>>,
+}
+
+/// The first fault of a run, which every arm stops for.
+#[derive(Clone, Debug)]
+struct FirstFault {
+    /// The arm it was seen on.
+    arm: String,
+    fault: Fault,
+    /// The control cycle in which it was detected.
+    cycle: usize,
+    /// When it was detected: each arm's stop latency counts from here.
+    detected: Instant,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -126,9 +141,37 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 impl Shared {
     fn raise(&self, arm: &str, fault: Fault, cycle: usize) -> Instant {
         let now = Instant::now();
-        lock(&self.fault).get_or_insert((arm.to_string(), fault, cycle, now));
+        lock(&self.fault).get_or_insert(FirstFault {
+            arm: arm.to_string(),
+            fault,
+            cycle,
+            detected: now,
+        });
         self.faulted.store(true, Ordering::SeqCst);
         now
+    }
+
+    /// When the first fault was detected, if there was one.
+    fn fault_detected(&self) -> Option<Instant> {
+        lock(&self.fault).as_ref().map(|f| f.detected)
+    }
+
+    /// When cycle `k` is due on the common schedule: `start + k period + slip`. The schedule
+    /// slips (never catches up in a burst) when the host itself was away past a cycle: see
+    /// [`Shared::slip_to`].
+    fn due(&self, start: Instant, k: usize, period: Duration) -> Instant {
+        start + period.mul_f64(k as f64) + Duration::from_nanos(self.slip_ns.load(Ordering::SeqCst))
+    }
+
+    /// Moves the common schedule so that cycle `k` is due no earlier than `at` (every arm
+    /// follows: the latest of the arms' requests wins). The cycles after it keep their period
+    /// from there: commands are never sent faster than one a period to make up for lost time,
+    /// so that every answer has its period to arrive, and the arms get each cycle's command
+    /// one period after the last.
+    fn slip_to(&self, start: Instant, k: usize, period: Duration, at: Instant) {
+        let on_time = start + period.mul_f64(k as f64);
+        let slip = at.saturating_duration_since(on_time).as_nanos() as u64;
+        self.slip_ns.fetch_max(slip, Ordering::SeqCst);
     }
 
     /// A fault here or elsewhere, or a stop asked for: every arm stops.

@@ -108,7 +108,7 @@ pub enum Fault {
         state: &'static str,
     },
     /// The wall-clock backstop: a drive's position feedback missing for longer than
-    /// [`super::ExecConfig::feedback_timeout`].
+    /// [`super::WatchSettings::feedback_timeout`].
     FeedbackLost {
         /// The drive's node id.
         node: u8,
@@ -326,6 +326,9 @@ pub enum ExecError {
     /// A fault stopped every arm.
     #[error("{0}")]
     Fault(Box<FaultReport>),
+    /// The machine does not hold the control rate (measured before any arm was set up).
+    #[error("refusing to start: {0}")]
+    Timing(TimingError),
     /// The command log could not be written.
     #[error("cannot write the command log {path}: {error}")]
     Log {
@@ -334,6 +337,37 @@ pub enum ExecError {
         /// The first error writing it.
         error: std::io::Error,
     },
+}
+
+/// Why a rate is refused (or could not be measured).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TimingError {
+    /// The machine does not hold the rate.
+    #[error(
+        "this machine does not hold {hz:.0} Hz: 99 % of a {period:?} timer's wake-ups come \
+         within {p99:?} of their deadline, over a quarter period ({limit:?}; median {p50:?}, \
+         worst {max:?}, {scheduling}); lower the rate, run the arm threads under SCHED_FIFO \
+         (root or CAP_SYS_NICE, `--rt-priority`), or run less beside them"
+    )]
+    RateNotHeld {
+        /// The rate asked for, Hz.
+        hz: f64,
+        /// Its period.
+        period: Duration,
+        /// The measured 99th percentile of the lateness.
+        p99: Duration,
+        /// The median.
+        p50: Duration,
+        /// The worst.
+        max: Duration,
+        /// A quarter period.
+        limit: Duration,
+        /// What the thread ran under.
+        scheduling: String,
+    },
+    /// The measurement's arguments are out of range.
+    #[error("timer measurement: {0}")]
+    Arguments(&'static str),
 }
 
 #[cfg(test)]

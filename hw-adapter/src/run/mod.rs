@@ -11,7 +11,9 @@ mod report;
 mod status;
 pub mod watch;
 
-pub use fault::{ArmStop, CycleFault, ExecError, Fault, FaultReport, EMCY_FOLLOWING_ERROR};
+pub use fault::{
+    ArmStop, CycleFault, ExecError, Fault, FaultReport, TimingError, EMCY_FOLLOWING_ERROR,
+};
 pub use report::{ArmReport, Progress, Report};
 pub use status::{ArmState, ArmStatus, Measured};
 pub use watch::{WatchSettings, DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
@@ -67,10 +69,6 @@ pub struct ExecConfig {
     pub startup_timeout: Duration,
     /// Fault detection: per-cycle accounting, heartbeat, following error ([`WatchSettings`]).
     pub watch: WatchSettings,
-    /// Backstops on the wall clock, behind the per-cycle accounting: a SYNC unanswered for
-    /// longer is a fault, and so is an arm that keeps the others waiting longer on the common
-    /// schedule (its thread stalled, its bus full).
-    pub feedback_timeout: Duration,
     /// Largest allowed distance of an arm's start position from the plan's first waypoint, rad.
     pub start_tolerance: f64,
     /// Largest wait for room on a bus when sending one frame.
@@ -85,6 +83,10 @@ pub struct ExecConfig {
     /// keeps normal scheduling. Refused (no `CAP_SYS_NICE`), the run goes on at normal
     /// priority and [`Report::realtime`] says why.
     pub realtime_priority: Option<u8>,
+    /// Before any arm is set up, the machine's timer is measured at the period for this long
+    /// (under the arm threads' scheduling) and a rate it does not hold is refused
+    /// ([`crate::timing`]); `None` skips the check.
+    pub preflight: Option<Duration>,
 }
 
 impl Default for ExecConfig {
@@ -96,12 +98,12 @@ impl Default for ExecConfig {
             sdo_timeout: Duration::from_millis(100),
             startup_timeout: Duration::from_secs(1),
             watch: WatchSettings::default(),
-            feedback_timeout: Duration::from_millis(50),
             start_tolerance: 1e-3,
             send_timeout: Duration::from_millis(2),
             settle_cycles: 50,
             online_horizon: Duration::from_secs(20),
             realtime_priority: Some(50),
+            preflight: Some(Duration::from_secs(1)),
         }
     }
 }

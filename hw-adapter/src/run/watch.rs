@@ -56,6 +56,10 @@ pub struct WatchSettings {
     pub drive_lag: Duration,
     /// The executor's own check, second line: largest allowed |target - actual|, rad.
     pub following_error_bound: f64,
+    /// Backstop on the wall clock, behind the per-cycle accounting: a SYNC unanswered for
+    /// longer is a fault, and so is an arm that keeps the others waiting longer on the common
+    /// schedule (its thread stalled, its bus full).
+    pub feedback_timeout: Duration,
 }
 
 impl Default for WatchSettings {
@@ -67,6 +71,7 @@ impl Default for WatchSettings {
             following_error_timeout_ms: 10,
             drive_lag: Duration::from_millis(10),
             following_error_bound: 0.05,
+            feedback_timeout: Duration::from_millis(50),
         }
     }
 }
@@ -111,6 +116,12 @@ impl WatchSettings {
                 self.drive_lag
             ));
         }
+        if self.feedback_timeout.is_zero() || self.feedback_timeout > Duration::from_secs(10) {
+            return Err(format!(
+                "feedback time-out must be within (0, 10] s, got {:?}",
+                self.feedback_timeout
+            ));
+        }
         if !(self.following_error_bound.is_finite() && self.following_error_bound > 0.0) {
             return Err(format!(
                 "following error bound must be a positive number of rad, got {}",
@@ -128,7 +139,8 @@ impl fmt::Display for WatchSettings {
             f,
             "watchdog: fault when a drive has not answered SYNC k at SYNC k+{}; heartbeat {} ms, \
              consumer {:?} ({}x); drive following-error time-out {} ms, window = peak speed x \
-             2 x (drive lag {:?} + period), at least {} rad; executor's bound {} rad",
+             2 x (drive lag {:?} + period), at least {} rad; executor's bound {} rad; backstop: \
+             an answer missing, or an arm behind the common schedule, for {:?}",
             self.missed_cycles,
             self.heartbeat_ms,
             self.heartbeat_consumer_time(),
@@ -136,7 +148,8 @@ impl fmt::Display for WatchSettings {
             self.following_error_timeout_ms,
             self.drive_lag,
             MIN_FOLLOWING_ERROR_WINDOW,
-            self.following_error_bound
+            self.following_error_bound,
+            self.feedback_timeout
         )
     }
 }
@@ -171,5 +184,6 @@ mod tests {
         assert!(bad(|w| w.following_error_timeout_ms = 0).contains("time-out"));
         assert!(bad(|w| w.drive_lag = Duration::from_secs(5)).contains("drive lag"));
         assert!(bad(|w| w.following_error_bound = -1.0).contains("bound"));
+        assert!(bad(|w| w.feedback_timeout = Duration::ZERO).contains("feedback time-out"));
     }
 }

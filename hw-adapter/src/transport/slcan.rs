@@ -3,12 +3,16 @@
 //! Host to adapter: `C\r` close, `Sn\r` bitrate, `O\r` open, `tIIILDD..\r` transmit a standard
 //! frame. The adapter answers a command with `\r` (ok) or `\x07` (bell: error), may acknowledge a
 //! transmission with `z\r`, and reports received frames as `tIIILDD..\r`. Works on any serial
-//! device or pseudo-terminal.
+//! device or pseudo-terminal ([`SlcanTransport::open`]), and on a Unix socket
+//! ([`SlcanTransport::connect`]: an adapter simulated by another process, such as the mock arms;
+//! unlike a pseudo-terminal, whose bytes cross the kernel in a worker thread that a loaded
+//! machine delays by tens of milliseconds, a socket hands them over at once).
 
 use super::{Transport, TransportError};
 use crate::frame::CanFrame;
 use serialport::SerialPort;
-use std::io::{ErrorKind, Read, Write};
+use std::io::{self, ErrorKind, Read, Write};
+use std::os::unix::net::UnixStream;
 use std::time::{Duration, Instant};
 
 /// The bitrate `slcan:` buses are opened at, bit/s.
@@ -88,10 +92,31 @@ pub fn decode(line: &[u8]) -> Result<Reply, String> {
     }
 }
 
-/// A CAN bus behind an SLCAN adapter on a serial line.
+/// The byte stream an adapter is reached on: a serial line or a Unix socket.
+trait Line: Read + Write + Send {
+    /// The longest a read or a write may wait from here on.
+    fn set_timeout(&mut self, timeout: Duration) -> io::Result<()>;
+}
+
+impl Line for Box<dyn SerialPort> {
+    fn set_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        SerialPort::set_timeout(self.as_mut(), timeout).map_err(io::Error::other)
+    }
+}
+
+impl Line for UnixStream {
+    fn set_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        // A socket takes no zero time-out (it would mean "block forever").
+        let t = Some(timeout.max(Duration::from_micros(1)));
+        self.set_read_timeout(t)?;
+        self.set_write_timeout(t)
+    }
+}
+
+/// A CAN bus behind an SLCAN adapter on a serial line or a Unix socket.
 pub struct SlcanTransport {
     name: String,
-    port: Box<dyn SerialPort>,
+    port: Box<dyn Line>,
     /// Bytes read but not yet split into lines.
     pending: Vec<u8>,
 }
@@ -100,19 +125,28 @@ impl SlcanTransport {
     /// Opens the adapter at `path` (serial device or pty), sets `bitrate` and opens the channel.
     pub fn open(path: &str, bitrate: u32) -> Result<Self, TransportError> {
         let name = format!("slcan:{path}");
-        let fail = |reason: String| TransportError::Open {
-            bus: name.clone(),
-            reason,
-        };
-        let speed = bitrate_command(bitrate)
-            .ok_or_else(|| fail(format!("unsupported bitrate {bitrate} bit/s")))?;
         // The serial baud rate is irrelevant for USB adapters and ptys; 115200 is customary.
         let port = serialport::new(path, 115_200)
             .timeout(COMMAND_ACK_TIMEOUT)
             .open()
-            .map_err(|e| fail(e.to_string()))?;
+            .map_err(|e| open_error(&name, e.to_string()))?;
+        Self::start(name, Box::new(port), bitrate)
+    }
+
+    /// Connects to the adapter listening on the Unix socket `path`, sets `bitrate` and opens
+    /// the channel.
+    pub fn connect(path: &str, bitrate: u32) -> Result<Self, TransportError> {
+        let name = format!("slcan-unix:{path}");
+        let stream = UnixStream::connect(path).map_err(|e| open_error(&name, e.to_string()))?;
+        Self::start(name, Box::new(stream), bitrate)
+    }
+
+    /// Sets the adapter at the other end of `port` up: closed, at `bitrate`, opened.
+    fn start(name: String, port: Box<dyn Line>, bitrate: u32) -> Result<Self, TransportError> {
+        let speed = bitrate_command(bitrate)
+            .ok_or_else(|| open_error(&name, format!("unsupported bitrate {bitrate} bit/s")))?;
         let mut t = Self {
-            name: name.clone(),
+            name,
             port,
             pending: Vec::new(),
         };
@@ -210,6 +244,13 @@ impl SlcanTransport {
                 Err(e) => return Err(self.io(e.to_string())),
             }
         }
+    }
+}
+
+fn open_error(bus: &str, reason: String) -> TransportError {
+    TransportError::Open {
+        bus: bus.to_string(),
+        reason,
     }
 }
 

@@ -1,0 +1,28 @@
+"""Scheduling of a mock arm's process: a real arm's drives run on processors of their own, so a
+mock that stands in for one on the host's machine must not wait behind the host's other work
+(the planner, a build) or it answers late and the watchdog rightly stops the run.
+
+`realtime()` asks for SCHED_FIFO at MOCK_PRIORITY, above the executor's arm threads (50 by
+default: the drives answer before the host's next cycle is due); refused (no CAP_SYS_NICE),
+it asks for nice -10, and returns a line that says what the process runs under.
+"""
+
+import os
+
+# Above the executor's default SCHED_FIFO priority (ExecConfig::realtime_priority = 50).
+MOCK_PRIORITY = 60
+
+
+def realtime(priority=MOCK_PRIORITY):
+    """Puts this process (and the threads it starts after) under SCHED_FIFO `priority`, or
+    else at nice -10, or else leaves it; returns what it got, in words."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        return "SCHED_FIFO %d" % priority
+    except (PermissionError, AttributeError, OSError) as e:
+        refused = "SCHED_FIFO %d refused (%s)" % (priority, e)
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, -10)
+        return refused + "; nice -10"
+    except (PermissionError, OSError):
+        return refused + "; normal priority"
