@@ -294,8 +294,7 @@ impl Drives {
     }
 
     fn heartbeat(&mut self, j: usize) -> Instant {
-        let f = CanFrame::new(0x700 + node_id(j) as u16, &[self.nodes[j].nmt]);
-        f.map_or_else(Instant::now, |f| self.out(f))
+        self.out(canopen::heartbeat(node_id(j), self.nodes[j].nmt))
     }
 
     fn handle(&mut self, f: &CanFrame, now: Instant) {
@@ -484,12 +483,10 @@ impl Drives {
                 continue;
             }
             let pos = rad_to_counts(*q).unwrap_or(0);
-            let payload = cia402::rpdo1_payload(pos, n.statusword());
-            if let Some(f) = CanFrame::new(0x180 + u16::from(node_id(j)), &payload) {
-                let sent = self.out(f);
-                if injected == Some(Injected::FaultBit) && j + 1 == usize::from(FAULTY_NODE) {
-                    self.record.first_sign = Some(sent);
-                }
+            let payload = cia402::tpdo1_payload(pos, n.statusword());
+            let sent = self.out(canopen::tpdo1(node_id(j), &payload));
+            if injected == Some(Injected::FaultBit) && j + 1 == usize::from(FAULTY_NODE) {
+                self.record.first_sign = Some(sent);
             }
         }
     }
