@@ -34,6 +34,16 @@ impl From<kortex::Connection> for ArmPort {
     }
 }
 
+impl ArmPort {
+    /// The CAN bus this port's arm is on (`None` for a Kortex arm).
+    pub(crate) fn can_transport(&self) -> Option<&dyn Transport> {
+        match self {
+            ArmPort::Can(t) | ArmPort::CanSetupOverride(t, _) => Some(t.as_ref()),
+            ArmPort::Kortex(_) => None,
+        }
+    }
+}
+
 /// Ports paired with the names of their arms, as [`crate::Executor::new`] takes them.
 pub type ArmPorts = Vec<(String, ArmPort)>;
 

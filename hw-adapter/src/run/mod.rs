@@ -7,11 +7,13 @@
 //! them and the executor that composes both all speak it, and none of them is needed to read it.
 
 mod fault;
+mod overload;
 mod report;
 mod status;
 pub mod watch;
 
 pub use fault::{ArmStop, CycleFault, ExecError, Fault, FaultReport, EMCY_FOLLOWING_ERROR};
+pub use overload::BusOverload;
 pub use report::{ArmReport, Progress, Report};
 pub use status::{ArmState, ArmStatus, Measured};
 pub use watch::{WatchSettings, DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};

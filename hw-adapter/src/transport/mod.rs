@@ -53,6 +53,9 @@ pub enum TransportError {
 pub trait Transport: Send {
     /// The bus, as a person would name it (`slcan:/dev/ttyACM0`, `socketcan:can0`).
     fn name(&self) -> &str;
+    /// The bus's bitrate, bit/s: what the load check ([`crate::bus`]) counts its capacity
+    /// with.
+    fn bitrate(&self) -> u32;
     /// Queues `frame` for transmission, waiting at most `timeout` for room.
     fn send(&mut self, frame: &CanFrame, timeout: Duration) -> Result<(), TransportError>;
     /// The next received frame, or `None` if none arrived within `timeout` (a zero timeout polls).

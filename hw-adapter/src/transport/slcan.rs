@@ -91,6 +91,7 @@ pub fn decode(line: &[u8]) -> Result<Reply, String> {
 /// A CAN bus behind an SLCAN adapter on a serial line.
 pub struct SlcanTransport {
     name: String,
+    bitrate: u32,
     port: Box<dyn SerialPort>,
     /// Bytes read but not yet split into lines.
     pending: Vec<u8>,
@@ -113,6 +114,7 @@ impl SlcanTransport {
             .map_err(|e| fail(e.to_string()))?;
         let mut t = Self {
             name: name.clone(),
+            bitrate,
             port,
             pending: Vec::new(),
         };
@@ -216,6 +218,10 @@ impl SlcanTransport {
 impl Transport for SlcanTransport {
     fn name(&self) -> &str {
         &self.name
+    }
+
+    fn bitrate(&self) -> u32 {
+        self.bitrate
     }
 
     fn send(&mut self, frame: &CanFrame, timeout: Duration) -> Result<(), TransportError> {
