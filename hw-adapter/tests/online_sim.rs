@@ -45,6 +45,7 @@ fn start() -> (StreamHandle, Vec<CanSim>, f64) {
     // About the stream's status and stops, not the watchdog (tests/watchdog_bound.rs): this
     // shared machine stalls the loop for a few milliseconds at times.
     let cfg = ExecConfig {
+        period: omcbsa_hw::bus::CAN_PERIOD,
         watch: omcbsa_hw::testing::streaming_watch(),
         ..ExecConfig::default()
     };
@@ -87,7 +88,7 @@ fn status_follows_each_arm_and_a_dry_queue_holds_them() {
         // The simulated joints follow at once: measured is a recent command, as many
         // periods behind as the accounting allows at most.
         let lag = a.lag.expect("an answered cycle");
-        assert!(lag <= Duration::from_millis(2) * 25, "{a:?}");
+        assert!(lag <= omcbsa_hw::bus::CAN_PERIOD * 25, "{a:?}");
         let apart = (m.positions.iter().zip(a.commanded)).map(|(m, c)| (m - c).abs());
         assert!(apart.fold(0.0, f64::max) < 0.01, "{a:?}");
         assert!(a.following_error < 1e-6, "{a:?}");

@@ -29,7 +29,7 @@ use crate::run::{Command, JOINTS};
 use crate::transport::mock::MockTransport;
 use crate::transport::Transport;
 use std::collections::{BTreeMap, VecDeque};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -104,10 +104,15 @@ pub struct CanSim {
 }
 
 impl CanSim {
-    /// Starts the drives on a new in-process bus; returns them and the bus's host end (hand it
-    /// to the executor: `Box<dyn Transport>` is an [`crate::ArmPort`]).
+    /// Starts the drives on a new in-process bus (1 Mbit/s, named `mock:simN`, N counting the
+    /// buses made); returns them and the bus's host end (hand it to the executor:
+    /// `Box<dyn Transport>` is an [`crate::ArmPort`]).
     pub fn spawn(opts: CanSimOptions) -> (Self, Box<dyn Transport>) {
-        let (host, device) = MockTransport::pair("sim");
+        // Each arm on a bus of its own, named apart (the load check counts arms whose buses
+        // have one name as sharing it).
+        static BUSES: AtomicUsize = AtomicUsize::new(0);
+        let bus = format!("sim{}", BUSES.fetch_add(1, Ordering::Relaxed));
+        let (host, device) = MockTransport::pair(&bus);
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
