@@ -301,6 +301,12 @@ mod tests {
     use super::*;
     use crate::bus::worst_case_bits;
 
+    /// 10 kbit/s: a frame takes milliseconds, far above a thread's wakeup.
+    const SLOW: Wire = Wire {
+        bitrate: 10_000,
+        queue: 256,
+    };
+
     fn frame(id: u16, len: usize) -> CanFrame {
         CanFrame::new(id, &[0x55; 8][..len]).unwrap()
     }
@@ -323,10 +329,7 @@ mod tests {
     fn frames_arrive_no_earlier_than_their_time_on_the_wire() {
         // 10 kbit/s: an 8-byte frame takes at least 11.1 ms, ten of them back to back at
         // least 111 ms (whatever the machine: the receiver may only be later).
-        let wire = Wire {
-            bitrate: 10_000,
-            ..Wire::default()
-        };
+        let wire = SLOW;
         let (mut host, mut dev) = MockTransport::pair_with("slow", wire);
         let start = Instant::now();
         for i in 0..10 {
@@ -351,10 +354,7 @@ mod tests {
 
     #[test]
     fn the_lower_id_wins_when_the_bus_goes_idle() {
-        let wire = Wire {
-            bitrate: 10_000,
-            ..Wire::default()
-        };
+        let wire = SLOW;
         let (mut host, mut dev) = MockTransport::pair_with("arb", wire);
         // The host's first frame takes the idle bus; while it is on the wire (11 ms), the host
         // queues 0x300 and the device 0x180: at idle, 0x180 wins, then 0x300.

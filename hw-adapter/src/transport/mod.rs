@@ -1,5 +1,6 @@
 //! CAN frame transports: one bus per arm. Implementations: SLCAN over a serial line or
-//! pseudo-terminal, Linux SocketCAN (feature `socketcan`), and an in-process mock.
+//! pseudo-terminal, Linux SocketCAN (feature `socketcan`), and an in-process bus with a bitrate
+//! (`mock`: frames take their time on the wire, arbitrated by identifier).
 
 pub mod mock;
 pub mod slcan;
