@@ -60,9 +60,9 @@ pub const BITRATES: [u32; 8] = [
 /// worst-case stuffing. The rest is room for what is not counted per cycle (SDO, NMT, EMCY,
 /// error frames and the retransmissions after them) and for the cycle's timing: CAN serves
 /// frames by priority, so near a full bus the lowest-priority frames of a cycle (the last
-/// nodes' TPDOs) wait for everything else and their latency has no useful bound; a third of
-/// the bus left idle keeps every cycle's frames well within their period. 70 % is the usual
-/// design limit for CANopen networks.
+/// nodes' TPDOs) wait for everything else and their latency has no useful bound; 30 % of the
+/// bus left idle keeps every cycle's frames well within their period. 70 % is the usual design
+/// limit for CANopen networks.
 pub const MAX_LOAD: f64 = 0.70;
 
 /// The control periods the documentation's table and the default periods choose from.
@@ -108,7 +108,8 @@ pub const fn worst_case_bits(len: usize) -> u32 {
 }
 
 /// Bits `frame` takes on the wire: its fields, its CRC-15, the stuff bits these take, the
-/// unstuffed tail and the interframe space (at most [`worst_case_bits`]).
+/// unstuffed tail and the interframe space (at most [`worst_case_bits`]). Costs a loop over
+/// its at most 98 stuffed bits, twice, and one small allocation.
 pub fn frame_bits(frame: &CanFrame) -> u32 {
     let data = frame.data();
     let mut bits: Vec<bool> = Vec::with_capacity(stuffed_field_bits(data.len()) as usize);

@@ -10,7 +10,8 @@
 //! out when an end looks at the bus (sends or receives), from the instants the frames were
 //! queued at, so a receiver woken late (a thread's wakeup costs 50-200 µs on a small machine)
 //! gets every frame whose instant has passed, at once, and the bus's timing does not drift
-//! with the machine's.
+//! with the machine's. Costs, per frame: its bits counted ([`crate::bus::frame_bits`]) when it
+//! takes the wire and while a receiver waits for it, under the bus's one lock.
 
 use super::{ArmBuses, Transport, TransportError};
 use crate::bus::{frame_bits, wire_time, DEFAULT_BITRATE};
