@@ -250,7 +250,8 @@ impl Drives {
             let next = (self.nodes.iter().filter_map(|n| n.heartbeat))
                 .chain(self.delayed.front().map(|d| d.0))
                 .fold(now + IDLE, Instant::min);
-            let wait = if stop.load(Ordering::SeqCst) {
+            // Stopping, the drives still take every frame sent to them, those on the wire too.
+            let wait = if stop.load(Ordering::SeqCst) && !self.bus.in_flight() {
                 Duration::ZERO
             } else {
                 next.saturating_duration_since(now)

@@ -88,7 +88,7 @@ impl Bus {
     }
 
     /// Frames from `end` not yet read by the other end.
-    fn in_flight(&self, end: usize) -> usize {
+    fn unread(&self, end: usize) -> usize {
         self.waiting[end].len() + self.arriving[1 - end].len()
     }
 
@@ -208,6 +208,16 @@ impl MockTransport {
         frames
     }
 
+    /// Whether frames sent to this end have yet to arrive (waiting for the bus or on it).
+    pub fn in_flight(&self) -> bool {
+        let mut bus = self.lock();
+        let now = Instant::now();
+        bus.advance(now);
+        // Frames arrive in the order they take the wire: the last one arrives last.
+        !bus.waiting[1 - self.end].is_empty()
+            || bus.arriving[self.end].back().is_some_and(|f| f.0 > now)
+    }
+
     fn lock(&self) -> MutexGuard<'_, Bus> {
         // A thread that panicked holding the lock left the bus consistent: every change is
         // one push or pop.
@@ -255,7 +265,7 @@ impl Transport for MockTransport {
                 return Err(self.closed());
             }
             bus.advance(now);
-            if bus.in_flight(self.end) < bus.wire.queue {
+            if bus.unread(self.end) < bus.wire.queue {
                 bus.waiting[self.end].push_back((now, *frame));
                 bus.advance(now);
                 self.shared.changed.notify_all();
@@ -348,9 +358,13 @@ mod tests {
         }
         assert!(bits >= 10 * (64 + 47));
         assert!(bits <= 10 * worst_case_bits(8));
-        // Nothing arrives early: a poll right after a send finds nothing.
+        // Nothing arrives early: a poll right after a send finds nothing, but the frame is on
+        // its way.
         host.send(&frame(0x100, 8), Duration::ZERO).unwrap();
         assert_eq!(dev.recv(Duration::ZERO).unwrap(), None);
+        assert!(dev.in_flight());
+        assert!(dev.recv(Duration::from_secs(5)).unwrap().is_some());
+        assert!(!dev.in_flight());
     }
 
     #[test]
