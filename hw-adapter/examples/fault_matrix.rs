@@ -3,7 +3,7 @@
 //! watchdog):
 //!
 //! - per fault and transport, control periods from the fault's first sign to the last arm's
-//!   stop, the worst of `--runs` runs (CAN at 2 ms, Kortex at 1 ms);
+//!   stop, the worst of `--runs` runs (CAN at 4 ms, one 1 Mbit/s bus per arm; Kortex at 1 ms);
 //! - the loop's period jitter at 1 kHz (Kortex), |interval - 1 ms| between consecutive
 //!   Refresh commands of each arm as the executor sent them (its command log), p50/p99/max,
 //!   with the arm threads under SCHED_FIFO 50 (the `--rt-priority` default) and without (the

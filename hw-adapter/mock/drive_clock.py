@@ -2,15 +2,17 @@
 mock that stands in for one on the host's machine must not wait behind the host's other work
 (the planner, a build) or it answers late and the watchdog rightly stops the run.
 
-`realtime()` asks for SCHED_FIFO at MOCK_PRIORITY, above the executor's arm threads (50 by
-default: the drives answer before the host's next cycle is due); refused (no CAP_SYS_NICE),
-it asks for nice -10, and returns a line that says what the process runs under.
+`realtime()` asks for SCHED_FIFO at MOCK_PRIORITY: above every process at normal priority
+(the planner, a build), below the executor's arm threads (50 by default), so that a mock's
+work never holds up the loop it answers; refused (no CAP_SYS_NICE), it asks for nice -10, and
+returns a line that says what the process runs under.
 """
 
 import os
 
-# Above the executor's default SCHED_FIFO priority (ExecConfig::realtime_priority = 50).
-MOCK_PRIORITY = 60
+# Below the executor's default SCHED_FIFO priority (ExecConfig::realtime_priority = 50), as
+# the in-process simulators' threads (sim::SIM_PRIORITY).
+MOCK_PRIORITY = 40
 
 
 def realtime(priority=MOCK_PRIORITY):

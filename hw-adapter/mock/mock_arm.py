@@ -691,7 +691,8 @@ def main(argv):
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     listener.bind(path)
     listener.listen(1)
-    listener.settimeout(args.max_seconds)
+    # `--max-seconds=inf` (a cell's mock): wait for the host as long as it takes.
+    listener.settimeout(args.max_seconds if math.isfinite(args.max_seconds) else None)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     print("SOCKET " + path, flush=True)
     try:

@@ -84,6 +84,17 @@ pub fn rpdo1<const N: usize>(node: u8, data: &[u8; N]) -> CanFrame {
     frame(RPDO1_BASE + u16::from(node), data)
 }
 
+/// A node's TPDO1 with `data` (what a drive answers each SYNC with).
+pub fn tpdo1<const N: usize>(node: u8, data: &[u8; N]) -> CanFrame {
+    const { assert!(N <= 8, "a CAN frame carries at most 8 bytes") };
+    frame(TPDO1_BASE + u16::from(node), data)
+}
+
+/// A node's heartbeat reporting NMT `state` (`NMT_STATE_*`).
+pub fn heartbeat(node: u8, state: u8) -> CanFrame {
+    frame(HEARTBEAT_BASE + u16::from(node), &[state])
+}
+
 /// COB-ID of a node's RPDO1 (for the PDO communication parameters).
 pub fn rpdo1_cob_id(node: u8) -> u32 {
     u32::from(RPDO1_BASE + u16::from(node))

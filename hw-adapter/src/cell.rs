@@ -70,7 +70,7 @@ pub struct CellOptions {
 
 impl CellOptions {
     /// Options for `arms` with waypoints `dt` apart: the command line's settings at the
-    /// slowest default period of the arms (CAN 2 ms, Kortex 1 ms, the mocks 10 ms).
+    /// slowest default period of the arms (CAN 4 ms, SLCAN 5 ms, Kortex 1 ms, the mocks 10 ms).
     pub fn new(dt: f64, arms: &[CellArm]) -> Self {
         let period = (arms.iter().map(|a| a.url.default_period()))
             .max()

@@ -141,11 +141,53 @@ const PDO_INVALID: u32 = 0x8000_0000;
 /// Transmission type 1: synchronous, every SYNC.
 const EVERY_SYNC: u8 = 1;
 
+/// RPDO1's mapping (object, sub-index, bits): target position, then controlword.
+const RPDO1_MAP: [(u16, u8, u8); 2] = [(TARGET_POSITION, 0, 32), (CONTROLWORD, 0, 16)];
+/// TPDO1's mapping (object, sub-index, bits): position actual value, then statusword.
+const TPDO1_MAP: [(u16, u8, u8); 2] = [(POSITION_ACTUAL, 0, 32), (STATUSWORD, 0, 16)];
+
+/// Bytes of a PDO with this mapping.
+const fn pdo_bytes(map: &[(u16, u8, u8)]) -> usize {
+    let (mut bits, mut i) = (0, 0);
+    while i < map.len() {
+        bits += map[i].2 as usize;
+        i += 1;
+    }
+    bits.div_ceil(8)
+}
+
+/// Bytes of an RPDO1 on the bus (its mapping: target position, controlword): 6.
+pub const RPDO1_BYTES: usize = pdo_bytes(&RPDO1_MAP);
+/// Bytes of a TPDO1 on the bus (its mapping: position actual value, statusword): 6.
+pub const TPDO1_BYTES: usize = pdo_bytes(&TPDO1_MAP);
+
+/// The SDO writes that map `map` into the PDO whose mapping parameter is `mapping_index`
+/// (clear, map each entry, set the count).
+fn map_pdo(mapping_index: u16, map: &[(u16, u8, u8)]) -> Vec<(u16, u8, SdoValue)> {
+    let entries = (1u8..)
+        .zip(map)
+        .map(|(sub, &(index, s, bits))| (mapping_index, sub, mapping(index, s, bits)));
+    std::iter::once((mapping_index, 0, SdoValue::U8(0)))
+        .chain(entries)
+        .chain(std::iter::once((
+            mapping_index,
+            0,
+            SdoValue::U8(map.len() as u8),
+        )))
+        .collect()
+}
+
 /// RPDO1 payload: target position (i32) then controlword (u16), little endian.
-pub fn rpdo1_payload(target: i32, controlword: u16) -> [u8; 6] {
+pub fn rpdo1_payload(target: i32, controlword: u16) -> [u8; RPDO1_BYTES] {
     let t = target.to_le_bytes();
     let c = controlword.to_le_bytes();
     [t[0], t[1], t[2], t[3], c[0], c[1]]
+}
+
+/// TPDO1 payload (a drive's answer): position actual value (i32) then statusword (u16), little
+/// endian: the layout of RPDO1's.
+pub fn tpdo1_payload(position: i32, statusword: u16) -> [u8; TPDO1_BYTES] {
+    rpdo1_payload(position, statusword)
 }
 
 /// TPDO1 payload: position actual value (i32) then statusword (u16).
@@ -169,7 +211,7 @@ pub fn startup_config(
     period: (u8, i8),
     following: (u32, u16),
 ) -> Vec<(u16, u8, SdoValue)> {
-    vec![
+    let mut writes = vec![
         (MODES_OF_OPERATION, 0, SdoValue::U8(MODE_CSP)),
         (COB_ID_SYNC, 0, SdoValue::U32(u32::from(SYNC_ID))),
         (INTERPOLATION_TIME_PERIOD, 1, SdoValue::U8(period.0)),
@@ -179,10 +221,9 @@ pub fn startup_config(
             1,
             SdoValue::U32(PDO_INVALID | rpdo1_cob_id(node)),
         ),
-        (RPDO1_MAPPING, 0, SdoValue::U8(0)),
-        (RPDO1_MAPPING, 1, mapping(TARGET_POSITION, 0, 32)),
-        (RPDO1_MAPPING, 2, mapping(CONTROLWORD, 0, 16)),
-        (RPDO1_MAPPING, 0, SdoValue::U8(2)),
+    ];
+    writes.extend(map_pdo(RPDO1_MAPPING, &RPDO1_MAP));
+    writes.extend([
         (RPDO1_COMM, 2, SdoValue::U8(EVERY_SYNC)),
         (RPDO1_COMM, 1, SdoValue::U32(rpdo1_cob_id(node))),
         (
@@ -190,16 +231,16 @@ pub fn startup_config(
             1,
             SdoValue::U32(PDO_INVALID | tpdo1_cob_id(node)),
         ),
-        (TPDO1_MAPPING, 0, SdoValue::U8(0)),
-        (TPDO1_MAPPING, 1, mapping(POSITION_ACTUAL, 0, 32)),
-        (TPDO1_MAPPING, 2, mapping(STATUSWORD, 0, 16)),
-        (TPDO1_MAPPING, 0, SdoValue::U8(2)),
+    ]);
+    writes.extend(map_pdo(TPDO1_MAPPING, &TPDO1_MAP));
+    writes.extend([
         (TPDO1_COMM, 2, SdoValue::U8(EVERY_SYNC)),
         (TPDO1_COMM, 1, SdoValue::U32(tpdo1_cob_id(node))),
         (FOLLOWING_ERROR_WINDOW, 0, SdoValue::U32(following.0)),
         (FOLLOWING_ERROR_TIME_OUT, 0, SdoValue::U16(following.1)),
         (HEARTBEAT_PRODUCER_TIME, 0, SdoValue::U16(heartbeat_ms)),
-    ]
+    ]);
+    writes
 }
 
 /// Controlword writes that bring a drive from "switch on disabled" to "operation enabled".

@@ -236,8 +236,9 @@ impl Executor {
     }
 }
 
-/// Opens the command log, makes each port's link and starts streaming (the arms as the
-/// generator's, in order).
+/// Refuses a CAN bus its arms would load over [`crate::bus::MAX_LOAD`] at the period (before
+/// any arm is set up), then opens the command log, makes each port's link and starts
+/// streaming (the arms as the generator's, in order).
 fn launch(
     generator: Generator,
     arms: Vec<(String, ArmPort)>,
@@ -251,6 +252,7 @@ fn launch(
             .and_then(|j| j.holds())
             .map_err(ExecError::Timing)?;
     }
+    crate::bus::check(&arms, &config).map_err(ExecError::BusLoad)?;
     let log = crate::log::open(config.log_path.as_deref())?;
     let clock = Instant::now();
     let links = (arms.into_iter())

@@ -55,6 +55,7 @@
 #![deny(missing_docs)]
 
 pub mod arm;
+pub mod bus;
 pub mod buslog;
 pub mod canopen;
 pub mod cell;
@@ -88,8 +89,9 @@ pub use live::{Event, StreamHandle, StreamProgress};
 pub use plan::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator};
 pub use port::{ArmPort, ArmPorts};
 pub use run::{
-    ArmReport, ArmState, ArmStatus, ArmStop, Command, CycleFault, ExecConfig, ExecError, Fault,
-    FaultReport, Measured, Progress, Report, Span, WatchSettings, JOINTS, STOP_BOUND_PERIODS,
+    ArmReport, ArmState, ArmStatus, ArmStop, BusOverload, Command, CycleFault, ExecConfig,
+    ExecError, Fault, FaultReport, Measured, Progress, Report, Span, WatchSettings, JOINTS,
+    STOP_BOUND_PERIODS,
 };
 pub use stream::PushError;
 pub use transport::{Transport, TransportError};

@@ -34,6 +34,16 @@ impl From<kortex::Connection> for ArmPort {
     }
 }
 
+impl ArmPort {
+    /// The CAN bus this port's arm is on (`None` for a Kortex arm).
+    pub(crate) fn can_transport(&self) -> Option<&dyn Transport> {
+        match self {
+            ArmPort::Can(t) | ArmPort::CanSetupOverride(t, _) => Some(t.as_ref()),
+            ArmPort::Kortex(_) => None,
+        }
+    }
+}
+
 /// Ports paired with the names of their arms, as [`crate::Executor::new`] takes them.
 pub type ArmPorts = Vec<(String, ArmPort)>;
 
@@ -180,12 +190,15 @@ impl ArmUrl {
         matches!(self, ArmUrl::MockKortex(_) | ArmUrl::MockCan(_))
     }
 
-    /// The control period this arm runs at by default: CAN 2 ms, Kortex 1 ms, the Python mocks
+    /// The control period this arm runs at by default: Kortex 1 ms; CAN the shortest at which
+    /// the arm fits alone on its bus ([`crate::bus::one_arm_period`]): SocketCAN (counted at
+    /// 1 Mbit/s) 4 ms, SLCAN (opened at 500 kbit/s) 5 ms; the Python mocks
     /// [`crate::mock::MOCK_PERIOD`] (they cannot keep up faster).
     pub fn default_period(&self) -> Duration {
         match self {
             ArmUrl::Kortex(_) => Duration::from_millis(1),
-            ArmUrl::SocketCan(_) | ArmUrl::Slcan(_) => Duration::from_millis(2),
+            ArmUrl::SocketCan(_) => crate::bus::CAN_PERIOD,
+            ArmUrl::Slcan(_) => crate::bus::one_arm_period(transport::slcan::DEFAULT_BITRATE),
             ArmUrl::MockKortex(_) | ArmUrl::MockCan(_) => crate::mock::MOCK_PERIOD,
         }
     }
@@ -253,6 +266,9 @@ mod tests {
         let k = ArmUrl::parse("kortex://10.0.0.2:4000:4001").unwrap();
         assert_eq!(k, ArmUrl::parse("kortex:10.0.0.2:4000:4001").unwrap());
         assert_eq!(k.default_period(), Duration::from_millis(1));
+        let can = |url| ArmUrl::parse(url).unwrap().default_period();
+        assert_eq!(can("socketcan://can0"), Duration::from_millis(4));
+        assert_eq!(can("slcan:///dev/ttyACM0"), Duration::from_millis(5));
         assert_eq!(
             ArmUrl::parse("slcan:/dev/ttyUSB0").unwrap(),
             ArmUrl::Slcan("/dev/ttyUSB0".into())

@@ -104,7 +104,11 @@ fn in_process_arm_that_never_answers_receives_only_the_first_sdo() {
     let plan = three_arm_plan(3);
     let (buses, devices) = MockTransport::buses(&ARMS);
     let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
-    let exec = Executor::new(plan, limits, buses, ExecConfig::default()).unwrap();
+    let cfg = ExecConfig {
+        period: omcbsa_hw::bus::CAN_PERIOD,
+        ..ExecConfig::default()
+    };
+    let exec = Executor::new(plan, limits, buses, cfg).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err().to_string();
     for n in ARMS {
         assert!(

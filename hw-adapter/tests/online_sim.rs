@@ -42,7 +42,10 @@ fn start() -> (StreamHandle, Vec<CanSim>, f64) {
             (sim, (format!("arm{i}"), *q, bus))
         })
         .unzip();
-    let cfg = ExecConfig::default();
+    let cfg = ExecConfig {
+        period: omcbsa_hw::bus::CAN_PERIOD,
+        ..ExecConfig::default()
+    };
     let h = Executor::online(arms, DT, scale, &limits, cfg).unwrap();
     wait(&h, "start-up", |_| true);
     (h, sims, scale)
@@ -82,7 +85,7 @@ fn status_follows_each_arm_and_a_dry_queue_holds_them() {
         // The simulated joints follow at once: measured is a recent command, as many
         // periods behind as the accounting allows at most.
         let lag = a.lag.expect("an answered cycle");
-        assert!(lag <= Duration::from_millis(2) * 25, "{a:?}");
+        assert!(lag <= omcbsa_hw::bus::CAN_PERIOD * 25, "{a:?}");
         let apart = (m.positions.iter().zip(a.commanded)).map(|(m, c)| (m - c).abs());
         assert!(apart.fold(0.0, f64::max) < 0.01, "{a:?}");
         assert!(a.following_error < 1e-6, "{a:?}");

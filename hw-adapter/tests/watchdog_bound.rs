@@ -1,4 +1,4 @@
-//! The watchdog's bound at the default rates (2 ms CAN, 1 ms Kortex) with the command line's
+//! The watchdog's bound at the default rates (4 ms CAN, 1 ms Kortex) with the command line's
 //! default watchdog: three simulated arms (`omcbsa_hw::sim`, in-process, frame level), one
 //! injecting a fault; from the fault's first sign on the faulty arm to every arm's stop at
 //! most 3 periods, measured on the arms' own clocks; no motion command after a stop; answers

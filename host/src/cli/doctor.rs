@@ -12,8 +12,14 @@ use omcbsa_hw::timing;
 use super::execute::{parse_priority, RtPriority};
 use super::{bad_input, negative, positive_seconds, print};
 
-/// The default control rates: Kortex 1 kHz, CAN 500 Hz, the Python mock arms 100 Hz.
-const RATES: [(&str, f64); 3] = [("Kortex", 1000.0), ("CAN", 500.0), ("mock arms", 100.0)];
+/// The default control rates: Kortex 1 kHz, SocketCAN 250 Hz, SLCAN 200 Hz, the Python mock
+/// arms 100 Hz.
+const RATES: [(&str, f64); 4] = [
+    ("Kortex", 1000.0),
+    ("SocketCAN", 250.0),
+    ("SLCAN", 200.0),
+    ("mock arms", 100.0),
+];
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -80,8 +80,8 @@ pub fn parse_priority(s: &str) -> Result<RtPriority, String> {
     }
 }
 
-/// The control rates `--rate` accepts, Hz. At most 1 kHz: the Gen3's own control rate, and
-/// about what a 1 Mbit/s bus carries with 8 frames per arm and cycle. At least 100 Hz: cyclic
+/// The control rates `--rate` accepts, Hz. At most 1 kHz: the Gen3's own control rate (a CAN
+/// bus is checked for its load at the rate asked: `omcbsa_hw::bus`). At least 100 Hz: cyclic
 /// synchronous position needs cycles of a few ms, and the per-cycle accounting reacts within a
 /// few periods.
 pub const RATE_RANGE: std::ops::RangeInclusive<f64> = 100.0..=1000.0;
@@ -101,7 +101,13 @@ fn parse_arm(s: &str) -> Result<(String, String), String> {
 
 pub fn run(args: &Args) -> ExitCode {
     let kortex = args.arms.iter().any(|(_, s)| s.starts_with("kortex:"));
-    let rate = args.rate.unwrap_or(if kortex { 1000.0 } else { 500.0 });
+    // The slowest default of the arms (specs were checked when parsed).
+    let slowest = (args.arms.iter())
+        .filter_map(|(_, s)| port::ArmUrl::parse(s).ok())
+        .map(|u| u.default_period())
+        .max()
+        .unwrap_or(omcbsa_hw::bus::CAN_PERIOD);
+    let rate = args.rate.unwrap_or(1.0 / slowest.as_secs_f64());
     if !RATE_RANGE.contains(&rate) {
         return bad_input(format!(
             "--rate: must be within [{}, {}] Hz, got {rate}",

@@ -80,7 +80,7 @@ pub struct LiveArgs {
     /// models' joint speed limits over the executor's].
     #[arg(long, value_name = "X")]
     time_scale: Option<f64>,
-    /// Control rate, Hz, within [100, 1000] [default: the arms' slowest: Kortex 1000, CAN 500,
+    /// Control rate, Hz, within [100, 1000] [default: the arms' slowest: Kortex 1000, SocketCAN 250, SLCAN 200,
     /// the mocks 100].
     #[arg(long, value_name = "HZ")]
     rate: Option<f64>,

@@ -51,7 +51,7 @@ pub struct LiveOptions {
     /// least that keeps the Embodier's joint speeds within the executor's
     /// ([`speed_ratio`]).
     pub time_scale: Option<f64>,
-    /// Control period; `None`: the slowest default of the arms (CAN 2 ms, Kortex 1 ms, the
+    /// Control period; `None`: the slowest default of the arms (SocketCAN 4 ms, SLCAN 5 ms, Kortex 1 ms, the
     /// mocks 10 ms).
     pub period: Option<Duration>,
     /// The run's settings but for the period (the watchdog, time-outs, priority).

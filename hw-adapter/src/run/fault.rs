@@ -314,6 +314,10 @@ pub enum ExecError {
     /// The arms given do not match the plan's (missing, unknown, twice).
     #[error("arms and buses do not match: {0}")]
     Buses(String),
+    /// A CAN bus would be loaded over the share allowed (`crate::bus::MAX_LOAD`) by the
+    /// arms on it at the run's period; no arm was set up.
+    #[error("refusing to start: {0}")]
+    BusLoad(Box<super::BusOverload>),
     /// The validator refused the plan.
     #[error("refusing to start: the plan does not validate: {0}")]
     Refused(String),

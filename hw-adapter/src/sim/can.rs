@@ -29,7 +29,7 @@ use crate::run::{Command, JOINTS};
 use crate::transport::mock::MockTransport;
 use crate::transport::Transport;
 use std::collections::{BTreeMap, VecDeque};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -104,10 +104,15 @@ pub struct CanSim {
 }
 
 impl CanSim {
-    /// Starts the drives on a new in-process bus; returns them and the bus's host end (hand it
-    /// to the executor: `Box<dyn Transport>` is an [`crate::ArmPort`]).
+    /// Starts the drives on a new in-process bus (1 Mbit/s, named `mock:simN`, N counting the
+    /// buses made); returns them and the bus's host end (hand it to the executor:
+    /// `Box<dyn Transport>` is an [`crate::ArmPort`]).
     pub fn spawn(opts: CanSimOptions) -> (Self, Box<dyn Transport>) {
-        let (host, device) = MockTransport::pair("sim");
+        // Each arm on a bus of its own, named apart (the load check counts arms whose buses
+        // have one name as sharing it).
+        static BUSES: AtomicUsize = AtomicUsize::new(0);
+        let bus = format!("sim{}", BUSES.fetch_add(1, Ordering::Relaxed));
+        let (host, device) = MockTransport::pair(&bus);
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
@@ -245,7 +250,8 @@ impl Drives {
             let next = (self.nodes.iter().filter_map(|n| n.heartbeat))
                 .chain(self.delayed.front().map(|d| d.0))
                 .fold(now + IDLE, Instant::min);
-            let wait = if stop.load(Ordering::SeqCst) {
+            // Stopping, the drives still take every frame sent to them, those on the wire too.
+            let wait = if stop.load(Ordering::SeqCst) && !self.bus.in_flight() {
                 Duration::ZERO
             } else {
                 next.saturating_duration_since(now)
@@ -294,8 +300,7 @@ impl Drives {
     }
 
     fn heartbeat(&mut self, j: usize) -> Instant {
-        let f = CanFrame::new(0x700 + node_id(j) as u16, &[self.nodes[j].nmt]);
-        f.map_or_else(Instant::now, |f| self.out(f))
+        self.out(canopen::heartbeat(node_id(j), self.nodes[j].nmt))
     }
 
     fn handle(&mut self, f: &CanFrame, now: Instant) {
@@ -484,12 +489,10 @@ impl Drives {
                 continue;
             }
             let pos = rad_to_counts(*q).unwrap_or(0);
-            let payload = cia402::rpdo1_payload(pos, n.statusword());
-            if let Some(f) = CanFrame::new(0x180 + u16::from(node_id(j)), &payload) {
-                let sent = self.out(f);
-                if injected == Some(Injected::FaultBit) && j + 1 == usize::from(FAULTY_NODE) {
-                    self.record.first_sign = Some(sent);
-                }
+            let payload = cia402::tpdo1_payload(pos, n.statusword());
+            let sent = self.out(canopen::tpdo1(node_id(j), &payload));
+            if injected == Some(Injected::FaultBit) && j + 1 == usize::from(FAULTY_NODE) {
+                self.record.first_sign = Some(sent);
             }
         }
     }

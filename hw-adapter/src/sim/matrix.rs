@@ -23,7 +23,8 @@ pub const FAULT_AT: u64 = 40;
 /// A transport, with its default control period.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Link {
-    /// CiA 402 drives on CAN, at 2 ms.
+    /// CiA 402 drives on CAN, one 1 Mbit/s in-process bus per arm, at
+    /// [`crate::bus::CAN_PERIOD`] (4 ms).
     Can,
     /// A Gen3 on Kortex, at 1 ms.
     Kortex,
@@ -33,7 +34,7 @@ impl Link {
     /// The transport's default control period (the command line's).
     pub fn period(self) -> Duration {
         match self {
-            Link::Can => Duration::from_millis(2),
+            Link::Can => crate::bus::CAN_PERIOD,
             Link::Kortex => Duration::from_millis(1),
         }
     }
@@ -41,7 +42,7 @@ impl Link {
     /// Its name in the table.
     pub fn name(self) -> &'static str {
         match self {
-            Link::Can => "CAN (2 ms)",
+            Link::Can => "CAN (4 ms)",
             Link::Kortex => "Kortex (1 ms)",
         }
     }

@@ -5,7 +5,8 @@
 //! a real arm's own processor would answer).
 //!
 //! Unlike the Python mocks (hw-adapter/mock, the protocol check, run at 10 ms), they keep up at
-//! the default rates (2 ms CAN, 1 ms Kortex), so the watchdog's bound can be measured there.
+//! the default rates (4 ms CAN, one 1 Mbit/s bus per arm; 1 ms Kortex), so the watchdog's
+//! bound can be measured there.
 //! Each can inject one fault (`can::Injected`, `kortex::Injected`) and records, on the
 //! machine's monotonic clock, the fault's first sign and when the arm's stop reached it
 //! ([`SimRecord`]). Memory grows with the run: every command taken is kept.

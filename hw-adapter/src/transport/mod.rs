@@ -1,5 +1,6 @@
 //! CAN frame transports: one bus per arm. Implementations: SLCAN over a serial line or
-//! pseudo-terminal, Linux SocketCAN (feature `socketcan`), and an in-process mock.
+//! pseudo-terminal, Linux SocketCAN (feature `socketcan`), and an in-process bus with a bitrate
+//! (`mock`: frames take their time on the wire, arbitrated by identifier).
 
 pub mod mock;
 pub mod slcan;
@@ -53,6 +54,9 @@ pub enum TransportError {
 pub trait Transport: Send {
     /// The bus, as a person would name it (`slcan:/dev/ttyACM0`, `socketcan:can0`).
     fn name(&self) -> &str;
+    /// The bus's bitrate, bit/s: what the load check ([`crate::bus`]) counts its capacity
+    /// with.
+    fn bitrate(&self) -> u32;
     /// Queues `frame` for transmission, waiting at most `timeout` for room.
     fn send(&mut self, frame: &CanFrame, timeout: Duration) -> Result<(), TransportError>;
     /// The next received frame, or `None` if none arrived within `timeout` (a zero timeout polls).

@@ -116,6 +116,7 @@ impl Line for UnixStream {
 /// A CAN bus behind an SLCAN adapter on a serial line or a Unix socket.
 pub struct SlcanTransport {
     name: String,
+    bitrate: u32,
     port: Box<dyn Line>,
     /// Bytes read but not yet split into lines.
     pending: Vec<u8>,
@@ -125,28 +126,35 @@ impl SlcanTransport {
     /// Opens the adapter at `path` (serial device or pty), sets `bitrate` and opens the channel.
     pub fn open(path: &str, bitrate: u32) -> Result<Self, TransportError> {
         let name = format!("slcan:{path}");
+        let speed = speed_command(&name, bitrate)?;
         // The serial baud rate is irrelevant for USB adapters and ptys; 115200 is customary.
         let port = serialport::new(path, 115_200)
             .timeout(COMMAND_ACK_TIMEOUT)
             .open()
             .map_err(|e| open_error(&name, e.to_string()))?;
-        Self::start(name, Box::new(port), bitrate)
+        Self::start(name, Box::new(port), speed, bitrate)
     }
 
     /// Connects to the adapter listening on the Unix socket `path`, sets `bitrate` and opens
     /// the channel.
     pub fn connect(path: &str, bitrate: u32) -> Result<Self, TransportError> {
         let name = format!("slcan-unix:{path}");
+        let speed = speed_command(&name, bitrate)?;
         let stream = UnixStream::connect(path).map_err(|e| open_error(&name, e.to_string()))?;
-        Self::start(name, Box::new(stream), bitrate)
+        Self::start(name, Box::new(stream), speed, bitrate)
     }
 
-    /// Sets the adapter at the other end of `port` up: closed, at `bitrate`, opened.
-    fn start(name: String, port: Box<dyn Line>, bitrate: u32) -> Result<Self, TransportError> {
-        let speed = bitrate_command(bitrate)
-            .ok_or_else(|| open_error(&name, format!("unsupported bitrate {bitrate} bit/s")))?;
+    /// Sets the adapter at the other end of `port` up: closed, at `bitrate` (its command
+    /// `speed`), opened.
+    fn start(
+        name: String,
+        port: Box<dyn Line>,
+        speed: &str,
+        bitrate: u32,
+    ) -> Result<Self, TransportError> {
         let mut t = Self {
             name,
+            bitrate,
             port,
             pending: Vec::new(),
         };
@@ -247,6 +255,12 @@ impl SlcanTransport {
     }
 }
 
+/// The `Sn` command of `bitrate`, or the error that names the bus.
+fn speed_command(bus: &str, bitrate: u32) -> Result<&'static str, TransportError> {
+    bitrate_command(bitrate)
+        .ok_or_else(|| open_error(bus, format!("unsupported bitrate {bitrate} bit/s")))
+}
+
 fn open_error(bus: &str, reason: String) -> TransportError {
     TransportError::Open {
         bus: bus.to_string(),
@@ -257,6 +271,10 @@ fn open_error(bus: &str, reason: String) -> TransportError {
 impl Transport for SlcanTransport {
     fn name(&self) -> &str {
         &self.name
+    }
+
+    fn bitrate(&self) -> u32 {
+        self.bitrate
     }
 
     fn send(&mut self, frame: &CanFrame, timeout: Duration) -> Result<(), TransportError> {

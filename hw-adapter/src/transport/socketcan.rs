@@ -36,6 +36,14 @@ impl Transport for SocketCanTransport {
         &self.name
     }
 
+    /// The interface's bitrate is set outside the process (`ip link set can0 type can bitrate
+    /// 1000000`) and read back only through netlink, which this transport does not speak:
+    /// counted as [`crate::bus::DEFAULT_BITRATE`] (1 Mbit/s, classic CAN's fastest), so an
+    /// interface set slower is loaded more than the load check says.
+    fn bitrate(&self) -> u32 {
+        crate::bus::DEFAULT_BITRATE
+    }
+
     fn send(&mut self, frame: &CanFrame, timeout: Duration) -> Result<(), TransportError> {
         let id = StandardId::new(frame.id()).ok_or_else(|| TransportError::Io {
             bus: self.name.clone(),
