@@ -46,10 +46,10 @@ fn doctor(args: &Args) -> Result<ExitCode, ExitCode> {
     };
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
     print(format_args!(
-        "{cores} cores; a rate is held when {:.0} % of a timer's wake-ups come within {:.0} % \
-         of a period",
+        "{cores} cores; a rate is held when {:.0} % of a timer's wake-ups come within {} \
+         period(s) of their deadline",
         timing::HELD_SHARE * 100.0,
-        timing::HELD_FRACTION * 100.0
+        timing::HELD_FRACTION
     ))?;
     let mut all_held = true;
     for (what, hz) in rates {

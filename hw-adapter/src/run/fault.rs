@@ -349,7 +349,7 @@ pub enum TimingError {
     /// The machine does not hold the rate.
     #[error(
         "this machine does not hold {hz:.0} Hz: 99 % of a {period:?} timer's wake-ups come \
-         within {p99:?} of their deadline, over a quarter period ({limit:?}; median {p50:?}, \
+         within {p99:?} of their deadline, over the {limit:?} the watchdog tolerates (median {p50:?}, \
          worst {max:?}, {scheduling}); lower the rate, run the arm threads under SCHED_FIFO \
          (root or CAP_SYS_NICE, `--rt-priority`), or run less beside them"
     )]
@@ -364,7 +364,7 @@ pub enum TimingError {
         p50: Duration,
         /// The worst.
         max: Duration,
-        /// A quarter period.
+        /// The lateness tolerated: a period.
         limit: Duration,
         /// What the thread ran under.
         scheduling: String,

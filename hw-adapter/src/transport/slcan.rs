@@ -104,12 +104,63 @@ impl Line for Box<dyn SerialPort> {
     }
 }
 
-impl Line for UnixStream {
+/// A Unix socket with a time-out kept by `poll(2)` before each read and write: a socket's own
+/// time-outs (`SO_RCVTIMEO`) count in the kernel's ticks, so a 1 ms wait lasts up to 4-10 ms,
+/// and a thread polling its bus would see the other arms' faults that much later.
+struct Socket {
+    stream: UnixStream,
+    timeout: Duration,
+}
+
+impl Socket {
+    fn new(stream: UnixStream) -> io::Result<Self> {
+        stream.set_nonblocking(true)?;
+        Ok(Self {
+            stream,
+            timeout: COMMAND_ACK_TIMEOUT,
+        })
+    }
+
+    /// Waits until the socket is ready for `events`, at most the time-out.
+    fn ready(&self, events: libc::c_short) -> io::Result<()> {
+        use std::os::fd::AsRawFd;
+        let mut fd = libc::pollfd {
+            fd: self.stream.as_raw_fd(),
+            events,
+            revents: 0,
+        };
+        let ms = self.timeout.as_micros().div_ceil(1000).min(i32::MAX as u128) as i32;
+        // SAFETY: one valid pollfd, for the duration of the call.
+        match unsafe { libc::poll(&mut fd, 1, ms) } {
+            -1 => Err(io::Error::last_os_error()),
+            0 => Err(io::Error::from(ErrorKind::TimedOut)),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl Read for Socket {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        self.ready(libc::POLLIN)?;
+        self.stream.read(buf)
+    }
+}
+
+impl Write for Socket {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.ready(libc::POLLOUT)?;
+        self.stream.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.stream.flush()
+    }
+}
+
+impl Line for Socket {
     fn set_timeout(&mut self, timeout: Duration) -> io::Result<()> {
-        // A socket takes no zero time-out (it would mean "block forever").
-        let t = Some(timeout.max(Duration::from_micros(1)));
-        self.set_read_timeout(t)?;
-        self.set_write_timeout(t)
+        self.timeout = timeout;
+        Ok(())
     }
 }
 
@@ -140,8 +191,10 @@ impl SlcanTransport {
     pub fn connect(path: &str, bitrate: u32) -> Result<Self, TransportError> {
         let name = format!("slcan-unix:{path}");
         let speed = speed_command(&name, bitrate)?;
-        let stream = UnixStream::connect(path).map_err(|e| open_error(&name, e.to_string()))?;
-        Self::start(name, Box::new(stream), speed, bitrate)
+        let socket = UnixStream::connect(path)
+            .and_then(Socket::new)
+            .map_err(|e| open_error(&name, e.to_string()))?;
+        Self::start(name, Box::new(socket), speed, bitrate)
     }
 
     /// Sets the adapter at the other end of `port` up: closed, at `bitrate` (its command
