@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Lists import circles between the modules of each crate: modules that import each other in
 a loop, through `use` declarations and paths written in code (`crate::`, `super::`, `self::`,
-or a child module's name, as in `use fleet::Fleet;` or `rrt::connect(..)`).
+or a child module's name, as in `use composite::Composite;` or `rrt::connect(..)`).
 
 A module is a source file (inline modules such as `mod tests` belong to their file). A parent
 that uses its child while the child uses the parent is a circle too. A `pub use` that
