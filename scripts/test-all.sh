@@ -9,6 +9,7 @@ cd "$(dirname "$0")/.."
 
 echo "== docs: relative links resolve, no issue numbers in README.md and docs/, docs/README.md indexes every page,"
 echo "   docs/ARCHITECTURE.md's tree names every source file and every omcbsa subcommand"
+python3 scripts/test_check_docs.py
 python3 scripts/check_docs.py
 
 echo "== house checks: no import circles between a crate's modules, no function over 100 lines (and the checkers' own tests)"
