@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
 """Lists import circles between the modules of each crate: modules that import each other in
 a loop, through `use` declarations and paths written in code (`crate::`, `super::`, `self::`,
-or a child module's name, as in `use fleet::Fleet;` or `rrt::connect(..)`).
+or a child module's name, as in `use composite::Composite;` or `rrt::connect(..)`).
 
 A module is a source file (inline modules such as `mod tests` belong to their file). A parent
 that uses its child while the child uses the parent is a circle too. A `pub use` that
-re-exports an item is not an import of its own: a name a module re-exports counts as an import
-of the module that defines it (so a facade `mod.rs` or the crate root that only re-exports
-makes no circle).
+re-exports an item is not an import of its own (so a facade `mod.rs` or the crate root that
+only re-exports makes no circle); a path through a re-export imports both the module that
+defines the item and the module whose re-export it goes through (`crate::collision::X`, where
+collision re-exports model's X, imports model and collision: a module that reaches its own item
+that way imports the re-exporting module, which is a circle when that module imports it back).
+Each circle is printed with, per import inside it, the first path that makes it.
 
     python3 scripts/module_cycles.py [CRATE_DIR ...]    # default: every crate of the workspace
 
@@ -129,7 +132,8 @@ class Crate:
         return None
 
     def resolve(self, segs, seen=()):
-        """The module that defines what an absolute path names."""
+        """(the module that defines what an absolute path names, the modules whose `pub use`
+        the path reaches it through); (None, ()) for a path that names no module."""
         for n in range(len(segs), -1, -1):
             prefix = tuple(segs[:n])
             if prefix not in self.mods:
@@ -144,14 +148,19 @@ class Crate:
                             continue
                         if p.endswith("::*"):
                             target = target[:-1] + [rest[0]]
-                        got = self.resolve(target + rest[1:], seen + ((prefix, rest[0]),))
+                        got, via = self.resolve(target + rest[1:], seen + ((prefix, rest[0]),))
                         if got is not None and got != prefix:
-                            return got
-            return prefix
-        return None
+                            return got, (prefix,) + via
+            return prefix, ()
+        return None, ()
 
     def graph(self):
+        """Module -> the modules it imports: for every path it writes, the module that defines
+        the item and every module whose re-export the path goes through (the path breaks when
+        that re-export goes). An item a module reaches through a re-export elsewhere is its own
+        (no edge to itself), but the re-exporting module is still imported."""
         edges = {m: set() for m in self.mods if m}
+        self.why = {}  # (module, imported module) -> the first path written for it
         for m in edges:
             for path, within in self.uses[m]:
                 here = tuple(m) + tuple(within)
@@ -160,9 +169,11 @@ class Crate:
                     continue
                 if tuple(segs[: len(here)]) == here and within:
                     continue  # inside the file's own inline modules
-                t = self.resolve(segs)
-                if t and t != m:
-                    edges[m].add(t)
+                t, via = self.resolve(segs)
+                for d in (t,) + via:
+                    if d and d != m:
+                        edges[m].add(d)
+                        self.why.setdefault((m, d), path)
         return edges
 
 
@@ -210,9 +221,14 @@ def main():
         src = os.path.join(c, "src")
         if not os.path.isdir(src):
             continue
-        for comp in circles(Crate(src).graph()):
+        crate = Crate(src)
+        edges = crate.graph()
+        for comp in circles(edges):
             found += 1
             print(f"{os.path.basename(c.rstrip('/'))}: " + " / ".join("::".join(m) for m in comp))
+            for m in comp:
+                for d in sorted(edges[m] & set(comp)):
+                    print(f"    {'::'.join(m)} -> {'::'.join(d)}: {crate.why[(m, d)]}")
     print(f"{found} import circle(s)")
     return 1 if found else 0
 

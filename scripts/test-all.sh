@@ -7,8 +7,23 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-echo "== docs: relative links resolve, no issue numbers in README.md and docs/, docs/README.md indexes every page"
+echo "== docs: relative links resolve, no issue numbers in README.md and docs/, docs/README.md indexes every page,"
+echo "   docs/ARCHITECTURE.md's tree names every source file and every omcbsa subcommand"
+python3 scripts/test_check_docs.py
 python3 scripts/check_docs.py
+
+echo "== house checks: no import circles between a crate's modules, no function over 100 lines (and the checkers' own tests)"
+python3 scripts/test_module_cycles.py
+python3 scripts/module_cycles.py
+python3 scripts/test_long_functions.py
+# Long functions in code other changes are still moving (hw-adapter/, host/src/planners.rs) are
+# listed, not failed on; drop a path here once its functions are split.
+python3 scripts/long_functions.py --report-only hw-adapter host/src/planners.rs
+
+echo "== clippy, warnings denied (the workspace, and python/, a workspace of its own)"
+rustup component add clippy >/dev/null
+cargo clippy --workspace --all-targets -- -D warnings
+(cd python && cargo clippy --all-targets -- -D warnings)
 
 echo "== bare-metal build of the core (thumbv7em-none-eabihf: no std, no alloc)"
 rustup target add thumbv7em-none-eabihf >/dev/null

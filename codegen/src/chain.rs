@@ -3,6 +3,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use crate::error::NotSerial;
 use crate::transform::{norm, Transform, Vec3};
 use crate::Error;
 
@@ -81,17 +82,17 @@ pub fn from_urdf(robot: &urdf_rs::Robot, ends: Option<Ends>) -> Result<Chain, Er
             }
         }
         if let Some(other) = by_child.insert(&joint.child.link, joint) {
-            return Err(Error::TwoParents {
+            return Err(Error::NotSerial(NotSerial::TwoParents {
                 link: joint.child.link.clone(),
                 joints: [other.name.clone(), joint.name.clone()],
-            });
+            }));
         }
         if let Some(other) = by_parent.insert(&joint.parent.link, joint) {
             if ends.is_none() {
-                return Err(Error::Branch {
+                return Err(Error::NotSerial(NotSerial::Branch {
                     link: joint.parent.link.clone(),
                     joints: [other.name.clone(), joint.name.clone()],
-                });
+                }));
             }
         }
     }
@@ -132,7 +133,8 @@ fn whole_chain<'r>(
         .filter(|l| !by_child.contains_key(l))
         .collect();
     let [root] = roots[..] else {
-        return Err(Error::Roots(roots.iter().map(|l| l.to_string()).collect()));
+        let roots = roots.iter().map(|l| l.to_string()).collect();
+        return Err(Error::NotSerial(NotSerial::Roots(roots)));
     };
     let mut path = Vec::new();
     let mut reached = BTreeSet::from([root]);
@@ -144,7 +146,7 @@ fn whole_chain<'r>(
     }
     if reached.len() != links.len() {
         let rest = links.difference(&reached).map(|l| l.to_string()).collect();
-        return Err(Error::Unreachable(rest));
+        return Err(Error::NotSerial(NotSerial::Unreachable(rest)));
     }
     Ok((root, path))
 }

@@ -533,8 +533,7 @@ pub fn model(
     limits_source: Option<&str>,
     geometry: &Geometry,
 ) -> String {
-    let actuated: Vec<_> = chain.actuated().collect();
-    let d = actuated.len();
+    let d = chain.actuated().count();
     let mut out = String::new();
     let w = &mut out;
     let _ = writeln!(
@@ -550,6 +549,21 @@ pub fn model(
     }
     let _ = writeln!(w, "#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]");
     let _ = writeln!(w, "pub struct {type_name};\n");
+    kinematics_impl(w, type_name, chain, d);
+    let _ = writeln!(
+        w,
+        "#[allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::approx_constant, \
+         clippy::too_many_lines)]"
+    );
+    let _ = writeln!(w, "impl crate::model::Model<{d}> for {type_name} {{");
+    model_constants(w, name, chain, acceleration, geometry);
+    model_methods(w, chain, d);
+    let _ = writeln!(w, "}}");
+    out
+}
+
+/// The model type's own kinematics (`fk_of`, `link_frames_of`, `link_frames_stepwise_of`).
+fn kinematics_impl(w: &mut String, type_name: &str, chain: &Chain, d: usize) {
     // The kinematics once, over any `Real`: one configuration (`f64`) and a batch (`F64s`)
     // run the same operations in the same order, so a batch's lanes equal single calls.
     let _ = writeln!(
@@ -581,12 +595,18 @@ pub fn model(
         link_frames_body(chain, true)
     );
     let _ = writeln!(w, "}}\n");
-    let _ = writeln!(
-        w,
-        "#[allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::approx_constant, \
-         clippy::too_many_lines)]"
-    );
-    let _ = writeln!(w, "impl crate::model::Model<{d}> for {type_name} {{");
+}
+
+/// The constants of `impl Model` (`NAME` to `AXIS_COS`).
+fn model_constants(
+    w: &mut String,
+    name: &str,
+    chain: &Chain,
+    acceleration: &[f64],
+    geometry: &Geometry,
+) {
+    let actuated: Vec<_> = chain.actuated().collect();
+    let d = actuated.len();
     let _ = writeln!(w, "    const NAME: &'static str = {name:?};");
     let _ = writeln!(
         w,
@@ -666,6 +686,10 @@ pub fn model(
         list(&geometry.axis_cos, |&c| lit(c))
     );
     let _ = writeln!(w);
+}
+
+/// The methods of `impl Model` (`fk` to `jacobian`).
+fn model_methods(w: &mut String, chain: &Chain, d: usize) {
     let links = chain.links.len();
     let _ = writeln!(
         w,
@@ -697,8 +721,6 @@ pub fn model(
         "    fn jacobian(q: &[f64; {d}]) -> (crate::model::Frame, ::nalgebra::SMatrix<f64, 6, {d}>) {{\n{}    }}",
         jacobian_body(chain, d)
     );
-    let _ = writeln!(w, "}}");
-    out
 }
 
 #[cfg(test)]

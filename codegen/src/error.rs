@@ -40,24 +40,8 @@ pub enum Error {
         /// The link it names.
         link: String,
     },
-    /// A link is the child of two joints (a closed loop or a malformed tree).
-    TwoParents {
-        /// The link.
-        link: String,
-        /// Its two parent joints.
-        joints: [String; 2],
-    },
-    /// A link has two child joints: the robot is a tree, not a serial chain.
-    Branch {
-        /// The link.
-        link: String,
-        /// Two of its child joints.
-        joints: [String; 2],
-    },
-    /// No link or more than one link is nobody's child.
-    Roots(Vec<String>),
-    /// Links that cannot be reached from the root (they form a loop).
-    Unreachable(Vec<String>),
+    /// The URDF's links and joints are not a serial chain: how.
+    NotSerial(NotSerial),
     /// A joint type other than revolute, continuous, prismatic and fixed.
     UnsupportedJoint {
         /// The joint.
@@ -162,6 +146,54 @@ pub enum Error {
     },
 }
 
+/// How a URDF's links and joints fail to be a serial chain.
+#[derive(Debug)]
+pub enum NotSerial {
+    /// A link is the child of two joints (a closed loop or a malformed tree).
+    TwoParents {
+        /// The link.
+        link: String,
+        /// Its two parent joints.
+        joints: [String; 2],
+    },
+    /// A link has two child joints: the robot is a tree, not a serial chain.
+    Branch {
+        /// The link.
+        link: String,
+        /// Two of its child joints.
+        joints: [String; 2],
+    },
+    /// No link or more than one link is nobody's child.
+    Roots(Vec<String>),
+    /// Links that cannot be reached from the root (they form a loop).
+    Unreachable(Vec<String>),
+}
+
+impl fmt::Display for NotSerial {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use NotSerial::*;
+        match self {
+            TwoParents {
+                link,
+                joints: [a, b],
+            } => write!(f, "link `{link}` is the child of both `{a}` and `{b}`"),
+            Branch {
+                link,
+                joints: [a, b],
+            } => write!(f, "link `{link}` branches into joints `{a}` and `{b}`"),
+            Roots(links) if links.is_empty() => write!(f, "every link is a child (no base link)"),
+            Roots(links) => write!(
+                f,
+                "several links have no parent joint: {}",
+                links.join(", ")
+            ),
+            Unreachable(links) => {
+                write!(f, "links not reachable from the base: {}", links.join(", "))
+            }
+        }
+    }
+}
+
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         use Error::*;
@@ -180,38 +212,7 @@ impl fmt::Display for Error {
                     "joint `{joint}` refers to link `{link}`, which is not defined"
                 )
             }
-            TwoParents {
-                link,
-                joints: [a, b],
-            } => {
-                write!(
-                    f,
-                    "not a serial chain: link `{link}` is the child of both `{a}` and `{b}`"
-                )
-            }
-            Branch {
-                link,
-                joints: [a, b],
-            } => write!(
-                f,
-                "not a serial chain: link `{link}` branches into joints `{a}` and `{b}`"
-            ),
-            Roots(links) if links.is_empty() => {
-                write!(
-                    f,
-                    "not a serial chain: every link is a child (no base link)"
-                )
-            }
-            Roots(links) => write!(
-                f,
-                "not a serial chain: several links have no parent joint: {}",
-                links.join(", ")
-            ),
-            Unreachable(links) => write!(
-                f,
-                "not a serial chain: links not reachable from the base: {}",
-                links.join(", ")
-            ),
+            NotSerial(how) => write!(f, "not a serial chain: {how}"),
             UnsupportedJoint { joint, kind } => write!(
                 f,
                 "joint `{joint}` has type `{kind}`; only revolute, continuous, prismatic and \

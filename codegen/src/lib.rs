@@ -20,7 +20,7 @@ mod transform;
 use std::path::Path;
 
 pub use chain::Ends;
-pub use error::Error;
+pub use error::{Error, NotSerial};
 pub use fleet::fleet as generate_fleet;
 
 /// Where an input comes from.

@@ -101,7 +101,7 @@ fn scene(bases: &[Frame]) -> Vec<Obstacle> {
 }
 
 /// A problem's arms and scene.
-struct Fleet {
+struct Setup {
     bases: Vec<Frame>,
     /// Kept for the whole run (leaked), as a planner keeps a problem's.
     obstacles: &'static [Obstacle],
@@ -111,11 +111,11 @@ struct Fleet {
     scene: Obstacles<'static>,
 }
 
-impl Fleet {
-    fn new(arms: usize) -> Fleet {
+impl Setup {
+    fn new(arms: usize) -> Setup {
         let bases = bases(arms);
         let obstacles: &'static [Obstacle] = scene(&bases).leak();
-        Fleet {
+        Setup {
             boxes: obstacles.iter().map(Obstacle::aabb).collect(),
             scene: Obstacles::new(obstacles).expect("at most MAX_OBSTACLES obstacles"),
             obstacles,
@@ -186,18 +186,18 @@ fn config<M: Model<D>>(rng: &mut Rng) -> [f64; D] {
 /// A composite configuration, collision-free if `free`: drawn arm by arm (collision-free
 /// configurations of many arms are rare drawn all at once). `None` when an arm found no place.
 fn composite<M: Model<D>>(
-    fleet: &Fleet,
+    setup: &Setup,
     free: bool,
     rng: &mut Rng,
     poses: &mut [ArmPose],
 ) -> Option<Vec<[f64; D]>> {
     let mut qs: Vec<[f64; D]> = Vec::new();
-    for n in 1..=fleet.bases.len() {
-        let part = Fleet {
-            bases: fleet.bases[..n].to_vec(),
-            obstacles: fleet.obstacles,
-            boxes: fleet.boxes.clone(),
-            scene: fleet.scene,
+    for n in 1..=setup.bases.len() {
+        let part = Setup {
+            bases: setup.bases[..n].to_vec(),
+            obstacles: setup.obstacles,
+            boxes: setup.boxes.clone(),
+            scene: setup.scene,
         };
         let q = (0..10_000).map(|_| config::<M>(rng)).find(|q| {
             qs.push(*q);
@@ -211,11 +211,11 @@ fn composite<M: Model<D>>(
 }
 
 /// `CASES` composite configurations, collision-free ones only if `free`.
-fn configs<M: Model<D>>(fleet: &Fleet, free: bool, rng: &mut Rng) -> Vec<Vec<[f64; D]>> {
-    let mut poses = fleet.poses::<M>(&vec![[0.0; D]; fleet.bases.len()]);
+fn configs<M: Model<D>>(setup: &Setup, free: bool, rng: &mut Rng) -> Vec<Vec<[f64; D]>> {
+    let mut poses = setup.poses::<M>(&vec![[0.0; D]; setup.bases.len()]);
     let mut out = Vec::new();
     while out.len() < CASES {
-        out.extend(composite::<M>(fleet, free, rng, &mut poses));
+        out.extend(composite::<M>(setup, free, rng, &mut poses));
     }
     out
 }
@@ -269,10 +269,10 @@ fn parry_capsule(c: &Capsule) -> ps::Capsule {
     ps::Capsule::new(v(&c.segment.a), v(&c.segment.b), c.radius)
 }
 
-/// [`Fleet::collides`] with parry's intersection tests in place of ours, after the same box
+/// [`Setup::collides`] with parry's intersection tests in place of ours, after the same box
 /// tests.
 fn parry_collides<M: Model<D>>(
-    fleet: &Fleet,
+    setup: &Setup,
     scene: &[(Box<dyn ParryShape>, Pose3, Aabb)],
     qs: &[[f64; D]],
     poses: &mut [ArmPose],
@@ -282,7 +282,7 @@ fn parry_collides<M: Model<D>>(
         query::intersection_test(&id, &parry_capsule(a), &id, &parry_capsule(b))
             .is_ok_and(|i| i.intersecting)
     };
-    for ((p, b), q) in poses.iter_mut().zip(&fleet.bases).zip(qs) {
+    for ((p, b), q) in poses.iter_mut().zip(&setup.bases).zip(qs) {
         p.place::<M, D>(0, b, &Tool::NONE, q);
         let caps = p.capsules();
         for (shape, pose, ob) in scene {
@@ -350,15 +350,15 @@ fn fk<M: Model<D>>(c: &mut Criterion, name: &str) {
 
 fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
     for arms in [1, 2, 3, 6] {
-        let fleet = Fleet::new(arms);
-        let scene = parry_scene(fleet.obstacles);
+        let setup = Setup::new(arms);
+        let scene = parry_scene(setup.obstacles);
         for free in [false, true] {
             // Drawn once, when a benchmark of the group first runs (not at all when filtered
             // out: collision-free configurations of six arms take a while to find).
             let cases = OnceCell::new();
             let cases = || {
                 cases.get_or_init(|| {
-                    let cases = configs::<M>(&fleet, free, &mut Rng::new(7 + arms as u64));
+                    let cases = configs::<M>(&setup, free, &mut Rng::new(7 + arms as u64));
                     let batches: Vec<Vec<[F64s; D]>> = (0..CASES / LANES)
                         .map(|i| lanes_of(&cases, i * LANES))
                         .collect();
@@ -367,14 +367,14 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
             };
             let kind = if free { "free" } else { "random" };
             let mut g = c.benchmark_group(format!("config/{name}/{arms}arms/{kind}"));
-            let mut poses = fleet.poses::<M>(&vec![[0.0; D]; arms]);
+            let mut poses = setup.poses::<M>(&vec![[0.0; D]; arms]);
             g.throughput(Throughput::Elements(1));
             g.bench_function("single", |b| {
                 let (cases, _) = cases();
                 let mut i = 0;
                 b.iter(|| {
                     i = (i + 1) % CASES;
-                    fleet.collides::<M>(black_box(&cases[i]), &mut poses)
+                    setup.collides::<M>(black_box(&cases[i]), &mut poses)
                 })
             });
             g.bench_function("parry", |b| {
@@ -382,7 +382,7 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
                 let mut i = 0;
                 b.iter(|| {
                     i = (i + 1) % CASES;
-                    parry_collides::<M>(&fleet, &scene, black_box(&cases[i]), &mut poses)
+                    parry_collides::<M>(&setup, &scene, black_box(&cases[i]), &mut poses)
                 })
             });
             let mut lanes = vec![ArmLanes::EMPTY; arms];
@@ -392,7 +392,7 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
                 let mut i = 0;
                 b.iter(|| {
                     i = (i + 1) % batches.len();
-                    fleet.collide_lanes::<M>(black_box(&batches[i]), &mut lanes)
+                    setup.collide_lanes::<M>(black_box(&batches[i]), &mut lanes)
                 })
             });
             g.finish();
@@ -405,22 +405,22 @@ fn configurations<M: Model<D>>(c: &mut Criterion, name: &str) {
 /// arms are placed at the ends into `ends` (per arm, its poses at both ends), as a planner
 /// places the states it keeps.
 fn motion_collides<M: Model<D>>(
-    fleet: &Fleet,
+    setup: &Setup,
     from: &[[f64; D]],
     to: &[[f64; D]],
     placing: Placing,
     ends: &mut [[ArmPose; 2]],
 ) -> bool {
-    match fleet.bases.len() {
-        1 => arms_collide::<M, 1>(fleet, from, to, placing, ends),
-        3 => arms_collide::<M, 3>(fleet, from, to, placing, ends),
+    match setup.bases.len() {
+        1 => arms_collide::<M, 1>(setup, from, to, placing, ends),
+        3 => arms_collide::<M, 3>(setup, from, to, placing, ends),
         n => unreachable!("motions of {n} arms are not measured"),
     }
 }
 
 /// [`motion_collides`] for `N` arms, their sweeps kept on the stack as a planner keeps them.
 fn arms_collide<M: Model<D>, const N: usize>(
-    fleet: &Fleet,
+    setup: &Setup,
     from: &[[f64; D]],
     to: &[[f64; D]],
     placing: Placing,
@@ -429,19 +429,19 @@ fn arms_collide<M: Model<D>, const N: usize>(
     let sweep: [Sweep<M, D>; N] = core::array::from_fn(|i| {
         Sweep::new(0, &Tool::NONE, &from[i], &to[i], MOTION_STEP).with_placing(placing)
     });
-    for (i, (e, b)) in ends.iter_mut().zip(&fleet.bases).enumerate() {
+    for (i, (e, b)) in ends.iter_mut().zip(&setup.bases).enumerate() {
         e[0].place::<M, D>(0, b, &Tool::NONE, &from[i]);
         e[1].place::<M, D>(0, b, &Tool::NONE, &to[i]);
     }
     let ends = &*ends;
     let posed = |i: usize| [&ends[i][0], &ends[i][1]];
-    let obstacles = &fleet.scene;
-    if (0..N).any(|i| sweep[i].arm_collides_among(&fleet.bases[i], obstacles, posed(i))) {
+    let obstacles = &setup.scene;
+    if (0..N).any(|i| sweep[i].arm_collides_among(&setup.bases[i], obstacles, posed(i))) {
         return true;
     }
     (0..N).any(|i| {
         (i + 1..N).any(|k| {
-            let (b, c) = (&fleet.bases[i], &fleet.bases[k]);
+            let (b, c) = (&setup.bases[i], &setup.bases[k]);
             sweeps_collide_posed(&sweep[i], b, posed(i), &sweep[k], c, posed(k))
         })
     })
@@ -459,8 +459,8 @@ const DRAWN_CLEARANCE: f64 = 0.01;
 
 /// Whether the composite motion `from -> to` clears everything by [`DRAWN_CLEARANCE`] at
 /// samples [`DRAWN_STEP`] apart, ends included.
-fn clear_sampled<M: Model<D>>(fleet: &Fleet, from: &[[f64; D]], to: &[[f64; D]]) -> bool {
-    let mut poses = fleet.poses::<M>(from);
+fn clear_sampled<M: Model<D>>(setup: &Setup, from: &[[f64; D]], to: &[[f64; D]]) -> bool {
+    let mut poses = setup.poses::<M>(from);
     let sweeps: Vec<Sweep<M, D>> = (from.iter().zip(to))
         .map(|(a, b)| Sweep::new(0, &Tool::NONE, a, b, DRAWN_STEP))
         .collect();
@@ -468,7 +468,7 @@ fn clear_sampled<M: Model<D>>(fleet: &Fleet, from: &[[f64; D]], to: &[[f64; D]])
     (0..=pieces).all(|k| {
         let s = k as f64 / pieces as f64;
         let qs: Vec<[f64; D]> = sweeps.iter().map(|w| w.at(s)).collect();
-        !fleet.closer_than::<M>(&qs, &mut poses, DRAWN_CLEARANCE)
+        !setup.closer_than::<M>(&qs, &mut poses, DRAWN_CLEARANCE)
     })
 }
 
@@ -479,14 +479,14 @@ fn clear_sampled<M: Model<D>>(fleet: &Fleet, from: &[[f64; D]], to: &[[f64; D]])
 /// more than [`DRAWN_STEP`] between: a test that does not depend on the motion check under
 /// measure, so every version of the check is timed on the same motions (the check must then
 /// find each one clear, asserted: by its margin, at most half of [`MOTION_STEP`]).
-fn motions<M: Model<D>>(fleet: &Fleet, length: f64, rng: &mut Rng) -> Vec<Motion> {
+fn motions<M: Model<D>>(setup: &Setup, length: f64, rng: &mut Rng) -> Vec<Motion> {
     let (lo, hi) = (M::LOWER.map(|l| l.max(-3.1)), M::UPPER.map(|u| u.min(3.1)));
     let within = |q: &[f64; D]| (0..D).all(|j| (lo[j]..=hi[j]).contains(&q[j]));
     let mut out = Vec::new();
-    let mut poses = fleet.poses::<M>(&vec![[0.0; D]; fleet.bases.len()]);
-    let mut ends = vec![[ArmPose::EMPTY; 2]; fleet.bases.len()];
+    let mut poses = setup.poses::<M>(&vec![[0.0; D]; setup.bases.len()]);
+    let mut ends = vec![[ArmPose::EMPTY; 2]; setup.bases.len()];
     while out.len() < MOTIONS {
-        let Some(from) = composite::<M>(fleet, true, rng, &mut poses) else {
+        let Some(from) = composite::<M>(setup, true, rng, &mut poses) else {
             continue;
         };
         let mut step = |q: &[f64; D]| {
@@ -501,9 +501,9 @@ fn motions<M: Model<D>>(fleet: &Fleet, length: f64, rng: &mut Rng) -> Vec<Motion
             let Some(to) = from.iter().map(&mut step).collect::<Option<Vec<_>>>() else {
                 break;
             };
-            if clear_sampled::<M>(fleet, &from, &to) {
+            if clear_sampled::<M>(setup, &from, &to) {
                 assert!(!motion_collides::<M>(
-                    fleet,
+                    setup,
                     &from,
                     &to,
                     Placing::Single,
@@ -519,11 +519,11 @@ fn motions<M: Model<D>>(fleet: &Fleet, length: f64, rng: &mut Rng) -> Vec<Motion
 
 fn motion_checks<M: Model<D>>(c: &mut Criterion, name: &str) {
     for arms in [1, 3] {
-        let fleet = Fleet::new(arms);
+        let setup = Setup::new(arms);
         for length in [0.1, 1.0, 5.0] {
             let cases = OnceCell::new();
             let cases = || {
-                cases.get_or_init(|| motions::<M>(&fleet, length, &mut Rng::new(11 + arms as u64)))
+                cases.get_or_init(|| motions::<M>(&setup, length, &mut Rng::new(11 + arms as u64)))
             };
             let mut g = c.benchmark_group(format!("motion/{name}/{arms}arms/{length}rad"));
             for (label, placing) in [("single", Placing::Single), ("batched", Placing::Rake)] {
@@ -535,7 +535,7 @@ fn motion_checks<M: Model<D>>(c: &mut Criterion, name: &str) {
                         i = (i + 1) % cases.len();
                         let (from, to) = &cases[i];
                         let (from, to) = (black_box(from), black_box(to));
-                        motion_collides::<M>(&fleet, from, to, placing, &mut ends)
+                        motion_collides::<M>(&setup, from, to, placing, &mut ends)
                     })
                 });
             }

@@ -163,8 +163,7 @@ pub fn solve_from_initial<M: Models<D>, P: Planner<M, D>, const D: usize>(
             // Nothing left under the exclusions: lift them, with a larger budget.
             restore(req.problem);
             excluding = false;
-            round += 1;
-            if round > MAX_BUDGET_DOUBLINGS {
+            if !next_round(&mut round) {
                 done.status = Status::OutOfMemory("approach sample budget");
                 break;
             }
@@ -197,12 +196,7 @@ pub fn solve_from_initial<M: Models<D>, P: Planner<M, D>, const D: usize>(
         };
         done.last_miss = Some(miss);
         let ApproachError::Blocked { robot, other } = miss else {
-            done.status = match miss {
-                ApproachError::Timeout => Status::Timeout,
-                ApproachError::OutOfMemory(pool) => Status::OutOfMemory(pool),
-                ApproachError::TooLong { .. } => Status::OutOfMemory("approach buffer"),
-                _ => Status::InvalidProblem("the approach could not be planned"),
-            };
+            done.status = approach_failed(miss);
             break;
         };
         let began = req.until.now();
@@ -210,12 +204,8 @@ pub fn solve_from_initial<M: Models<D>, P: Planner<M, D>, const D: usize>(
         done.approach_seconds += req.until.now() - began;
         let alone = match alone {
             Ok(bits) => bits,
-            Err(ApproachError::Timeout) => {
-                done.status = Status::Timeout;
-                break;
-            }
-            Err(ApproachError::OutOfMemory(pool)) => {
-                done.status = Status::OutOfMemory(pool);
+            Err(e @ (ApproachError::Timeout | ApproachError::OutOfMemory(_))) => {
+                done.status = approach_failed(e);
                 break;
             }
             Err(_) => 0,
@@ -225,25 +215,11 @@ pub fn solve_from_initial<M: Models<D>, P: Planner<M, D>, const D: usize>(
         } else {
             (1u32 << robot) | other.map_or(0, |o| 1 << o)
         };
-        let mut overflow = false;
-        for i in (0..n).filter(|&i| blame & (1 << i) != 0) {
-            let start = req.out.paths[i * h];
-            let ex = &mut req.problem.robots[i].excluded;
-            ex.radius = params.exclusion_radius;
-            if !ex.push(start) {
-                // This robot's room is full: start its list over, as a new round.
-                *ex = saved[i];
-                ex.radius = params.exclusion_radius;
-                let _ = ex.push(start);
-                overflow = true;
-            }
-        }
-        if overflow {
-            round += 1;
-            if round > MAX_BUDGET_DOUBLINGS {
-                done.status = Status::OutOfMemory("approach sample budget");
-                break;
-            }
+        let (paths, radius) = (&*req.out.paths, params.exclusion_radius);
+        let overflow = exclude_starts(req.problem, paths, h, blame, &saved, radius);
+        if overflow && !next_round(&mut round) {
+            done.status = Status::OutOfMemory("approach sample budget");
+            break;
         }
         excluding = true;
         if req.until.expired() {
@@ -253,6 +229,52 @@ pub fn solve_from_initial<M: Models<D>, P: Planner<M, D>, const D: usize>(
     }
     restore(req.problem);
     done
+}
+
+/// The next round of [`solve_from_initial`]: the sample budget doubled; false past
+/// [`MAX_BUDGET_DOUBLINGS`].
+fn next_round(round: &mut u32) -> bool {
+    *round += 1;
+    *round <= MAX_BUDGET_DOUBLINGS
+}
+
+/// What an approach that could not be planned, for a reason other than a blocked arm, ends
+/// the solve with.
+fn approach_failed(miss: ApproachError) -> Status {
+    match miss {
+        ApproachError::Timeout => Status::Timeout,
+        ApproachError::OutOfMemory(pool) => Status::OutOfMemory(pool),
+        ApproachError::TooLong { .. } => Status::OutOfMemory("approach buffer"),
+        _ => Status::InvalidProblem("the approach could not be planned"),
+    }
+}
+
+/// Excludes, for each robot in the bit set `blame`, its planned start (`paths[i * h]`) within
+/// `radius`. A robot whose room is full starts its list over from `saved` (the caller's
+/// exclusions): then true, and the caller starts a new round.
+fn exclude_starts<const D: usize>(
+    problem: &mut Problem<D>,
+    paths: &[[f64; D]],
+    h: usize,
+    blame: u32,
+    saved: &[StartExclusions<D>],
+    radius: f64,
+) -> bool {
+    let mut overflow = false;
+    let n = problem.robots.len();
+    for i in (0..n).filter(|&i| blame & (1 << i) != 0) {
+        let start = paths[i * h];
+        let ex = &mut problem.robots[i].excluded;
+        ex.radius = radius;
+        if !ex.push(start) {
+            // This robot's room is full: start its list over, as a new round.
+            *ex = saved[i];
+            ex.radius = radius;
+            let _ = ex.push(start);
+            overflow = true;
+        }
+    }
+    overflow
 }
 
 /// One run of the planner on the problem as it stands, into the request's storage; its

@@ -381,7 +381,7 @@ pub trait Model<const D: usize>: 'static {
     /// comes back unless `out` breaks, which stops the kinematics there (a caller that has
     /// its answer before the last link).
     fn link_frames_lanes(q: &[F64s; D], mut out: impl LinkSink) -> ControlFlow<(), FrameOf<F64s>> {
-        const N: usize = crate::collision::MAX_LINK_FRAMES;
+        const N: usize = MAX_LINK_FRAMES;
         let n = Self::LINK_NAMES.len().min(N);
         let (mut one, mut all) = ([Frame::IDENTITY; N], [FrameOf::identity(); N]);
         let mut tool = FrameOf::identity();

@@ -29,28 +29,28 @@
 //! [`plan_approach`] has a runnable example; [`crate::embody`] runs the approach after a
 //! planner, trying other starts until one can be reached.
 
-mod fleet;
+mod composite;
 mod orders;
 mod query;
 mod rrt;
 mod timing;
 mod via;
 
-pub use fleet::{Blocked, Touch};
+pub use composite::{Blocked, Touch};
 pub use query::{Approach, ApproachError, ApproachParams, ApproachQuery, ApproachStorage, Method};
 
 use crate::model::Models;
 use crate::pp::{identity, next_permutation};
 use crate::problem::{Problem, MAX_ROBOTS};
 
-use fleet::Fleet;
+use composite::Composite;
 use orders::Bridges;
 use rrt::{Connect, Miss};
 
 /// The first robot whose `initial` is outside its limits or touches an obstacle, itself or
 /// another robot's `initial`. Robots without `initial` are left out.
 pub fn check_starts<M: Models<D>, const D: usize>(problem: &Problem<D>) -> Result<(), Blocked> {
-    let mut fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP)
+    let mut composite = Composite::<M, D>::new(problem, crate::motion::MOTION_STEP)
         .restricted(|i| problem.robots[i].initial.is_some());
     let q: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
         problem
@@ -59,7 +59,7 @@ pub fn check_starts<M: Models<D>, const D: usize>(problem: &Problem<D>) -> Resul
             .and_then(|r| r.initial)
             .unwrap_or([0.0; D])
     });
-    match fleet.state_blocked(&q[..fleet.n]) {
+    match composite.state_blocked(&q[..composite.n]) {
         Some(b) => Err(b),
         None => Ok(()),
     }
@@ -71,8 +71,8 @@ pub fn configurations_blocked<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
     q: &[[f64; D]],
 ) -> Option<Blocked> {
-    let mut fleet = Fleet::<M, D>::new(problem, crate::motion::MOTION_STEP);
-    fleet.state_blocked(&q[..fleet.n.min(q.len())])
+    let mut composite = Composite::<M, D>::new(problem, crate::motion::MOTION_STEP);
+    composite.state_blocked(&q[..composite.n.min(q.len())])
 }
 
 /// Where each robot stands and where its path begins: `paths[i * h]` (a robot without
@@ -172,16 +172,16 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
 ) -> Result<Approach, ApproachError> {
     let (problem, params) = (q.problem, &q.params);
     let ends = Ends::new(problem, q.plan, q.horizon)?;
-    let mut fleet = Fleet::<M, D>::new(problem, params.motion_step);
-    let n = fleet.n;
+    let mut composite = Composite::<M, D>::new(problem, params.motion_step);
+    let n = composite.n;
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
-    if let Some(b) = fleet.state_blocked(starts) {
+    if let Some(b) = composite.state_blocked(starts) {
         return Err(ApproachError::Start(b));
     }
     if storage.waypoints.len() < (n + 1) * n {
         return Err(ApproachError::OutOfMemory("approach waypoints"));
     }
-    let models = fleet.models();
+    let models = composite.models();
     let timed = |m: usize, method: Method, st: &ApproachStorage<'_, D>, out: &mut [[f64; D]]| {
         let len =
             timing::write::<M, D>(&models, &st.waypoints[..m * n], n, problem.dt, params, out)?;
@@ -193,7 +193,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
         Ok(Approach { len, method })
     };
     // All together.
-    let together = fleet.motion_blocked(starts, goals);
+    let together = composite.motion_blocked(starts, goals);
     if together.is_none() {
         storage.waypoints[..n].copy_from_slice(starts);
         storage.waypoints[n..2 * n].copy_from_slice(goals);
@@ -202,9 +202,13 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     let (robot, other) = together.unwrap_or((0, None));
     // One at a time: an order in which every straight bridge is free, found over all orders
     // from each bridge's checks against each other arm at either end (`orders.rs`).
-    let mut bridges = Bridges::new(&fleet, starts, goals);
+    let mut bridges = Bridges::new(&composite, starts, goals);
     let moving = bridges.moving();
-    if let Some(order) = params.ordered.then(|| bridges.free_order(&fleet)).flatten() {
+    if let Some(order) = params
+        .ordered
+        .then(|| bridges.free_order(&composite))
+        .flatten()
+    {
         let w = &mut *storage.waypoints;
         w[..n].copy_from_slice(starts);
         for (m, &r) in order[..moving].iter().enumerate() {
@@ -222,7 +226,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     // slow. First the order with the fewest blocked bridges, then others in turn.
     let mut best = [0u8; MAX_ROBOTS];
     let mut order = identity(n);
-    let composite = Connect {
+    let all_arms = Connect {
         start: starts,
         goal: goals,
         free: u32::MAX,
@@ -230,7 +234,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     };
     for attempt in 0..params.rrt_orders {
         let this = if attempt == 0 {
-            best = bridges.fewest_blocked(&fleet);
+            best = bridges.fewest_blocked(&composite);
             &best[..moving]
         } else {
             let moves = |r: &&u8| starts[usize::from(**r)] != goals[usize::from(**r)];
@@ -243,14 +247,14 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
             }
             &order[..n]
         };
-        if let Some(m) = one_at_a_time(&mut fleet, &mut bridges, &composite, this, q, storage)? {
+        if let Some(m) = one_at_a_time(&mut composite, &mut bridges, &all_arms, this, q, storage)? {
             return timed(m, Method::OrderedRrt, storage, out);
         }
         if attempt > 0 && !next_permutation(&mut order[..n]) {
             break;
         }
     }
-    match rrt::connect(&fleet, &composite, params, storage, q.deadline) {
+    match rrt::connect(&composite, &all_arms, params, storage, q.deadline) {
         Ok(m) => timed(m, Method::Rrt, storage, out),
         Err(Miss::Budget) => Err(ApproachError::Blocked { robot, other }),
         Err(Miss::Failed(e)) => Err(e),
@@ -265,7 +269,7 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
     storage: &mut ApproachStorage<'_, D>,
 ) -> Result<u32, ApproachError> {
     let ends = Ends::new(q.problem, q.plan, q.horizon)?;
-    let all = Fleet::<M, D>::new(q.problem, q.params.motion_step);
+    let all = Composite::<M, D>::new(q.problem, q.params.motion_step);
     let n = all.n;
     let (starts, goals) = (&ends.starts[..n], &ends.goals[..n]);
     let mut blocked = 0u32;
@@ -294,7 +298,7 @@ pub fn blocked_alone<M: Models<D>, const D: usize>(
 /// configuration or an RRT-Connect path of that arm alone around the others standing.
 /// Writes the waypoints and returns how many; `None` when some arm's path was not found.
 fn one_at_a_time<M: Models<D>, const D: usize>(
-    fleet: &mut Fleet<'_, M, D>,
+    composite: &mut Composite<'_, M, D>,
     bridges: &mut Bridges<'_, D>,
     ends: &Connect<'_, D>,
     order: &[u8],
@@ -302,7 +306,7 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
     st: &mut ApproachStorage<'_, D>,
 ) -> Result<Option<usize>, ApproachError> {
     let (starts, goals, params) = (ends.start, ends.goal, &q.params);
-    let n = fleet.n;
+    let n = composite.n;
     st.waypoints[..n].copy_from_slice(starts);
     let (mut m, mut done) = (1, 0u32);
     for &r in order {
@@ -318,14 +322,20 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
         at[..n].copy_from_slice(&st.waypoints[from..from + n]);
         let mut target = at;
         target[r] = goals[r];
-        let blocked = bridges.blocked(fleet, r, done);
+        let blocked = bridges.blocked(composite, r, done);
         done |= 1 << r;
         if !blocked {
             st.waypoints[from + n..from + 2 * n].copy_from_slice(&target[..n]);
             m += 1;
             continue;
         }
-        if let Some(k) = via::detour(fleet, &at[..n], r, &goals[r], &mut st.waypoints[from + n..]) {
+        if let Some(k) = via::detour(
+            composite,
+            &at[..n],
+            r,
+            &goals[r],
+            &mut st.waypoints[from + n..],
+        ) {
             m += k;
             continue;
         }
@@ -340,7 +350,7 @@ fn one_at_a_time<M: Models<D>, const D: usize>(
             free: 1 << r,
             seed: params.seed ^ (r as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
         };
-        let path = rrt::connect(fleet, &ask, params, &mut sub, q.deadline);
+        let path = rrt::connect(composite, &ask, params, &mut sub, q.deadline);
         match path {
             Ok(k) => m += k - 1,
             Err(Miss::Budget) => return Ok(None),

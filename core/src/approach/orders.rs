@@ -12,12 +12,12 @@
 use crate::model::Models;
 use crate::problem::MAX_ROBOTS;
 
-use super::fleet::Fleet;
+use super::composite::Composite;
 
 /// Sets of robots (bit `i`: robot `i`) in `0..1 << MAX_ROBOTS`.
 const SETS: usize = 1 << MAX_ROBOTS;
 
-/// The straight bridges of a fleet's robots from `starts` to `goals`, checked when first
+/// The straight bridges of a composite's robots from `starts` to `goals`, checked when first
 /// asked about.
 pub(super) struct Bridges<'s, const D: usize> {
     starts: &'s [[f64; D]],
@@ -35,12 +35,12 @@ pub(super) struct Bridges<'s, const D: usize> {
 
 impl<'s, const D: usize> Bridges<'s, D> {
     pub fn new<M: Models<D>>(
-        fleet: &Fleet<'_, M, D>,
+        composite: &Composite<'_, M, D>,
         starts: &'s [[f64; D]],
         goals: &'s [[f64; D]],
     ) -> Self {
-        let moving = (0..fleet.n)
-            .filter(|&i| fleet.is_active(i) && starts[i] != goals[i])
+        let moving = (0..composite.n)
+            .filter(|&i| composite.is_active(i) && starts[i] != goals[i])
             .fold(0u32, |m, i| m | 1 << i);
         Bridges {
             starts,
@@ -59,10 +59,10 @@ impl<'s, const D: usize> Bridges<'s, D> {
     }
 
     /// Whether robot `r`'s bridge touches an obstacle or the arm itself (no order helps).
-    pub fn own_blocked<M: Models<D>>(&mut self, fleet: &Fleet<'_, M, D>, r: usize) -> bool {
+    pub fn own_blocked<M: Models<D>>(&mut self, composite: &Composite<'_, M, D>, r: usize) -> bool {
         if self.own_known & (1 << r) == 0 {
             self.own_known |= 1 << r;
-            if fleet.own_motion_blocked(r, &self.starts[r], &self.goals[r]) {
+            if composite.own_motion_blocked(r, &self.starts[r], &self.goals[r]) {
                 self.own_blocked |= 1 << r;
             }
         }
@@ -70,12 +70,17 @@ impl<'s, const D: usize> Bridges<'s, D> {
     }
 
     /// Whether robot `r`'s bridge is blocked while the robots in `done` stand at their goals
-    /// and the others at their starts: exactly [`Fleet::motion_blocked`] of that move.
-    pub fn blocked<M: Models<D>>(&mut self, fleet: &Fleet<'_, M, D>, r: usize, done: u32) -> bool {
-        if self.own_blocked(fleet, r) {
+    /// and the others at their starts: exactly [`Composite::motion_blocked`] of that move.
+    pub fn blocked<M: Models<D>>(
+        &mut self,
+        composite: &Composite<'_, M, D>,
+        r: usize,
+        done: u32,
+    ) -> bool {
+        if self.own_blocked(composite, r) {
             return true;
         }
-        for k in (0..fleet.n).filter(|&k| k != r && fleet.is_active(k)) {
+        for k in (0..composite.n).filter(|&k| k != r && composite.is_active(k)) {
             // A robot that does not move stands at its start, which is its goal.
             let side = usize::from(done & self.moving & (1 << k) != 0);
             if self.pair_known[r][side] & (1 << k) == 0 {
@@ -85,7 +90,7 @@ impl<'s, const D: usize> Bridges<'s, D> {
                 } else {
                     &self.starts[k]
                 };
-                if fleet.pair_motion_blocked(r, &self.starts[r], &self.goals[r], k, at) {
+                if composite.pair_motion_blocked(r, &self.starts[r], &self.goals[r], k, at) {
                     self.pair_blocked[r][side] |= 1 << k;
                 }
             }
@@ -101,21 +106,21 @@ impl<'s, const D: usize> Bridges<'s, D> {
     /// first, each set found to lead nowhere tried once. Complete over all orders.
     pub fn free_order<M: Models<D>>(
         &mut self,
-        fleet: &Fleet<'_, M, D>,
+        composite: &Composite<'_, M, D>,
     ) -> Option<[u8; MAX_ROBOTS]> {
         // Every robot blocked by an obstacle or itself stays blocked in every order.
-        if (0..fleet.n).any(|r| self.moving & (1 << r) != 0 && self.own_blocked(fleet, r)) {
+        if (0..composite.n).any(|r| self.moving & (1 << r) != 0 && self.own_blocked(composite, r)) {
             return None;
         }
         let mut dead = [false; SETS];
         let mut order = [0u8; MAX_ROBOTS];
-        self.extend_free(fleet, 0, &mut dead, &mut order, 0)
+        self.extend_free(composite, 0, &mut dead, &mut order, 0)
             .then_some(order)
     }
 
     fn extend_free<M: Models<D>>(
         &mut self,
-        fleet: &Fleet<'_, M, D>,
+        composite: &Composite<'_, M, D>,
         done: u32,
         dead: &mut [bool; SETS],
         order: &mut [u8; MAX_ROBOTS],
@@ -128,10 +133,10 @@ impl<'s, const D: usize> Bridges<'s, D> {
             return false;
         }
         let left = self.moving & !done;
-        for r in (0..fleet.n).filter(|&r| left & (1 << r) != 0) {
-            if !self.blocked(fleet, r, done) {
+        for r in (0..composite.n).filter(|&r| left & (1 << r) != 0) {
+            if !self.blocked(composite, r, done) {
                 order[len] = r as u8;
-                if self.extend_free(fleet, done | 1 << r, dead, order, len + 1) {
+                if self.extend_free(composite, done | 1 << r, dead, order, len + 1) {
                     return true;
                 }
             }
@@ -148,10 +153,13 @@ impl<'s, const D: usize> Bridges<'s, D> {
     /// the moves out of the sets it expands are asked about, where filling the table of every
     /// set asked about every bridge against every other robot at either end. Ties go to the
     /// set with more robots moved, then the lower set: deterministic.
-    pub fn fewest_blocked<M: Models<D>>(&mut self, fleet: &Fleet<'_, M, D>) -> [u8; MAX_ROBOTS] {
+    pub fn fewest_blocked<M: Models<D>>(
+        &mut self,
+        composite: &Composite<'_, M, D>,
+    ) -> [u8; MAX_ROBOTS] {
         let all = self.moving;
-        let own = (0..fleet.n)
-            .filter(|&r| all & (1 << r) != 0 && self.own_blocked(fleet, r))
+        let own = (0..composite.n)
+            .filter(|&r| all & (1 << r) != 0 && self.own_blocked(composite, r))
             .fold(0u32, |m, r| m | 1 << r);
         // g[done]: the fewest blocked moves found to reach `done`; came[done]: the robot that
         // moved last on that way.
@@ -175,9 +183,9 @@ impl<'s, const D: usize> Bridges<'s, D> {
                 break;
             }
             closed[done as usize] = true;
-            for r in (0..fleet.n).filter(|&r| all & !done & (1 << r) != 0) {
+            for r in (0..composite.n).filter(|&r| all & !done & (1 << r) != 0) {
                 let next = (done | 1 << r) as usize;
-                let c = g[done as usize].saturating_add(u8::from(self.blocked(fleet, r, done)));
+                let c = g[done as usize].saturating_add(u8::from(self.blocked(composite, r, done)));
                 if c < g[next] {
                     (g[next], came[next]) = (c, r as u8);
                 }
@@ -197,15 +205,15 @@ impl<'s, const D: usize> Bridges<'s, D> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::fleet::tests::{draw, row};
+    use super::super::composite::tests::{draw, row};
     use super::*;
     use crate::model::KinovaGen3;
     use crate::pp::{identity, next_permutation};
     use crate::rng::Rng;
 
-    /// Blocked bridges along `order`, checked by the fleet's composite motion check alone.
+    /// Blocked bridges along `order`, checked by the composite's motion check alone.
     fn blocked_along(
-        fleet: &mut Fleet<'_, KinovaGen3, 7>,
+        composite: &mut Composite<'_, KinovaGen3, 7>,
         starts: &[[f64; 7]; 3],
         goals: &[[f64; 7]; 3],
         order: &[u8],
@@ -216,7 +224,7 @@ mod tests {
             let r = usize::from(r);
             let mut to = at;
             to[r] = goals[r];
-            blocked += usize::from(fleet.motion_blocked(&at, &to).is_some());
+            blocked += usize::from(composite.motion_blocked(&at, &to).is_some());
             at = to;
         }
         blocked
@@ -228,7 +236,7 @@ mod tests {
     #[test]
     fn orders_agree_with_checking_every_order() {
         let problem = row();
-        let mut fleet = Fleet::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
+        let mut composite = Composite::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
         let mut rng = Rng::new(5);
         let (mut with_free, mut without) = (0, 0);
         for round in 0..150 {
@@ -238,13 +246,15 @@ mod tests {
                 // An arm that does not move.
                 goals[round % 3] = starts[round % 3];
             }
-            if fleet.state_blocked(&starts).is_some() || fleet.state_blocked(&goals).is_some() {
+            if composite.state_blocked(&starts).is_some()
+                || composite.state_blocked(&goals).is_some()
+            {
                 continue;
             }
             let moves: heapless::Vec<u8, 3> = (0..3u8)
                 .filter(|&r| starts[usize::from(r)] != goals[usize::from(r)])
                 .collect();
-            let mut bridges = Bridges::new(&fleet, &starts, &goals);
+            let mut bridges = Bridges::new(&composite, &starts, &goals);
             assert_eq!(bridges.moving(), moves.len());
             let mut fewest = usize::MAX;
             let mut order = identity(moves.len());
@@ -253,7 +263,7 @@ mod tests {
                     .iter()
                     .map(|&i| moves[usize::from(i)])
                     .collect();
-                fewest = fewest.min(blocked_along(&mut fleet, &starts, &goals, &o));
+                fewest = fewest.min(blocked_along(&mut composite, &starts, &goals, &o));
                 if !next_permutation(&mut order[..moves.len()]) {
                     break;
                 }
@@ -265,20 +275,20 @@ mod tests {
                 let done = (0..3)
                     .filter(|&k| at[k] == goals[k])
                     .fold(0, |m, k| m | 1 << k);
-                let expect = fleet.motion_blocked(&at, &to).is_some() && starts[r] != goals[r];
+                let expect = composite.motion_blocked(&at, &to).is_some() && starts[r] != goals[r];
                 assert_eq!(
-                    bridges.blocked(&fleet, r, done) && starts[r] != goals[r],
+                    bridges.blocked(&composite, r, done) && starts[r] != goals[r],
                     expect,
                     "round {round}"
                 );
                 at = to;
             }
-            match bridges.free_order(&fleet) {
+            match bridges.free_order(&composite) {
                 Some(o) => {
                     with_free += 1;
                     assert_eq!(fewest, 0, "round {round}");
                     assert_eq!(
-                        blocked_along(&mut fleet, &starts, &goals, &o[..moves.len()]),
+                        blocked_along(&mut composite, &starts, &goals, &o[..moves.len()]),
                         0
                     );
                 }
@@ -287,12 +297,12 @@ mod tests {
                     assert!(fewest > 0, "round {round}");
                 }
             }
-            let best = bridges.fewest_blocked(&fleet);
+            let best = bridges.fewest_blocked(&composite);
             let mut sorted = best;
             sorted[..moves.len()].sort_unstable();
             assert_eq!(&sorted[..moves.len()], &moves[..]);
             assert_eq!(
-                blocked_along(&mut fleet, &starts, &goals, &best[..moves.len()]),
+                blocked_along(&mut composite, &starts, &goals, &best[..moves.len()]),
                 fewest,
                 "round {round}"
             );

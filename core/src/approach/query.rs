@@ -4,7 +4,7 @@
 use crate::problem::Problem;
 use crate::search::Deadline;
 
-use super::fleet::Blocked;
+use super::composite::Blocked;
 
 /// An approach to plan: from where the robots of `problem` stand (`initial`; a robot without
 /// one starts where its path does) to the first configurations of a plan, robot `i`'s path

@@ -15,7 +15,7 @@
 //!   RRT-Connect's probabilistic completeness: if an approach with some clearance exists, the
 //!   chance of missing it goes to 0 as the sample budget grows.
 //! - When only some arms are sampled (one arm finding its way around the others), the others
-//!   are placed once ([`Fleet::standing`]) and distance counts the sampled arms only.
+//!   are placed once ([`Composite::standing`]) and distance counts the sampled arms only.
 //! - Shortcutting: first the waypoints inside straight runs (a tree extending again and again
 //!   towards one node) are dropped, unchecked, for the motion past them is the motions
 //!   checked; then from the start each waypoint kept is joined to the farthest one it sees,
@@ -31,7 +31,7 @@ use crate::problem::MAX_ROBOTS;
 use crate::rng::Rng;
 use crate::search::Deadline;
 
-use super::fleet::Fleet;
+use super::composite::Composite;
 use super::query::{ApproachError, ApproachParams, ApproachStorage};
 
 /// How an RRT-Connect search ended without a path.
@@ -93,7 +93,7 @@ impl<const D: usize> Trees<'_, '_, D> {
 /// Seconds at full speed from `a` to `b` (the arms moving together), over the robots in the
 /// bit set `free` (the others are where they stand in both).
 fn distance<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    composite: &Composite<'_, M, D>,
     a: &[[f64; D]],
     b: &[[f64; D]],
     free: u32,
@@ -105,7 +105,7 @@ fn distance<M: Models<D>, const D: usize>(
         .enumerate()
         .filter(|(i, _)| free & (1 << i) != 0);
     for (i, (qa, qb)) in arms {
-        let velocity = M::velocity(fleet.model(i));
+        let velocity = M::velocity(composite.model(i));
         for j in 0..D {
             d = d.max(libm::fabs(qb[j] - qa[j]) / velocity[j]);
         }
@@ -113,7 +113,7 @@ fn distance<M: Models<D>, const D: usize>(
     d
 }
 
-/// One RRT-Connect search: its ends (composite, `fleet.n` robots each), the robots it moves
+/// One RRT-Connect search: its ends (composite, `composite.n` robots each), the robots it moves
 /// (a bit set) and its samples' seed.
 pub(super) struct Connect<'a, const D: usize> {
     pub start: &'a [[f64; D]],
@@ -127,16 +127,16 @@ pub(super) struct Connect<'a, const D: usize> {
 /// Plans from `ask.start` to `ask.goal` with `params.rrt_samples` samples and writes the
 /// shortcut path's waypoints, start and goal included, to `st.waypoints`. Returns how many.
 pub(super) fn connect<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    composite: &Composite<'_, M, D>,
     ask: &Connect<'_, D>,
     params: &ApproachParams,
     st: &mut ApproachStorage<'_, D>,
     deadline: &dyn Deadline,
 ) -> Result<usize, Miss> {
     let (start, goal, free) = (ask.start, ask.goal, ask.free);
-    let n = fleet.n;
+    let n = composite.n;
     // The arms not sampled stand where they start in every node: placed once.
-    let fleet = &mut fleet.standing(start, free);
+    let composite = &mut composite.standing(start, free);
     let cap = (st.tree.len() / n).min(st.parent.len()) / 2;
     if cap < 2 || st.waypoints.len() / n < 2 {
         return Err(Miss::Failed(ApproachError::OutOfMemory("approach tree")));
@@ -157,9 +157,9 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
         if deadline.expired() {
             return Err(fail(ApproachError::Timeout));
         }
-        draw::<M, D>(fleet, start, goal, free, &mut rng, &mut sample[..n]);
+        draw::<M, D>(composite, start, goal, free, &mut rng, &mut sample[..n]);
         if let Extend::Advanced(k) | Extend::Reached(k) =
-            extend(fleet, &mut trees, grow, &sample[..n], free, params)?
+            extend(composite, &mut trees, grow, &sample[..n], free, params)?
         {
             let target: [[f64; D]; MAX_ROBOTS] = core::array::from_fn(|i| {
                 if i < n {
@@ -170,14 +170,14 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
             });
             let other = 1 - grow;
             loop {
-                match extend(fleet, &mut trees, other, &target[..n], free, params)? {
+                match extend(composite, &mut trees, other, &target[..n], free, params)? {
                     Extend::Advanced(_) => continue,
                     Extend::Trapped => break,
                     Extend::Reached(r) => {
                         let (from_start, from_goal) = if grow == 0 { (k, r) } else { (r, k) };
                         let m = trace(&mut trees, from_start, from_goal).map_err(fail)?;
                         let m = straighten(&mut trees.st.waypoints[..m * n], n);
-                        let m = shortcut(fleet, trees.st, n, m, deadline);
+                        let m = shortcut(composite, trees.st, n, m, deadline);
                         return Ok(m);
                     }
                 }
@@ -191,7 +191,7 @@ pub(super) fn connect<M: Models<D>, const D: usize>(
 /// A sample: each active arm in `free` uniform within its bounds or on its own bridge, even
 /// odds; the others at their start.
 fn draw<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    composite: &Composite<'_, M, D>,
     start: &[[f64; D]],
     goal: &[[f64; D]],
     free: u32,
@@ -200,13 +200,13 @@ fn draw<M: Models<D>, const D: usize>(
 ) {
     for (i, q) in out.iter_mut().enumerate() {
         let (s, g) = (&start[i], &goal[i]);
-        if !fleet.is_active(i) || free & (1 << i) == 0 {
+        if !composite.is_active(i) || free & (1 << i) == 0 {
             *q = *s;
         } else if rng.next_f64() < 0.5 {
             let f = rng.next_f64();
             *q = core::array::from_fn(|j| s[j] + f * (g[j] - s[j]));
         } else {
-            let (lower, upper) = (M::lower(fleet.model(i)), M::upper(fleet.model(i)));
+            let (lower, upper) = (M::lower(composite.model(i)), M::upper(composite.model(i)));
             *q = core::array::from_fn(|j| {
                 let lo = if lower[j].is_finite() {
                     lower[j]
@@ -226,7 +226,7 @@ fn draw<M: Models<D>, const D: usize>(
 
 /// One step of tree `t` from its node nearest `target` towards it.
 fn extend<M: Models<D>, const D: usize>(
-    fleet: &mut Fleet<'_, M, D>,
+    composite: &mut Composite<'_, M, D>,
     trees: &mut Trees<'_, '_, D>,
     t: usize,
     target: &[[f64; D]],
@@ -236,7 +236,7 @@ fn extend<M: Models<D>, const D: usize>(
     let n = trees.n;
     let (mut near, mut best) = (0, f64::INFINITY);
     for k in 0..trees.len[t] {
-        let d = distance::<M, D>(fleet, trees.config(t, k), target, free);
+        let d = distance::<M, D>(composite, trees.config(t, k), target, free);
         if d < best {
             (near, best) = (k, d);
         }
@@ -253,7 +253,7 @@ fn extend<M: Models<D>, const D: usize>(
             core::array::from_fn(|j| from[i][j] + f * (target[i][j] - from[i][j]))
         }
     });
-    if fleet.step_blocked(from, &new[..n]) {
+    if composite.step_blocked(from, &new[..n]) {
         return Ok(Extend::Trapped);
     }
     let k = trees.push(t, &new[..n], near as u32)?;
@@ -346,7 +346,7 @@ fn straighten<const D: usize>(w: &mut [[f64; D]], n: usize) -> usize {
 /// waypoints after it, and the ones between are dropped. Each motion kept was checked, or is an
 /// edge of the path. Returns the waypoints left.
 fn shortcut<M: Models<D>, const D: usize>(
-    fleet: &mut Fleet<'_, M, D>,
+    composite: &mut Composite<'_, M, D>,
     st: &mut ApproachStorage<'_, D>,
     n: usize,
     m: usize,
@@ -358,22 +358,22 @@ fn shortcut<M: Models<D>, const D: usize>(
     let (mut a, mut kept) = (0, 1);
     while a + 1 < m {
         let at = (kept - 1) * n;
-        let sees = |fleet: &mut Fleet<'_, M, D>, w: &[[f64; D]], b: usize| {
+        let sees = |composite: &mut Composite<'_, M, D>, w: &[[f64; D]], b: usize| {
             !deadline.expired()
-                && fleet
+                && composite
                     .motion_blocked(&w[at..at + n], &w[b * n..(b + 1) * n])
                     .is_none()
         };
         // From the start the end is not seen: every caller searches because that motion is
         // blocked.
-        let b = if a > 0 && a + 2 < m && sees(fleet, w, m - 1) {
+        let b = if a > 0 && a + 2 < m && sees(composite, w, m - 1) {
             m - 1
         } else {
             // `lo` is seen (the path's own edge), `hi` is not.
             let (mut lo, mut hi) = (a + 1, m - 1);
             while hi - lo > 1 {
                 let mid = (lo + hi) / 2;
-                if sees(fleet, w, mid) {
+                if sees(composite, w, mid) {
                     lo = mid;
                 } else {
                     hi = mid;

@@ -9,23 +9,23 @@
 use crate::model::Models;
 use crate::problem::MAX_ROBOTS;
 
-use super::fleet::Fleet;
+use super::composite::Composite;
 
 /// Moves robot `r` from its configuration in `at` to `goal` through the first free detour,
 /// the others standing. Writes the waypoints after `at` (the via, then `at` with `goal`) to
 /// `out` and returns how many (2); `None` when both detours are blocked.
 pub(super) fn detour<M: Models<D>, const D: usize>(
-    fleet: &Fleet<'_, M, D>,
+    composite: &Composite<'_, M, D>,
     at: &[[f64; D]],
     r: usize,
     goal: &[f64; D],
     out: &mut [[f64; D]],
 ) -> Option<usize> {
-    let n = fleet.n;
+    let n = composite.n;
     if D == 0 || out.len() < 2 * n {
         return None;
     }
-    let fleet = &mut fleet.standing(at, 1 << r);
+    let composite = &mut composite.standing(at, 1 << r);
     let (s, g) = (at[r], *goal);
     let turned = |q: &[f64; D], yaw: f64| {
         let mut v = *q;
@@ -39,9 +39,9 @@ pub(super) fn detour<M: Models<D>, const D: usize>(
         }
         legs[1][r] = via;
         legs[2][r] = g;
-        if fleet.state_blocked(&legs[1][..n]).is_none()
+        if composite.state_blocked(&legs[1][..n]).is_none()
             && (0..2).all(|k| {
-                fleet
+                composite
                     .motion_blocked(&legs[k][..n], &legs[k + 1][..n])
                     .is_none()
             })
@@ -56,17 +56,17 @@ pub(super) fn detour<M: Models<D>, const D: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::fleet::tests::{draw, row};
+    use super::super::composite::tests::{draw, row};
     use super::*;
     use crate::model::KinovaGen3;
     use crate::rng::Rng;
 
-    /// A detour found is two legs the fleet finds free, through a via that differs from the
+    /// A detour found is two legs the composite finds free, through a via that differs from the
     /// start or the goal in joint 0 alone; and some are found where the bridge is blocked.
     #[test]
     fn a_detour_is_two_free_legs_through_a_turned_via() {
         let problem = row();
-        let mut fleet = Fleet::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
+        let mut composite = Composite::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
         let mut rng = Rng::new(11);
         let mut found = 0;
         for round in 0..400 {
@@ -74,14 +74,14 @@ mod tests {
             let (r, goal) = (round % 3, draw(&mut rng));
             let mut end = at;
             end[r] = goal;
-            if fleet.state_blocked(&at).is_some()
-                || fleet.state_blocked(&end).is_some()
-                || fleet.motion_blocked(&at, &end).is_none()
+            if composite.state_blocked(&at).is_some()
+                || composite.state_blocked(&end).is_some()
+                || composite.motion_blocked(&at, &end).is_none()
             {
                 continue;
             }
             let mut out = [[0.0; 7]; 6];
-            let Some(k) = detour(&fleet, &at, r, &goal, &mut out) else {
+            let Some(k) = detour(&composite, &at, r, &goal, &mut out) else {
                 continue;
             };
             found += 1;
@@ -93,9 +93,9 @@ mod tests {
             for k in (0..3).filter(|&k| k != r) {
                 assert_eq!(via[k], at[k]);
             }
-            assert!(fleet.state_blocked(via).is_none());
-            assert!(fleet.motion_blocked(&at, via).is_none());
-            assert!(fleet.motion_blocked(via, last).is_none());
+            assert!(composite.state_blocked(via).is_none());
+            assert!(composite.motion_blocked(&at, via).is_none());
+            assert!(composite.motion_blocked(via, last).is_none());
         }
         assert!(found >= 3, "{found} detours found");
     }

@@ -42,6 +42,7 @@ use crate::{load, validate};
 
 pub use error::Error;
 pub use quality::{path_quality, PathQuality};
+use results::Appender;
 pub use results::{csv_header, csv_line, Row};
 pub use summary::{Cell, Spread, Summary};
 
@@ -225,15 +226,7 @@ pub fn run_bench_with(
     opts: &BenchOptions,
     solver: &dyn Solver,
 ) -> Result<BenchReport, Error> {
-    if opts.planners.is_empty() {
-        return Err(Error::Options("no planner selected".to_string()));
-    }
-    if !(opts.timeout_s.is_finite() && opts.timeout_s > 0.0) {
-        return Err(Error::Options(format!(
-            "timeout must be > 0 seconds, got {}",
-            opts.timeout_s
-        )));
-    }
+    check_options(opts)?;
     let timeout = opts.effective_timeout();
     let index = suite::read_index(suite_dir)?;
     let stride = if opts.quick { QUICK_STRIDE } else { 1 };
@@ -247,82 +240,11 @@ pub fn run_bench_with(
         source,
     })?;
     let results_path = out_dir.join(RESULTS_FILE);
-    let (mut rows, mut appender) = results::open(&results_path)?;
-    if let Some(r) = rows.iter().find(|r| r.timeout_s != timeout) {
-        return Err(Error::Options(format!(
-            "{} holds runs with a timeout of {} s, this run uses {timeout} s: use another --out \
-             directory or delete the file",
-            results_path.display(),
-            r.timeout_s
-        )));
-    }
+    let (mut rows, mut appender) = open_results(&results_path, timeout)?;
     let resumed = rows.len();
-    let done: std::collections::HashSet<(String, String)> = rows
-        .iter()
-        .map(|r| (r.problem.clone(), r.planner.clone()))
-        .collect();
-    let jobs: Vec<(&SuiteEntry, &str)> = (problems.iter())
-        .flat_map(|e| opts.planners.iter().map(move |p| (*e, p.as_str())))
-        .filter(|(e, p)| !done.contains(&(e.name.clone(), p.to_string())))
-        .filter(|_| !opts.report_only)
-        .collect();
-
-    let bar = if opts.progress {
-        ProgressBar::new(jobs.len() as u64)
-    } else {
-        ProgressBar::hidden()
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.jobs.max(1))
-        .stack_size(WORKER_STACK)
-        .build()
-        .map_err(|e| Error::Options(format!("cannot start {} worker threads: {e}", opts.jobs)))?;
-    let stop = AtomicBool::new(false);
-    let (tx, rx) = mpsc::channel::<Row>();
-    let mut write_error = None;
-    let runs = std::thread::scope(|scope| {
-        scope.spawn(|| {
-            pool.install(|| {
-                jobs.par_iter().for_each_with(tx, |tx, &(entry, planner)| {
-                    if !stop.load(Ordering::Relaxed) {
-                        // The receiver only goes away after every job has ended.
-                        let row = run_one(suite_dir, &out_dir, entry, planner, timeout, solver);
-                        let _ = tx.send(row);
-                    }
-                })
-            })
-        });
-        let mut runs = 0;
-        for row in rx {
-            if row.valid == Some(false) {
-                bar.suspend(|| {
-                    eprintln!(
-                        "INVALID SOLUTION: planner {} reported success on {} but the validator refuses it: {}",
-                        row.planner, row.problem, row.message
-                    )
-                });
-            }
-            if let Err(e) = appender.append(&row) {
-                stop.store(true, Ordering::Relaxed);
-                write_error.get_or_insert(e);
-            }
-            bar.set_message(format!("{} {}", row.planner, row.problem));
-            bar.inc(1);
-            rows.push(row);
-            runs += 1;
-        }
-        runs
-    });
-    bar.finish_and_clear();
-    if let Some(e) = write_error {
-        return Err(e);
-    }
+    let jobs = pending_jobs(&problems, opts, &rows);
+    let dirs = (suite_dir, out_dir.as_path());
+    let runs = run_jobs(dirs, &jobs, timeout, opts, solver, &mut rows, &mut appender)?;
 
     let summary = Summary::new(&rows, &opts.planners);
     let context =
@@ -365,6 +287,130 @@ pub fn run_bench_with(
         plot_error,
         index,
     })
+}
+
+/// The options a bench cannot run with: no planner, a timeout that is not a number > 0.
+fn check_options(opts: &BenchOptions) -> Result<(), Error> {
+    if opts.planners.is_empty() {
+        return Err(Error::Options("no planner selected".to_string()));
+    }
+    if !(opts.timeout_s.is_finite() && opts.timeout_s > 0.0) {
+        return Err(Error::Options(format!(
+            "timeout must be > 0 seconds, got {}",
+            opts.timeout_s
+        )));
+    }
+    Ok(())
+}
+
+/// The rows `results.csv` already holds and the appender of new ones; an error when those
+/// rows ran with another timeout than `timeout` (their numbers would not compare).
+fn open_results(results_path: &Path, timeout: f64) -> Result<(Vec<Row>, Appender), Error> {
+    let (rows, appender) = results::open(results_path)?;
+    if let Some(r) = rows.iter().find(|r| r.timeout_s != timeout) {
+        return Err(Error::Options(format!(
+            "{} holds runs with a timeout of {} s, this run uses {timeout} s: use another --out \
+             directory or delete the file",
+            results_path.display(),
+            r.timeout_s
+        )));
+    }
+    Ok((rows, appender))
+}
+
+/// The runs (problem x planner) still to make: those `rows` lack, none with `--report-only`.
+fn pending_jobs<'a>(
+    problems: &[&'a SuiteEntry],
+    opts: &'a BenchOptions,
+    rows: &[Row],
+) -> Vec<(&'a SuiteEntry, &'a str)> {
+    let done: std::collections::HashSet<(String, String)> = rows
+        .iter()
+        .map(|r| (r.problem.clone(), r.planner.clone()))
+        .collect();
+    (problems.iter())
+        .flat_map(|e| opts.planners.iter().map(move |p| (*e, p.as_str())))
+        .filter(|(e, p)| !done.contains(&(e.name.clone(), p.to_string())))
+        .filter(|_| !opts.report_only)
+        .collect()
+}
+
+/// Makes `jobs` on `opts.jobs` worker threads (`dirs`: the suite's folder and the output
+/// folder), each row appended to `results.csv` and to `rows` as it comes; the number of runs
+/// made. A row that cannot be written stops the runs not yet started and is the error.
+fn run_jobs(
+    dirs: (&Path, &Path),
+    jobs: &[(&SuiteEntry, &str)],
+    timeout: f64,
+    opts: &BenchOptions,
+    solver: &dyn Solver,
+    rows: &mut Vec<Row>,
+    appender: &mut Appender,
+) -> Result<usize, Error> {
+    let (suite_dir, out_dir) = dirs;
+    let bar = progress_bar(opts.progress, jobs.len());
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.jobs.max(1))
+        .stack_size(WORKER_STACK)
+        .build()
+        .map_err(|e| Error::Options(format!("cannot start {} worker threads: {e}", opts.jobs)))?;
+    let stop = AtomicBool::new(false);
+    let (tx, rx) = mpsc::channel::<Row>();
+    let mut write_error = None;
+    let runs = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            pool.install(|| {
+                jobs.par_iter().for_each_with(tx, |tx, &(entry, planner)| {
+                    if !stop.load(Ordering::Relaxed) {
+                        // The receiver only goes away after every job has ended.
+                        let row = run_one(suite_dir, out_dir, entry, planner, timeout, solver);
+                        let _ = tx.send(row);
+                    }
+                })
+            })
+        });
+        let mut runs = 0;
+        for row in rx {
+            if row.valid == Some(false) {
+                bar.suspend(|| {
+                    eprintln!(
+                        "INVALID SOLUTION: planner {} reported success on {} but the validator refuses it: {}",
+                        row.planner, row.problem, row.message
+                    )
+                });
+            }
+            if let Err(e) = appender.append(&row) {
+                stop.store(true, Ordering::Relaxed);
+                write_error.get_or_insert(e);
+            }
+            bar.set_message(format!("{} {}", row.planner, row.problem));
+            bar.inc(1);
+            rows.push(row);
+            runs += 1;
+        }
+        runs
+    });
+    bar.finish_and_clear();
+    match write_error {
+        Some(e) => Err(e),
+        None => Ok(runs),
+    }
+}
+
+/// The bench's progress bar over `len` runs (hidden without `progress`).
+fn progress_bar(progress: bool, len: usize) -> ProgressBar {
+    let bar = if progress {
+        ProgressBar::new(len as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
 }
 
 /// Keeps a solved run's solution (`solutions/PLANNER/PROBLEM.json`) for its 3D view.

@@ -5,7 +5,7 @@
 //! and whole episodes embodied, latency, and the same episodes planned in whole windows as
 //! the reference).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use omcbsa::online::aloha::{self, Cell, FleetKind, Layout};
@@ -100,15 +100,61 @@ pub struct Args {
     planner: PlannerKind,
 }
 
+impl Args {
+    /// The arm counts asked for (`--arms`), by default 2, 3, 4 and 6.
+    fn arm_counts(&self) -> Vec<usize> {
+        match self.arms.as_slice() {
+            [] => vec![2, 3, 4, 6],
+            a => a.to_vec(),
+        }
+    }
+}
+
 pub fn run(args: &Args) -> ExitCode {
+    let (options, chunking) = match read_options(args) {
+        Ok(read) => read,
+        Err(code) => return code,
+    };
+    match (&args.suite, args.family.as_deref()) {
+        (Some(_), None) if args.hz.is_some() => {
+            bad_input("--hz is for --family: a suite's problems keep their own dt")
+        }
+        (Some(suite), None) => on_suite(args, suite, &options, chunking.stride),
+        (None, Some("bimanual")) => {
+            let hz = args.hz.unwrap_or(50.0);
+            if !(hz.is_finite() && hz > 0.0) {
+                return bad_input("--hz must be a positive rate");
+            }
+            let arms = args.arm_counts();
+            if let Some(n) = arms.iter().find(|&&n| !(2..=MAX_ARMS).contains(&n)) {
+                return bad_input(format!(
+                    "--arms {n}: the bimanual family has 2 to {MAX_ARMS} arms"
+                ));
+            }
+            bimanual(args, &arms, &options, chunking)
+        }
+        (None, Some(ALOHA)) => aloha_sim(args, &options, chunking),
+        (None, Some(other)) => bad_input(format!(
+            "--family {other:?}: the families are bimanual and {ALOHA}"
+        )),
+        (Some(_), Some(_)) => bad_input("give a suite or --family, not both"),
+        (None, None) => bad_input(format!(
+            "give a suite directory or --family (bimanual or {ALOHA})"
+        )),
+    }
+}
+
+/// The Embodier's options and the chunking the flags ask for, checked (a flag out of range
+/// or given without its family is bad input).
+fn read_options(args: &Args) -> Result<(OnlineOptions, Chunking), ExitCode> {
     let stride = args.stride.unwrap_or(match args.family {
         Some(_) => args.chunk_len,
         None => 8,
     });
     if args.chunk_len == 0 || stride == 0 || stride > args.chunk_len {
-        return bad_input(
+        return Err(bad_input(
             "--chunk-len and --stride must be at least 1, --stride at most --chunk-len",
-        );
+        ));
     }
     for (flag, w) in [
         ("--axis-weight", args.axis_weight),
@@ -116,11 +162,15 @@ pub fn run(args: &Args) -> ExitCode {
         ("--reserve-weight", args.reserve_weight),
     ] {
         if !(w.is_finite() && w >= 0.0) {
-            return bad_input(format!("{flag} must be a finite number, 0 or more"));
+            return Err(bad_input(format!(
+                "{flag} must be a finite number, 0 or more"
+            )));
         }
     }
     if args.chunk_len >= MAX_STEPS {
-        return bad_input(format!("--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"));
+        return Err(bad_input(format!(
+            "--chunk-len must be below {MAX_STEPS} (MAX_STEPS)"
+        )));
     }
     let defaults = OnlineOptions::default();
     let options = OnlineOptions {
@@ -148,60 +198,32 @@ pub fn run(args: &Args) -> ExitCode {
         .find(|(_, given)| *given)
         .filter(|_| args.family.as_deref() != Some(ALOHA))
     {
-        return bad_input(format!("{flag} is for --family {ALOHA}"));
+        return Err(bad_input(format!("{flag} is for --family {ALOHA}")));
     }
-    match (&args.suite, args.family.as_deref()) {
-        (Some(_), None) if args.hz.is_some() => {
-            bad_input("--hz is for --family: a suite's problems keep their own dt")
+    Ok((options, chunking))
+}
+
+/// The suite's problems planned whole and through the Embodier in chunks of `stride` steps,
+/// as a markdown table.
+fn on_suite(args: &Args, suite: &Path, options: &OnlineOptions, stride: usize) -> ExitCode {
+    let arms = args.arm_counts();
+    match bench_online(
+        suite,
+        &arms,
+        args.chunks,
+        options,
+        args.chunk_len,
+        stride,
+        &mut |l| eprintln!("{l}"),
+    ) {
+        Ok(rows) => {
+            print!("{}", table(&rows));
+            ExitCode::SUCCESS
         }
-        (Some(suite), None) => {
-            let arms = match args.arms.as_slice() {
-                [] => vec![2, 3, 4, 6],
-                a => a.to_vec(),
-            };
-            match bench_online(
-                suite,
-                &arms,
-                args.chunks,
-                &options,
-                args.chunk_len,
-                stride,
-                &mut |l| eprintln!("{l}"),
-            ) {
-                Ok(rows) => {
-                    print!("{}", table(&rows));
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    negative()
-                }
-            }
+        Err(e) => {
+            eprintln!("error: {e}");
+            negative()
         }
-        (None, Some("bimanual")) => {
-            let hz = args.hz.unwrap_or(50.0);
-            if !(hz.is_finite() && hz > 0.0) {
-                return bad_input("--hz must be a positive rate");
-            }
-            let arms = match args.arms.as_slice() {
-                [] => vec![2, 3, 4, 6],
-                a => a.to_vec(),
-            };
-            if let Some(n) = arms.iter().find(|&&n| !(2..=MAX_ARMS).contains(&n)) {
-                return bad_input(format!(
-                    "--arms {n}: the bimanual family has 2 to {MAX_ARMS} arms"
-                ));
-            }
-            bimanual(args, &arms, &options, chunking)
-        }
-        (None, Some(ALOHA)) => aloha_sim(args, &options, chunking),
-        (None, Some(other)) => bad_input(format!(
-            "--family {other:?}: the families are bimanual and {ALOHA}"
-        )),
-        (Some(_), Some(_)) => bad_input("give a suite or --family, not both"),
-        (None, None) => bad_input(format!(
-            "give a suite directory or --family (bimanual or {ALOHA})"
-        )),
     }
 }
 
@@ -279,10 +301,7 @@ fn aloha_sim(args: &Args, options: &OnlineOptions, chunking: Chunking) -> ExitCo
         (Err(e), _) => return bad_input(format!("--layouts: {e}")),
         (_, Err(e)) => return bad_input(format!("--fleets: {e}")),
     };
-    let arms = match args.arms.as_slice() {
-        [] => vec![2, 3, 4, 6],
-        a => a.to_vec(),
-    };
+    let arms = args.arm_counts();
     if let Some(n) = arms.iter().find(|&&n| !(2..=MAX_ARMS).contains(&n)) {
         return bad_input(format!(
             "--arms {n}: the {ALOHA} family has 2 to {MAX_ARMS} arms"

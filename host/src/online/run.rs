@@ -12,9 +12,9 @@ use omcbsa_hw::mock::exec_config;
 use omcbsa_hw::stream::Generator;
 use omcbsa_hw::{ArmLimits, Event, Executor, Report, StreamHandle, WatchSettings, JOINTS};
 
-use super::policy::BoxFlipPolicy;
+use super::policy::{BoxFlipPolicy, Chunk};
 use super::record::RunRecord;
-use super::{Embodier, OnlineError, OnlineOptions};
+use super::{ChunkReport, Embodier, OnlineError, OnlineOptions};
 use crate::execute::{joint_limits, CAUTIOUS_SPEED};
 use crate::format::{ProblemFile, SolutionFile};
 use crate::models::{self, ModelKind};
@@ -108,29 +108,13 @@ pub fn run_on_mock_arms(
 ) -> Result<RunOutcome, String> {
     let setup = script.policy.setup();
     let mut e = Embodier::new(&setup, script.options.clone()).map_err(|e| e.to_string())?;
-    let mut rec = RunRecord::default();
     let first = script.policy.chunk(0);
     let report = e
         .push_chunk(first.start_step, &first.hands)
         .map_err(|e| format!("chunk 0: {e}"))?;
-    let mut latencies = vec![report.planning_time_s];
     let n = e.robot_names().len();
-    let kinds = (setup.robots.iter())
-        .map(|r| ModelKind::parse(&r.model))
-        .collect::<Result<Vec<_>, _>>()?;
-    let limits: Vec<ArmLimits> = (kinds.iter())
-        .map(|&k| joint_limits(k, CAUTIOUS_SPEED))
-        .collect();
+    let (limits, scale) = stream_timing(script, &e, &report, progress)?;
     let dt = setup.dt;
-    let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
-    progress(&format!(
-        "chunk 0 planned in {:.1} ms (approach {} steps, assignment {:?}); streaming at {:.2}x \
-         the planned time",
-        1e3 * report.planning_time_s,
-        e.approach_len(),
-        e.assignment().unwrap_or(&[]),
-        scale
-    ));
     let initial: Vec<[f64; DOF]> = (0..n).map(|i| e.planned(i, 0)[0]).collect();
     let config = omcbsa_hw::ExecConfig {
         // The approach and the first chunk are one push.
@@ -153,109 +137,36 @@ pub fn run_on_mock_arms(
         .collect();
     let handle =
         Executor::online(arms, dt, scale, &limits, config.clone()).map_err(|e| e.to_string())?;
-    let mut pushes = Vec::new();
-    push(&handle, &e, 1, &mut pushes)?;
-    let mut events = Vec::new();
-    let mut chunk_errors = Vec::new();
+    let mut run = Gathered {
+        rec: RunRecord::default(),
+        latencies: vec![report.planning_time_s],
+        pushes: Vec::new(),
+        events: Vec::new(),
+        chunk_errors: Vec::new(),
+    };
+    push(&handle, &e, 1, &mut run.pushes)?;
     for c in 1..script.chunks {
         let mut chunk = script.policy.chunk(c);
         if script.unreachable_chunk == Some(c) {
             let k = chunk.hands[0].len() / 2;
             chunk.hands[0][k].position[2] += 3.0;
         }
-        let due = e.timeline_index(chunk.start_step).unwrap_or(0);
-        let waited = if script.late_chunk == Some(c) {
-            // The hold shows in the progress a cycle before its event: wait for the event.
-            wait(
-                &handle,
-                |_, seen| seen.iter().any(|e| matches!(e, Event::QueueDry { .. })),
-                &mut events,
-            )
-        } else {
-            wait(
-                &handle,
-                |p, _| p.step + script.lead_steps >= due,
-                &mut events,
-            )
-        };
-        if let Err(why) = waited {
-            return Err(match handle.finish() {
-                Err(fault) => format!("{why}: {fault}"),
-                Ok(_) => why,
-            });
+        if let Err(why) = wait_for_chunk(&handle, script, c, &e, &chunk, &mut run.events) {
+            return Err(finish_failed(handle, why));
         }
-        // What the arms are executing, and the step after, cannot change any more.
-        let fixed = handle.progress().fixed;
-        rec.send(&e, fixed + 2);
-        e.commit_until(fixed + 2);
-        let old_end = e.end();
-        let result = match e.push_chunk(chunk.start_step, &chunk.hands) {
-            // Late: the steps already sent are dropped, the rest planned from where the arms
-            // are (holding at the end of the plan, if it ran out).
-            Err(OnlineError::DeadlineMissed { .. }) => {
-                let skip = (0..chunk.hands[0].len())
-                    .find(|&k| {
-                        e.timeline_index(chunk.start_step + k as u64)
-                            .is_some_and(|i| i >= fixed + 2)
-                    })
-                    .unwrap_or(chunk.hands[0].len());
-                chunk.start_step += skip as u64;
-                chunk.hands.iter_mut().for_each(|h| {
-                    h.drain(..skip);
-                });
-                if chunk.hands[0].is_empty() {
-                    Err(OnlineError::DeadlineMissed {
-                        start_step: chunk.start_step,
-                        committed_step: 0,
-                    })
-                } else {
-                    progress(&format!(
-                        "chunk {c} is late: its first {skip} steps dropped, the rest planned"
-                    ));
-                    e.push_chunk(chunk.start_step, &chunk.hands)
-                }
-            }
-            other => other,
-        };
-        match result {
-            Ok(report) => {
-                latencies.push(report.planning_time_s);
-                push(&handle, &e, report.index.min(old_end), &mut pushes)?;
-                progress(&format!(
-                    "chunk {c:>3} (steps {}..{}) planned in {:.1} ms, arms at step {}",
-                    chunk.start_step,
-                    chunk.start_step + chunk.hands[0].len() as u64,
-                    1e3 * report.planning_time_s,
-                    handle.progress().step
-                ));
-            }
-            Err(err) => {
-                progress(&format!("chunk {c:>3} NOT planned: {err}"));
-                chunk_errors.push((c, err));
-            }
-        }
+        plan_chunk(c, chunk, &mut e, &handle, &mut run, progress)?;
     }
-    rec.send(&e, e.end());
+    run.rec.send(&e, e.end());
     // The events a push causes come at the cycle it lands on (the handle goes with `finish`).
-    let last = pushes.last().map_or(0, |p| p.cycle);
-    if let Err(why) = wait(&handle, |p, _| p.cycle > last, &mut events) {
-        return Err(match handle.finish() {
-            Err(fault) => format!("{why}: {fault}"),
-            Ok(_) => why,
-        });
+    let last = run.pushes.last().map_or(0, |p| p.cycle);
+    if let Err(why) = wait(&handle, |p, _| p.cycle > last, &mut run.events) {
+        return Err(finish_failed(handle, why));
     }
-    events.extend(handle.events());
+    run.events.extend(handle.events());
     let exec = handle.finish().map_err(|e| e.to_string())?;
     let mut cycles = Vec::with_capacity(n);
-    let replay = replay(&initial, &pushes, scale * dt, &config, &limits)?;
-    // A mock writes its record as it exits; a long run's record takes a while on a busy
-    // machine, longer than a mock's `finish` waits.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    for (name, _) in &starts {
-        while !record_of(name).exists() && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
+    let replay = replay(&initial, &run.pushes, scale * dt, &config, &limits)?;
+    wait_for_records(starts.iter().map(|(name, _)| record_of(name)));
     for (i, (name, record)) in mocks.finish()?.into_iter().enumerate() {
         let enabled = kind.motion_commands(&record)?;
         let motion = enabled.saturating_sub(config.settle_cycles);
@@ -266,16 +177,16 @@ pub fn run_on_mock_arms(
         cycles.push(got);
     }
     drop(replay);
-    let (problem, solution) = rec
+    let (problem, solution) = (run.rec)
         .files(&setup, &e)
         .ok_or("nothing was sent to the arms")?;
     let core = crate::load::problem::<models::Fleet, DOF>(&problem).map_err(|e| e.to_string())?;
     let validation = validate::<models::Fleet, DOF>(&problem, &core, &solution);
     Ok(RunOutcome {
-        latencies,
-        chunk_errors,
-        events,
-        pushes,
+        latencies: run.latencies,
+        chunk_errors: run.chunk_errors,
+        events: run.events,
+        pushes: run.pushes,
         exec,
         cycles,
         validation,
@@ -283,6 +194,159 @@ pub fn run_on_mock_arms(
         problem,
         solution,
     })
+}
+
+/// The joint limits the arms stream within (each arm's model's, at [`CAUTIOUS_SPEED`]) and
+/// the uniform slow-down the first chunk's plan needs under them, with the script's margin;
+/// reported on `progress` with the first chunk's planning.
+fn stream_timing(
+    script: &RunScript,
+    e: &Embodier,
+    report: &ChunkReport,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<ArmLimits>, f64), String> {
+    let setup = e.setup();
+    let n = e.robot_names().len();
+    let kinds = (setup.robots.iter())
+        .map(|r| ModelKind::parse(&r.model))
+        .collect::<Result<Vec<_>, _>>()?;
+    let limits: Vec<ArmLimits> = (kinds.iter())
+        .map(|&k| joint_limits(k, CAUTIOUS_SPEED))
+        .collect();
+    let dt = setup.dt;
+    let scale = script.time_margin * min_time_scale((0..n).map(|i| e.planned(i, 0)), &limits, dt);
+    progress(&format!(
+        "chunk 0 planned in {:.1} ms (approach {} steps, assignment {:?}); streaming at {:.2}x \
+         the planned time",
+        1e3 * report.planning_time_s,
+        e.approach_len(),
+        e.assignment().unwrap_or(&[]),
+        scale
+    ));
+    Ok((limits, scale))
+}
+
+/// What a run gathers as its chunks come: what was sent, the planning times, the pushes, the
+/// executor's events and the chunks not planned.
+struct Gathered {
+    rec: RunRecord,
+    latencies: Vec<f64>,
+    pushes: Vec<Push>,
+    events: Vec<Event>,
+    chunk_errors: Vec<(usize, OnlineError)>,
+}
+
+/// Waits until chunk `c` is due: until the arms are `script.lead_steps` before its first
+/// step, or, for the script's late chunk, until the queue ran dry.
+fn wait_for_chunk(
+    handle: &StreamHandle,
+    script: &RunScript,
+    c: usize,
+    e: &Embodier,
+    chunk: &Chunk,
+    events: &mut Vec<Event>,
+) -> Result<(), String> {
+    let due = e.timeline_index(chunk.start_step).unwrap_or(0);
+    if script.late_chunk == Some(c) {
+        // The hold shows in the progress a cycle before its event: wait for the event.
+        wait(
+            handle,
+            |_, seen| seen.iter().any(|e| matches!(e, Event::QueueDry { .. })),
+            events,
+        )
+    } else {
+        wait(handle, |p, _| p.step + script.lead_steps >= due, events)
+    }
+}
+
+/// Why the run ended early, with the stream's fault if it had one (the stream ends here).
+fn finish_failed(handle: StreamHandle, why: String) -> String {
+    match handle.finish() {
+        Err(fault) => format!("{why}: {fault}"),
+        Ok(_) => why,
+    }
+}
+
+/// Plans chunk `c` from the steps the arms can no longer change and pushes the new tail to
+/// the executor; a chunk that cannot be planned is gathered with why (the run goes on).
+fn plan_chunk(
+    c: usize,
+    mut chunk: Chunk,
+    e: &mut Embodier,
+    handle: &StreamHandle,
+    run: &mut Gathered,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(), String> {
+    // What the arms are executing, and the step after, cannot change any more.
+    let fixed = handle.progress().fixed;
+    run.rec.send(e, fixed + 2);
+    e.commit_until(fixed + 2);
+    let old_end = e.end();
+    let result = match e.push_chunk(chunk.start_step, &chunk.hands) {
+        Err(OnlineError::DeadlineMissed { .. }) => push_late(c, &mut chunk, e, fixed, progress),
+        other => other,
+    };
+    match result {
+        Ok(report) => {
+            run.latencies.push(report.planning_time_s);
+            push(handle, e, report.index.min(old_end), &mut run.pushes)?;
+            progress(&format!(
+                "chunk {c:>3} (steps {}..{}) planned in {:.1} ms, arms at step {}",
+                chunk.start_step,
+                chunk.start_step + chunk.hands[0].len() as u64,
+                1e3 * report.planning_time_s,
+                handle.progress().step
+            ));
+        }
+        Err(err) => {
+            progress(&format!("chunk {c:>3} NOT planned: {err}"));
+            run.chunk_errors.push((c, err));
+        }
+    }
+    Ok(())
+}
+
+/// A late chunk: the steps already sent (up to timeline index `fixed + 1`) are dropped, the
+/// rest planned from where the arms are (holding at the end of the plan, if it ran out).
+fn push_late(
+    c: usize,
+    chunk: &mut Chunk,
+    e: &mut Embodier,
+    fixed: usize,
+    progress: &mut dyn FnMut(&str),
+) -> Result<ChunkReport, OnlineError> {
+    let skip = (0..chunk.hands[0].len())
+        .find(|&k| {
+            e.timeline_index(chunk.start_step + k as u64)
+                .is_some_and(|i| i >= fixed + 2)
+        })
+        .unwrap_or(chunk.hands[0].len());
+    chunk.start_step += skip as u64;
+    chunk.hands.iter_mut().for_each(|h| {
+        h.drain(..skip);
+    });
+    if chunk.hands[0].is_empty() {
+        Err(OnlineError::DeadlineMissed {
+            start_step: chunk.start_step,
+            committed_step: 0,
+        })
+    } else {
+        progress(&format!(
+            "chunk {c} is late: its first {skip} steps dropped, the rest planned"
+        ));
+        e.push_chunk(chunk.start_step, &chunk.hands)
+    }
+}
+
+/// A mock writes its record as it exits; a long run's record takes a while on a busy
+/// machine, longer than a mock's `finish` waits: waits up to a minute for every record.
+fn wait_for_records(records: impl Iterator<Item = std::path::PathBuf>) {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    for record in records {
+        while !record.exists() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
 }
 
 /// Pushes the embodier's plan from timeline index `from` to the executor.

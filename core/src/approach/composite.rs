@@ -49,12 +49,12 @@ pub struct Blocked {
 /// The robots of `problem`, checked together. Robots not `active` are left out of every
 /// check (used to ask whether one arm alone can make its approach).
 ///
-/// A fleet made by [`Fleet::standing`] knows some robots stand still in every query (the
+/// A composite made by [`Composite::standing`] knows some robots stand still in every query (the
 /// others' arms, while one arm plans its way around them): their poses are placed once, and
 /// what they touch among themselves or with the obstacles is checked once, so a query places
 /// and checks only the arms that move. A query where a standing robot is elsewhere is checked
-/// in full, as by a fleet without them.
-pub(crate) struct Fleet<'p, M, const D: usize> {
+/// in full, as by a composite without them.
+pub(crate) struct Composite<'p, M, const D: usize> {
     arms: Arms<'p, M, D>,
     /// The queries' scratch, kept: a buffer this size made anew is filled at every query, at
     /// more cost than a one-arm step's checks.
@@ -62,7 +62,7 @@ pub(crate) struct Fleet<'p, M, const D: usize> {
     pub n: usize,
 }
 
-/// What a [`Fleet`] checks, without its scratch.
+/// What a [`Composite`] checks, without its scratch.
 struct Arms<'p, M, const D: usize> {
     problem: &'p Problem<D>,
     /// The problem's obstacles with their boxes, for the motion checks.
@@ -79,7 +79,7 @@ struct Arms<'p, M, const D: usize> {
     _m: core::marker::PhantomData<M>,
 }
 
-/// No pose placed here: the robot's standing pose ([`Fleet::standing`]).
+/// No pose placed here: the robot's standing pose ([`Composite::standing`]).
 const STILL: u8 = u8::MAX;
 
 /// The arms of a composite motion's two ends placed in the world, by the query: pose `at[i][e]`
@@ -89,13 +89,13 @@ struct Placed {
     at: [[u8; 2]; MAX_ROBOTS],
 }
 
-impl<'p, M: Models<D>, const D: usize> Fleet<'p, M, D> {
+impl<'p, M: Models<D>, const D: usize> Composite<'p, M, D> {
     pub fn new(problem: &'p Problem<D>, motion_step: f64) -> Self {
         Self::of(Arms::new(problem, motion_step))
     }
 
     fn of(arms: Arms<'p, M, D>) -> Self {
-        Fleet {
+        Composite {
             n: arms.n,
             arms,
             placed: Placed {
@@ -105,12 +105,12 @@ impl<'p, M: Models<D>, const D: usize> Fleet<'p, M, D> {
         }
     }
 
-    /// The same fleet with only the robots `keep` accepts in it (none standing).
+    /// The same composite with only the robots `keep` accepts in it (none standing).
     pub fn restricted(&self, keep: impl Fn(usize) -> bool) -> Self {
         Self::of(self.arms.restricted(keep))
     }
 
-    /// The same fleet where the active robots not in the bit set `moving` stand at `q`.
+    /// The same composite where the active robots not in the bit set `moving` stand at `q`.
     pub fn standing(&self, q: &[[f64; D]], moving: u32) -> Self {
         Self::of(self.arms.standing(q, moving, &mut Placed::new()))
     }
@@ -135,21 +135,21 @@ impl<'p, M: Models<D>, const D: usize> Fleet<'p, M, D> {
         self.arms.state_blocked(q, &mut self.placed)
     }
 
-    /// Whether the composite state `b` is blocked ([`Fleet::state_blocked`]) or the motion
-    /// `a -> b` is ([`Fleet::motion_blocked`]): one step of a tree, the arms at `b` placed
+    /// Whether the composite state `b` is blocked ([`Composite::state_blocked`]) or the motion
+    /// `a -> b` is ([`Composite::motion_blocked`]): one step of a tree, the arms at `b` placed
     /// once for both checks.
     pub fn step_blocked(&mut self, a: &[[f64; D]], b: &[[f64; D]]) -> bool {
         self.arms.step_blocked(a, b, &mut self.placed)
     }
 
     /// Whether robot `r` moving `from -> to` touches an obstacle or itself: the part of
-    /// [`Fleet::motion_blocked`] that no other arm changes.
+    /// [`Composite::motion_blocked`] that no other arm changes.
     pub fn own_motion_blocked(&self, r: usize, from: &[f64; D], to: &[f64; D]) -> bool {
         self.arms.own_motion_blocked(r, from, to)
     }
 
     /// Whether robot `r` moving `from -> to` comes too close to robot `k` standing at `at`:
-    /// [`Fleet::motion_blocked`] of that one pair, so a one-arm motion is blocked exactly when
+    /// [`Composite::motion_blocked`] of that one pair, so a one-arm motion is blocked exactly when
     /// its own check or the check against some other active robot is.
     pub fn pair_motion_blocked(
         &self,
@@ -213,16 +213,16 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
         let still = (0..self.n)
             .filter(|&i| self.active[i] && moving & (1 << i) == 0)
             .fold(0u32, |m, i| m | 1 << i);
-        let mut fleet = Arms { ..*self };
-        fleet.still_blocked = self
+        let mut composite = Arms { ..*self };
+        composite.still_blocked = self
             .restricted(|i| still & (1 << i) != 0)
             .state_blocked(q, placed);
         for i in (0..self.n).filter(|&i| still & (1 << i) != 0) {
-            fleet.still_q[i] = q[i];
-            fleet.still_poses[i] = self.pose(i, &q[i]);
+            composite.still_q[i] = q[i];
+            composite.still_poses[i] = self.pose(i, &q[i]);
         }
-        fleet.still = still;
-        fleet
+        composite.still = still;
+        composite
     }
 
     fn model(&self, i: usize) -> u8 {
@@ -431,7 +431,7 @@ impl<'p, M: Models<D>, const D: usize> Arms<'p, M, D> {
         )
     }
 
-    /// [`Fleet::motion_blocked`] with both ends placed.
+    /// [`Composite::motion_blocked`] with both ends placed.
     fn placed_motion_blocked(
         &self,
         a: &[[f64; D]],
@@ -518,12 +518,12 @@ pub(super) mod tests {
         })
     }
 
-    /// A fleet with arms standing answers every query as the plain fleet does: queries that
+    /// A composite with arms standing answers every query as the plain composite does: queries that
     /// move one arm from where they stand, and queries with a standing arm elsewhere.
     #[test]
     fn standing_arms_change_no_answer() {
         let problem = row();
-        let mut plain = Fleet::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
+        let mut plain = Composite::<KinovaGen3, 7>::new(&problem, crate::motion::MOTION_STEP);
         let mut rng = Rng::new(7);
         let (mut blocked, mut free) = (0, 0);
         for round in 0..300 {
