@@ -41,10 +41,11 @@
 //! ```
 
 use crate::arm::cycle_frames;
+use crate::canopen;
 use crate::cia402;
 use crate::frame::CanFrame;
 use crate::run::{BusOverload, ExecConfig, JOINTS};
-use crate::{canopen, ArmPorts};
+use crate::transport::Transport;
 use std::time::Duration;
 
 /// A bus's bitrate unless known otherwise (the in-process bus's default, SocketCAN's as
@@ -265,24 +266,24 @@ impl BusLoad {
     }
 }
 
-/// The loads of the CAN buses `arms` stream on at `config`'s period: arms whose transports
-/// name the same bus share it (Kortex arms have none), in the order of their first arm.
+/// The loads of the CAN buses at `config`'s period, from each CAN arm's name and transport:
+/// arms whose transports name the same bus share it, in the order of their first arm.
 ///
 /// Arms on one bus would today also share node ids 1 to 7 (nothing in an [`crate::port::ArmUrl`]
 /// moves an arm's nodes), so only a load within [`MAX_LOAD`] makes such a configuration
 /// possible, not sufficient.
-pub fn loads(arms: &ArmPorts, config: &ExecConfig) -> Vec<BusLoad> {
+pub fn loads<'a>(
+    arms: impl IntoIterator<Item = (&'a str, &'a dyn Transport)>,
+    config: &ExecConfig,
+) -> Vec<BusLoad> {
     let traffic = ArmTraffic::cia402(Duration::from_millis(config.watch.heartbeat_ms.into()));
     let mut loads: Vec<BusLoad> = Vec::new();
-    for (arm, port) in arms {
-        let Some(t) = port.can_transport() else {
-            continue;
-        };
+    for (arm, t) in arms {
         match loads.iter_mut().find(|l| l.bus == t.name()) {
-            Some(load) => load.arms.push(arm.clone()),
+            Some(load) => load.arms.push(arm.to_string()),
             None => loads.push(BusLoad {
                 bus: t.name().to_string(),
-                arms: vec![arm.clone()],
+                arms: vec![arm.to_string()],
                 bitrate: t.bitrate(),
                 period: config.period,
                 traffic,
@@ -294,7 +295,10 @@ pub fn loads(arms: &ArmPorts, config: &ExecConfig) -> Vec<BusLoad> {
 
 /// Refuses a run whose CAN buses [`loads`] would carry more than [`MAX_LOAD`]: the first such
 /// bus, with the numbers and the ways out.
-pub fn check(arms: &ArmPorts, config: &ExecConfig) -> Result<(), Box<BusOverload>> {
+pub fn check<'a>(
+    arms: impl IntoIterator<Item = (&'a str, &'a dyn Transport)>,
+    config: &ExecConfig,
+) -> Result<(), Box<BusOverload>> {
     (loads(arms, config).iter()).try_for_each(|l| l.check(MAX_LOAD).map_err(Box::new))
 }
 

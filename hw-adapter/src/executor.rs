@@ -252,7 +252,8 @@ fn launch(
             .and_then(|j| j.holds())
             .map_err(ExecError::Timing)?;
     }
-    crate::bus::check(&arms, &config).map_err(ExecError::BusLoad)?;
+    let buses = (arms.iter()).filter_map(|(n, p)| p.can_transport().map(|t| (n.as_str(), t)));
+    crate::bus::check(buses, &config).map_err(ExecError::BusLoad)?;
     let log = crate::log::open(config.log_path.as_deref())?;
     let clock = Instant::now();
     let links = (arms.into_iter())

@@ -144,7 +144,10 @@ mod tests {
         let refused = jitter(1001).holds().unwrap_err();
         assert!(matches!(refused, TimingError::RateNotHeld { .. }));
         let text = refused.to_string();
-        assert!(text.contains("1000 Hz") && text.contains("1.001ms"), "{text}");
+        assert!(
+            text.contains("1000 Hz") && text.contains("1.001ms"),
+            "{text}"
+        );
         assert!(text.contains("lower the rate"), "{text}");
     }
 

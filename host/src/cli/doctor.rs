@@ -41,7 +41,11 @@ pub fn run(args: &Args) -> ExitCode {
 fn doctor(args: &Args) -> Result<ExitCode, ExitCode> {
     let rates: Vec<(&str, f64)> = match args.rate {
         Some(hz) if hz.is_finite() && (1.0..=10_000.0).contains(&hz) => vec![("asked", hz)],
-        Some(hz) => return Err(bad_input(format!("--rate: must be 1 to 10000 Hz, got {hz}"))),
+        Some(hz) => {
+            return Err(bad_input(format!(
+                "--rate: must be 1 to 10000 Hz, got {hz}"
+            )))
+        }
         None => RATES.to_vec(),
     };
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
@@ -54,8 +58,12 @@ fn doctor(args: &Args) -> Result<ExitCode, ExitCode> {
     let mut all_held = true;
     for (what, hz) in rates {
         let period = Duration::from_secs_f64(1.0 / hz);
-        let jitter = timing::measure(period, Duration::from_secs_f64(args.seconds), args.rt_priority.0)
-            .map_err(bad_input)?;
+        let jitter = timing::measure(
+            period,
+            Duration::from_secs_f64(args.seconds),
+            args.rt_priority.0,
+        )
+        .map_err(bad_input)?;
         let verdict = match jitter.holds() {
             Ok(()) => "held".to_string(),
             Err(e) => {
@@ -65,5 +73,9 @@ fn doctor(args: &Args) -> Result<ExitCode, ExitCode> {
         };
         print(format_args!("{what}: {jitter}: {verdict}"))?;
     }
-    Ok(if all_held { ExitCode::SUCCESS } else { negative() })
+    Ok(if all_held {
+        ExitCode::SUCCESS
+    } else {
+        negative()
+    })
 }

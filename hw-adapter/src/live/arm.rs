@@ -117,7 +117,9 @@ impl<'a> Streaming<'a> {
             return Ok(None);
         }
         let k = self.k;
-        self.max_late = self.max_late.max(Instant::now().saturating_duration_since(due));
+        self.max_late = self
+            .max_late
+            .max(Instant::now().saturating_duration_since(due));
         // Checked against the limits by the generator.
         let (cmd, end) = self.shared.command(self.me, k as u64)?;
         self.bus.send_cycle(&cmd).map_err(Fault::Bus)?;
@@ -132,7 +134,9 @@ impl<'a> Streaming<'a> {
             a.following_error = fe;
         });
         self.k += 1;
-        Ok(Some(end.is_some_and(|e| k as u64 >= e + self.cfg.settle_cycles as u64)))
+        Ok(Some(end.is_some_and(|e| {
+            k as u64 >= e + self.cfg.settle_cycles as u64
+        })))
     }
 
     /// Handles the feedback received so far (so that a fault is seen when its frame arrives,
@@ -210,7 +214,8 @@ impl<'a> Streaming<'a> {
         let sent = self.bus.quick_stop(&self.prev);
         // The bound is on the stop frames going out; the answers are waited for after.
         let latency = detected.elapsed();
-        self.shared.publish(self.me, |a| a.state = ArmState::Stopped);
+        self.shared
+            .publish(self.me, |a| a.state = ArmState::Stopped);
         let (error, unanswered) = match (sent, self.bus.leave()) {
             (Err(e), left) => (Some(e), left.unwrap_or_default()),
             (Ok(()), Ok(unanswered)) => (None, unanswered),
@@ -236,13 +241,16 @@ impl<'a> Streaming<'a> {
         shared.sent[me].store(usize::MAX, Ordering::SeqCst);
         shared.clear[me].store(u64::MAX, Ordering::SeqCst);
         // An arm that leaves a frame of its normal stop unanswered has not been seen to stop.
-        let ended = self.bus.finish(&self.prev).and_then(|()| match self.bus.leave()? {
-            unanswered if unanswered.is_empty() => Ok(()),
-            unanswered => Err(format!(
-                "the arm did not answer its stop: {}",
-                unanswered.join("; ")
-            )),
-        });
+        let ended = self
+            .bus
+            .finish(&self.prev)
+            .and_then(|()| match self.bus.leave()? {
+                unanswered if unanswered.is_empty() => Ok(()),
+                unanswered => Err(format!(
+                    "the arm did not answer its stop: {}",
+                    unanswered.join("; ")
+                )),
+            });
         match ended {
             Ok(()) => {
                 shared.publish(me, |a| a.state = ArmState::Finished);
@@ -371,15 +379,7 @@ pub(crate) fn start(
                     lock(&shared.realtime_refused).get_or_insert(why);
                 }
                 let progress = progress.as_deref().map(|p| p.as_ref());
-                stream_arm(
-                    me,
-                    bus.as_mut(),
-                    &plan,
-                    &shared,
-                    &config,
-                    progress,
-                    total,
-                )
+                stream_arm(me, bus.as_mut(), &plan, &shared, &config, progress, total)
             })
         })
         .collect();

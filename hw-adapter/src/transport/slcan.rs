@@ -129,7 +129,11 @@ impl Socket {
             events,
             revents: 0,
         };
-        let ms = self.timeout.as_micros().div_ceil(1000).min(i32::MAX as u128) as i32;
+        let ms = self
+            .timeout
+            .as_micros()
+            .div_ceil(1000)
+            .min(i32::MAX as u128) as i32;
         // SAFETY: one valid pollfd, for the duration of the call.
         match unsafe { libc::poll(&mut fd, 1, ms) } {
             -1 => Err(io::Error::last_os_error()),
