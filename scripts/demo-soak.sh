@@ -4,6 +4,7 @@
 # then LOADED times each (default 5) with two CPU-bound processes (`yes > /dev/null`) beside
 # them. Prints one line per run and a table of exit codes; a failed run's output is kept in
 # OUT/NAME-K.txt (default OUT: /tmp/omcbsa-demo-soak). Exit code 0 if every run exited 0.
+# OMCBSA_BIN: the binary to run (default: target/release/omcbsa, built first).
 #
 #   bash scripts/demo-soak.sh [RUNS] [LOADED]
 set -euo pipefail
@@ -13,11 +14,12 @@ loaded="${2:-5}"
 out="${OMCBSA_SOAK_OUT:-/tmp/omcbsa-demo-soak}"
 
 bash hw-adapter/mock/setup_venv.sh >/dev/null
-cargo build --release -p omcbsa --bin omcbsa 2>/dev/null
+bin="${OMCBSA_BIN:-target/release/omcbsa}"
+[ -n "${OMCBSA_BIN:-}" ] || cargo build --release -p omcbsa --bin omcbsa 2>/dev/null
 rm -rf "$out"
 mkdir -p "$out"
 echo "commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+changes'), $(nproc) cores"
-target/release/omcbsa doctor || true
+"$bin" doctor || true
 
 declare -A failed total
 names=("demo" "demo-kortex" "online")
@@ -37,7 +39,7 @@ run_all() {  # $1: runs per command, $2: label
             rc=0
             start=$(date +%s)
             # shellcheck disable=SC2046
-            target/release/omcbsa $(cmd "$name" "$dir") >"$dir.txt" 2>&1 || rc=$?
+            "$bin" $(cmd "$name" "$dir") >"$dir.txt" 2>&1 || rc=$?
             total[$key]=$(( ${total[$key]:-0} + 1 ))
             if [ "$rc" -eq 0 ]; then
                 rm -rf "$dir" "$dir.txt"
