@@ -12,7 +12,7 @@ use crate::cia402::{self, counts_to_rad};
 use crate::frame::CanFrame;
 use crate::link::ArmLink;
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, CycleFault, ExecConfig, Fault, Measured, JOINTS};
+use crate::run::{Command, CycleFault, ExecConfig, Fault, LinkError, Measured, JOINTS};
 use crate::transport::{Transport, TransportError};
 use crate::watchdog::CycleAccount;
 use std::time::{Duration, Instant};
@@ -319,16 +319,16 @@ impl ArmLink for ArmBus {
         cfg: &ExecConfig,
         plan: &crate::link::StartPlan,
         stop: &std::sync::atomic::AtomicBool,
-    ) -> Result<(), String> {
-        ArmBus::configure(self, cfg, plan, stop)
+    ) -> Result<(), LinkError> {
+        ArmBus::configure(self, cfg, plan, stop).map_err(LinkError::Setup)
     }
 
-    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String> {
-        ArmBus::enable(self, cfg)
+    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), LinkError> {
+        ArmBus::enable(self, cfg).map_err(LinkError::Setup)
     }
 
-    fn poll(&mut self) -> Result<(), String> {
-        ArmBus::poll(self).map_err(|e| e.to_string())
+    fn poll(&mut self) -> Result<(), LinkError> {
+        ArmBus::poll(self).map_err(|e| LinkError::Io(e.to_string()))
     }
 
     fn measured(&self) -> Option<Measured> {
@@ -360,23 +360,24 @@ impl ArmLink for ArmBus {
         ArmBus::clear_until(self)
     }
 
-    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
-        ArmBus::send_cycle(self, cmd, cia402::CW_ENABLE_OPERATION).map_err(|e| e.to_string())
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), LinkError> {
+        ArmBus::send_cycle(self, cmd, cia402::CW_ENABLE_OPERATION)
+            .map_err(|e| LinkError::Io(e.to_string()))
     }
 
-    fn quick_stop(&mut self, hold: &Command) -> Result<(), String> {
-        ArmBus::quick_stop(self, hold)
+    fn quick_stop(&mut self, hold: &Command) -> Result<(), LinkError> {
+        ArmBus::quick_stop(self, hold).map_err(LinkError::StopFailed)
     }
 
-    fn finish(&mut self, hold: &Command) -> Result<(), String> {
-        ArmBus::finish(self, hold)
+    fn finish(&mut self, hold: &Command) -> Result<(), LinkError> {
+        ArmBus::finish(self, hold).map_err(LinkError::StopFailed)
     }
 
-    fn abort(&mut self) -> Result<(), String> {
-        ArmBus::abort(self)
+    fn abort(&mut self) -> Result<(), LinkError> {
+        ArmBus::abort(self).map_err(LinkError::StopFailed)
     }
 
-    fn leave(&mut self) -> Result<Vec<String>, String> {
+    fn leave(&mut self) -> Result<Vec<String>, LinkError> {
         Ok(self.confirm_stop())
     }
 }

@@ -171,7 +171,7 @@ pub fn first_sign(log: &[Logged], fault: &Fault, watch: &WatchSettings) -> Optio
         }
         // Not CAN faults: the Kortex mocks' records measure these.
         Fault::CommandRefused(_)
-        | Fault::Bus(_)
+        | Fault::Link(_)
         | Fault::ArmRefused(_)
         | Fault::ActuatorFault { .. } => None,
     }

@@ -2,7 +2,7 @@
 //! the loop (`live`) drives. Its implementations are an arm of CiA 402 drives on a CAN bus
 //! (`arm::ArmBus`) and a Kinova Gen3 over Ethernet (`kortex::KortexArm`); `port` opens them.
 
-use crate::run::{Command, ExecConfig, Fault, Measured, Span, JOINTS};
+use crate::run::{Command, ExecConfig, Fault, LinkError, Measured, Span, JOINTS};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -38,11 +38,11 @@ pub trait ArmLink: Send {
         cfg: &ExecConfig,
         plan: &StartPlan,
         stop: &AtomicBool,
-    ) -> Result<(), String>;
+    ) -> Result<(), LinkError>;
     /// Phase 2: puts the arm where it follows one command per cycle; sends no motion command.
-    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), String>;
+    fn enable(&mut self, cfg: &ExecConfig) -> Result<(), LinkError>;
     /// Handles everything received so far.
-    fn poll(&mut self) -> Result<(), String>;
+    fn poll(&mut self) -> Result<(), LinkError>;
     /// The latest feedback: where the joints were measured, and the cycle it answers.
     fn measured(&self) -> Option<Measured>;
     /// The first fault visible in the feedback, given the last command sent (`target`); also
@@ -59,19 +59,19 @@ pub trait ArmLink: Send {
     /// The first cycle this arm's answers do not yet allow any arm to send.
     fn clear_until(&self) -> u64;
     /// Sends one control cycle's command.
-    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String>;
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), LinkError>;
     /// Stops the arm at once after a fault (here or on another arm), holding `hold`: sends the
     /// stop frames without waiting for answers ([`ArmLink::leave`] does). Tries every frame even
     /// if one fails; returns the first that could not be sent.
-    fn quick_stop(&mut self, hold: &Command) -> Result<(), String>;
+    fn quick_stop(&mut self, hold: &Command) -> Result<(), LinkError>;
     /// Normal end, holding `hold`: sends the frames that end the motion (none may be needed).
-    fn finish(&mut self, hold: &Command) -> Result<(), String>;
+    fn finish(&mut self, hold: &Command) -> Result<(), LinkError>;
     /// After a failed start-up elsewhere: leaves the arm as it was, without moving it.
-    fn abort(&mut self) -> Result<(), String>;
+    fn abort(&mut self) -> Result<(), LinkError>;
     /// After [`ArmLink::quick_stop`], [`ArmLink::finish`] or [`ArmLink::abort`]: waits, for a
     /// bounded time, for the arm to answer what was sent, then leaves it (Kortex: the last
     /// cyclic command answered, the servoing mode back to single-level, the sessions closed).
     /// `Ok`: every frame of the stop that got no answer (each also in the command log);
-    /// `Err`: one that could not be sent or that the arm refused.
-    fn leave(&mut self) -> Result<Vec<String>, String>;
+    /// `Err`: one that could not be sent or that the arm refused ([`LinkError::StopFailed`]).
+    fn leave(&mut self) -> Result<Vec<String>, LinkError>;
 }

@@ -5,10 +5,12 @@
 //! `CAP_SYS_NICE` (or an `rtprio` limit); without it the threads run at normal priority and the
 //! report says why.
 
-/// Puts the calling thread under `SCHED_FIFO` at `priority` (1 to 99). The error names the
+use crate::run::RealtimeRefused;
+
+/// Puts the calling thread under `SCHED_FIFO` at `priority` (1 to 99). The error carries the
 /// reason the system gave.
 #[cfg(target_os = "linux")]
-pub fn make_realtime(priority: u8) -> Result<(), String> {
+pub fn make_realtime(priority: u8) -> Result<(), RealtimeRefused> {
     let param = libc::sched_param {
         sched_priority: i32::from(priority),
     };
@@ -17,14 +19,14 @@ pub fn make_realtime(priority: u8) -> Result<(), String> {
     if rc == 0 {
         Ok(())
     } else {
-        Err(format!(
-            "SCHED_FIFO priority {priority} refused: {}",
-            std::io::Error::from_raw_os_error(rc)
-        ))
+        Err(RealtimeRefused::Refused {
+            priority,
+            errno: rc,
+        })
     }
 }
 
 #[cfg(not(target_os = "linux"))]
-pub fn make_realtime(priority: u8) -> Result<(), String> {
-    Err(format!("SCHED_FIFO priority {priority}: only on Linux"))
+pub fn make_realtime(priority: u8) -> Result<(), RealtimeRefused> {
+    Err(RealtimeRefused::Unsupported(priority))
 }

@@ -244,7 +244,7 @@ fn arm_fault(py: Python<'_>, report: &FaultReport) -> PyErr {
             d.set_item("arm", &s.arm)?;
             d.set_item("cycles_sent", s.cycles_sent)?;
             d.set_item("latency_s", s.latency.as_secs_f64())?;
-            d.set_item("error", &s.error)?;
+            d.set_item("error", s.error.as_ref().map(ToString::to_string))?;
             d.set_item("unanswered", &s.unanswered)?;
             stops.append(d)?;
         }

@@ -24,7 +24,7 @@ use super::Connection;
 use crate::cia402::{counts_to_rad, COUNTS_PER_RAD};
 use crate::link::{ArmLink, StartPlan};
 use crate::log::{LogEntry, LogSink};
-use crate::run::{Command, ExecConfig, Fault, Measured, JOINTS, MAX_MISSED_CYCLES};
+use crate::run::{Command, ExecConfig, Fault, LinkError, Measured, JOINTS, MAX_MISSED_CYCLES};
 use crate::watchdog::CycleAccount;
 use prost::Message;
 use std::f64::consts::{PI, TAU};
@@ -331,19 +331,13 @@ impl KortexArm {
     }
 }
 
-impl ArmLink for KortexArm {
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn frames_sent(&self) -> usize {
-        self.frames_sent
-    }
-
-    fn configure(
+impl KortexArm {
+    /// Start-up, phase 1 (see the module): sessions, faults cleared, every actuator within
+    /// the start tolerance of `start`.
+    fn check_start(
         &mut self,
         cfg: &ExecConfig,
-        &StartPlan { first: start, .. }: &StartPlan,
+        start: &Command,
         stop: &AtomicBool,
     ) -> Result<(), String> {
         let empty = common::Empty {}.encode_to_vec();
@@ -378,7 +372,8 @@ impl ArmLink for KortexArm {
         Ok(())
     }
 
-    fn enable(&mut self, _cfg: &ExecConfig) -> Result<(), String> {
+    /// Start-up, phase 2: low-level servoing, seeded where the arm was measured.
+    fn start_servoing(&mut self) -> Result<(), String> {
         let seed = self.measured.ok_or("enable before configure")?;
         self.set_servoing(base::ServoingMode::LowLevelServoing)?;
         self.frame_id = 0;
@@ -389,7 +384,8 @@ impl ArmLink for KortexArm {
         Ok(())
     }
 
-    fn poll(&mut self) -> Result<(), String> {
+    /// Handles everything received on both links, and keeps the sessions alive.
+    fn receive(&mut self) -> Result<(), String> {
         while let Some(f) = self.conn.tcp.recv()? {
             if let Err(e) = super::codec::response_payload(f) {
                 self.fault.get_or_insert(Fault::ArmRefused(e.to_string()));
@@ -408,6 +404,34 @@ impl ArmLink for KortexArm {
             }
         }
         self.keep_alive()
+    }
+}
+
+impl ArmLink for KortexArm {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn frames_sent(&self) -> usize {
+        self.frames_sent
+    }
+
+    fn configure(
+        &mut self,
+        cfg: &ExecConfig,
+        plan: &StartPlan,
+        stop: &AtomicBool,
+    ) -> Result<(), LinkError> {
+        self.check_start(cfg, &plan.first, stop)
+            .map_err(LinkError::Setup)
+    }
+
+    fn enable(&mut self, _cfg: &ExecConfig) -> Result<(), LinkError> {
+        self.start_servoing().map_err(LinkError::Setup)
+    }
+
+    fn poll(&mut self) -> Result<(), LinkError> {
+        self.receive().map_err(LinkError::Io)
     }
 
     fn measured(&self) -> Option<Measured> {
@@ -463,7 +487,7 @@ impl ArmLink for KortexArm {
         self.account.clear_until()
     }
 
-    fn send_cycle(&mut self, cmd: &Command) -> Result<(), String> {
+    fn send_cycle(&mut self, cmd: &Command) -> Result<(), LinkError> {
         self.frame_id = self.frame_id.wrapping_add(1);
         let degrees = cmd.map(wire_degrees);
         let payload = Self::refresh_payload(self.frame_id, &degrees);
@@ -472,30 +496,31 @@ impl ArmLink for KortexArm {
         } else {
             String::new()
         };
-        let id = self.send(true, uid::REFRESH, &payload, &what)?;
+        let id = (self.send(true, uid::REFRESH, &payload, &what)).map_err(LinkError::Io)?;
         self.stop.last_refresh = Some((id, self.frame_id, false));
         self.account.sent_cycle(*cmd);
         Ok(())
     }
 
-    fn quick_stop(&mut self, _hold: &Command) -> Result<(), String> {
-        let id = self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop")?;
+    fn quick_stop(&mut self, _hold: &Command) -> Result<(), LinkError> {
+        let id = (self.send(false, uid::APPLY_EMERGENCY_STOP, &[], "quick stop"))
+            .map_err(LinkError::StopFailed)?;
         self.stop.estop = Some(id);
         Ok(())
     }
 
     /// Nothing to send: [`ArmLink::leave`] ends low-level servoing once the last command is
     /// answered.
-    fn finish(&mut self, _hold: &Command) -> Result<(), String> {
+    fn finish(&mut self, _hold: &Command) -> Result<(), LinkError> {
         Ok(())
     }
 
-    fn abort(&mut self) -> Result<(), String> {
+    fn abort(&mut self) -> Result<(), LinkError> {
         Ok(())
     }
 
-    fn leave(&mut self) -> Result<Vec<String>, String> {
-        KortexArm::leave(self)
+    fn leave(&mut self) -> Result<Vec<String>, LinkError> {
+        KortexArm::leave(self).map_err(LinkError::StopFailed)
     }
 }
 

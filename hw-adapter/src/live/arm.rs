@@ -6,7 +6,7 @@ use super::{lock, ArmEnd, ArmNow, Cycle, ProgressFn, RunInfo, Shared, FAULT_POLL
 use crate::link::{ArmLink, StartPlan};
 use crate::log::LogSink;
 use crate::priority;
-use crate::run::{ArmState, ArmStop, Command, ExecConfig, Fault, Progress, JOINTS};
+use crate::run::{ArmState, ArmStop, Command, ExecConfig, Fault, LinkError, Progress, JOINTS};
 use crate::stream::Generator;
 use crate::StreamHandle;
 use std::collections::VecDeque;
@@ -122,7 +122,7 @@ impl<'a> Streaming<'a> {
             .max(Instant::now().saturating_duration_since(due));
         // Checked against the limits by the generator.
         let (cmd, end) = self.shared.command(self.me, k as u64)?;
-        self.bus.send_cycle(&cmd).map_err(Fault::Bus)?;
+        self.bus.send_cycle(&cmd).map_err(Fault::Link)?;
         self.shared.sent[self.me].store(k + 1, Ordering::SeqCst);
         self.prev = cmd;
         self.max_fe = self.max_fe.max(fe);
@@ -143,7 +143,7 @@ impl<'a> Streaming<'a> {
     /// not at the next cycle) and, once the cycle is `due`, whether the per-cycle accounting
     /// allows it; returns the following error.
     fn watch(&mut self, due: bool) -> Result<f64, Fault> {
-        self.bus.poll().map_err(Fault::Bus)?;
+        self.bus.poll().map_err(Fault::Link)?;
         let now = Instant::now();
         self.seen = now;
         let fe = self.bus.check_feedback(now, self.cfg, &self.prev)?;
@@ -189,10 +189,10 @@ impl<'a> Streaming<'a> {
             }
             if now >= give_up {
                 let other = behind.unwrap_or(self.me);
-                return Err(Fault::Bus(format!(
-                    "arm {:?} fell more than {:?} behind the common schedule",
-                    shared.names[other], cfg.watch.feedback_timeout
-                )));
+                return Err(Fault::Link(LinkError::BehindSchedule {
+                    arm: shared.names[other].clone(),
+                    after: cfg.watch.feedback_timeout,
+                }));
             }
             asleep = due
                 .saturating_duration_since(now)
@@ -246,10 +246,7 @@ impl<'a> Streaming<'a> {
             .finish(&self.prev)
             .and_then(|()| match self.bus.leave()? {
                 unanswered if unanswered.is_empty() => Ok(()),
-                unanswered => Err(format!(
-                    "the arm did not answer its stop: {}",
-                    unanswered.join("; ")
-                )),
+                unanswered => Err(LinkError::StopUnanswered(unanswered)),
             });
         match ended {
             Ok(()) => {
@@ -263,7 +260,7 @@ impl<'a> Streaming<'a> {
             }
             Err(e) => {
                 shared.publish(me, |a| a.state = ArmState::Stopped);
-                let detected = shared.raise(self.bus.name(), Fault::Bus(e.clone()), self.k);
+                let detected = shared.raise(self.bus.name(), Fault::Link(e.clone()), self.k);
                 let stop = ArmStop {
                     arm: self.bus.name().to_string(),
                     cycles_sent: self.k,
@@ -293,7 +290,7 @@ fn away_after(period: Duration) -> Duration {
 fn startup_phase_end(
     me: usize,
     bus: &mut dyn ArmLink,
-    result: Result<(), String>,
+    result: Result<(), LinkError>,
     shared: &Shared,
 ) -> Option<ArmEnd> {
     if result.is_err() {
@@ -307,7 +304,7 @@ fn startup_phase_end(
         Ok(()) if shared.startup_failed.load(Ordering::SeqCst) => {
             match bus.abort().and_then(|()| bus.leave()) {
                 Ok(_) => ArmEnd::Aborted,
-                Err(e) => ArmEnd::StartupFailed(format!("while aborting: {e}")),
+                Err(e) => ArmEnd::StartupFailed(e),
             }
         }
         Ok(()) => return None,

@@ -13,7 +13,9 @@ mod handle;
 pub(crate) use arm::start;
 pub use handle::StreamHandle;
 
-use crate::run::{ArmState, ArmStop, Command, Fault, Measured, Progress, Span, JOINTS};
+use crate::run::{
+    ArmState, ArmStop, Command, Fault, LinkError, Measured, Progress, Span, JOINTS,
+};
 use crate::stream::Generator;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -103,7 +105,7 @@ struct Shared {
     /// Stop every arm now, on request (no fault).
     halt: AtomicBool,
     /// Why an arm thread did not get the real-time priority asked for, if one did not.
-    realtime_refused: Mutex<Option<String>>,
+    realtime_refused: Mutex<Option<crate::run::RealtimeRefused>>,
     finishing: AtomicBool,
     names: Vec<String>,
     /// Cycles each arm has sent (`usize::MAX` once it has finished).
@@ -217,7 +219,7 @@ impl Shared {
 
 /// How an arm's thread ended.
 enum ArmEnd {
-    StartupFailed(String),
+    StartupFailed(LinkError),
     /// Start-up went fine but another arm's did not.
     Aborted,
     Completed {

@@ -152,9 +152,43 @@ pub enum Fault {
         /// Its fault bank B.
         bank_b: u32,
     },
-    /// The link itself failed: a frame that could not be sent or received, an arm thread that
-    /// fell behind the common schedule.
-    Bus(String),
+    /// The link itself failed: a frame that could not be sent or received, an arm that did
+    /// not answer its stop, an arm thread that fell behind the common schedule.
+    Link(LinkError),
+}
+
+/// What went wrong on one arm's link (its bus or its connection), by what the loop was doing:
+/// what [`crate::link::ArmLink`]'s methods return, and [`Fault::Link`] when it stops a run.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LinkError {
+    /// A start-up step failed (configuring or enabling the arm): the arm refused it, did not
+    /// answer it, or is not as the plan needs it (where it stands, its limits, its mode). No
+    /// motion command was sent.
+    #[error("{0}")]
+    Setup(String),
+    /// A frame could not be sent or received: the bus or connection failed or closed.
+    #[error("{0}")]
+    Io(String),
+    /// A frame of the arm's stop, or of its leaving, could not be sent or was refused (an
+    /// error frame, a refused mode change): the arm may not have stopped.
+    #[error("{0}")]
+    StopFailed(String),
+    /// The arm did not answer every frame of its normal stop: each frame, and what was
+    /// missing.
+    #[error("the arm did not answer its stop: {}", .0.join("; "))]
+    StopUnanswered(Vec<String>),
+    /// The arm's thread panicked (a bug): its arm is in an unknown state.
+    #[error("the arm's thread panicked")]
+    ThreadPanicked,
+    /// An arm kept the others waiting on the common schedule longer than the backstop
+    /// ([`super::WatchSettings::feedback_timeout`]): its thread stalled, or its bus is full.
+    #[error("arm {arm:?} fell more than {after:?} behind the common schedule")]
+    BehindSchedule {
+        /// The arm that was behind.
+        arm: String,
+        /// The backstop.
+        after: Duration,
+    },
 }
 
 impl Fault {
@@ -239,9 +273,25 @@ impl fmt::Display for Fault {
                 f,
                 "actuator {joint} reports a fault (fault banks A {bank_a:#010x}, B {bank_b:#010x})"
             ),
-            Fault::Bus(e) => write!(f, "bus error: {e}"),
+            Fault::Link(e) => write!(f, "link error: {e}"),
         }
     }
+}
+
+/// Why the arm threads run at normal priority: `SCHED_FIFO` was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RealtimeRefused {
+    /// The system refused it (no `CAP_SYS_NICE`, no `rtprio` limit): the `errno` it gave.
+    #[error("SCHED_FIFO priority {priority} refused: {}", std::io::Error::from_raw_os_error(*errno))]
+    Refused {
+        /// The priority asked for.
+        priority: u8,
+        /// The system's error number.
+        errno: i32,
+    },
+    /// Not on this system (Linux only).
+    #[error("SCHED_FIFO priority {0}: only on Linux")]
+    Unsupported(u8),
 }
 
 /// How one arm was stopped after a fault.
@@ -255,7 +305,7 @@ pub struct ArmStop {
     pub latency: Duration,
     /// The first stop frame that could not be sent, or that the arm refused (the arm may not
     /// have stopped: check it).
-    pub error: Option<String>,
+    pub error: Option<LinkError>,
     /// The stop frames the arm left unanswered (an arm that has stopped answering cannot
     /// confirm its stop: check it).
     pub unanswered: Vec<String>,
@@ -310,7 +360,7 @@ pub enum ExecError {
     InvalidPlan(String),
     /// A fault-detection setting is out of its range.
     #[error("invalid watchdog settings: {0}")]
-    Settings(String),
+    Settings(super::watch::SettingsError),
     /// The arms given do not match the plan's (missing, unknown, twice).
     #[error("arms and buses do not match: {0}")]
     Buses(String),
@@ -326,7 +376,7 @@ pub enum ExecError {
     Limits(String),
     /// An arm's start-up failed (per arm: its name and why); no drive of any arm was enabled.
     #[error("start-up failed, no motion command was sent: {}", .0.iter().map(|(a, e)| format!("arm {a:?}: {e}")).collect::<Vec<_>>().join("; "))]
-    Startup(Vec<(String, String)>),
+    Startup(Vec<(String, LinkError)>),
     /// A fault stopped every arm.
     #[error("{0}")]
     Fault(Box<FaultReport>),

@@ -13,12 +13,13 @@ mod status;
 pub mod watch;
 
 pub use fault::{
-    ArmStop, CycleFault, ExecError, Fault, FaultReport, TimingError, EMCY_FOLLOWING_ERROR,
+    ArmStop, CycleFault, ExecError, Fault, FaultReport, LinkError, RealtimeRefused, TimingError,
+    EMCY_FOLLOWING_ERROR,
 };
 pub use overload::BusOverload;
 pub use report::{ArmReport, Progress, Report};
 pub use status::{ArmState, ArmStatus, Measured};
-pub use watch::{WatchSettings, DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
+pub use watch::{SettingsError, WatchSettings, DEFAULT_MISSED_CYCLES, MAX_MISSED_CYCLES};
 
 use std::path::PathBuf;
 use std::time::Duration;

@@ -37,7 +37,7 @@ pub struct Report {
     pub halted: bool,
     /// The arm threads' scheduling: `Ok` under the asked-for real-time priority (or none
     /// asked), else why it was refused.
-    pub realtime: Result<(), String>,
+    pub realtime: Result<(), super::RealtimeRefused>,
 }
 
 impl fmt::Display for Report {

@@ -39,7 +39,7 @@ pub const MIN_FOLLOWING_ERROR_WINDOW: f64 = 1e-3;
 /// let window = w.following_error_window(0.5, Duration::from_millis(4));
 /// assert!((window - 0.014).abs() < 1e-12);
 /// let bad = WatchSettings { missed_cycles: 0, ..w };
-/// assert!(bad.check().unwrap_err().contains("missed cycles"));
+/// assert_eq!(bad.check(), Err(omcbsa_hw::run::watch::SettingsError::MissedCycles(0)));
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct WatchSettings {
@@ -90,46 +90,58 @@ impl WatchSettings {
         (speed.abs() * trail).max(MIN_FOLLOWING_ERROR_WINDOW)
     }
 
-    /// Every setting within its range, or what is wrong with which.
-    pub fn check(&self) -> Result<(), String> {
+    /// Every setting within its range, or which is not.
+    pub fn check(&self) -> Result<(), SettingsError> {
+        use SettingsError as E;
         if !(1..=MAX_MISSED_CYCLES).contains(&self.missed_cycles) {
-            return Err(format!(
-                "missed cycles must be within [1, {MAX_MISSED_CYCLES}], got {}",
-                self.missed_cycles
-            ));
+            return Err(E::MissedCycles(self.missed_cycles));
         }
         if self.heartbeat_ms == 0 {
-            return Err("heartbeat producer time must be at least 1 ms".into());
+            return Err(E::HeartbeatMs);
         }
         if !(self.heartbeat_factor.is_finite() && (1.0..=10.0).contains(&self.heartbeat_factor)) {
-            return Err(format!(
-                "heartbeat factor must be within [1, 10] (CiA 301 practice: 1.5 to 2), got {}",
-                self.heartbeat_factor
-            ));
+            return Err(E::HeartbeatFactor(self.heartbeat_factor));
         }
         if self.following_error_timeout_ms == 0 {
-            return Err("following error time-out must be at least 1 ms".into());
+            return Err(E::FollowingErrorTimeout);
         }
         if self.drive_lag > Duration::from_secs(1) {
-            return Err(format!(
-                "drive lag must be at most 1 s, got {:?}",
-                self.drive_lag
-            ));
+            return Err(E::DriveLag(self.drive_lag));
         }
         if self.feedback_timeout.is_zero() || self.feedback_timeout > Duration::from_secs(10) {
-            return Err(format!(
-                "feedback time-out must be within (0, 10] s, got {:?}",
-                self.feedback_timeout
-            ));
+            return Err(E::FeedbackTimeout(self.feedback_timeout));
         }
         if !(self.following_error_bound.is_finite() && self.following_error_bound > 0.0) {
-            return Err(format!(
-                "following error bound must be a positive number of rad, got {}",
-                self.following_error_bound
-            ));
+            return Err(E::FollowingErrorBound(self.following_error_bound));
         }
         Ok(())
     }
+}
+
+/// A fault-detection setting out of its range ([`WatchSettings::check`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// [`WatchSettings::missed_cycles`].
+    #[error("missed cycles must be within [1, {MAX_MISSED_CYCLES}], got {0}")]
+    MissedCycles(u32),
+    /// [`WatchSettings::heartbeat_ms`].
+    #[error("heartbeat producer time must be at least 1 ms")]
+    HeartbeatMs,
+    /// [`WatchSettings::heartbeat_factor`].
+    #[error("heartbeat factor must be within [1, 10] (CiA 301 practice: 1.5 to 2), got {0}")]
+    HeartbeatFactor(f64),
+    /// [`WatchSettings::following_error_timeout_ms`].
+    #[error("following error time-out must be at least 1 ms")]
+    FollowingErrorTimeout,
+    /// [`WatchSettings::drive_lag`].
+    #[error("drive lag must be at most 1 s, got {0:?}")]
+    DriveLag(Duration),
+    /// [`WatchSettings::feedback_timeout`].
+    #[error("feedback time-out must be within (0, 10] s, got {0:?}")]
+    FeedbackTimeout(Duration),
+    /// [`WatchSettings::following_error_bound`].
+    #[error("following error bound must be a positive number of rad, got {0}")]
+    FollowingErrorBound(f64),
 }
 
 /// One line, as the commands print it at start.
@@ -175,7 +187,7 @@ mod tests {
         let bad = |f: fn(&mut WatchSettings)| {
             let mut w = WatchSettings::default();
             f(&mut w);
-            w.check().unwrap_err()
+            w.check().unwrap_err().to_string()
         };
         assert!(bad(|w| w.missed_cycles = 0).contains("missed cycles"));
         assert!(bad(|w| w.heartbeat_ms = 0).contains("heartbeat producer"));
