@@ -10,13 +10,13 @@ use crate::format::{
 use crate::models::Fleet;
 use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
 use omcbsa_core::baselines::{
-    CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
-    IkTracking, IkTrackingParams,
+    CompositeAstar, CompositeNode, CompositeParams, CompositeStorage, Descartes, DescartesParams,
+    DescartesStorage, IkTracking, IkTrackingParams,
 };
 use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
 use omcbsa_core::embody::{run_planner, solve_from_initial, Embodied, Embodiment};
 use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status, Until};
-use omcbsa_core::pp::{Prioritized, Variant};
+use omcbsa_core::pp::{PpStorage, Prioritized, Variant};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
 use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk, Workspace};
 
@@ -349,7 +349,11 @@ impl Storage {
                 };
                 // Ω-A*'s settings are Ω-CBSA's low level's, so both plan alike online.
                 let omega = self.cbs_params.low;
-                let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
+                let st = PpStorage {
+                    scratch: &mut self.scratch,
+                    starts: &mut self.starts,
+                };
+                let mut p = Prioritized::new(v, omega, ws, st);
                 embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::IkTracking => {
@@ -373,11 +377,11 @@ impl Storage {
                 embody(&mut p, &mut req, with_approach)
             }
             PlannerKind::CompositeAstar => {
-                let mut p = CompositeAstar::new(
-                    CompositeParams::default(),
-                    &mut self.composite,
-                    &mut self.open,
-                );
+                let st = CompositeStorage {
+                    nodes: &mut self.composite,
+                    open: &mut self.open,
+                };
+                let mut p = CompositeAstar::new(CompositeParams::default(), st);
                 embody(&mut p, &mut req, with_approach)
             }
         };
