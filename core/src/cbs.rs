@@ -115,10 +115,12 @@ impl Default for CtNode {
 
 /// Caller storage of the high level. A pool that runs out ends the constraint tree it was
 /// building (its refinement level is then not proven exhausted); when every level has ended so
-/// the answer is [`Status::OutOfMemory`] naming the pool. Sizes: `nodes` and `open` a few
-/// hundred bytes and 16 bytes a constraint-tree node, `paths` `H` configurations a pooled path
-/// (each node keeps one new path), `scratch` `H` configurations, `points` the longest branch's
-/// constraints on one robot, `starts` any length (more remembers more IK answers).
+/// the answer is [`Status::OutOfMemory`] naming the pool. Sizes and costs (`D = 7`): `nodes`
+/// and `open` about 240 and 16 bytes a constraint-tree node, `paths` `H` configurations
+/// (`H * D * 8` bytes) a pooled path (each node keeps one new path), `scratch` `H`
+/// configurations, `points` 48 bytes a constraint (the longest branch's on one robot),
+/// `starts` 64 bytes an entry, any length (more remembers more IK answers). Ω-A*'s
+/// [`Workspace`] comes besides.
 pub struct CbsStorage<'a, const D: usize> {
     /// The constraint-tree nodes.
     pub nodes: &'a mut [CtNode],

@@ -37,10 +37,11 @@ pub enum Variant {
     SingleGoal,
 }
 
-/// A prioritised planner, over the caller's storage: Ω-A*'s [`Workspace`], one path of
-/// scratch and the start-seed IK answers. A full workspace ends the search that filled it
-/// (its level is then not proven exhausted); the answer is [`Status::OutOfMemory`] only when
-/// nothing else is left to try. Run it through [`Planner::solve`].
+/// A prioritised planner, over the caller's storage: Ω-A*'s [`Workspace`] and a
+/// [`PpStorage`] (one path of scratch, the start-seed IK answers). A full workspace ends the
+/// search that filled it (its level is then not proven exhausted); the answer is
+/// [`Status::OutOfMemory`] only when nothing else is left to try. Run it through
+/// [`Planner::solve`].
 ///
 /// Two Gen3s side by side 2 m apart, each with a hand in front of it, planned one after the
 /// other (OM-PP-A*_single: the assignment enumerated, cheapest first):
@@ -49,7 +50,7 @@ pub enum Variant {
 /// use omcbsa_core::model::{Frame, KinovaGen3, Model};
 /// use omcbsa_core::nalgebra::Vector3;
 /// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
-/// use omcbsa_core::pp::{Prioritized, Variant};
+/// use omcbsa_core::pp::{PpStorage, Prioritized, Variant};
 /// use omcbsa_core::problem::{Problem, Robot};
 /// use omcbsa_core::search::{Node, OmegaParams, OpenEntry, Slot, StartIk, Workspace};
 ///
@@ -72,8 +73,8 @@ pub enum Variant {
 /// let mut table = [Slot::default(); 512];
 /// let ws = Workspace::new(&mut nodes, &mut open, &mut table).unwrap();
 /// let (mut scratch, mut starts) = ([[0.0; 7]; H], [StartIk::default(); 64]);
-/// let params = OmegaParams::default();
-/// let mut pp = Prioritized::new(Variant::SingleGoal, params, ws, &mut scratch, &mut starts);
+/// let st = PpStorage { scratch: &mut scratch, starts: &mut starts };
+/// let mut pp = Prioritized::new(Variant::SingleGoal, OmegaParams::default(), ws, st);
 ///
 /// let mut paths = [[0.0; 7]; 2 * H];
 /// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
@@ -95,26 +96,34 @@ pub struct Prioritized<'a, const D: usize> {
     /// Ω-A*'s settings at refinement level 0.
     pub params: OmegaParams,
     ws: Workspace<'a, D>,
-    scratch: &'a mut [[f64; D]],
-    starts: &'a mut [StartIk<D>],
+    st: PpStorage<'a, D>,
+}
+
+/// Caller storage of the prioritised planners besides Ω-A*'s [`Workspace`] (about 112 bytes
+/// a search node): `scratch` at least `H` configurations (`H * D * 8` bytes; shorter ends
+/// planning with [`Status::OutOfMemory`]), `starts` 64 bytes an entry for `D = 7`, any length
+/// (see [`StartCache`]; the more entries, the more start-seed IK answers are remembered
+/// across priority orders; too short, none).
+pub struct PpStorage<'a, const D: usize> {
+    /// Where Ω-A* writes a robot's path.
+    pub scratch: &'a mut [[f64; D]],
+    /// Start-seed IK answers.
+    pub starts: &'a mut [StartIk<D>],
 }
 
 impl<'a, const D: usize> Prioritized<'a, D> {
-    /// `scratch` must hold at least H configurations; `starts` remembers start-seed IK
-    /// answers across priority orders (see [`StartCache`]; too short, it remembers none).
+    /// A planner over the caller's storage: `ws` for Ω-A*, `st` for the rest.
     pub fn new(
         variant: Variant,
         params: OmegaParams,
         ws: Workspace<'a, D>,
-        scratch: &'a mut [[f64; D]],
-        starts: &'a mut [StartIk<D>],
+        st: PpStorage<'a, D>,
     ) -> Self {
         Prioritized {
             variant,
             params,
             ws,
-            scratch,
-            starts,
+            st,
         }
     }
 }
@@ -131,26 +140,26 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for Prioritized<'_, D> {
 
     fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status {
         let (problem, h) = (req.problem, h.get());
-        if self.scratch.len() < h {
+        if self.st.scratch.len() < h {
             return Status::OutOfMemory("prioritised planning scratch path");
         }
         let n = problem.robots.len();
         // Taken out for the run, so the cache and the search workspace can be borrowed apart.
-        let buf = core::mem::take(&mut self.starts);
+        let buf = core::mem::take(&mut self.st.starts);
         let mut run = Run::<M, D> {
             pr: problem,
             h,
             starts: StartCache::new(&mut *buf, n, problem.trajectories.len(), &self.params),
             deadline: req.until,
             ws: &mut self.ws,
-            scratch: &mut *self.scratch,
+            scratch: &mut *self.st.scratch,
             params: self.params,
             pairs: PairTable::new(n, problem.trajectories.len()),
             incomplete: false,
             _m: core::marker::PhantomData,
         };
         let status = run.levels(self.variant, &self.params, &mut req.out, &mut req.stats);
-        self.starts = buf;
+        self.st.starts = buf;
         status
     }
 }

@@ -1,5 +1,7 @@
 //! Every planner by name, with its storage allocated here, before the core is called: the
-//! core itself never allocates.
+//! core itself never allocates. Each core planner declares its storage type; the one table,
+//! `table::PLANNERS` (planners/table.rs), says per [`PlannerKind`] how to cut it from the one
+//! arena (planners/arena.rs) and how to run the planner on it.
 
 use std::time::Instant;
 
@@ -7,18 +9,17 @@ use crate::approach::{describe_miss, MAX_APPROACH};
 use crate::format::{
     joint_paths_value, ProblemFile, SolutionFile, Status as FileStatus, SOLUTION_FORMAT,
 };
-use crate::models::Fleet;
-use omcbsa_core::approach::{ApproachError, ApproachParams, ApproachStorage, Method};
-use omcbsa_core::baselines::{
-    CompositeAstar, CompositeNode, CompositeParams, Descartes, DescartesParams, DescartesStorage,
-    IkTracking, IkTrackingParams,
-};
-use omcbsa_core::cbs::{CbsParams, CbsStorage, CtNode, OmegaCbsa};
-use omcbsa_core::embody::{run_planner, solve_from_initial, Embodied, Embodiment};
-use omcbsa_core::planner::{Clock, Planner, Solution, Stats, Status, Until};
-use omcbsa_core::pp::{Prioritized, Variant};
+use omcbsa_core::approach::{ApproachError, ApproachParams, Method};
+use omcbsa_core::cbs::CbsParams;
+use omcbsa_core::embody::{Embodied, Embodiment};
+use omcbsa_core::planner::{Clock, Solution, Stats, Status, Until};
 use omcbsa_core::problem::{Problem, MAX_ROBOTS};
-use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk, Workspace};
+
+mod arena;
+mod table;
+
+use arena::Arena;
+use table::{approach_storage, Settings};
 
 pub use omcbsa_core::planner::PlannerKind;
 
@@ -146,10 +147,11 @@ impl Clock for WallClock {
     }
 }
 
-/// All pools of all planners, allocated once and reused run after run: about 50 MB with the
-/// default [`Capacities`], plus `path_slots * max_h * 56` bytes of pooled paths (used by
-/// [`crate::plan::plan_loaded`]). A pool that runs out ends the run with
-/// [`Status::OutOfMemory`] naming it.
+/// Every planner's pools, allocated once and reused run after run: one arena as large as the
+/// largest planner's storage (about 50 MB with the default [`Capacities`], plus
+/// `path_slots * max_h * 56` bytes of Ω-CBSA's pooled paths), cut for each run by the
+/// planner's entry of `table::PLANNERS`, and the plan and approach buffers. A pool that runs out
+/// ends the run with [`Status::OutOfMemory`] naming it.
 pub struct Storage {
     /// Ω-CBSA's settings (the paper's by default).
     pub cbs_params: CbsParams,
@@ -159,39 +161,30 @@ pub struct Storage {
     /// and its plan begins wherever it chose: the peer that measures what the approach costs.
     pub with_approach: bool,
     caps: Capacities,
+    max_h: usize,
+    arena: Arena,
     /// The problem being planned, which the approach loop annotates with excluded starts.
     problem: Box<Problem<DOF>>,
-    tree: Vec<[f64; DOF]>,
-    tree_parent: Vec<u32>,
-    waypoints: Vec<[f64; DOF]>,
-    approach_out: Vec<[f64; DOF]>,
     /// How the last [`Storage::solve_core`] ended, approach included.
     last: Embodied,
-    nodes: Vec<Node<DOF>>,
-    open: Vec<OpenEntry>,
-    table: Vec<Slot>,
-    ct_nodes: Vec<CtNode>,
-    ct_open: Vec<OpenEntry>,
-    paths: Vec<[f64; DOF]>,
-    scratch: Vec<[f64; DOF]>,
-    points: Vec<PointConstraint>,
-    starts: Vec<StartIk<DOF>>,
-    composite: Vec<CompositeNode<DOF>>,
-    cost: Vec<f64>,
-    parent: Vec<u16>,
-    width: Vec<u16>,
+    /// The plan: robot `i`'s path from `i * h`.
     out: Vec<[f64; DOF]>,
+    /// The approach: robot `i`'s from `i * MAX_APPROACH`.
+    approach_out: Vec<[f64; DOF]>,
 }
 
 impl Storage {
     /// Pools for problems of horizon at most `max_h`.
     pub fn new(caps: Capacities, max_h: usize) -> Self {
-        let k = caps.descartes_samples * max_h;
         Storage {
             cbs_params: CbsParams::default(),
             approach_params: ApproachParams::default(),
             with_approach: true,
             caps,
+            max_h,
+            // Measuring hands out no buffer, so it cannot fail; if it did, the empty arena
+            // would make every run an error naming the slab it lacks.
+            arena: Arena::new(table::measure(caps, max_h).unwrap_or_default()),
             problem: Box::new(Problem {
                 dt: 0.0,
                 robots: heapless::Vec::new(),
@@ -199,34 +192,9 @@ impl Storage {
                 obstacles: heapless::Vec::new(),
                 tolerance: Default::default(),
             }),
-            tree: vec![[0.0; DOF]; caps.approach_nodes * MAX_ROBOTS],
-            tree_parent: vec![0; caps.approach_nodes],
-            waypoints: vec![[0.0; DOF]; caps.approach_waypoints * MAX_ROBOTS],
-            approach_out: vec![[0.0; DOF]; MAX_APPROACH * MAX_ROBOTS],
             last: Embodied::ended(Status::Timeout, 0),
-            nodes: vec![Node::default(); caps.search_nodes],
-            open: vec![OpenEntry::default(); 2 * caps.search_nodes],
-            table: vec![Slot::default(); (2 * caps.search_nodes).next_power_of_two()],
-            ct_nodes: vec![CtNode::default(); caps.ct_nodes],
-            ct_open: vec![OpenEntry::default(); caps.ct_nodes],
-            paths: vec![[0.0; DOF]; caps.path_slots * max_h],
-            scratch: vec![[0.0; DOF]; max_h.max(k)],
-            points: vec![
-                PointConstraint {
-                    t: 0,
-                    segment: false,
-                    s: 0.0,
-                    p: [0.0; 3],
-                    margin: 0.0
-                };
-                caps.constraints
-            ],
-            starts: vec![StartIk::Unknown; START_CACHE_ENTRIES],
-            composite: vec![CompositeNode::default(); caps.composite_nodes],
-            cost: vec![0.0; k],
-            parent: vec![0; k],
-            width: vec![0; max_h],
             out: vec![[0.0; DOF]; MAX_ROBOTS * max_h],
+            approach_out: vec![[0.0; DOF]; MAX_APPROACH * MAX_ROBOTS],
         }
     }
 
@@ -294,93 +262,36 @@ impl Storage {
         until: Until<'_>,
     ) -> Result<Ran, String> {
         let h = problem.horizon();
-        if h > self.max_horizon() {
+        if h > self.max_h {
             return Err(format!(
                 "horizon {h} is longer than this storage was made for ({})",
-                self.max_horizon()
+                self.max_h
             ));
         }
         copy_problem(&mut self.problem, problem);
         let n = problem.robots.len();
+        let settings = Settings {
+            caps: self.caps,
+            h,
+            cbs: self.cbs_params,
+            with_approach: self.with_approach,
+        };
+        let entry = table::entry(kind).map_err(|e| e.to_string())?;
+        let mut cut = self.arena.cut();
+        let approach = approach_storage(&mut cut, &self.caps).map_err(|e| e.to_string())?;
         let mut req = Embodiment {
             problem: &mut self.problem,
             until,
             out: Solution::new(&mut self.out),
             stats: Stats::default(),
-            approach: ApproachStorage {
-                tree: &mut self.tree,
-                parent: &mut self.tree_parent,
-                waypoints: &mut self.waypoints,
-            },
+            approach,
             // Robot `i`'s approach from `i * MAX_APPROACH`, as `Storage::solve` reads it.
             approach_out: &mut self.approach_out[..n * MAX_APPROACH],
             params: self.approach_params,
         };
-        let with_approach = self.with_approach;
-        let last = match kind {
-            PlannerKind::OmCbsa => {
-                let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
-                let st = CbsStorage {
-                    nodes: &mut self.ct_nodes,
-                    open: &mut self.ct_open,
-                    // The same number of paths whatever horizon the storage was made for, so
-                    // that every caller (plan, bench, Python) gets the same search.
-                    paths: &mut self.paths[..self.caps.path_slots * h],
-                    scratch: &mut self.scratch,
-                    points: &mut self.points,
-                    starts: &mut self.starts,
-                };
-                let mut p = OmegaCbsa::new(self.cbs_params, ws, st);
-                embody(&mut p, &mut req, with_approach)
-            }
-            // Ω-A* alone is prioritised planning with one robot.
-            PlannerKind::OmegaAstar if n != 1 => Embodied::ended(
-                Status::InvalidProblem(
-                    "omega-astar plans one robot; use omcbsa, pp or pp-single for several",
-                ),
-                0,
-            ),
-            PlannerKind::Pp | PlannerKind::PpSingle | PlannerKind::OmegaAstar => {
-                let ws = workspace(&mut self.nodes, &mut self.open, &mut self.table)?;
-                let v = if kind == PlannerKind::PpSingle {
-                    Variant::SingleGoal
-                } else {
-                    Variant::MultiGoal
-                };
-                // Ω-A*'s settings are Ω-CBSA's low level's, so both plan alike online.
-                let omega = self.cbs_params.low;
-                let mut p = Prioritized::new(v, omega, ws, &mut self.scratch, &mut self.starts);
-                embody(&mut p, &mut req, with_approach)
-            }
-            PlannerKind::IkTracking => {
-                let mut p = IkTracking {
-                    params: IkTrackingParams::default(),
-                };
-                embody(&mut p, &mut req, with_approach)
-            }
-            PlannerKind::Descartes => {
-                let st = DescartesStorage {
-                    layers: &mut self.scratch,
-                    cost: &mut self.cost,
-                    parent: &mut self.parent,
-                    width: &mut self.width,
-                };
-                let params = DescartesParams {
-                    samples: self.caps.descartes_samples,
-                    ..DescartesParams::default()
-                };
-                let mut p = Descartes::new(params, st);
-                embody(&mut p, &mut req, with_approach)
-            }
-            PlannerKind::CompositeAstar => {
-                let mut p = CompositeAstar::new(
-                    CompositeParams::default(),
-                    &mut self.composite,
-                    &mut self.open,
-                );
-                embody(&mut p, &mut req, with_approach)
-            }
-        };
+        let last = (entry.run)(&mut cut, &settings, Some(&mut req))
+            .map_err(|e| e.to_string())?
+            .ok_or("the planner's entry did not run")?;
         let ran = Ran {
             status: last.status,
             assignment: req.out.assignment,
@@ -392,7 +303,7 @@ impl Storage {
 
     /// The longest horizon these pools plan.
     pub fn max_horizon(&self) -> usize {
-        self.width.len()
+        self.max_h
     }
 
     /// How the last [`Storage::solve_core`] ended: the approach (in this storage, robot `i`'s
@@ -447,28 +358,6 @@ pub struct Ran {
     pub assignment: [Option<u8>; MAX_ROBOTS],
     /// The planner's counters over all its runs.
     pub stats: Stats,
-}
-
-/// Runs `planner` on `req`, with the approach from where the arms stand when `with_approach`
-/// (else the planner alone, its plan beginning wherever it chose).
-fn embody<P: Planner<Fleet, DOF>>(
-    planner: &mut P,
-    req: &mut Embodiment<'_, DOF>,
-    with_approach: bool,
-) -> Embodied {
-    if with_approach {
-        solve_from_initial::<Fleet, P, DOF>(planner, req)
-    } else {
-        Embodied::ended(run_planner::<Fleet, P, DOF>(planner, req), 1)
-    }
-}
-
-fn workspace<'a>(
-    nodes: &'a mut [Node<DOF>],
-    open: &'a mut [OpenEntry],
-    table: &'a mut [Slot],
-) -> Result<Workspace<'a, DOF>, String> {
-    Workspace::new(nodes, open, table).map_err(|e| format!("search workspace: {e:?}"))
 }
 
 /// A planner's counters as the solution file's `stats` object (docs/FORMATS.md).

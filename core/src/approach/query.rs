@@ -135,7 +135,9 @@ pub enum ApproachError {
     Invalid(&'static str),
 }
 
-/// Caller storage of the approach planners.
+/// Caller storage of the approach planners. Costs: a tree node `robots * D * 8` bytes of
+/// `tree` and 4 of `parent` (a full tree ends that search as a spent sample budget does), a
+/// waypoint `robots * D * 8` bytes.
 pub struct ApproachStorage<'a, const D: usize> {
     /// RRT-Connect's two trees: `robots` configurations per node, half the nodes per tree.
     pub tree: &'a mut [[f64; D]],

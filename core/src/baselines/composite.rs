@@ -63,13 +63,13 @@ impl<const D: usize> Default for CompositeNode<D> {
     }
 }
 
-/// Composite A* over the caller's storage: joint-state nodes (about 500 bytes each for
-/// `D = 7`, whatever the number of robots) and an OPEN list. A full pool ends planning with
-/// `Status::OutOfMemory` naming it. It chooses every start and the assignment itself
+/// Composite A* over the caller's storage ([`CompositeStorage`]). A full pool ends planning
+/// with `Status::OutOfMemory` naming it. It chooses every start and the assignment itself
 /// ([`crate::planner::Takes::FreeOnly`]).
 ///
 /// ```
-/// use omcbsa_core::baselines::{CompositeAstar, CompositeNode, CompositeParams};
+/// use omcbsa_core::baselines::{CompositeAstar, CompositeNode};
+/// use omcbsa_core::baselines::{CompositeParams, CompositeStorage};
 /// use omcbsa_core::model::{Frame, KinovaGen3, Model};
 /// use omcbsa_core::planner::{NoClock, Planner, Request, Solution, Status, Until};
 /// use omcbsa_core::problem::{Problem, Robot, Trajectory};
@@ -83,7 +83,8 @@ impl<const D: usize> Default for CompositeNode<D> {
 ///
 /// let mut nodes = [CompositeNode::<7>::default(); 64];
 /// let mut open = [OpenEntry::default(); 64];
-/// let mut planner = CompositeAstar::new(CompositeParams::default(), &mut nodes, &mut open);
+/// let st = CompositeStorage { nodes: &mut nodes, open: &mut open };
+/// let mut planner = CompositeAstar::new(CompositeParams::default(), st);
 /// let mut paths = [[0.0; 7]; H];
 /// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
 /// assert_eq!(Planner::<KinovaGen3, 7>::solve(&mut planner, &mut req), Status::Solved);
@@ -91,7 +92,8 @@ impl<const D: usize> Default for CompositeNode<D> {
 ///
 /// // Too few nodes for even the start states: the pool is named, nothing panics.
 /// let (mut one, mut open) = ([CompositeNode::<7>::default(); 1], [OpenEntry::default(); 1]);
-/// let mut small = CompositeAstar::new(CompositeParams::default(), &mut one, &mut open);
+/// let st = CompositeStorage { nodes: &mut one, open: &mut open };
+/// let mut small = CompositeAstar::new(CompositeParams::default(), st);
 /// let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
 /// let status = Planner::<KinovaGen3, 7>::solve(&mut small, &mut req);
 /// assert_eq!(status, Status::OutOfMemory("composite A* node pool"));
@@ -99,22 +101,23 @@ impl<const D: usize> Default for CompositeNode<D> {
 pub struct CompositeAstar<'a, const D: usize> {
     /// Its settings.
     pub params: CompositeParams,
-    nodes: &'a mut [CompositeNode<D>],
-    open: &'a mut [OpenEntry],
+    st: CompositeStorage<'a, D>,
+}
+
+/// Caller storage of composite A*: joint-state nodes (about 500 bytes each for `D = 7`,
+/// whatever the number of robots) and an OPEN list (16 bytes an entry; as many as the nodes
+/// is ample).
+pub struct CompositeStorage<'a, const D: usize> {
+    /// The node pool.
+    pub nodes: &'a mut [CompositeNode<D>],
+    /// The OPEN list.
+    pub open: &'a mut [OpenEntry],
 }
 
 impl<'a, const D: usize> CompositeAstar<'a, D> {
     /// A planner over the caller's node pool and OPEN list.
-    pub fn new(
-        params: CompositeParams,
-        nodes: &'a mut [CompositeNode<D>],
-        open: &'a mut [OpenEntry],
-    ) -> Self {
-        CompositeAstar {
-            params,
-            nodes,
-            open,
-        }
+    pub fn new(params: CompositeParams, st: CompositeStorage<'a, D>) -> Self {
+        CompositeAstar { params, st }
     }
 }
 
@@ -130,9 +133,9 @@ impl<M: Models<D>, const D: usize> Planner<M, D> for CompositeAstar<'_, D> {
         let mut search = Search::<M, D> {
             pr: problem,
             p: &self.params,
-            nodes: &mut *self.nodes,
+            nodes: &mut *self.st.nodes,
             used: 0,
-            open: OpenList::new(&mut *self.open),
+            open: OpenList::new(&mut *self.st.open),
             h: h.get(),
             n: problem.robots.len(),
             deadline: req.until,

@@ -36,10 +36,10 @@ impl Default for IkTrackingParams {
     }
 }
 
-/// The IK-tracking baseline: no storage beyond the request's, no search; fast and myopic. It
-/// chooses every start and the assignment itself, so it refuses a problem with a robot whose
-/// start or trajectory is fixed ([`crate::planner::Takes::FreeOnly`]). The
-/// [`crate::planner`] module's example runs it.
+/// The IK-tracking baseline: no storage of its own (it writes the request's paths only), no
+/// search; fast and myopic. It chooses every start and the assignment itself, so it refuses a
+/// problem with a robot whose start or trajectory is fixed
+/// ([`crate::planner::Takes::FreeOnly`]). The [`crate::planner`] module's example runs it.
 pub struct IkTracking {
     /// Its settings.
     pub params: IkTrackingParams,

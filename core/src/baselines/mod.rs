@@ -8,6 +8,6 @@ mod composite;
 mod descartes;
 mod ik_tracking;
 
-pub use composite::{CompositeAstar, CompositeNode, CompositeParams};
+pub use composite::{CompositeAstar, CompositeNode, CompositeParams, CompositeStorage};
 pub use descartes::{Descartes, DescartesParams, DescartesStorage};
 pub use ik_tracking::{IkTracking, IkTrackingParams};
