@@ -5,7 +5,7 @@
 //! what it reads. Memory: the largest planner's storage (element type by element type), not
 //! the sum of all of theirs.
 
-use super::DOF;
+use crate::models::DOF;
 use omcbsa_core::baselines::CompositeNode;
 use omcbsa_core::cbs::CtNode;
 use omcbsa_core::search::{Node, OpenEntry, PointConstraint, Slot, StartIk};

@@ -3,8 +3,9 @@
 //! planner is added by one entry here (docs/ARCHITECTURE.md, "Adding a planner").
 
 use super::arena::{Cut, Lengths, Short, Take};
-use super::{Capacities, DOF, START_CACHE_ENTRIES};
+use super::capacity::{Capacities, START_CACHE_ENTRIES};
 use crate::models::Fleet;
+use crate::models::DOF;
 use omcbsa_core::approach::ApproachStorage;
 use omcbsa_core::baselines::{
     CompositeAstar, CompositeParams, CompositeStorage, Descartes, DescartesParams,

@@ -5,8 +5,8 @@ use super::{lock, ArmEnd, Event, RunInfo, Shared, StreamProgress};
 use crate::cia402::counts_to_rad;
 use crate::log::LogSink;
 use crate::run::{
-    ArmReport, ArmState, ArmStatus, ArmStop, ExecConfig, ExecError, FaultReport, LinkError,
-    Report, JOINTS, STOP_BOUND_PERIODS,
+    ArmReport, ArmState, ArmStatus, ArmStop, ExecConfig, ExecError, FaultReport, LinkError, Report,
+    JOINTS, STOP_BOUND_PERIODS,
 };
 use crate::stream::PushError;
 use std::sync::atomic::Ordering;
@@ -149,7 +149,7 @@ impl StreamHandle {
         let ends: Vec<ArmEnd> = (self.threads.drain(..))
             .map(|h| {
                 h.join()
-                    .unwrap_or_else(|_| ArmEnd::StartupFailed(LinkError::ThreadPanicked))
+                    .unwrap_or(ArmEnd::StartupFailed(LinkError::ThreadPanicked))
             })
             .collect();
         finish_run(
@@ -258,6 +258,6 @@ fn finish_run(
         max_lateness,
         holds: c.holds,
         halted,
-        realtime: lock(&shared.realtime_refused).clone().map_or(Ok(()), Err),
+        realtime: (*lock(&shared.realtime_refused)).map_or(Ok(()), Err),
     })
 }

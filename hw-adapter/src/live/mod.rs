@@ -13,9 +13,7 @@ mod handle;
 pub(crate) use arm::start;
 pub use handle::StreamHandle;
 
-use crate::run::{
-    ArmState, ArmStop, Command, Fault, LinkError, Measured, Progress, Span, JOINTS,
-};
+use crate::run::{ArmState, ArmStop, Command, Fault, LinkError, Measured, Progress, Span, JOINTS};
 use crate::stream::Generator;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};

@@ -369,10 +369,15 @@ mod tests {
 
     #[test]
     fn the_lower_id_wins_when_the_bus_goes_idle() {
-        let wire = SLOW;
+        // 1 kbit/s: the first frame is on the wire for 111 ms, the time the test's thread has to
+        // queue the other two (a loaded machine holds a thread up for tens of milliseconds).
+        let wire = Wire {
+            bitrate: 1_000,
+            ..SLOW
+        };
         let (mut host, mut dev) = MockTransport::pair_with("arb", wire);
-        // The host's first frame takes the idle bus; while it is on the wire (11 ms), the host
-        // queues 0x300 and the device 0x180: at idle, 0x180 wins, then 0x300.
+        // The host's first frame takes the idle bus; while it is on the wire, the host queues
+        // 0x300 and the device 0x180: at idle, 0x180 wins, then 0x300.
         host.send(&frame(0x400, 8), Duration::ZERO).unwrap();
         host.send(&frame(0x300, 8), Duration::ZERO).unwrap();
         dev.send(&frame(0x180, 8), Duration::ZERO).unwrap();
