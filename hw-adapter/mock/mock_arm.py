@@ -200,8 +200,13 @@ class SlcanAdapterBus(can.BusABC):
                 return
             if self.delay > 0:
                 self.delayed.append((time.monotonic() + self.delay, msg))
-            else:
+                return
+            try:
                 self._transmit(msg)
+            except EOFError:
+                # The host has gone (the library's heartbeat threads send too): nothing more
+                # goes out; the main thread sees the end when it next reads.
+                self.channel_open = False
 
     def _transmit(self, msg):
         # The caller holds the lock.
@@ -627,6 +632,18 @@ class MockArm:
         if 0x600 < ident < 0x680:
             for d in self.drives:
                 d.refresh()
+        if ident == 0x000 and len(data) == 2:
+            self.announce_state(data[1])
+
+    def announce_state(self, node):
+        """Each drive an NMT command addressed (`node`: its id, or 0 for all) reports its new
+        state at once by heartbeat, as CANopenNode-based drives do, rather than at its next
+        period: the host confirms a stop by it."""
+        for d in self.drives:
+            # A drive whose heartbeat was stopped (fault injection) stays silent.
+            if node in (0, d.id) and getattr(d.node.nmt, "_send_task", None) is not None:
+                self.bus.send(can.Message(arbitration_id=0x700 + d.id, data=[d.node.nmt._state],
+                                          is_extended_id=False))
 
     def run(self):
         deadline = self.t0 + self.args.max_seconds
