@@ -91,6 +91,30 @@ OPERATION_ENABLED, QUICK_STOP_ACTIVE, FAULT = 0x0037, 0x0017, 0x0008
 REMOTE = 0x0200  # statusword bit 9: controlled over the bus
 
 
+class MainLoopTask(can.broadcastmanager.ModifiableCyclicTaskABC):
+    """A periodic frame (a drive's heartbeat) sent by the adapter's main loop when due, not by a
+    thread of its own: with every thread of the mock under SCHED_FIFO, eight threads handing the
+    interpreter lock to each other stalled the drives' answers for tens of milliseconds; a
+    drive's firmware sends its heartbeat from its one loop too."""
+
+    def __init__(self, bus, messages, period):
+        super().__init__(messages, period)
+        self.bus = bus
+        self.due = time.monotonic()
+        self.stopped = False
+
+    def stop(self):
+        self.stopped = True
+
+    def send_if_due(self, now):
+        """Sends the frame if it is due; returns the time of the next one."""
+        if now >= self.due:
+            self.bus.send(self.messages[0])
+            # No bursts after a stall: the next one a period from now at the latest.
+            self.due = max(self.due + self.period, now)
+        return self.due
+
+
 class SlcanAdapterBus(can.BusABC):
     """The adapter end of SLCAN on a connected socket: host commands in, bus frames out.
 
@@ -107,6 +131,7 @@ class SlcanAdapterBus(can.BusABC):
         self.silent = False
         self.delay = 0.0
         self.delayed = []  # (due, message), in order
+        self.periodic = []  # MainLoopTask, sent by send_due
         self.unlogged = []  # (time, id, data, from host?) for the log, written when there is time
         self.lock = threading.Lock()
         super().__init__(channel="slcan-socket", **kwargs)
@@ -215,13 +240,23 @@ class SlcanAdapterBus(can.BusABC):
             self.unlogged.append((time.time(), msg.arbitration_id, data, False))
         self._write(b"t%03X%d%s\r" % (msg.arbitration_id, len(data), data.hex().upper().encode()))
 
+    def _send_periodic_internal(self, msgs, period, duration=None, autostart=True,
+                                modifier_callback=None):
+        task = MainLoopTask(self, msgs, period)
+        self.periodic.append(task)
+        return task
+
     def send_due(self):
-        """Sends the held-back frames that are due; returns the time until the next one."""
+        """Sends the held-back and periodic frames that are due; returns the time until the next
+        one."""
         with self.lock:
             now = time.monotonic()
             while self.delayed and self.delayed[0][0] <= now:
                 self._transmit(self.delayed.pop(0)[1])
-            return self.delayed[0][0] - now if self.delayed else None
+            nxt = [self.delayed[0][0]] if self.delayed else []
+        self.periodic = [t for t in self.periodic if not t.stopped]
+        nxt += [t.send_if_due(now) for t in self.periodic]
+        return max(0.0, min(nxt) - time.monotonic()) if nxt else None
 
 
 class Drive:

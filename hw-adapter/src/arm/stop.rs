@@ -62,8 +62,15 @@ impl ArmBus {
         let deadline = Instant::now() + self.stop_wait;
         let mut gone = false;
         loop {
-            let missing = self.unconfirmed();
             let now = Instant::now();
+            if now >= deadline && !gone {
+                // What came while this thread was held up past the deadline still counts:
+                // read all of it before judging.
+                while let Ok(Some(f)) = self.transport.recv(Duration::ZERO) {
+                    self.handle(&f);
+                }
+            }
+            let missing = self.unconfirmed();
             if missing.is_empty() {
                 return Vec::new();
             }
