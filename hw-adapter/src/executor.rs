@@ -5,7 +5,7 @@
 //! then one of them faults in a second run and both are stopped:
 //!
 //! ```
-//! use omcbsa_hw::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
+//! use omcbsa_mock::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
 //! use omcbsa_hw::{ArmPlan, ExecConfig, ExecError, Executor, Fault, Plan, PlanValidator};
 //! use omcbsa_hw::{WatchSettings, JOINTS};
 //! use std::time::Duration;
@@ -33,7 +33,7 @@
 //!     realtime_priority: None,
 //!     ..ExecConfig::default()
 //! };
-//! let limits = omcbsa_hw::testing::fleet_limits(2);
+//! let limits = omcbsa_mock::testing::fleet_limits(2);
 //!
 //! let (left, left_bus) = CanSim::spawn(CanSimOptions::at(start));
 //! let (right, right_bus) = CanSim::spawn(CanSimOptions::at(start));
