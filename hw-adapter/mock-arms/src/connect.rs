@@ -280,9 +280,9 @@ mod tests {
             ArmOrMockUrl::parse("mock-can").unwrap(),
             ArmOrMockUrl::MockCan(Vec::new())
         );
-        let real = ArmOrMockUrl::parse("socketcan://can0").unwrap();
-        assert_eq!(real, ArmOrMockUrl::Arm(ArmUrl::SocketCan("can0".into())));
-        assert_eq!(real.to_string(), "socketcan://can0");
+        let real = ArmOrMockUrl::parse("slcan:/dev/ttyACM0").unwrap();
+        assert_eq!(real, ArmOrMockUrl::Arm(ArmUrl::Slcan("/dev/ttyACM0".into())));
+        assert_eq!(real.to_string(), "slcan:///dev/ttyACM0");
         for (bad, why) in [
             ("mock-kortex?fault-at=soon", "is not a number"),
             ("mock-kortex?emcy-at-sync=1", "has no flag \"emcy-at-sync\""),
