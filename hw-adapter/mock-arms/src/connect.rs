@@ -281,7 +281,10 @@ mod tests {
             ArmOrMockUrl::MockCan(Vec::new())
         );
         let real = ArmOrMockUrl::parse("slcan:/dev/ttyACM0").unwrap();
-        assert_eq!(real, ArmOrMockUrl::Arm(ArmUrl::Slcan("/dev/ttyACM0".into())));
+        assert_eq!(
+            real,
+            ArmOrMockUrl::Arm(ArmUrl::Slcan("/dev/ttyACM0".into()))
+        );
         assert_eq!(real.to_string(), "slcan:///dev/ttyACM0");
         for (bad, why) in [
             ("mock-kortex?fault-at=soon", "is not a number"),
