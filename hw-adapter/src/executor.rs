@@ -1,8 +1,8 @@
 //! The executor: validates, interpolates, starts every arm together (one thread per bus),
 //! streams, watches the feedback, and on any fault quick-stops every arm.
 //!
-//! Two arms of simulated CiA 402 drives on in-process buses ([`crate::sim::can`]) follow a plan,
-//! then one of them faults in a second run and both are stopped:
+//! Two arms of simulated CiA 402 drives on in-process buses (`omcbsa_mock::sim::can`) follow a
+//! plan, then one of them faults in a second run and both are stopped:
 //!
 //! ```
 //! use omcbsa_mock::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
