@@ -97,7 +97,7 @@ def check_index(files, problems):
             problems.append(f"docs/README.md: does not link {f} (one line per page)")
 
 
-CRATES = ["core", "codegen", "host", "hw-adapter", "python"]
+CRATES = ["core", "codegen", "host", "hw-adapter", "hw-adapter/mock-arms", "python"]
 ARCHITECTURE = "docs/ARCHITECTURE.md"
 CLI_MAIN = "host/src/main.rs"
 

@@ -18,7 +18,7 @@ import re
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CRATES = ["core", "codegen", "host", "hw-adapter", "tests", "python"]
+CRATES = ["core", "codegen", "host", "hw-adapter", "hw-adapter/mock-arms", "tests", "python"]
 MAX_LINES = 100
 
 FN = re.compile(r"\bfn\s+([A-Za-z_]\w*)")

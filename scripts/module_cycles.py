@@ -20,7 +20,7 @@ import os
 import re
 import sys
 
-CRATES = ["core", "codegen", "host", "hw-adapter", "tests", "python"]
+CRATES = ["core", "codegen", "host", "hw-adapter", "hw-adapter/mock-arms", "tests", "python"]
 
 COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
 STRING = re.compile(r'"(?:\\.|[^"\\])*"')

@@ -18,11 +18,11 @@ use std::path::Path;
 use omcbsa_core::ik::{ik, IkParams};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::{Matrix3, Rotation3, Vector3};
-use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
-use omcbsa_hw::mock::exec_config;
 use omcbsa_hw::Progress;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report, WatchSettings};
+use omcbsa_mock::arms::{MockArms, MockKind};
+use omcbsa_mock::mock::exec_config;
 use serde_json::Map;
 
 use crate::execute::{joint_limits, CheckedSolution, CAUTIOUS_SPEED};
@@ -270,7 +270,7 @@ pub fn run_on_mock_arms_watched(
         watch: watch.clone(),
         ..exec_config()
     };
-    let mocks = Fleet::spawn(kind, python, config.period, &starts, record, &[])
+    let mocks = MockArms::spawn(kind, python, config.period, &starts, record, &[])
         .map_err(MockRunError::Mocks)?;
     let ports = mocks.ports().map_err(MockRunError::Mocks)?;
     // The demo's arms are all of its one model.

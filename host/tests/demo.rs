@@ -97,7 +97,7 @@ fn omcbsa_demo_plans_streams_and_summarises() {
     );
     for r in ROBOTS {
         assert!(out.path().join(format!("mock-{r}.jsonl")).exists(), "{r}");
-        let log = omcbsa_hw::buslog::read(&out.path().join(format!("mock-{r}.log")));
+        let log = omcbsa_mock::buslog::read(&out.path().join(format!("mock-{r}.log")));
         assert!(log.is_ok_and(|l| l.len() > 1000), "{r}");
     }
     // The 3D view beside the solution (tests/view_browser.rs opens such a page in Chromium).

@@ -8,8 +8,8 @@ use std::process::{Command, Output};
 use omcbsa::demo::{box_flip, Demo, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::format::SolutionFile;
-use omcbsa_hw::transport::mock::MockTransport;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, PlanValidator};
+use omcbsa_mock::transport::MockTransport;
 
 fn demo() -> Demo {
     box_flip().unwrap_or_else(|e| panic!("{e}"))

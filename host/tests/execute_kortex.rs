@@ -11,11 +11,11 @@ use omcbsa::demo::{box_flip, Demo, ROBOTS};
 use omcbsa::execute::CheckedSolution;
 use omcbsa::execute::{joint_limits, CAUTIOUS_SPEED};
 use omcbsa::models::ModelKind;
-use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::kortex::{PASSWORD_ENV, USER_ENV};
-use omcbsa_hw::mock::venv_python;
-use omcbsa_hw::mock_gen3;
+use omcbsa_mock::arms::{MockArms, MockKind};
+use omcbsa_mock::mock::venv_python;
+use omcbsa_mock::mock_gen3;
 
 fn demo() -> Demo {
     box_flip().unwrap_or_else(|e| panic!("{e}"))
@@ -89,8 +89,8 @@ fn execute_streams_to_three_mock_gen3s_and_shows_the_password_nowhere() {
         .collect();
     let period = std::time::Duration::from_millis(10);
     let record = |n: &str| dir.path().join(format!("mock-{n}.jsonl"));
-    let mocks = Fleet::spawn(MockKind::Kortex, &python, period, &starts, record, &[]).unwrap();
-    let Fleet::Kortex(gen3s) = &mocks else {
+    let mocks = MockArms::spawn(MockKind::Kortex, &python, period, &starts, record, &[]).unwrap();
+    let MockArms::Kortex(gen3s) = &mocks else {
         unreachable!()
     };
     let password = mock_gen3::credentials().password;

@@ -18,7 +18,7 @@
 //!   with positions spread over ±3 rad, 1 514 holding at 0 rad (zeros stuff more), against
 //!   1 665 counted: the worst case overstates a cycle by 10-15 %, the margin the check keeps
 //!   whatever the data (`the_frames_of_a_cycle_stuffed_as_sent`). The in-process bus
-//!   ([`crate::transport::mock::MockTransport`]) delivers each frame after its own bits.
+//!   (`omcbsa_mock::transport::MockTransport`) delivers each frame after its own bits.
 //!
 //! The load of one arm of seven CiA 402 drives, per control cycle ([`ArmTraffic::cia402`],
 //! from the frames the code sends and the drives answer): a SYNC (0 bytes, 55 bits), an RPDO1

@@ -1,7 +1,7 @@
 //! A cell: several arms streamed together while a policy runs, the API a policy loop (the
-//! Python `Cell`, `omcbsa online --arm`) drives. Each arm is given by its URL
-//! ([`crate::port::ArmUrl`]: a real arm, or a Python mock started for the cell), its start
-//! configuration and its joint limits.
+//! Python `Cell`, `omcbsa online --arm`) drives. Each arm is given by its URL, its start
+//! configuration and its joint limits ([`CellArm`]), and reached through a [`Connector`]
+//! ([`crate::connect::RealArms`] for real arms).
 //!
 //! - [`Cell::start`] sets every arm up (the checks of a run: the arm where the cell says it
 //!   starts, the drives' limits covering the joints' range, ...), then returns with every arm
@@ -17,40 +17,21 @@
 //! - [`Cell::finish`] lets the queue run out and ends the run; [`Cell::stop`], and dropping the
 //!   cell, stop every arm at once.
 //!
-//! A Python mock runs at [`crate::mock::MOCK_PERIOD`] at the fastest; the cell's period is the
-//! slowest default of its arms ([`CellOptions::new`]). The mocks write their records (what they
-//! received) to [`CellOptions::records`], returned by [`Cell::finish`] and [`Cell::stop`].
+//! The cell's period is the slowest default of its arms ([`CellOptions::new`]); the connector
+//! may refuse a period an arm cannot keep up with ([`Connector::check`]). What the arms'
+//! guards recorded ([`crate::connect::ArmGuard`]: a stand-in arm's record of what it received)
+//! is returned by [`Cell::finish`] and [`Cell::stop`].
 
-use crate::kortex::Credentials;
+pub use crate::connect::CellArm;
+use crate::connect::{ArmGuard, ConnectError, Connector, GuardError};
 use crate::live::StreamProgress;
-use crate::mock::{self, MockArm, MockArmOptions};
-use crate::mock_gen3::MockGen3;
 use crate::plan::ArmLimits;
-use crate::port::{ArmPort, ArmUrl};
+use crate::port::ArmPort;
 use crate::run::{ArmState, ArmStatus, ExecConfig, ExecError, FaultReport, Report, JOINTS};
 use crate::stream::PushError;
 use crate::{Event, Executor, StreamHandle};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
-
-/// Cells started by this process (their records' directories are numbered).
-static CELLS: AtomicUsize = AtomicUsize::new(0);
-
-/// One arm of a cell.
-#[derive(Clone, Debug)]
-pub struct CellArm {
-    /// The arm's name.
-    pub name: String,
-    /// Where it is.
-    pub url: ArmUrl,
-    /// Where it stands, rad: the cell's first waypoint (a real arm must be within
-    /// [`ExecConfig::start_tolerance`] of it; a mock is started there).
-    pub start: [f64; JOINTS],
-    /// Its joint limits.
-    pub limits: ArmLimits,
-}
 
 /// How a cell runs.
 #[derive(Clone, Debug)]
@@ -61,18 +42,14 @@ pub struct CellOptions {
     pub time_scale: f64,
     /// The run's settings (its period: see [`CellOptions::new`]).
     pub config: ExecConfig,
-    /// Who Kortex arms are reached as (the mocks have their own).
-    pub credentials: Option<Credentials>,
-    /// Where the mocks write their records (`NAME.jsonl`, and a CAN mock's bus log
-    /// `NAME.log`); `None`: a directory of its own under the system's temporary directory.
-    pub records: Option<PathBuf>,
 }
 
 impl CellOptions {
     /// Options for `arms` with waypoints `dt` apart: the command line's settings at the
-    /// slowest default period of the arms (CAN 4 ms, SLCAN 5 ms, Kortex 1 ms, the mocks 10 ms).
-    pub fn new(dt: f64, arms: &[CellArm]) -> Self {
-        let period = (arms.iter().map(|a| a.url.default_period()))
+    /// slowest default period of the arms as `connector` reaches them (CAN 4 ms, SLCAN 5 ms,
+    /// Kortex 1 ms).
+    pub fn new<C: Connector>(dt: f64, arms: &[CellArm<C::Url>], connector: &C) -> Self {
+        let period = (arms.iter().map(|a| connector.default_period(&a.url)))
             .max()
             .unwrap_or(Duration::from_millis(2));
         Self {
@@ -82,8 +59,6 @@ impl CellOptions {
                 period,
                 ..ExecConfig::default()
             },
-            credentials: None,
-            records: None,
         }
     }
 }
@@ -94,6 +69,16 @@ pub enum CellError {
     /// The arms or options are wrong (named in the text); nothing was started.
     #[error("{0}")]
     Setup(String),
+    /// An arm could not be reached (or cannot run with the cell's settings); no arm moved.
+    #[error("arm {arm:?} ({url}): {source}")]
+    Connect {
+        /// The arm.
+        arm: String,
+        /// Its URL.
+        url: String,
+        /// Why.
+        source: ConnectError,
+    },
     /// The run refused to start or its start-up failed; no arm moved.
     #[error("{0}")]
     Start(ExecError),
@@ -106,6 +91,14 @@ pub enum CellError {
     /// The cell has ended: nothing more is taken.
     #[error("the cell has ended: {0}")]
     Ended(String),
+    /// The run ended, but what an arm's guard recorded could not be read.
+    #[error("the cell has ended: the run ended but arm {arm:?}'s record is unreadable: {source}")]
+    Record {
+        /// The arm.
+        arm: String,
+        /// Why.
+        source: GuardError,
+    },
 }
 
 /// The cell now.
@@ -124,24 +117,9 @@ pub struct CellStatus {
 pub struct CellEnd {
     /// The run's report.
     pub report: Report,
-    /// Per mock arm, what it received (its record), in the order given; empty for real arms.
+    /// Per arm with a guard (a stand-in arm), what it recorded, in the order given; empty for
+    /// real arms.
     pub records: Vec<(String, Vec<Value>)>,
-}
-
-/// A started Python mock.
-enum Mock {
-    Can(MockArm),
-    Kortex(MockGen3),
-}
-
-impl Mock {
-    /// Waits for it to exit (it does once its connection is closed): its name and record.
-    fn finish(self) -> Result<(String, Vec<Value>), String> {
-        match self {
-            Mock::Can(m) => Ok((m.name.clone(), m.finish()?)),
-            Mock::Kortex(m) => Ok((m.name.clone(), m.finish()?)),
-        }
-    }
 }
 
 /// Several arms streaming together: see the module.
@@ -149,45 +127,42 @@ pub struct Cell {
     handle: Option<StreamHandle>,
     /// Set once the run has ended: why.
     ended: Option<String>,
-    mocks: Vec<Mock>,
+    /// Per arm with one, its guard, by the arm's name.
+    guards: Vec<(String, Box<dyn ArmGuard>)>,
 }
 
 impl Cell {
-    /// Starts every arm (mocks first) and returns once every arm holds at its start.
-    pub fn start(arms: Vec<CellArm>, options: CellOptions) -> Result<Cell, CellError> {
-        let setup = CellError::Setup;
+    /// Reaches every arm through `connector` (stand-in arms started first) and returns once
+    /// every arm holds at its start.
+    pub fn start<C: Connector>(
+        arms: Vec<CellArm<C::Url>>,
+        options: CellOptions,
+        connector: &C,
+    ) -> Result<Cell, CellError> {
+        let connect_error = |a: &CellArm<C::Url>, source| CellError::Connect {
+            arm: a.name.clone(),
+            url: a.url.to_string(),
+            source,
+        };
         for (i, a) in arms.iter().enumerate() {
             if arms[..i].iter().any(|b| b.name == a.name) {
-                return Err(setup(format!("arm {:?} is given twice", a.name)));
+                return Err(CellError::Setup(format!("arm {:?} is given twice", a.name)));
             }
-            if a.url.is_mock() && options.config.period < mock::MOCK_PERIOD {
-                return Err(setup(format!(
-                    "arm {:?} ({}) is a Python mock, which runs at a period of {:?} at the \
-                     fastest; the cell's period is {:?}",
-                    a.name,
-                    a.url,
-                    mock::MOCK_PERIOD,
-                    options.config.period
-                )));
-            }
+            (connector.check(a, &options.config)).map_err(|e| connect_error(a, e))?;
         }
-        let records = match &options.records {
-            Some(dir) => dir.clone(),
-            None => std::env::temp_dir().join(format!(
-                "omcbsa-cell-{}-{}",
-                std::process::id(),
-                CELLS.fetch_add(1, Ordering::SeqCst)
-            )),
-        };
         let mut cell = Cell {
             handle: None,
             ended: None,
-            mocks: Vec::new(),
+            guards: Vec::new(),
         };
         let mut ports: Vec<(String, [f64; JOINTS], ArmPort)> = Vec::new();
         for a in &arms {
-            let port = cell.port(a, &options, &records).map_err(setup)?;
-            ports.push((a.name.clone(), a.start, port));
+            let connected =
+                (connector.connect(a, &options.config)).map_err(|e| connect_error(a, e))?;
+            if let Some(guard) = connected.guard {
+                cell.guards.push((a.name.clone(), guard));
+            }
+            ports.push((a.name.clone(), a.start, connected.port));
         }
         let limits: Vec<ArmLimits> = arms.iter().map(|a| a.limits).collect();
         let handle = Executor::online(
@@ -201,66 +176,6 @@ impl Cell {
         cell.handle = Some(handle);
         cell.wait_started(&options.config)?;
         Ok(cell)
-    }
-
-    /// The port of arm `a`: opened, or its mock started.
-    fn port(
-        &mut self,
-        a: &CellArm,
-        options: &CellOptions,
-        records: &Path,
-    ) -> Result<ArmPort, String> {
-        // A cell's mock lives as long as the cell: it exits when the cell closes its connection or
-        // connection, not after the mocks' own backstop for a test that leaks one (a minute or
-        // ten). The URL's flags come after, so that a query may still set one.
-        let flags = |f: &[(String, String)]| -> Vec<String> {
-            let own = f.iter().map(|(k, v)| format!("--{k}={v}"));
-            std::iter::once("--max-seconds=inf".to_string())
-                .chain(own)
-                .collect()
-        };
-        let record = records.join(format!("{}.jsonl", a.name));
-        let at = |e: String| format!("arm {:?} ({}): {e}", a.name, a.url);
-        match &a.url {
-            ArmUrl::MockCan(f) => {
-                std::fs::create_dir_all(records).map_err(|e| at(e.to_string()))?;
-                let python = mock::ensure_venv().map_err(at)?;
-                let opts = MockArmOptions {
-                    initial: a.start,
-                    record: Some(record.clone()),
-                    bus_log: Some(mock::bus_log_path(&record)),
-                    extra_args: flags(f),
-                };
-                let m =
-                    MockArm::spawn(&python, &mock::script_path(), &a.name, &opts).map_err(at)?;
-                let bus = m.open_bus().map_err(|e| at(e.to_string()))?;
-                self.mocks.push(Mock::Can(m));
-                Ok(ArmPort::Can(bus))
-            }
-            ArmUrl::MockKortex(f) => {
-                std::fs::create_dir_all(records).map_err(|e| at(e.to_string()))?;
-                let python = mock::ensure_venv().map_err(at)?;
-                let period = options.config.period;
-                let m = MockGen3::spawn(&python, &a.name, &a.start, period, &record, &flags(f))
-                    .map_err(at)?;
-                let conn = m.connect().map_err(at)?;
-                self.mocks.push(Mock::Kortex(m));
-                Ok(conn.into())
-            }
-            url => {
-                let none = Credentials {
-                    username: String::new(),
-                    password: String::new(),
-                };
-                let credentials = match (url, &options.credentials) {
-                    (ArmUrl::Kortex(_), None) => {
-                        return Err(at("a Kortex arm needs credentials".into()))
-                    }
-                    (_, c) => c.as_ref().unwrap_or(&none),
-                };
-                url.open(credentials).map_err(at)
-            }
-        }
     }
 
     /// Waits until no arm is starting (at most the set-up's own time-outs, and some): the
@@ -351,17 +266,17 @@ impl Cell {
     }
 
     /// Lets the queue run out, holds for the settle cycles, disables the drives; the report and
-    /// the mocks' records.
+    /// the arms' records.
     pub fn finish(self) -> Result<CellEnd, CellError> {
         self.end(StreamHandle::finish)
     }
 
-    /// Stops every arm now (a quick stop, no fault); the report and the mocks' records.
+    /// Stops every arm now (a quick stop, no fault); the report and the arms' records.
     pub fn stop(self) -> Result<CellEnd, CellError> {
         self.end(StreamHandle::stop)
     }
 
-    /// Ends the stream with `how`, then waits for the mocks to exit: their records.
+    /// Ends the stream with `how`, then waits for the guards to end: their records.
     fn end(
         mut self,
         how: fn(StreamHandle) -> Result<Report, ExecError>,
@@ -373,24 +288,22 @@ impl Cell {
             ExecError::Fault(r) => CellError::Fault(r),
             e => CellError::Start(e),
         })?;
-        let records = (self.mocks.drain(..))
-            .map(Mock::finish)
-            .collect::<Result<_, String>>()
-            .map_err(|e| {
-                CellError::Ended(format!(
-                    "the run ended but a mock's record is unreadable: {e}"
-                ))
-            })?;
+        let records = (self.guards.drain(..))
+            .map(|(arm, guard)| match guard.finish() {
+                Ok(record) => Ok((arm, record)),
+                Err(source) => Err(CellError::Record { arm, source }),
+            })
+            .collect::<Result<_, _>>()?;
         Ok(CellEnd { report, records })
     }
 }
 
 impl Drop for Cell {
-    /// Stops every arm; the mocks write their records as they exit.
+    /// Stops every arm, then ends the guards (a stand-in arm writes its record as it exits).
     fn drop(&mut self) {
         drop(self.handle.take());
-        for m in self.mocks.drain(..) {
-            let _ = m.finish();
+        for (_, guard) in self.guards.drain(..) {
+            let _ = guard.finish();
         }
     }
 }

@@ -1,11 +1,11 @@
 //! The executor: validates, interpolates, starts every arm together (one thread per bus),
 //! streams, watches the feedback, and on any fault quick-stops every arm.
 //!
-//! Two arms of simulated CiA 402 drives on in-process buses ([`crate::sim::can`]) follow a plan,
-//! then one of them faults in a second run and both are stopped:
+//! Two arms of simulated CiA 402 drives on in-process buses (`omcbsa_mock::sim::can`) follow a
+//! plan, then one of them faults in a second run and both are stopped:
 //!
 //! ```
-//! use omcbsa_hw::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
+//! use omcbsa_mock::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
 //! use omcbsa_hw::{ArmPlan, ExecConfig, ExecError, Executor, Fault, Plan, PlanValidator};
 //! use omcbsa_hw::{WatchSettings, JOINTS};
 //! use std::time::Duration;
@@ -33,7 +33,7 @@
 //!     realtime_priority: None,
 //!     ..ExecConfig::default()
 //! };
-//! let limits = omcbsa_hw::testing::fleet_limits(2);
+//! let limits = omcbsa_mock::testing::fleet_limits(2);
 //!
 //! let (left, left_bus) = CanSim::spawn(CanSimOptions::at(start));
 //! let (right, right_bus) = CanSim::spawn(CanSimOptions::at(start));

@@ -157,7 +157,7 @@ pub fn plan_generator(
 ///     dt: 0.1,
 ///     arms: vec![ArmPlan { name: "a".into(), joint_path: vec![[0.0; JOINTS], [0.5; JOINTS]] }],
 /// };
-/// let t = interpolate(&plan, &omcbsa_hw::testing::fleet_limits(1), 0.002)?;
+/// let t = interpolate(&plan, &omcbsa_mock::testing::fleet_limits(1), 0.002)?;
 /// assert!(t.time_scale > 10.0);
 /// let cmds = &t.commands[0];
 /// assert_eq!((cmds[0][0], cmds[cmds.len() - 1][0]), (0, 5_000_000)); // 0 to 0.5 rad, in counts

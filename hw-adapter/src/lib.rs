@@ -16,11 +16,11 @@
 //!   arm ([`port::ArmUrl`]: where an arm is) and the link made of it; [`executor`]:
 //!   [`Executor`], which composes them: validation gate, start-up, streaming, fault handling,
 //!   log.
-//! - [`cell`]: arms streamed together while a policy runs: start, push chunks, status, stop.
-//! - Test side: [`mock`] and [`mock_gen3`] start the Python mock arms, [`fleet`] either kind
-//!   alike, [`record`] and [`buslog`] check what they received; [`sim`]: simulated arms in
-//!   process, at the default rates; [`testing`] holds joint limits for tests and examples run
-//!   without the host.
+//! - [`cell`]: arms streamed together while a policy runs: start, push chunks, status, stop;
+//!   [`connect`]: how a cell reaches each arm ([`connect::Connector`]; [`connect::RealArms`]
+//!   for real ones).
+//! - No test doubles: the mock arms, simulators, the in-process bus and the test limits are
+//!   the crate `omcbsa-mock` (`hw-adapter/mock-arms`), which also connects a cell to mocks.
 //! - [`priority`]: real-time scheduling of the arm threads; [`timing`]: whether the machine
 //!   holds a control rate (the preflight of every run); [`log`]: the command log.
 //!
@@ -43,7 +43,7 @@
 //!     ],
 //! };
 //! let cfg = ExecConfig { dry_run: true, ..ExecConfig::default() };
-//! let limits = omcbsa_hw::testing::fleet_limits(2);
+//! let limits = omcbsa_mock::testing::fleet_limits(2);
 //! let no_ports: Vec<(String, omcbsa_hw::ArmPort)> = Vec::new();
 //! let report = Executor::new(plan, limits, no_ports, cfg)?.run(&Accept)?;
 //! assert_eq!(report.time_scale, 1.0); // within the limits as planned
@@ -56,32 +56,34 @@
 
 pub mod arm;
 pub mod bus;
-pub mod buslog;
 pub mod canopen;
 pub mod cell;
 pub mod cia402;
+pub mod connect;
 pub mod executor;
-pub mod fleet;
 pub mod frame;
 pub mod interpolate;
 pub mod kortex;
 pub mod link;
 pub mod live;
 pub mod log;
-pub mod mock;
-pub mod mock_gen3;
 pub mod plan;
 pub mod port;
 pub mod priority;
-pub mod record;
 pub mod run;
-pub mod sim;
 pub mod spline;
 pub mod stream;
-pub mod testing;
 pub mod timing;
 pub mod transport;
 pub mod watchdog;
+
+// The unit tests take their joint limits from `omcbsa-mock`'s source: the crate cannot depend
+// on it for them (its tests would see two `omcbsa_hw`s), and the file names `omcbsa_hw`.
+#[cfg(test)]
+extern crate self as omcbsa_hw;
+#[cfg(test)]
+#[path = "../mock-arms/src/testing.rs"]
+mod testing;
 
 pub use executor::Executor;
 pub use frame::CanFrame;

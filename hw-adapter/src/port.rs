@@ -67,12 +67,10 @@ impl ArmPort {
     }
 }
 
-/// Where an arm is, parsed in one place: `kortex://HOST` (or `kortex://HOST:TCP:UDP`),
-/// `socketcan://IFACE`, `slcan:///dev/ttyX` (a serial device path), or the project's Python
-/// mocks, started for the run: `mock-kortex` and `mock-can`, each with optional mock flags as
-/// a query (`mock-can?emcy-at-sync=60`, `mock-kortex?tau-ms=20`; see [`MOCK_CAN_FLAGS`] and
-/// [`MOCK_KORTEX_FLAGS`]). The command line's older forms `kortex:HOST[:TCP:UDP]`,
-/// `socketcan:IFACE` and `slcan:PATH` are read too.
+/// Where a real arm is, parsed in one place: `kortex://HOST` (or `kortex://HOST:TCP:UDP`),
+/// `socketcan://IFACE`, `slcan:///dev/ttyX` (a serial device path). The command line's older
+/// forms `kortex:HOST[:TCP:UDP]`, `socketcan:IFACE` and `slcan:PATH` are read too. (Stand-in
+/// arms have URLs of their own, read by the crate `omcbsa-mock`.)
 ///
 /// ```
 /// use omcbsa_hw::port::ArmUrl;
@@ -80,9 +78,6 @@ impl ArmPort {
 /// let u = ArmUrl::parse("kortex://192.168.1.10")?;
 /// assert_eq!(u.to_string(), "kortex://192.168.1.10:10000:10001");
 /// assert_eq!(ArmUrl::parse("slcan:///dev/ttyACM0")?, ArmUrl::Slcan("/dev/ttyACM0".into()));
-/// let mock = ArmUrl::parse("mock-can?emcy-at-sync=60")?;
-/// assert!(mock.is_mock());
-/// assert!(ArmUrl::parse("mock-can?wings=2").unwrap_err().contains("wings"));
 /// assert!(ArmUrl::parse("tcp://host").unwrap_err().contains("expected kortex://HOST"));
 /// # Ok::<(), String>(())
 /// ```
@@ -94,38 +89,7 @@ pub enum ArmUrl {
     SocketCan(String),
     /// CiA 402 drives behind an SLCAN adapter at this device path.
     Slcan(String),
-    /// The Python mock Gen3 on Kortex (`hw-adapter/mock/mock_gen3.py`), with its flags.
-    MockKortex(Vec<(String, String)>),
-    /// The Python mock arm on CAN (`hw-adapter/mock/mock_arm.py`), with its flags.
-    MockCan(Vec<(String, String)>),
 }
-
-/// The flags `mock-can?...` may set (`hw-adapter/mock/mock_arm.py`: fault injection, the
-/// joints' time constant).
-pub const MOCK_CAN_FLAGS: [&str; 9] = [
-    "stop-after-syncs",
-    "late-after-syncs",
-    "late-ms",
-    "emcy-at-sync",
-    "fault-at-sync",
-    "nmt-stop-at-sync",
-    "heartbeat-stop-at-sync",
-    "lag-after-syncs",
-    "tau",
-];
-
-/// The flags `mock-kortex?...` may set (`hw-adapter/mock/mock_gen3.py`: fault injection, the
-/// actuators' time constant, a slow UDP path).
-pub const MOCK_KORTEX_FLAGS: [&str; 8] = [
-    "silent-at",
-    "late-at",
-    "late-ms",
-    "fault-at",
-    "drop-session-at",
-    "tau-ms",
-    "udp-delay-ms",
-    "seed",
-];
 
 impl ArmUrl {
     /// Parses an arm URL; the error names the URL and what is wrong with it.
@@ -151,68 +115,31 @@ impl ArmUrl {
             bus(format!("slcan:{path}"))?;
             return Ok(ArmUrl::Slcan(path.to_string()));
         }
-        let (kind, query) = url.split_once('?').unwrap_or((url, ""));
-        let allowed: &[&str] = match kind {
-            "mock-kortex" => &MOCK_KORTEX_FLAGS,
-            "mock-can" => &MOCK_CAN_FLAGS,
-            _ => {
-                let forms = "kortex://HOST, socketcan://IFACE, slcan:///dev/ttyX, mock-kortex \
-                             or mock-can";
-                // Not a URL: the bus spec's own error names the command line's forms.
-                return Err(match bus(url.to_string()) {
-                    Err(e) if !url.contains("://") => format!("{e}; or an arm URL: {forms}"),
-                    _ => format!("unknown arm URL {url:?}: expected {forms}"),
-                });
-            }
-        };
-        let mut flags = Vec::new();
-        for pair in query.split('&').filter(|p| !p.is_empty()) {
-            let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
-            if !allowed.contains(&key) {
-                return Err(format!(
-                    "arm URL {url:?}: {kind} has no flag {key:?} (it has {})",
-                    allowed.join(", ")
-                ));
-            }
-            if !value.parse::<f64>().is_ok_and(f64::is_finite) {
-                return Err(format!("arm URL {url:?}: {key}={value:?} is not a number"));
-            }
-            flags.push((key.to_string(), value.to_string()));
-        }
-        Ok(match kind {
-            "mock-kortex" => ArmUrl::MockKortex(flags),
-            _ => ArmUrl::MockCan(flags),
+        let forms = "kortex://HOST, socketcan://IFACE or slcan:///dev/ttyX";
+        // Not a URL: the bus spec's own error names the command line's forms.
+        Err(match bus(url.to_string()) {
+            Err(e) if !url.contains("://") => format!("{e}; or an arm URL: {forms}"),
+            _ => format!("unknown arm URL {url:?}: expected {forms}"),
         })
-    }
-
-    /// A Python mock, started for the run.
-    pub fn is_mock(&self) -> bool {
-        matches!(self, ArmUrl::MockKortex(_) | ArmUrl::MockCan(_))
     }
 
     /// The control period this arm runs at by default: Kortex 1 ms; CAN the shortest at which
     /// the arm fits alone on its bus ([`crate::bus::one_arm_period`]): SocketCAN (counted at
-    /// 1 Mbit/s) 4 ms, SLCAN (opened at 500 kbit/s) 5 ms; the Python mocks
-    /// [`crate::mock::MOCK_PERIOD`] (they cannot keep up faster).
+    /// 1 Mbit/s) 4 ms, SLCAN (opened at 500 kbit/s) 5 ms.
     pub fn default_period(&self) -> Duration {
         match self {
             ArmUrl::Kortex(_) => Duration::from_millis(1),
             ArmUrl::SocketCan(_) => crate::bus::CAN_PERIOD,
             ArmUrl::Slcan(_) => crate::bus::one_arm_period(transport::slcan::DEFAULT_BITRATE),
-            ArmUrl::MockKortex(_) | ArmUrl::MockCan(_) => crate::mock::MOCK_PERIOD,
         }
     }
 
-    /// Opens a real arm's port (a Kortex arm is reached with `credentials`). Mock arms are
-    /// started, not opened: `crate::cell::Cell` does it.
+    /// Opens the arm's port (a Kortex arm is reached with `credentials`).
     pub fn open(&self, credentials: &kortex::Credentials) -> Result<ArmPort, String> {
         match self {
             ArmUrl::Kortex(spec) => Ok(kortex::Connection::open(spec, credentials)?.into()),
             ArmUrl::SocketCan(_) | ArmUrl::Slcan(_) => Ok(ArmPort::Can(
                 transport::open(&self.bus_spec()).map_err(|e| e.to_string())?,
-            )),
-            ArmUrl::MockKortex(_) | ArmUrl::MockCan(_) => Err(format!(
-                "{self} is a mock arm, started with its run by a cell (`omcbsa_hw::cell::Cell`), not opened"
             )),
         }
     }
@@ -222,26 +149,17 @@ impl ArmUrl {
         match self {
             ArmUrl::SocketCan(iface) => format!("socketcan:{iface}"),
             ArmUrl::Slcan(path) => format!("slcan:{path}"),
-            other => other.to_string(),
+            ArmUrl::Kortex(_) => self.to_string(),
         }
     }
 }
 
 impl fmt::Display for ArmUrl {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mock = |f: &mut fmt::Formatter<'_>, kind: &str, flags: &[(String, String)]| {
-            write!(f, "{kind}")?;
-            for (i, (k, v)) in flags.iter().enumerate() {
-                write!(f, "{}{k}={v}", if i == 0 { "?" } else { "&" })?;
-            }
-            Ok(())
-        };
         match self {
             ArmUrl::Kortex(s) => write!(f, "kortex://{}:{}:{}", s.host, s.tcp_port, s.udp_port),
             ArmUrl::SocketCan(iface) => write!(f, "socketcan://{iface}"),
             ArmUrl::Slcan(path) => write!(f, "slcan://{path}"),
-            ArmUrl::MockKortex(flags) => mock(f, "mock-kortex", flags),
-            ArmUrl::MockCan(flags) => mock(f, "mock-can", flags),
         }
     }
 }
@@ -273,29 +191,14 @@ mod tests {
             ArmUrl::parse("slcan:/dev/ttyUSB0").unwrap(),
             ArmUrl::Slcan("/dev/ttyUSB0".into())
         );
-        let m = ArmUrl::parse("mock-kortex?fault-at=100&tau-ms=20").unwrap();
-        assert_eq!(m.to_string(), "mock-kortex?fault-at=100&tau-ms=20");
-        assert_eq!(
-            ArmUrl::parse("mock-can").unwrap(),
-            ArmUrl::MockCan(Vec::new())
-        );
         for (bad, why) in [
             ("kortex://", "cannot reach arm kortex:"),
             ("slcan://", "the serial device path is empty"),
-            ("mock-kortex?fault-at=soon", "is not a number"),
-            ("mock-kortex?emcy-at-sync=1", "has no flag \"emcy-at-sync\""),
             ("tcp://host", "unknown arm URL"),
             ("can0", "expected `slcan:/dev/ttyXXX` or `socketcan:IFACE`"),
         ] {
             let e = ArmUrl::parse(bad).unwrap_err();
             assert!(e.contains(why), "{bad}: {e}");
         }
-        let e = ArmUrl::parse("mock-can")
-            .unwrap()
-            .open(&kortex::Credentials {
-                username: "u".into(),
-                password: "p".into(),
-            });
-        assert!(e.err().unwrap().contains("started with its run by a cell"));
     }
 }

@@ -141,7 +141,7 @@ pub enum PushError {
 /// use omcbsa_hw::cia402::counts_to_rad;
 /// use omcbsa_hw::JOINTS;
 ///
-/// let limits = omcbsa_hw::testing::fleet_limits(1);
+/// let limits = omcbsa_mock::testing::fleet_limits(1);
 /// // One arm at rest at 0, steps of 0.5 s, cycles of 2 ms.
 /// let mut g = Generator::new(&[[0.0; JOINTS]], &limits, 0.002, 0.5)?;
 /// g.push(1, &[&[[0.05; JOINTS], [0.1; JOINTS]]])?;

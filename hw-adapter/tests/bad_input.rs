@@ -5,9 +5,10 @@ mod common;
 
 use common::*;
 use omcbsa_hw::plan::{Plan, PlanValidator};
-use omcbsa_hw::transport::{self, mock::MockTransport};
+use omcbsa_hw::transport;
 use omcbsa_hw::ArmPorts;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Transport};
+use omcbsa_mock::transport::MockTransport;
 use std::sync::Mutex;
 
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -24,7 +25,7 @@ fn plan_that_does_not_validate_is_refused_before_anything_is_sent() {
     let _one = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let plan = three_arm_plan(5);
     let mocks = spawn_arms(&plan, "refused", &[]);
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let exec = Executor::new(plan, limits, open_buses(&mocks), mock_config()).unwrap();
     let e = exec.run(&Reject).unwrap_err();
     assert!(matches!(e, ExecError::Refused(_)), "{e}");
@@ -70,7 +71,7 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
     let plan = three_arm_plan(5);
     let silent = vec!["--stop-after-syncs".to_string(), "0".to_string()];
     let mocks = spawn_arms(&plan, "mute", &[vec![], silent, vec![]]);
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let exec = Executor::new(plan, limits, open_buses(&mocks), mock_config()).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err();
     let text = e.to_string();
@@ -103,7 +104,7 @@ fn arm_that_never_answers_at_start_up_gets_nothing_and_stops_the_others() {
 fn in_process_arm_that_never_answers_receives_only_the_first_sdo() {
     let plan = three_arm_plan(3);
     let (buses, devices) = MockTransport::buses(&ARMS);
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let cfg = ExecConfig {
         period: omcbsa_hw::bus::CAN_PERIOD,
         ..ExecConfig::default()
@@ -134,7 +135,7 @@ fn dry_run_logs_every_command_and_needs_no_bus() {
         log_path: Some(log.clone()),
         ..ExecConfig::default()
     };
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let report = Executor::new(plan, limits, ArmPorts::new(), cfg)
         .unwrap()
         .run(&AcceptAll)
@@ -158,7 +159,7 @@ fn dry_run_logs_every_command_and_needs_no_bus() {
 fn buses_must_match_the_plan_arms() {
     let plan = three_arm_plan(3);
     let (host, _dev) = MockTransport::pair("x");
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let e = Executor::new(
         plan,
         limits,

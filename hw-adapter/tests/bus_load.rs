@@ -2,9 +2,9 @@
 //! set up, and accepts one arm per bus at the default CAN period.
 
 use omcbsa_hw::bus::CAN_PERIOD;
-use omcbsa_hw::sim::can::{CanSim, CanSimOptions};
-use omcbsa_hw::transport::mock::MockTransport;
 use omcbsa_hw::{ArmPlan, ExecConfig, ExecError, Executor, Plan, PlanValidator, Transport, JOINTS};
+use omcbsa_mock::sim::can::{CanSim, CanSimOptions};
+use omcbsa_mock::transport::MockTransport;
 use std::time::Duration;
 
 const ARMS: [&str; 3] = ["left", "right", "middle"];
@@ -43,7 +43,7 @@ fn three_arms_on_one_bus_are_refused_before_any_is_set_up() {
     let arms: Vec<(String, Box<dyn Transport>)> = (ARMS.iter().zip(hosts))
         .map(|(n, h)| (n.to_string(), Box::new(h) as Box<dyn Transport>))
         .collect();
-    let limits = omcbsa_hw::testing::fleet_limits(ARMS.len());
+    let limits = omcbsa_mock::testing::fleet_limits(ARMS.len());
     let e = Executor::new(plan(), limits, arms, config())
         .unwrap()
         .run(&Accept)
@@ -85,7 +85,7 @@ fn three_arms_on_one_bus_are_refused_before_any_is_set_up() {
             )
         })
         .collect();
-    let limits = omcbsa_hw::testing::fleet_limits(ARMS.len());
+    let limits = omcbsa_mock::testing::fleet_limits(ARMS.len());
     let e = Executor::online(arms, 0.25, 1.0, &limits, config()).err();
     assert!(matches!(e, Some(ExecError::BusLoad(_))), "{e:?}");
 }
@@ -100,7 +100,7 @@ fn one_arm_per_bus_at_the_default_period_is_accepted() {
             (sim, (n.to_string(), bus))
         })
         .unzip();
-    let limits = omcbsa_hw::testing::fleet_limits(ARMS.len());
+    let limits = omcbsa_mock::testing::fleet_limits(ARMS.len());
     let report = Executor::new(plan(), limits, arms, config())
         .unwrap()
         .run(&Accept)

@@ -9,10 +9,11 @@ mod common;
 use common::{replay, Pushed};
 use omcbsa_hw::cell::{Cell, CellArm, CellError, CellOptions};
 use omcbsa_hw::cia402::CW_QUICK_STOP;
-use omcbsa_hw::fleet::MockKind;
+use omcbsa_hw::connect::RealArms;
 use omcbsa_hw::interpolate::min_time_scale;
-use omcbsa_hw::port::ArmUrl;
 use omcbsa_hw::{ArmState, Event, Fault, JOINTS};
+use omcbsa_mock::arms::MockKind;
+use omcbsa_mock::connect::{ArmOrMockUrl, MockConnector};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
@@ -35,13 +36,15 @@ fn records_dir(tag: &str) -> PathBuf {
     dir
 }
 
-fn arms(urls: &[&str]) -> Vec<CellArm> {
+type MockArm = CellArm<ArmOrMockUrl>;
+
+fn arms(urls: &[&str]) -> Vec<MockArm> {
     (urls.iter().enumerate())
         .map(|(i, url)| CellArm {
             name: format!("arm{i}"),
-            url: ArmUrl::parse(url).unwrap(),
+            url: ArmOrMockUrl::parse(url).unwrap(),
             start: [0.1 * i as f64 - 0.15; JOINTS],
-            limits: omcbsa_hw::testing::arm_limits(),
+            limits: omcbsa_mock::testing::arm_limits(),
         })
         .collect()
 }
@@ -64,12 +67,16 @@ fn slices(w: &[Path]) -> Vec<&[[f64; JOINTS]]> {
     w.iter().map(|p| p.as_slice()).collect()
 }
 
-fn options(arms: &[CellArm], dir: &std::path::Path) -> CellOptions {
-    let mut o = CellOptions::new(DT, arms);
+/// Mocks recording to `dir`.
+fn connector(dir: &std::path::Path) -> MockConnector {
+    MockConnector::new(RealArms::default(), Some(dir.to_path_buf()))
+}
+
+fn options(arms: &[MockArm], dir: &std::path::Path) -> CellOptions {
+    let mut o = CellOptions::new(DT, arms, &connector(dir));
     let probe = chunk(&arms.iter().map(|a| a.start).collect::<Vec<_>>(), 10);
-    let limits = omcbsa_hw::testing::fleet_limits(arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(arms.len());
     o.time_scale = 1.5 * min_time_scale(probe.iter().map(|p| p.as_slice()), &limits, DT);
-    o.records = Some(dir.to_path_buf());
     o
 }
 
@@ -110,7 +117,7 @@ fn two_kortex_and_two_can_mocks_follow_pushed_chunks_hold_when_dry_and_finish() 
     let settle = opts.config.settle_cycles;
     let starts: Vec<[f64; JOINTS]> = arms.iter().map(|a| a.start).collect();
     let limits: Vec<_> = arms.iter().map(|a| a.limits).collect();
-    let mut cell = Cell::start(arms, opts).unwrap_or_else(|e| panic!("{e}"));
+    let mut cell = Cell::start(arms, opts, &connector(&dir)).unwrap_or_else(|e| panic!("{e}"));
     let s = cell.status().unwrap();
     assert!(s.arms.iter().all(|a| a.state == ArmState::Holding), "{s:?}");
     let first = chunk(&starts, 12);
@@ -175,7 +182,7 @@ fn a_fault_on_one_arm_stops_every_arm_and_the_next_call_reports_it() {
     let arms = arms(&["mock-can", "mock-can?emcy-at-sync=60", "mock-kortex"]);
     let opts = options(&arms, &dir);
     let starts: Vec<[f64; JOINTS]> = arms.iter().map(|a| a.start).collect();
-    let mut cell = Cell::start(arms, opts).unwrap_or_else(|e| panic!("{e}"));
+    let mut cell = Cell::start(arms, opts, &connector(&dir)).unwrap_or_else(|e| panic!("{e}"));
     cell.push(1, &slices(&chunk(&starts, 40))).unwrap();
     let deadline = Instant::now() + Duration::from_secs(20);
     let report = loop {
@@ -207,7 +214,7 @@ fn a_fault_on_one_arm_stops_every_arm_and_the_next_call_reports_it() {
     assert!(matches!(e, CellError::Ended(_)), "{e}");
     drop(cell);
     for i in 0..3 {
-        let record = omcbsa_hw::record::read(&dir.join(format!("arm{i}.jsonl"))).unwrap();
+        let record = omcbsa_mock::record::read(&dir.join(format!("arm{i}.jsonl"))).unwrap();
         assert!(quick_stopped(&record), "arm{i} was not quick-stopped");
     }
     let _ = std::fs::remove_dir_all(dir);
@@ -220,23 +227,30 @@ fn dropping_the_cell_stops_every_arm_and_bad_cells_are_refused_before_anything_s
     let arms = arms(&["mock-can", "mock-kortex"]);
     let opts = options(&arms, &dir);
     let starts: Vec<[f64; JOINTS]> = arms.iter().map(|a| a.start).collect();
-    let mut cell = Cell::start(arms.clone(), opts.clone()).unwrap_or_else(|e| panic!("{e}"));
+    let mut cell =
+        Cell::start(arms.clone(), opts.clone(), &connector(&dir)).unwrap_or_else(|e| panic!("{e}"));
     cell.push(1, &slices(&chunk(&starts, 40))).unwrap();
     wait_for(&mut cell, "motion", |s| s.progress.step >= 2);
     drop(cell);
     for i in 0..2 {
-        let record = omcbsa_hw::record::read(&dir.join(format!("arm{i}.jsonl"))).unwrap();
+        let record = omcbsa_mock::record::read(&dir.join(format!("arm{i}.jsonl"))).unwrap();
         assert!(quick_stopped(&record), "arm{i} was not quick-stopped");
     }
     let _ = std::fs::remove_dir_all(&dir);
     // A mock faster than it can run, and a name given twice: refused, nothing started.
     let mut fast = opts.clone();
     fast.config.period = Duration::from_millis(2);
-    let e = Cell::start(arms.clone(), fast).err().unwrap();
-    assert!(e.to_string().contains("is a Python mock"), "{e}");
+    let e = Cell::start(arms.clone(), fast, &connector(&dir))
+        .err()
+        .unwrap();
+    assert!(
+        e.to_string()
+            .contains("a Python mock runs at a period of 10ms at the fastest"),
+        "{e}"
+    );
     let mut twice = arms.clone();
     twice[1].name = "arm0".into();
-    let e = Cell::start(twice, opts).err().unwrap();
+    let e = Cell::start(twice, opts, &connector(&dir)).err().unwrap();
     assert!(e.to_string().contains("\"arm0\" is given twice"), "{e}");
     assert!(!dir.exists(), "a refused cell started a mock");
 }

@@ -6,7 +6,7 @@
 
 use omcbsa_hw::canopen::SdoValue;
 use omcbsa_hw::cia402::{self, CONTROLWORD, RPDO1_MAPPING, TPDO1_MAPPING};
-use omcbsa_hw::mock::{script_path, venv_python};
+use omcbsa_mock::mock::{script_path, venv_python};
 use serde_json::{json, Value};
 use std::io::Write;
 use std::process::{Command, Stdio};

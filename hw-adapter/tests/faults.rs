@@ -14,11 +14,11 @@
 mod common;
 
 use common::*;
-use omcbsa_hw::buslog::{self, first_sign, quick_stop_time, targets_after_stop, Logged};
 use omcbsa_hw::cia402::{CW_QUICK_STOP, EMCY_FOLLOWING_ERROR};
-use omcbsa_hw::mock::bus_log_path;
 use omcbsa_hw::STOP_BOUND_PERIODS;
 use omcbsa_hw::{ExecError, Executor, Fault, FaultReport};
+use omcbsa_mock::buslog::{self, first_sign, quick_stop_time, targets_after_stop, Logged};
+use omcbsa_mock::mock::bus_log_path;
 use serde_json::Value;
 use std::sync::Mutex;
 
@@ -131,7 +131,7 @@ fn run_with_fault(case: &Case) -> (FaultReport, Vec<Seen>) {
         vec![],
     ];
     let mocks = spawn_arms(&plan, case.tag, &extra);
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let exec = Executor::new(plan, limits, open_buses(&mocks), mock_config()).unwrap();
     let report = match exec.run(&AcceptAll) {
         Err(ExecError::Fault(r)) => *r,

@@ -6,13 +6,13 @@ mod common;
 use common::*;
 use omcbsa_hw::cia402::counts_to_rad;
 use omcbsa_hw::interpolate::interpolate;
-use omcbsa_hw::record::check_followed;
 use omcbsa_hw::{ExecConfig, Executor, JOINTS};
+use omcbsa_mock::record::check_followed;
 
 #[test]
 fn three_arms_follow_the_interpolated_plan() {
     let plan = three_arm_plan(8);
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let mocks = spawn_arms(&plan, "ok", &[]);
     let log = std::env::temp_dir().join(format!("omcbsa-hw-ok-log-{}.jsonl", std::process::id()));
     let cfg = ExecConfig {

@@ -6,15 +6,15 @@
 mod common;
 
 use common::{three_arm_plan, AcceptAll};
-use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::interpolate;
 use omcbsa_hw::kortex::channel::Channel;
 use omcbsa_hw::kortex::header::{uid, Header};
 use omcbsa_hw::kortex::proto::{self, base, base_cyclic};
-use omcbsa_hw::mock::{exec_config, venv_python};
-use omcbsa_hw::mock_gen3::{self, MockGen3};
 use omcbsa_hw::watchdog::CycleFault;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Fault, FaultReport, Plan};
+use omcbsa_mock::arms::{MockArms, MockKind};
+use omcbsa_mock::mock::{exec_config, venv_python};
+use omcbsa_mock::mock_gen3::{self, MockGen3};
 use prost::Message;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -37,12 +37,12 @@ fn record_path(tag: &str, name: &str) -> PathBuf {
 }
 
 /// Mock Gen3s for the arms of `plan`, each at its start, mock i with the flags `extra[i]`.
-fn spawn(plan: &Plan, tag: &str, extra: &[Vec<String>]) -> Fleet {
+fn spawn(plan: &Plan, tag: &str, extra: &[Vec<String>]) -> MockArms {
     let python = venv_python().unwrap_or_else(|e| panic!("{e}"));
     let arms: Vec<_> = (plan.arms.iter())
         .map(|a| (a.name.clone(), a.joint_path[0]))
         .collect();
-    Fleet::spawn(
+    MockArms::spawn(
         MockKind::Kortex,
         &python,
         exec_config().period,
@@ -53,7 +53,7 @@ fn spawn(plan: &Plan, tag: &str, extra: &[Vec<String>]) -> Fleet {
     .unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn records(mocks: Fleet) -> Vec<Vec<Value>> {
+fn records(mocks: MockArms) -> Vec<Vec<Value>> {
     let records = mocks.finish().unwrap_or_else(|e| panic!("{e}"));
     records.into_iter().map(|(_, r)| r).collect()
 }
@@ -62,7 +62,7 @@ fn records(mocks: Fleet) -> Vec<Vec<Value>> {
 fn three_gen3s_take_every_command_as_planned_and_no_log_shows_the_password() {
     let _one = serial();
     let plan = three_arm_plan(8);
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let log = record_path("ok", "log");
     let cfg = ExecConfig {
         log_path: Some(log.clone()),
@@ -107,7 +107,7 @@ fn fault_run(tag: &str, flags: &[&str]) -> (FaultReport, Vec<mock_gen3::Stop>) {
     ];
     let mocks = spawn(&plan, tag, &extra);
     let conns = mocks.ports().unwrap();
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let err = Executor::new(plan, limits, conns, cfg)
         .unwrap()
         .run(&AcceptAll)
@@ -402,7 +402,7 @@ fn no_refresh_reaches_the_arm_after_the_mode_change_in_20_runs_with_udp_delayed_
             flags.push("--fault-at=20".into());
         }
         let arms = vec![(one_arm.arms[0].name.clone(), one_arm.arms[0].joint_path[0])];
-        let mocks = Fleet::spawn(
+        let mocks = MockArms::spawn(
             MockKind::Kortex,
             &python,
             cfg.period,
@@ -412,7 +412,7 @@ fn no_refresh_reaches_the_arm_after_the_mode_change_in_20_runs_with_udp_delayed_
         )
         .unwrap_or_else(|e| panic!("{e}"));
         let ports = mocks.ports().unwrap();
-        let limits = omcbsa_hw::testing::fleet_limits(1);
+        let limits = omcbsa_mock::testing::fleet_limits(1);
         let result = Executor::new(one_arm.clone(), limits, ports, cfg.clone())
             .unwrap()
             .run(&AcceptAll);

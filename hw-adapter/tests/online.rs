@@ -9,9 +9,9 @@ mod common;
 
 use common::*;
 use omcbsa_hw::interpolate::min_time_scale;
-use omcbsa_hw::record::check_followed;
 use omcbsa_hw::Command;
 use omcbsa_hw::{Event, Executor, PushError, StreamHandle, JOINTS};
+use omcbsa_mock::record::check_followed;
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -25,7 +25,7 @@ type Path = Vec<[f64; JOINTS]>;
 struct Online {
     _one_at_a_time: MutexGuard<'static, ()>,
     handle: StreamHandle,
-    mocks: Vec<omcbsa_hw::mock::MockArm>,
+    mocks: Vec<omcbsa_mock::mock::MockArm>,
     starts: Vec<[f64; JOINTS]>,
     time_scale: f64,
     pushed: Vec<Pushed>,
@@ -47,7 +47,7 @@ fn start(tag: &str) -> (Online, Vec<Path>) {
         arms,
         DT,
         time_scale,
-        &omcbsa_hw::testing::fleet_limits(starts.len()),
+        &omcbsa_mock::testing::fleet_limits(starts.len()),
         mock_config(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
@@ -110,7 +110,7 @@ impl Online {
         let cfg = mock_config();
         let report = self.handle.finish().unwrap_or_else(|e| panic!("{e}"));
         println!("{report}");
-        let limits = omcbsa_hw::testing::arm_limits();
+        let limits = omcbsa_mock::testing::arm_limits();
         let period = cfg.period.as_secs_f64();
         let fleet = vec![limits; self.starts.len()];
         let step_time = DT * self.time_scale;
@@ -148,7 +148,7 @@ fn continuation(from: &[[f64; JOINTS]], n: usize, amplitude: f64) -> Vec<Path> {
 fn scale(paths: &[Path]) -> f64 {
     1.5 * min_time_scale(
         paths.iter().map(|p| p.as_slice()),
-        &omcbsa_hw::testing::fleet_limits(paths.len()),
+        &omcbsa_mock::testing::fleet_limits(paths.len()),
         DT,
     )
 }

@@ -1,10 +1,10 @@
-//! Online execution on simulated CAN arms at the default rate (`omcbsa_hw::sim`, in-process):
+//! Online execution on simulated CAN arms at the default rate (`omcbsa_mock::sim`, in-process):
 //! what the stream says about each arm while it moves and holds, and stopping every arm at
 //! once, on request or by dropping the handle.
 
 use omcbsa_hw::interpolate::min_time_scale;
-use omcbsa_hw::sim::can::{CanSim, CanSimOptions};
 use omcbsa_hw::{ArmState, Event, ExecConfig, Executor, StreamHandle, StreamProgress, JOINTS};
+use omcbsa_mock::sim::can::{CanSim, CanSimOptions};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -33,7 +33,7 @@ fn slices(w: &[Vec<[f64; JOINTS]>]) -> Vec<&[[f64; JOINTS]]> {
 }
 
 fn start() -> (StreamHandle, Vec<CanSim>, f64) {
-    let limits = omcbsa_hw::testing::fleet_limits(STARTS.len());
+    let limits = omcbsa_mock::testing::fleet_limits(STARTS.len());
     let probe = chunk(&STARTS, 10);
     let scale = 1.5 * min_time_scale(probe.iter().map(|p| p.as_slice()), &limits, DT);
     let (sims, arms): (Vec<CanSim>, Vec<_>) = (STARTS.iter().enumerate())

@@ -32,7 +32,7 @@ fn refused(tag: &str, change: SetupOverride) -> (String, Vec<(String, Vec<Value>
             (name, port)
         })
         .collect();
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let exec = Executor::new(plan, limits, ports, mock_config()).unwrap();
     let e = exec.run(&AcceptAll).unwrap_err();
     let text = e.to_string();

@@ -1,13 +1,13 @@
 //! The watchdog's bound at the default rates (4 ms CAN, 1 ms Kortex) with the command line's
-//! default watchdog: three simulated arms (`omcbsa_hw::sim`, in-process, frame level), one
+//! default watchdog: three simulated arms (`omcbsa_mock::sim`, in-process, frame level), one
 //! injecting a fault; from the fault's first sign on the faulty arm to every arm's stop at
 //! most 3 periods, measured on the arms' own clocks; no motion command after a stop; answers
 //! late by less than the accounting's m = 2 periods are no fault (unless the loop's own jitter
-//! adds the rest). `cargo run --release -p omcbsa-hw --example fault_matrix` measures the same
+//! adds the rest). `cargo run --release -p omcbsa-mock --example fault_matrix` measures the same
 //! runs many times over.
 
-use omcbsa_hw::sim::matrix::{self, Link, MatrixFault, FAULTY_ARM};
 use omcbsa_hw::{CycleFault, ExecConfig, Fault, STOP_BOUND_PERIODS};
+use omcbsa_mock::sim::matrix::{self, Link, MatrixFault, FAULTY_ARM};
 use std::sync::Mutex;
 
 /// One run at a time: the bound is about time, and runs side by side share two cores.

@@ -18,6 +18,7 @@ use omcbsa_hw::cell::CellEnd;
 use omcbsa_hw::kortex::Credentials;
 use omcbsa_hw::port::ArmUrl;
 use omcbsa_hw::{ArmState, Event, ExecConfig, FaultReport, WatchSettings};
+use omcbsa_mock::connect::ArmOrMockUrl;
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -90,7 +91,10 @@ fn exit_on_sigterm(py: Python<'_>) -> PyResult<()> {
     }
     let signal = py.import("signal")?;
     let term = signal.getattr("SIGTERM")?;
-    if signal.call_method1("getsignal", (&term,))?.is(&signal.getattr("SIG_DFL")?) {
+    if signal
+        .call_method1("getsignal", (&term,))?
+        .is(&signal.getattr("SIG_DFL")?)
+    {
         let handler = wrap_pyfunction!(sigterm_exit, py)?;
         signal.call_method1("signal", (term, handler))?;
     }
@@ -392,14 +396,16 @@ impl Cell {
         exit_on_sigterm(py)?;
         let mut urls = Vec::with_capacity(arms.len());
         for (name, url) in &arms {
-            let parsed =
-                ArmUrl::parse(url).map_err(|e| field_error(py, format!("arms[{name:?}]"), e))?;
+            let parsed = ArmOrMockUrl::parse(url)
+                .map_err(|e| field_error(py, format!("arms[{name:?}]"), e))?;
             urls.push((name.clone(), parsed));
         }
         // In the Embodier's order, for stable messages.
         let names = embodier.bind(py).borrow().inner.robot_names().to_vec();
         urls.sort_by_key(|(n, _)| names.iter().position(|m| m == n).unwrap_or(usize::MAX));
-        let kortex = urls.iter().any(|(_, u)| matches!(u, ArmUrl::Kortex(_)));
+        let kortex = urls
+            .iter()
+            .any(|(_, u)| matches!(u, ArmOrMockUrl::Arm(ArmUrl::Kortex(_))));
         let options = live_options(py, &o, kortex)?;
         let mut e = embodier.bind(py).try_borrow_mut()?;
         e.check_free()?;

@@ -7,9 +7,9 @@ use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::online::policy::RETRACT;
 use omcbsa::plan::plan_file;
-use omcbsa_hw::fleet::MockKind;
-use omcbsa_hw::mock::{exec_config, script_path, venv_python, MockArm, MockArmOptions};
 use omcbsa_hw::{Executor, Transport};
+use omcbsa_mock::arms::MockKind;
+use omcbsa_mock::mock::{exec_config, script_path, venv_python, MockArm, MockArmOptions};
 
 #[test]
 fn a_plan_from_initial_runs_on_arms_at_initial_and_is_refused_0_2_rad_away() {

@@ -2,7 +2,7 @@
 //! by the host validator, streamed over SLCAN pseudo-terminals to three Python mock Gen3 arms
 //! (hw-adapter/mock/mock_arm.py; run `bash hw-adapter/mock/setup_venv.sh` first). Every mock
 //! must have received exactly the interpolated plan (within 1e-6 rad) and no command beyond a
-//! joint limit (`omcbsa_hw::record::check_followed`, run by `run_on_mock_arms`); and the plan's
+//! joint limit (`omcbsa_mock::record::check_followed`, run by `run_on_mock_arms`); and the plan's
 //! own first and last waypoints are what the arms were sent first and last.
 
 use omcbsa::demo::{box_flip, run_on_mock_arms_watched, ROBOTS};
@@ -10,10 +10,10 @@ use omcbsa::execute::CheckedSolution;
 use omcbsa::format::Status;
 use omcbsa::plan::plan_file;
 use omcbsa_hw::cia402::{counts_to_rad, CW_ENABLE_OPERATION};
-use omcbsa_hw::fleet::MockKind;
-use omcbsa_hw::mock::{exec_config, venv_python};
-use omcbsa_hw::record::{self, TOLERANCE};
 use omcbsa_hw::{Plan, Report, JOINTS};
+use omcbsa_mock::arms::MockKind;
+use omcbsa_mock::mock::{exec_config, venv_python};
+use omcbsa_mock::record::{self, TOLERANCE};
 
 /// One set of mocks at a time: two sets of three Python mocks beside two planners starve the
 /// mocks on a 2-core machine, and a starved mock's late answers rightly stop the run.
@@ -108,13 +108,13 @@ fn planned_three_arm_solution_streams_to_three_mock_arms() {
 
 /// The same demo on three mock Gen3s on Kortex (hw-adapter/mock/mock_gen3.py, loopback TCP and
 /// UDP): every command as planned within 1e-6 rad (degrees on the wire) and none past a limit
-/// (`omcbsa_hw::mock_gen3::check_followed`, run by `run_on_mock_arms`), the plan's first and last
+/// (`omcbsa_mock::mock_gen3::check_followed`, run by `run_on_mock_arms`), the plan's first and last
 /// waypoints sent first and last.
 #[test]
 fn planned_three_arm_solution_streams_to_three_mock_gen3s_on_kortex() {
     let _one = streaming();
     let (plan, dir, report) = stream_demo(MockKind::Kortex, "kortex");
-    let settle = omcbsa_hw::mock::exec_config().settle_cycles;
+    let settle = omcbsa_mock::mock::exec_config().settle_cycles;
     for (arm, streamed) in plan.arms.iter().zip(&report.arms) {
         assert_eq!(streamed.cycles_sent, report.cycles + settle);
         let received = record::read(&dir.join(format!("mock-{}.jsonl", arm.name))).unwrap();

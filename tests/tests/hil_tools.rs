@@ -20,8 +20,8 @@ use omcbsa_core::model::{Frame, KinovaGen3, Model};
 use omcbsa_core::nalgebra::{Matrix3, Vector3};
 use omcbsa_core::rng::Rng;
 use omcbsa_core::tool::Tool;
-use omcbsa_hw::fleet::MockKind;
-use omcbsa_hw::mock::venv_python;
+use omcbsa_mock::arms::MockKind;
+use omcbsa_mock::mock::venv_python;
 use omcbsa_tests::{frame, problem_json, robot_json, smooth_path, trajectory_json};
 
 type Q = [f64; DOF];

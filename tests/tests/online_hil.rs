@@ -2,14 +2,14 @@
 //! and streamed to three Python mock arms through the executor's online API (run `bash
 //! hw-adapter/mock/setup_venv.sh` first). `run_on_mock_arms` checks that every mock received
 //! exactly the replayed stream of the pushes (within 1e-6 rad) and nothing beyond a joint's
-//! position, velocity or acceleration limit (`omcbsa_hw::record::check_followed`), and
+//! position, velocity or acceleration limit (`omcbsa_mock::record::check_followed`), and
 //! validates the whole sent timeline (approach and chunks: limits, velocity, collisions,
 //! tracking of the poses each step was planned for).
 
 use omcbsa::online::run::{run_on_mock_arms, RunScript};
 use omcbsa::online::OnlineError;
-use omcbsa_hw::mock::venv_python;
 use omcbsa_hw::Event;
+use omcbsa_mock::mock::venv_python;
 use std::sync::{Mutex, MutexGuard};
 
 /// Three mocks per test: the tests of this file run one at a time (six Python mocks at the

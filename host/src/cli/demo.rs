@@ -10,9 +10,9 @@ use omcbsa::format::Status;
 use omcbsa::plan::{plan_file, InputOrPlanError};
 use omcbsa::planners::PlannerKind;
 use omcbsa::view::write_html;
-use omcbsa_hw::fleet::MockKind;
-use omcbsa_hw::mock::ensure_venv;
-use omcbsa_hw::record::TOLERANCE;
+use omcbsa_mock::arms::MockKind;
+use omcbsa_mock::mock::ensure_venv;
+use omcbsa_mock::record::TOLERANCE;
 use serde::Serialize;
 
 use super::execute::{failure, progress_printer};

@@ -19,6 +19,7 @@ use omcbsa::online::{Embodier, OnlineError, OnlineOptions, Setup};
 use omcbsa::planners::PlannerKind;
 use omcbsa_hw::port::ArmUrl;
 use omcbsa_hw::{Event, ExecConfig};
+use omcbsa_mock::connect::ArmOrMockUrl;
 
 use super::execute::{parse_priority, KortexArgs, RtPriority, RATE_RANGE};
 use super::watch::WatchArgs;
@@ -40,7 +41,7 @@ pub struct LiveArgs {
     /// slcan:///dev/ttyX (CiA 402 drives), or mock-kortex / mock-can (the project's mock arms,
     /// started for the run; flags as a query, mock-can?emcy-at-sync=60). Once per robot.
     #[arg(long = "arm", value_name = "NAME=URL", value_parser = parse_arm)]
-    arms: Vec<(String, ArmUrl)>,
+    arms: Vec<(String, ArmOrMockUrl)>,
     /// The policy's hand chunks: `-` reads JSON lines from stdin and plans each as it comes
     /// ({"start_step": S, "hands": [[{"position": [x,y,z], "quat_xyzw": [x,y,z,w]}, ...],
     /// ...]}); a .jsonl file of such lines is replayed at the policy's rate as the arms keep
@@ -105,10 +106,10 @@ impl LiveArgs {
     }
 }
 
-fn parse_arm(s: &str) -> Result<(String, ArmUrl), String> {
+fn parse_arm(s: &str) -> Result<(String, ArmOrMockUrl), String> {
     match s.split_once('=') {
         Some((name, url)) if !name.is_empty() && !url.is_empty() => {
-            Ok((name.to_string(), ArmUrl::parse(url)?))
+            Ok((name.to_string(), ArmOrMockUrl::parse(url)?))
         }
         _ => Err(format!(
             "expected NAME=URL (e.g. left=kortex://192.168.1.10 or right=mock-can), got {s:?}"
@@ -317,7 +318,7 @@ fn live(args: &LiveArgs, planner: PlannerKind, watch: &WatchArgs) -> Result<Exit
     };
     let mut embodier =
         Embodier::new(&setup, options).map_err(|e| bad_input(format!("--setup: {e}")))?;
-    let kortex = (args.arms.iter()).any(|(_, u)| matches!(u, ArmUrl::Kortex(_)));
+    let kortex = (args.arms.iter()).any(|(_, u)| matches!(u, ArmOrMockUrl::Arm(ArmUrl::Kortex(_))));
     let credentials = args.kortex.credentials(kortex).map_err(bad_input)?;
     let options = LiveOptions {
         time_scale: args.time_scale,

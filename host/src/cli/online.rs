@@ -10,8 +10,8 @@ use std::process::ExitCode;
 use omcbsa::online::run::{run_on_mock_arms, RunOutcome, RunScript};
 use omcbsa::planners::{self, PlannerKind};
 use omcbsa::view::write_html;
-use omcbsa_hw::mock::ensure_venv;
 use omcbsa_hw::Event;
+use omcbsa_mock::mock::ensure_venv;
 
 use super::demo::TransportArg;
 use super::live::{self, LiveArgs};

@@ -23,9 +23,10 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use omcbsa_hw::cell::{Cell, CellArm, CellEnd, CellError, CellOptions, CellStatus};
+use omcbsa_hw::connect::RealArms;
 use omcbsa_hw::kortex::Credentials;
-use omcbsa_hw::port::ArmUrl;
 use omcbsa_hw::{ExecConfig, ExecError, FaultReport, PushError};
+use omcbsa_mock::connect::{ArmOrMockUrl, MockConnector};
 
 use super::check::check_segment;
 use crate::error::quoted;
@@ -106,10 +107,11 @@ impl From<CellError> for LiveError {
     fn from(e: CellError) -> Self {
         match e {
             CellError::Setup(s) => LiveError::Setup(s),
+            e @ CellError::Connect { .. } => LiveError::Setup(e.to_string()),
             CellError::Start(e) => LiveError::Start(e),
             CellError::Push(e) => LiveError::Refused(e),
             CellError::Fault(r) => LiveError::Fault(r),
-            e @ CellError::Ended(_) => LiveError::Ended(e.to_string()),
+            e @ (CellError::Ended(_) | CellError::Record { .. }) => LiveError::Ended(e.to_string()),
         }
     }
 }
@@ -182,7 +184,7 @@ impl LiveCell {
     /// there. Nothing moves until the first push.
     pub fn start(
         embodier: &Embodier,
-        arms: &[(String, ArmUrl)],
+        arms: &[(String, ArmOrMockUrl)],
         options: LiveOptions,
     ) -> Result<LiveCell, LiveError> {
         let setup = embodier.setup();
@@ -247,19 +249,21 @@ impl LiveCell {
             })
             .collect::<Result<Vec<_>, String>>()
             .map_err(LiveError::Setup)?;
-        let mut cell_options = CellOptions::new(setup.dt, &cell_arms);
+        let records = (options.records.clone()).unwrap_or_else(|| {
+            std::env::temp_dir().join(format!("omcbsa-live-{}-{}", std::process::id(), unique()))
+        });
+        let real = RealArms {
+            credentials: options.credentials,
+        };
+        let connector = MockConnector::new(real, Some(records.clone()));
+        let mut cell_options = CellOptions::new(setup.dt, &cell_arms, &connector);
         let period = options.period.unwrap_or(cell_options.config.period);
         cell_options.time_scale = scale;
         cell_options.config = ExecConfig {
             period,
             ..options.config
         };
-        cell_options.credentials = options.credentials;
-        let records = (options.records.clone()).unwrap_or_else(|| {
-            std::env::temp_dir().join(format!("omcbsa-live-{}-{}", std::process::id(), unique()))
-        });
-        cell_options.records = Some(records.clone());
-        let cell = Cell::start(cell_arms, cell_options)?;
+        let cell = Cell::start(cell_arms, cell_options, &connector)?;
         Ok(LiveCell {
             cell,
             names,

@@ -6,11 +6,11 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use omcbsa_hw::fleet::{Fleet, MockKind};
 use omcbsa_hw::interpolate::min_time_scale;
-use omcbsa_hw::mock::exec_config;
 use omcbsa_hw::stream::Generator;
 use omcbsa_hw::{ArmLimits, Event, Executor, Report, StreamHandle, WatchSettings, JOINTS};
+use omcbsa_mock::arms::{MockArms, MockKind};
+use omcbsa_mock::mock::exec_config;
 
 use super::policy::{BoxFlipPolicy, Chunk};
 use super::record::RunRecord;
@@ -130,7 +130,7 @@ pub fn run_on_mock_arms(
     // when dropped in any case).
     let long = vec![vec!["--max-seconds=600".to_string()]; n];
     let kind = script.transport;
-    let mocks = Fleet::spawn(kind, python, config.period, &starts, record_of, &long)?;
+    let mocks = MockArms::spawn(kind, python, config.period, &starts, record_of, &long)?;
     let arms = (mocks.ports()?.into_iter())
         .zip(initial.iter().copied())
         .map(|((name, port), q)| (name, q, port))

@@ -55,7 +55,7 @@ fn value(v: &Value, prev: f64) -> f64 {
 }
 
 fuzz_target!(|input: Input| {
-    let limits = omcbsa_hw::testing::arm_limits();
+    let limits = omcbsa_mock::testing::arm_limits();
     let arms = usize::from(input.arms % 3) + 1;
     let starts: Vec<[f64; JOINTS]> = (0..arms)
         .map(|a| match input.starts.get(a) {

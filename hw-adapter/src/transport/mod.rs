@@ -1,8 +1,7 @@
 //! CAN frame transports: one bus per arm. Implementations: SLCAN over a serial line or
-//! pseudo-terminal, Linux SocketCAN (feature `socketcan`), and an in-process bus with a bitrate
-//! (`mock`: frames take their time on the wire, arbitrated by identifier).
+//! pseudo-terminal, and Linux SocketCAN (feature `socketcan`); the in-process bus of the
+//! simulated arms is `omcbsa_mock::transport`.
 
-pub mod mock;
 pub mod slcan;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;

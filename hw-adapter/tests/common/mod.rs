@@ -1,17 +1,17 @@
 //! Helpers of the hardware-in-the-loop tests: a synthetic 3-arm plan, and the library's mock
-//! arms and records (`omcbsa_hw::mock`, `omcbsa_hw::record`) with failures as panics.
+//! arms and records (`omcbsa_mock::mock`, `omcbsa_mock::record`) with failures as panics.
 
 #![allow(dead_code)] // each test file uses a different subset
 
 #[allow(unused_imports)] // used by some test files only
-pub use omcbsa_hw::mock::exec_config as mock_config;
+pub use omcbsa_mock::mock::exec_config as mock_config;
 #[allow(unused_imports)] // used by some test files only
-pub use omcbsa_hw::record::kinds;
+pub use omcbsa_mock::record::kinds;
 
-use omcbsa_hw::mock::{spawn_for_plan, venv_python, MockArm};
 use omcbsa_hw::plan::{ArmLimits, ArmPlan, Plan, PlanValidator};
 use omcbsa_hw::stream::Generator;
 use omcbsa_hw::{Command, Transport, JOINTS};
+use omcbsa_mock::mock::{spawn_for_plan, venv_python, MockArm};
 
 pub const ARMS: [&str; 3] = ["left", "right", "middle"];
 
@@ -58,7 +58,7 @@ pub fn spawn_arms(plan: &Plan, tag: &str, extra: &[Vec<String>]) -> Vec<MockArm>
 }
 
 pub fn open_buses(mocks: &[MockArm]) -> Vec<(String, Box<dyn Transport>)> {
-    omcbsa_hw::mock::open_buses(mocks).unwrap_or_else(|e| panic!("{e}"))
+    omcbsa_mock::mock::open_buses(mocks).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The record of a mock, once it has exited.

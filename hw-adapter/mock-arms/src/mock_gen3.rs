@@ -4,22 +4,20 @@
 //! the command line's fault detection at a 10 ms period): the commands it took, checked against the streamed trajectory, and
 //! how soon every arm was stopped after a fault's first sign.
 
-use crate::kortex::{self, Connection, Credentials, KortexSpec};
-use crate::plan::check_commands;
-use crate::plan::{JointLimits, JOINTS};
 use crate::record::{self, TOLERANCE};
-use crate::run::Command;
+use omcbsa_hw::kortex::{self, Connection, Credentials, KortexSpec};
+use omcbsa_hw::plan::check_commands;
+use omcbsa_hw::plan::{JointLimits, JOINTS};
+use omcbsa_hw::run::Command;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Process, Stdio};
 use std::time::Duration;
 
-/// The mock script in this crate's source tree.
+/// The mock script, `hw-adapter/mock/mock_gen3.py`.
 pub fn script_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("mock")
-        .join("mock_gen3.py")
+    crate::mock::mock_dir().join("mock_gen3.py")
 }
 
 /// The mocks' user and password (the password is one no log may show).
@@ -185,7 +183,7 @@ pub fn check_followed(
         let planned = cmds.get(k).unwrap_or(last);
         let deg = degrees(e)?;
         for j in 0..JOINTS {
-            let want_rad = crate::cia402::counts_to_rad(planned[j]);
+            let want_rad = omcbsa_hw::cia402::counts_to_rad(planned[j]);
             let rad = kortex::arm::from_wire(deg[j] as f32, want_rad);
             if (rad - want_rad).abs() > TOLERANCE {
                 return Err(format!(

@@ -3,16 +3,16 @@
 //! `--seconds` s streamed at `--rate` Hz, and the period between consecutive Refresh commands
 //! of each arm, from the executor's command log (its send times): p50, p99 and the largest.
 //!
-//! cargo run --release -p omcbsa-hw --example kortex_loop_period -- [--seconds 10] [--rate 1000]
+//! cargo run --release -p omcbsa-mock --example kortex_loop_period -- [--seconds 10] [--rate 1000]
 //!     [--rt-priority 50|off] [--missed-cycles 2]
 
 mod common;
 
 use common::{arg, percentile};
-use omcbsa_hw::fleet::{Fleet, MockKind};
-use omcbsa_hw::mock::{exec_config, venv_python};
 use omcbsa_hw::plan::{ArmPlan, Plan, PlanValidator};
 use omcbsa_hw::{ExecConfig, Executor, WatchSettings};
+use omcbsa_mock::arms::{MockArms, MockKind};
+use omcbsa_mock::mock::{exec_config, venv_python};
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -61,7 +61,7 @@ fn main() -> Result<(), String> {
         .collect();
     let period = Duration::from_secs_f64(1.0 / rate);
     // The mocks step once per command of `period`.
-    let mocks = Fleet::spawn(
+    let mocks = MockArms::spawn(
         MockKind::Kortex,
         &python,
         period,
@@ -80,7 +80,7 @@ fn main() -> Result<(), String> {
         },
         ..exec_config()
     };
-    let limits = omcbsa_hw::testing::fleet_limits(plan.arms.len());
+    let limits = omcbsa_mock::testing::fleet_limits(plan.arms.len());
     let report = Executor::new(plan, limits, mocks.ports()?, cfg)
         .map_err(|e| e.to_string())?
         .run(&AcceptAll);

@@ -3,7 +3,7 @@
 //! answer, heartbeats at the default producer time), under the load the executor allows
 //! (`bus::MAX_LOAD`): the markdown tables of docs/HARDWARE.md.
 //!
-//! cargo run -p omcbsa-hw --example bus_load
+//! cargo run -p omcbsa-mock --example bus_load
 
 use omcbsa_hw::bus::{self, ArmTraffic, MAX_LOAD, PERIODS};
 use omcbsa_hw::WatchSettings;

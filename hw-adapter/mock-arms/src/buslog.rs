@@ -3,10 +3,10 @@
 //! `T` from the drives. From them, the fault reaction: when a fault became visible on the bus,
 //! and when each arm's quick stop reached its drives.
 
-use crate::canopen::{self, Message, NMT_STATE_OPERATIONAL, SYNC_ID};
-use crate::cia402;
-use crate::frame::CanFrame;
-use crate::run::{Fault, WatchSettings, JOINTS};
+use omcbsa_hw::canopen::{self, Message, NMT_STATE_OPERATIONAL, SYNC_ID};
+use omcbsa_hw::cia402;
+use omcbsa_hw::frame::CanFrame;
+use omcbsa_hw::run::{Fault, WatchSettings, JOINTS};
 use std::collections::VecDeque;
 use std::path::Path;
 
@@ -408,7 +408,7 @@ mod tests {
         };
         assert_eq!(sign(fe), at(1.4));
         // SYNC 1.2 answered in time (1.3); 1.45 answered only after 1.55 was sent; 1.55 never
-        let cycle = crate::watchdog::CycleFault::Missing {
+        let cycle = omcbsa_hw::watchdog::CycleFault::Missing {
             source: 2,
             cycle: 1,
             next: 3,

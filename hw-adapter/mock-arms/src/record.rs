@@ -2,9 +2,9 @@
 //! it is exactly the streamed trajectory: the hardware-in-the-loop tests and `omcbsa demo` use
 //! it to confirm what the arms were actually sent.
 
-use crate::cia402::{counts_to_rad, CW_DISABLE_OPERATION, CW_ENABLE_OPERATION};
-use crate::plan::{check_commands, JointLimits};
-use crate::run::{Command, JOINTS};
+use omcbsa_hw::cia402::{counts_to_rad, CW_DISABLE_OPERATION, CW_ENABLE_OPERATION};
+use omcbsa_hw::plan::{check_commands, JointLimits};
+use omcbsa_hw::run::{Command, JOINTS};
 use serde_json::Value;
 use std::path::Path;
 

@@ -1,12 +1,12 @@
 //! Seven simulated CiA 402 drives (nodes 1 to 7) on the far end of an in-process CAN bus
-//! ([`crate::transport::mock::MockTransport`]), answering from their own thread: SDO reads and
+//! ([`crate::transport::MockTransport`]), answering from their own thread: SDO reads and
 //! writes (with the objects the executor's set-up reads back), NMT, the CiA 402 state machine,
 //! heartbeats at the producer time written to 0x1017, and a TPDO1 per node on every SYNC while
 //! operational. Each joint follows its target with a first-order lag in time
 //! ([`CanSimOptions::tau`]).
 //!
 //! ```
-//! use omcbsa_hw::sim::can::{CanSim, CanSimOptions};
+//! use omcbsa_mock::sim::can::{CanSim, CanSimOptions};
 //! use omcbsa_hw::{canopen, CanFrame, Transport, JOINTS};
 //! use std::time::Duration;
 //!
@@ -22,12 +22,12 @@
 //! ```
 
 use super::{Answers, Joints, SimRecord};
-use crate::canopen;
-use crate::cia402::{self, counts_to_rad, rad_to_counts};
-use crate::frame::CanFrame;
-use crate::run::{Command, JOINTS};
-use crate::transport::mock::MockTransport;
-use crate::transport::Transport;
+use crate::transport::MockTransport;
+use omcbsa_hw::canopen;
+use omcbsa_hw::cia402::{self, counts_to_rad, rad_to_counts};
+use omcbsa_hw::frame::CanFrame;
+use omcbsa_hw::run::{Command, JOINTS};
+use omcbsa_hw::transport::Transport;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -106,7 +106,7 @@ pub struct CanSim {
 impl CanSim {
     /// Starts the drives on a new in-process bus (1 Mbit/s, named `mock:simN`, N counting the
     /// buses made); returns them and the bus's host end (hand it to the executor:
-    /// `Box<dyn Transport>` is an [`crate::ArmPort`]).
+    /// `Box<dyn Transport>` is an [`omcbsa_hw::ArmPort`]).
     pub fn spawn(opts: CanSimOptions) -> (Self, Box<dyn Transport>) {
         // Each arm on a bus of its own, named apart (the load check counts arms whose buses
         // have one name as sharing it).
@@ -506,7 +506,7 @@ fn node_id(j: usize) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::canopen::{Message, SdoReply, SdoValue};
+    use omcbsa_hw::canopen::{Message, SdoReply, SdoValue};
 
     /// What the executor's SDO client decodes an answer as.
     fn decode_reply(f: &CanFrame) -> Option<SdoReply> {

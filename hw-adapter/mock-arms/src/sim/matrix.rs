@@ -7,10 +7,10 @@
 use super::can::{self, CanSim, CanSimOptions};
 use super::kortex::{self, KortexSim, KortexSimOptions};
 use super::SimRecord;
-use crate::plan::{ArmPlan, Plan, PlanValidator};
-use crate::port::ArmPort;
-use crate::run::{CycleFault, ExecConfig, ExecError, Fault, FaultReport, Report, JOINTS};
-use crate::Executor;
+use omcbsa_hw::plan::{ArmPlan, Plan, PlanValidator};
+use omcbsa_hw::port::ArmPort;
+use omcbsa_hw::run::{CycleFault, ExecConfig, ExecError, Fault, FaultReport, Report, JOINTS};
+use omcbsa_hw::Executor;
 use std::time::Duration;
 
 /// The arms of a matrix run; the fault is injected on [`FAULTY_ARM`].
@@ -24,7 +24,7 @@ pub const FAULT_AT: u64 = 40;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Link {
     /// CiA 402 drives on CAN, one 1 Mbit/s in-process bus per arm, at
-    /// [`crate::bus::CAN_PERIOD`] (4 ms).
+    /// [`omcbsa_hw::bus::CAN_PERIOD`] (4 ms).
     Can,
     /// A Gen3 on Kortex, at 1 ms.
     Kortex,
@@ -34,7 +34,7 @@ impl Link {
     /// The transport's default control period (the command line's).
     pub fn period(self) -> Duration {
         match self {
-            Link::Can => crate::bus::CAN_PERIOD,
+            Link::Can => omcbsa_hw::bus::CAN_PERIOD,
             Link::Kortex => Duration::from_millis(1),
         }
     }
@@ -92,7 +92,7 @@ impl MatrixFault {
     }
 
     /// Whether the watchdog must stop the run for it. Answers late by less than
-    /// [`crate::WatchSettings::missed_cycles`] periods are within its bound by design, so a
+    /// [`omcbsa_hw::WatchSettings::missed_cycles`] periods are within its bound by design, so a
     /// run with them may complete; it stops when the loop's own jitter takes one of them past
     /// the bound (the stop's bound then holds from that answer's cycle).
     pub fn is_fault(self, cfg: &ExecConfig) -> bool {

@@ -3,19 +3,19 @@
 //!
 //! The wire is modelled arithmetically, without a thread of its own: a frame sent takes the
 //! bus when the bus is idle and this end's earlier frames are gone, for its bits
-//! ([`crate::bus::frame_bits`]) at the bitrate, and the other end receives it no earlier than
+//! ([`omcbsa_hw::bus::frame_bits`]) at the bitrate, and the other end receives it no earlier than
 //! when its last bit (and the interframe space) has passed. When the bus goes idle with frames
 //! waiting at both ends, the lower identifier wins (CAN's arbitration); each end sends its own
 //! frames in order (one transmit queue, as a SocketCAN interface's). The schedule is worked
 //! out when an end looks at the bus (sends or receives), from the instants the frames were
 //! queued at, so a receiver woken late (a thread's wakeup costs 50-200 µs on a small machine)
 //! gets every frame whose instant has passed, at once, and the bus's timing does not drift
-//! with the machine's. Costs, per frame: its bits counted ([`crate::bus::frame_bits`]) when it
+//! with the machine's. Costs, per frame: its bits counted ([`omcbsa_hw::bus::frame_bits`]) when it
 //! takes the wire and while a receiver waits for it, under the bus's one lock.
 
-use super::{ArmBuses, Transport, TransportError};
-use crate::bus::{frame_bits, wire_time, DEFAULT_BITRATE};
-use crate::frame::CanFrame;
+use omcbsa_hw::bus::{frame_bits, wire_time, DEFAULT_BITRATE};
+use omcbsa_hw::frame::CanFrame;
+use omcbsa_hw::transport::{ArmBuses, Transport, TransportError};
 use std::collections::VecDeque;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -125,7 +125,7 @@ struct Shared {
 /// already sent, then its sends and receives are [`TransportError::Closed`].
 ///
 /// ```
-/// use omcbsa_hw::transport::mock::MockTransport;
+/// use omcbsa_mock::transport::MockTransport;
 /// use omcbsa_hw::{CanFrame, Transport, TransportError};
 /// use std::time::{Duration, Instant};
 ///
@@ -310,7 +310,7 @@ impl Transport for MockTransport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus::worst_case_bits;
+    use omcbsa_hw::bus::worst_case_bits;
 
     /// 10 kbit/s: a frame takes milliseconds, far above a thread's wakeup.
     const SLOW: Wire = Wire {

@@ -4,10 +4,10 @@
 
 use crate::mock::{self, MockArm, MockArmOptions};
 use crate::mock_gen3::{self, MockGen3};
-use crate::plan::JointLimits;
-use crate::port::{ArmPort, ArmPorts};
 use crate::record;
-use crate::run::{Command, JOINTS};
+use omcbsa_hw::plan::JointLimits;
+use omcbsa_hw::port::{ArmPort, ArmPorts};
+use omcbsa_hw::run::{Command, JOINTS};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -27,7 +27,7 @@ impl MockKind {
         Ok(match self {
             MockKind::Can => record::targets(record)?[0]
                 .iter()
-                .filter(|t| t.controlword == crate::cia402::CW_ENABLE_OPERATION)
+                .filter(|t| t.controlword == omcbsa_hw::cia402::CW_ENABLE_OPERATION)
                 .count(),
             // Every Refresh after the seed.
             MockKind::Kortex => (record.iter())
@@ -57,14 +57,14 @@ impl MockKind {
 }
 
 /// Running mock arms, one per arm; killed when dropped.
-pub enum Fleet {
+pub enum MockArms {
     /// CAN mocks.
     Can(Vec<MockArm>),
     /// Kortex mocks.
     Kortex(Vec<MockGen3>),
 }
 
-impl Fleet {
+impl MockArms {
     /// Starts one mock per `(name, start)`, recording to `record(name)` (a CAN mock logs its
     /// bus next to it), mock i with the further flags `extra[i]` (fault injection); a Kortex
     /// mock steps its actuators once per command of `period`.
@@ -85,7 +85,7 @@ impl Fleet {
         let flags = |i: usize| extra.get(i).cloned().unwrap_or_default();
         let each = arms.iter().zip(&paths).enumerate();
         Ok(match kind {
-            MockKind::Can => Fleet::Can(
+            MockKind::Can => MockArms::Can(
                 each.map(|(i, ((name, start), path))| {
                     let opts = MockArmOptions {
                         initial: *start,
@@ -97,7 +97,7 @@ impl Fleet {
                 })
                 .collect::<Result<_, _>>()?,
             ),
-            MockKind::Kortex => Fleet::Kortex(
+            MockKind::Kortex => MockArms::Kortex(
                 each.map(|(i, ((name, start), path))| {
                     MockGen3::spawn(python, name, start, period, path, &flags(i))
                 })
@@ -109,7 +109,7 @@ impl Fleet {
     /// The mocks' buses or connections, in order, with their arm names.
     pub fn ports(&self) -> Result<ArmPorts, String> {
         match self {
-            Fleet::Can(m) => (m.iter())
+            MockArms::Can(m) => (m.iter())
                 .map(|m| {
                     Ok((
                         m.name.clone(),
@@ -117,7 +117,7 @@ impl Fleet {
                     ))
                 })
                 .collect(),
-            Fleet::Kortex(m) => (m.iter())
+            MockArms::Kortex(m) => (m.iter())
                 .map(|m| Ok((m.name.clone(), ArmPort::from(m.connect()?))))
                 .collect(),
         }
@@ -127,10 +127,10 @@ impl Fleet {
     /// their records, in order, with the arms' names.
     pub fn finish(self) -> Result<Vec<(String, Vec<Value>)>, String> {
         match self {
-            Fleet::Can(m) => (m.into_iter())
+            MockArms::Can(m) => (m.into_iter())
                 .map(|m| Ok((m.name.clone(), m.finish()?)))
                 .collect(),
-            Fleet::Kortex(m) => (m.into_iter())
+            MockArms::Kortex(m) => (m.into_iter())
                 .map(|m| Ok((m.name.clone(), m.finish()?)))
                 .collect(),
         }

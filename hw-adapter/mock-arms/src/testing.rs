@@ -3,7 +3,7 @@
 //! model, `omcbsa::execute::joint_limits`). These are the values the host gives a Kinova Gen3
 //! at the cautious speed; a host test checks that they agree.
 
-use crate::plan::{ArmLimits, JointLimits};
+use omcbsa_hw::plan::{ArmLimits, JointLimits};
 
 /// One arm's limits: joints 2, 4, 6 within ±2.24, ±2.57, ±2.09 rad, the others continuous;
 /// 0.8727 rad/s; 1.0 rad/s² for joints 1-4 and 10.0 rad/s² for joints 5-7.

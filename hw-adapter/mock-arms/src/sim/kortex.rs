@@ -5,7 +5,7 @@
 //! lag in time ([`KortexSimOptions::tau`]).
 //!
 //! ```
-//! use omcbsa_hw::sim::kortex::{KortexSim, KortexSimOptions};
+//! use omcbsa_mock::sim::kortex::{KortexSim, KortexSimOptions};
 //! use omcbsa_hw::JOINTS;
 //!
 //! let (sim, connection) = KortexSim::spawn(KortexSimOptions::at([0.0; JOINTS]))?;
@@ -17,13 +17,13 @@
 //! ```
 
 use super::{Answers, Joints, SimRecord};
-use crate::cia402::rad_to_counts;
-use crate::kortex::arm::{from_wire, wire_degrees};
-use crate::kortex::codec::{self, error_frame, Frame, TcpDecoder};
-use crate::kortex::header::{uid, FrameType};
-use crate::kortex::proto::{base, base_cyclic};
-use crate::kortex::{Connection, Credentials, KortexSpec};
-use crate::run::{Command, JOINTS};
+use omcbsa_hw::cia402::rad_to_counts;
+use omcbsa_hw::kortex::arm::{from_wire, wire_degrees};
+use omcbsa_hw::kortex::codec::{self, error_frame, Frame, TcpDecoder};
+use omcbsa_hw::kortex::header::{uid, FrameType};
+use omcbsa_hw::kortex::proto::{base, base_cyclic};
+use omcbsa_hw::kortex::{Connection, Credentials, KortexSpec};
+use omcbsa_hw::run::{Command, JOINTS};
 use prost::Message;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
@@ -100,7 +100,7 @@ pub struct KortexSim {
 
 impl KortexSim {
     /// Starts the arm on free loopback ports; returns it and a connection to it (hand it to
-    /// the executor: a [`crate::kortex::Connection`] is an [`crate::ArmPort`]).
+    /// the executor: a [`omcbsa_hw::kortex::Connection`] is an [`omcbsa_hw::ArmPort`]).
     pub fn spawn(opts: KortexSimOptions) -> Result<(Self, Connection), String> {
         let io = |e: std::io::Error| format!("simulated Gen3: {e}");
         let listener = TcpListener::bind("127.0.0.1:0").map_err(io)?;
@@ -268,7 +268,8 @@ impl Arm {
         let answer = match rpc {
             uid::CREATE_SESSION => {
                 let c = credentials();
-                let info = crate::kortex::proto::CreateSessionInfo::decode(f.payload.as_slice());
+                let info =
+                    omcbsa_hw::kortex::proto::CreateSessionInfo::decode(f.payload.as_slice());
                 if !info.is_ok_and(|i| i.username == c.username && i.password == c.password) {
                     return (
                         refuse(ERROR_PROTOCOL_SERVER, INVALID_PASSWORD, "wrong credentials"),
@@ -465,7 +466,7 @@ fn serve_udp(socket: &UdpSocket, arm: &Mutex<Arm>, stop: &AtomicBool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kortex::channel::Channel;
+    use omcbsa_hw::kortex::channel::Channel;
 
     #[test]
     fn sessions_servoing_and_refusals_as_a_gen3_answers_them() {
@@ -477,7 +478,7 @@ mod tests {
         assert!(e.contains("INVALID_SESSION"), "{e}");
         let e = tcp.call(uid::CREATE_SESSION, &[], t).unwrap_err();
         assert!(e.contains("INVALID_PASSWORD"), "{e}");
-        let login = crate::kortex::proto::CreateSessionInfo {
+        let login = omcbsa_hw::kortex::proto::CreateSessionInfo {
             username: credentials().username,
             password: credentials().password,
             ..Default::default()

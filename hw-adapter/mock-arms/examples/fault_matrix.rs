@@ -1,5 +1,5 @@
 //! The watchdog's fault matrix and the loop's period jitter at the default rates, on simulated
-//! arms (`omcbsa_hw::sim`: in-process, frame level; three arms, the command line's default
+//! arms (`omcbsa_mock::sim`: in-process, frame level; three arms, the command line's default
 //! watchdog):
 //!
 //! - per fault and transport, control periods from the fault's first sign to the last arm's
@@ -9,14 +9,14 @@
 //!   with the arm threads under SCHED_FIFO 50 (the `--rt-priority` default) and without (the
 //!   watchdog relaxed to 1000 missed cycles there, so that a stall does not end the run).
 //!
-//! cargo run --release -p omcbsa-hw --example fault_matrix -- [--runs 10] [--seconds 5]
+//! cargo run --release -p omcbsa-mock --example fault_matrix -- [--runs 10] [--seconds 5]
 //! (`--runs 0`: the jitter alone)
 
 mod common;
 
 use common::{arg, percentile};
-use omcbsa_hw::sim::matrix::{self, Link, MatrixFault};
 use omcbsa_hw::{ExecConfig, Fault};
+use omcbsa_mock::sim::matrix::{self, Link, MatrixFault};
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::time::Duration;

@@ -1,19 +1,19 @@
-//! Jitter is not a fault: three simulated arms (`omcbsa_hw::sim`) of each transport stream a
+//! Jitter is not a fault: three simulated arms (`omcbsa_mock::sim`) of each transport stream a
 //! plan at the transport's default rate with the command line's default watchdog while one arm
 //! answers every cycle one period late from its 40th cycle on (the jitter the watchdog is
 //! stated to tolerate), `--runs` times per transport; prints how many runs completed and each
 //! that was stopped, with its fault. Exit code 1 if any run was stopped.
 //!
-//! cargo run --release -p omcbsa-hw --example jitter_tolerance -- [--runs 100] [--seconds 1]
+//! cargo run --release -p omcbsa-mock --example jitter_tolerance -- [--runs 100] [--seconds 1]
 
 // Each example uses part of what the examples share.
 #[allow(dead_code)]
 mod common;
 
 use common::arg;
-use omcbsa_hw::sim::matrix::{self, Link, MatrixFault};
 use omcbsa_hw::timing;
 use omcbsa_hw::ExecConfig;
+use omcbsa_mock::sim::matrix::{self, Link, MatrixFault};
 
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -2,27 +2,32 @@
 //! tests and `omcbsa demo`. The mock opens a pseudo-terminal, prints `PTY <path>` on its first
 //! line of output, and then plays an SLCAN adapter with seven CiA 402 drives behind it.
 
-use crate::plan::Plan;
 use crate::record;
-use crate::transport::slcan::{self, SlcanTransport};
-use crate::transport::{ArmBuses, Transport, TransportError};
-use crate::ExecConfig;
+use omcbsa_hw::plan::Plan;
+use omcbsa_hw::transport::slcan::{self, SlcanTransport};
+use omcbsa_hw::transport::{ArmBuses, Transport, TransportError};
+use omcbsa_hw::ExecConfig;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// The mock arm script in this crate's source tree.
-pub fn script_path() -> PathBuf {
+/// The folder of the Python mocks, `hw-adapter/mock`, beside this crate's.
+pub fn mock_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
         .join("mock")
-        .join("mock_arm.py")
+}
+
+/// The mock arm script, `hw-adapter/mock/mock_arm.py`.
+pub fn script_path() -> PathBuf {
+    mock_dir().join("mock_arm.py")
 }
 
 /// The venv's python that `hw-adapter/mock/setup_venv.sh` creates at `<repo>/.venv`.
 pub fn venv_python() -> Result<PathBuf, String> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("..");
     let python = root.join(".venv").join("bin").join("python");
     if python.exists() {
         Ok(python)
@@ -69,7 +74,7 @@ pub fn ensure_venv() -> Result<PathBuf, String> {
 #[derive(Clone, Debug)]
 pub struct MockArmOptions {
     /// Joint positions at power-on, rad.
-    pub initial: [f64; crate::JOINTS],
+    pub initial: [f64; omcbsa_hw::JOINTS],
     /// Where the mock writes every command it receives (JSON lines), at exit.
     pub record: Option<PathBuf>,
     /// Where the mock writes every frame on its bus, both directions (candump log).
@@ -79,7 +84,7 @@ pub struct MockArmOptions {
 }
 
 /// Executor settings for the mocks: the command line's defaults (the same fault detection,
-/// [`crate::WatchSettings::default`]) but for the control period, [`MOCK_PERIOD`] (10 ms):
+/// [`omcbsa_hw::WatchSettings::default`]) but for the control period, [`MOCK_PERIOD`] (10 ms):
 /// seven `canopen` nodes per arm in Python cost about 0.5 ms of CPU per cycle, so three mocks
 /// at 500 Hz alone would need most of the machine (real drives have their own processors).
 /// Detection bounds are in periods, so they hold at any period; [`crate::sim`] shows them at

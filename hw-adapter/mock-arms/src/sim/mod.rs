@@ -15,7 +15,7 @@ pub mod can;
 pub mod kortex;
 pub mod matrix;
 
-use crate::run::{Command, JOINTS};
+use omcbsa_hw::run::{Command, JOINTS};
 use std::time::{Duration, Instant};
 
 /// The real-time priority the simulators' threads ask for (below the executor's default, 50,
@@ -151,5 +151,5 @@ impl Answers {
 
 /// Asks for real-time scheduling for the calling simulator thread (best effort).
 fn realtime() {
-    let _ = crate::priority::make_realtime(SIM_PRIORITY);
+    let _ = omcbsa_hw::priority::make_realtime(SIM_PRIORITY);
 }
