@@ -23,21 +23,11 @@ impl PlanValidator for AcceptAll {
     }
 }
 
-fn main() -> Result<(), String> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let seconds: f64 = arg(&args, "--seconds", 10.0)?;
-    let rate: f64 = arg(&args, "--rate", 1000.0)?;
-    let missed: u32 = arg(&args, "--missed-cycles", 2)?;
-    let priority = match arg(&args, "--rt-priority", "50".to_string())?.as_str() {
-        "off" => None,
-        p => Some(
-            p.parse::<u8>()
-                .map_err(|_| format!("--rt-priority: {p:?}"))?,
-        ),
-    };
-    // Waypoints 0.1 s apart over `seconds`, gentle enough to be streamed as planned.
+/// Waypoints 0.1 s apart over `seconds` for three arms, gentle enough to be streamed as
+/// planned.
+fn gentle_plan(seconds: f64) -> Plan {
     let n = (seconds / 0.1).round() as usize + 1;
-    let plan = Plan {
+    Plan {
         dt: 0.1,
         arms: ["left", "right", "middle"]
             .iter()
@@ -52,7 +42,22 @@ fn main() -> Result<(), String> {
                     .collect(),
             })
             .collect(),
+    }
+}
+
+fn main() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let seconds: f64 = arg(&args, "--seconds", 10.0)?;
+    let rate: f64 = arg(&args, "--rate", 1000.0)?;
+    let missed: u32 = arg(&args, "--missed-cycles", 2)?;
+    let priority = match arg(&args, "--rt-priority", "50".to_string())?.as_str() {
+        "off" => None,
+        p => Some(
+            p.parse::<u8>()
+                .map_err(|_| format!("--rt-priority: {p:?}"))?,
+        ),
     };
+    let plan = gentle_plan(seconds);
     let python = venv_python()?;
     let dir = std::env::temp_dir().join(format!("omcbsa-kortex-period-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;

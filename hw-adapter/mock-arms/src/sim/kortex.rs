@@ -209,7 +209,28 @@ impl Arm {
         if h.kind() != Some(FrameType::Request) {
             return (None, false);
         }
-        let rpc = h.function_uid;
+        let sign = self.take(h.function_uid, now);
+        if self.answers.silent {
+            return (None, false);
+        }
+        if h.function_uid != uid::CREATE_SESSION
+            && (h.session_id == 0 || h.session_id != self.sessions[link])
+        {
+            let refused = error_frame(
+                &h,
+                ERROR_PROTOCOL_SERVER,
+                INVALID_SESSION,
+                "no such session",
+            );
+            return (Some(refused), sign);
+        }
+        (self.answer(link, &f), sign)
+    }
+
+    /// What the arm records of a request `rpc` taken at `now`, and the fault injected at it
+    /// (a Refresh in low-level servoing counts the cycles); whether it is the fault's first
+    /// sign.
+    fn take(&mut self, rpc: u32, now: Instant) -> bool {
         let low = self.mode == base::ServoingMode::LowLevelServoing as i32;
         let mut sign = false;
         if rpc == uid::REFRESH && low {
@@ -249,32 +270,26 @@ impl Arm {
         if rpc == uid::APPLY_EMERGENCY_STOP {
             self.record.stopped.get_or_insert(now);
         }
-        if self.answers.silent {
-            return (None, false);
-        }
+        sign
+    }
+
+    /// The answer to request `f` on `link` in a valid session.
+    fn answer(&mut self, link: usize, f: &Frame) -> Option<Vec<u8>> {
+        let h = f.header;
+        let low = self.mode == base::ServoingMode::LowLevelServoing as i32;
         let refuse = |code, sub, text: &str| Some(error_frame(&h, code, sub, text));
-        if rpc != uid::CREATE_SESSION && (h.session_id == 0 || h.session_id != self.sessions[link])
-        {
-            return (
-                refuse(ERROR_PROTOCOL_SERVER, INVALID_SESSION, "no such session"),
-                sign,
-            );
-        }
         let ok = |payload: &[u8]| {
             let mut r = h;
             r.frame_type = FrameType::Response as u8;
             Some(codec::encode_frame(r, payload))
         };
-        let answer = match rpc {
+        match h.function_uid {
             uid::CREATE_SESSION => {
                 let c = credentials();
                 let info =
                     omcbsa_hw::kortex::proto::CreateSessionInfo::decode(f.payload.as_slice());
                 if !info.is_ok_and(|i| i.username == c.username && i.password == c.password) {
-                    return (
-                        refuse(ERROR_PROTOCOL_SERVER, INVALID_PASSWORD, "wrong credentials"),
-                        sign,
-                    );
+                    return refuse(ERROR_PROTOCOL_SERVER, INVALID_PASSWORD, "wrong credentials");
                 }
                 let mut r = h;
                 r.frame_type = FrameType::Response as u8;
@@ -330,8 +345,7 @@ impl Arm {
                 _ => refuse(ERROR_DEVICE, METHOD_FAILED, "not a command for 7 actuators"),
             },
             _ => refuse(ERROR_PROTOCOL_SERVER, 5, "unsupported method"),
-        };
-        (answer, sign)
+        }
     }
 
     /// A Refresh taken: the actuators head for its positions.
