@@ -6,7 +6,6 @@ use super::{lock, ArmEnd, ArmNow, Cycle, ProgressFn, RunInfo, Shared, FAULT_POLL
 use crate::link::{ArmLink, StartPlan};
 use crate::log::LogSink;
 use crate::priority;
-use crate::run::watch::ANSWER_GRACE_PERIODS;
 use crate::run::{ArmState, ArmStop, Command, ExecConfig, Fault, LinkError, Progress, JOINTS};
 use crate::stream::Generator;
 use crate::StreamHandle;
@@ -179,7 +178,7 @@ impl<'a> Streaming<'a> {
                 due = shared.due(self.start, k, cfg.period);
                 give_up = give_up.max(due + cfg.watch.feedback_timeout);
             }
-            self.watch(now >= due + cfg.period.mul_f64(ANSWER_GRACE_PERIODS))?;
+            self.watch(now >= due)?;
             let behind = (shared.sent.iter())
                 .position(|c| c.load(Ordering::SeqCst) < k)
                 .or_else(|| {

@@ -19,12 +19,6 @@ use std::time::Duration;
 /// The default `m`: an answer may lag its cycle by up to two periods (one for the source to
 /// answer, one for jitter).
 pub const DEFAULT_MISSED_CYCLES: u32 = 2;
-/// How long past the time cycle k + m is due the answer to cycle k is still waited for, in
-/// periods (cycle k + m waits with it): the machine's own wake-up jitter on top of an answer
-/// one period late. Half a period keeps a silent arm's stop within 3 periods of its first
-/// unanswered cycle (m + 1/2, and the stop's own fraction of a period).
-pub const ANSWER_GRACE_PERIODS: f64 = 0.5;
-
 /// The largest `m` accepted: beyond it the accounting no longer bounds a reaction usefully.
 pub const MAX_MISSED_CYCLES: u32 = 1000;
 
@@ -155,13 +149,11 @@ impl fmt::Display for WatchSettings {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "watchdog: fault when a drive has not answered SYNC k at SYNC k+{} (+{} period); \
-             heartbeat {} ms, \
+            "watchdog: fault when a drive has not answered SYNC k at SYNC k+{}; heartbeat {} ms, \
              consumer {:?} ({}x); drive following-error time-out {} ms, window = peak speed x \
              2 x (drive lag {:?} + period), at least {} rad; executor's bound {} rad; backstop: \
              an answer missing, or an arm behind the common schedule, for {:?}",
             self.missed_cycles,
-            ANSWER_GRACE_PERIODS,
             self.heartbeat_ms,
             self.heartbeat_consumer_time(),
             self.heartbeat_factor,
