@@ -161,8 +161,8 @@ impl<'a> Streaming<'a> {
     ///
     /// A thread that wakes up [`away_after`] later than it asked was held up by the machine,
     /// not by the arms: the answers owed had that time taken from them too (on one machine,
-    /// the mocks and simulators are held up alike), so the schedule slips to give them half a
-    /// period from now before the cycle is due.
+    /// the mocks and simulators are held up alike), so the schedule slips to now: the cycle
+    /// goes out at once, the next a period later, and every answer owed gets its period.
     fn wait_turn(&mut self) -> Result<Instant, Fault> {
         let (shared, cfg, k) = (self.shared, self.cfg, self.k);
         let mut asleep = Duration::ZERO;
@@ -174,7 +174,7 @@ impl<'a> Streaming<'a> {
             }
             let now = Instant::now();
             if now.saturating_duration_since(self.seen) > asleep + away_after(cfg.period) {
-                shared.slip_to(self.start, k, cfg.period, now + cfg.period / 2);
+                shared.slip_to(self.start, k, cfg.period, now);
                 due = shared.due(self.start, k, cfg.period);
                 give_up = give_up.max(due + cfg.watch.feedback_timeout);
             }
