@@ -6,6 +6,11 @@ mock that stands in for one on the host's machine must not wait behind the host'
 (the planner, a build), below the executor's arm threads (50 by default), so that a mock's
 work never holds up the loop it answers; refused (no CAP_SYS_NICE), it asks for nice -10, and
 returns a line that says what the process runs under.
+
+`background()` undoes it for the work a mock does once its run is over (writing its record: a
+second or more of CPU for a long run). Under SCHED_FIFO that work would keep its core from every
+mock at the same priority whose arm is still being stopped, and that mock would not answer the
+host's stop in time.
 """
 
 import os
@@ -32,3 +37,15 @@ def realtime(priority=MOCK_PRIORITY):
         return refused + "; nice -10"
     except (PermissionError, OSError):
         return refused + "; normal priority"
+
+
+def background():
+    """Puts the calling thread below every mock that still runs: SCHED_OTHER at nice 10."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (PermissionError, AttributeError, OSError):
+        pass
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, 10)
+    except (PermissionError, OSError):
+        pass

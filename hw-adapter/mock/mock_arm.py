@@ -763,6 +763,8 @@ def main(argv):
     except EOFError:
         pass
     finally:
+        # The run is over: what is left must not keep a core from mocks still stopping.
+        drive_clock.background()
         arm.write_record()
         bus.shutdown()
         bus.write_log()

@@ -490,6 +490,8 @@ def main():
                     rx = rx[12 + n:]
                     answer("tcp", None, arm.handle("tcp", f.header, f.payload))
     finally:
+        # The run is over: what is left must not keep a core from mocks still stopping.
+        drive_clock.background()
         arm.write_record()
 
 
