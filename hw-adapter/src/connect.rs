@@ -6,7 +6,7 @@
 
 use crate::kortex::Credentials;
 use crate::plan::ArmLimits;
-use crate::port::{ArmPort, ArmUrl};
+use crate::port::{ArmPort, ArmUrl, OpenError};
 use crate::run::{ExecConfig, JOINTS};
 use serde_json::Value;
 use std::fmt;
@@ -57,9 +57,9 @@ pub enum ConnectError {
     /// A Kortex arm, and the connector has no credentials to reach it with.
     #[error("a Kortex arm needs credentials")]
     NoCredentials,
-    /// The arm's port could not be opened: why.
-    #[error("{0}")]
-    Open(String),
+    /// The arm's port could not be opened: why (boxed: the rest are small).
+    #[error(transparent)]
+    Open(Box<OpenError>),
     /// The arm cannot keep up with the cell's period.
     #[error(
         "{what} runs at a period of {fastest:?} at the fastest; the cell's period is {period:?}"
@@ -122,7 +122,10 @@ impl Connector for RealArms {
             (ArmUrl::Kortex(_), None) => return Err(ConnectError::NoCredentials),
             (_, c) => c.as_ref().unwrap_or(&none),
         };
-        let port = arm.url.open(credentials).map_err(ConnectError::Open)?;
+        let port = arm
+            .url
+            .open(credentials)
+            .map_err(|e| ConnectError::Open(Box::new(e)))?;
         Ok(port.into())
     }
 }

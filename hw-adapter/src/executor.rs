@@ -7,7 +7,7 @@
 //! ```
 //! use omcbsa_mock::sim::can::{CanSim, CanSimOptions, Injected, FAULTY_NODE};
 //! use omcbsa_hw::{ArmPlan, ExecConfig, ExecError, Executor, Fault, Plan, PlanValidator};
-//! use omcbsa_hw::{WatchSettings, JOINTS};
+//! use omcbsa_hw::JOINTS;
 //! use std::time::Duration;
 //!
 //! struct Accept;
@@ -25,14 +25,8 @@
 //!         })
 //!         .into(),
 //! };
-//! let cfg = ExecConfig {
-//!     // Doc-tests run side by side with the compiler on a busy machine: a generous period
-//!     // and 10 cycles of slack for an answer keep a descheduled simulator from faulting.
-//!     period: Duration::from_millis(10),
-//!     watch: WatchSettings { missed_cycles: 10, ..WatchSettings::default() },
-//!     realtime_priority: None,
-//!     ..ExecConfig::default()
-//! };
+//! // Arms at 100 Hz; the watchdog, scheduling and timer check at their defaults.
+//! let cfg = ExecConfig { period: Duration::from_millis(10), ..ExecConfig::default() };
 //! let limits = omcbsa_mock::testing::fleet_limits(2);
 //!
 //! let (left, left_bus) = CanSim::spawn(CanSimOptions::at(start));

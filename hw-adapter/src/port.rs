@@ -7,7 +7,7 @@ use crate::kortex;
 use crate::link::ArmLink;
 use crate::log::LogSink;
 use crate::run::ExecConfig;
-use crate::transport::{self, Transport};
+use crate::transport::{self, Transport, TransportError};
 use std::fmt;
 use std::time::{Duration, Instant};
 
@@ -67,19 +67,61 @@ impl ArmPort {
     }
 }
 
+/// The forms of a real arm's URL, for messages.
+const FORMS: &str = "kortex://HOST, socketcan://IFACE or slcan:///dev/ttyX";
+
+/// An arm URL that cannot be read: what is wrong, naming the URL.
+#[derive(Debug, thiserror::Error)]
+pub enum UrlError {
+    /// A Kortex arm's URL with something wrong in it.
+    #[error(transparent)]
+    Kortex(#[from] kortex::SpecError),
+    /// A CAN arm's URL whose bus cannot be named so.
+    #[error(transparent)]
+    Bus(TransportError),
+    /// Neither a URL nor a bus spec (the bus spec's own error says what it expected).
+    #[error("{source}; or an arm URL: {FORMS}")]
+    NotAUrl {
+        /// Why it is no bus spec either.
+        source: TransportError,
+    },
+    /// A URL of no kind this reads.
+    #[error("unknown arm URL {url:?}: expected {FORMS}")]
+    Unknown {
+        /// The URL.
+        url: String,
+    },
+}
+
+/// Why an arm's port could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// Its URL cannot be read.
+    #[error(transparent)]
+    Url(#[from] UrlError),
+    /// A Kortex arm that could not be reached.
+    #[error(transparent)]
+    Kortex(#[from] kortex::ReachError),
+    /// A CAN bus that could not be opened.
+    #[error(transparent)]
+    Bus(#[from] TransportError),
+}
+
 /// Where a real arm is, parsed in one place: `kortex://HOST` (or `kortex://HOST:TCP:UDP`),
 /// `socketcan://IFACE`, `slcan:///dev/ttyX` (a serial device path). The command line's older
 /// forms `kortex:HOST[:TCP:UDP]`, `socketcan:IFACE` and `slcan:PATH` are read too. (Stand-in
 /// arms have URLs of their own, read by the crate `omcbsa-mock`.)
 ///
 /// ```
-/// use omcbsa_hw::port::ArmUrl;
+/// use omcbsa_hw::port::{ArmUrl, UrlError};
 ///
 /// let u = ArmUrl::parse("kortex://192.168.1.10")?;
 /// assert_eq!(u.to_string(), "kortex://192.168.1.10:10000:10001");
 /// assert_eq!(ArmUrl::parse("slcan:///dev/ttyACM0")?, ArmUrl::Slcan("/dev/ttyACM0".into()));
-/// assert!(ArmUrl::parse("tcp://host").unwrap_err().contains("expected kortex://HOST"));
-/// # Ok::<(), String>(())
+/// let e = ArmUrl::parse("tcp://host").unwrap_err();
+/// assert!(matches!(e, UrlError::Unknown { .. }));
+/// assert!(e.to_string().contains("expected kortex://HOST"));
+/// # Ok::<(), UrlError>(())
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub enum ArmUrl {
@@ -93,12 +135,8 @@ pub enum ArmUrl {
 
 impl ArmUrl {
     /// Parses an arm URL; the error names the URL and what is wrong with it.
-    pub fn parse(url: &str) -> Result<Self, String> {
-        let bus = |spec: String| {
-            transport::BusSpec::parse(&spec)
-                .map(|_| ())
-                .map_err(|e| e.to_string())
-        };
+    pub fn parse(url: &str) -> Result<Self, UrlError> {
+        let bus = |spec: String| transport::BusSpec::parse(&spec).map(|_| ());
         if let Some(rest) = url.strip_prefix("kortex://") {
             return Ok(ArmUrl::Kortex(kortex::KortexSpec::parse(&format!(
                 "kortex:{rest}"
@@ -108,18 +146,19 @@ impl ArmUrl {
             return Ok(ArmUrl::Kortex(kortex::KortexSpec::parse(url)?));
         }
         if let Some(iface) = (url.strip_prefix("socketcan://")).or(url.strip_prefix("socketcan:")) {
-            bus(format!("socketcan:{iface}"))?;
+            bus(format!("socketcan:{iface}")).map_err(UrlError::Bus)?;
             return Ok(ArmUrl::SocketCan(iface.to_string()));
         }
         if let Some(path) = (url.strip_prefix("slcan://")).or(url.strip_prefix("slcan:")) {
-            bus(format!("slcan:{path}"))?;
+            bus(format!("slcan:{path}")).map_err(UrlError::Bus)?;
             return Ok(ArmUrl::Slcan(path.to_string()));
         }
-        let forms = "kortex://HOST, socketcan://IFACE or slcan:///dev/ttyX";
         // Not a URL: the bus spec's own error names the command line's forms.
         Err(match bus(url.to_string()) {
-            Err(e) if !url.contains("://") => format!("{e}; or an arm URL: {forms}"),
-            _ => format!("unknown arm URL {url:?}: expected {forms}"),
+            Err(source) if !url.contains("://") => UrlError::NotAUrl { source },
+            _ => UrlError::Unknown {
+                url: url.to_string(),
+            },
         })
     }
 
@@ -135,12 +174,12 @@ impl ArmUrl {
     }
 
     /// Opens the arm's port (a Kortex arm is reached with `credentials`).
-    pub fn open(&self, credentials: &kortex::Credentials) -> Result<ArmPort, String> {
+    pub fn open(&self, credentials: &kortex::Credentials) -> Result<ArmPort, OpenError> {
         match self {
             ArmUrl::Kortex(spec) => Ok(kortex::Connection::open(spec, credentials)?.into()),
-            ArmUrl::SocketCan(_) | ArmUrl::Slcan(_) => Ok(ArmPort::Can(
-                transport::open(&self.bus_spec()).map_err(|e| e.to_string())?,
-            )),
+            ArmUrl::SocketCan(_) | ArmUrl::Slcan(_) => {
+                Ok(ArmPort::Can(transport::open(&self.bus_spec())?))
+            }
         }
     }
 
@@ -165,13 +204,13 @@ impl fmt::Display for ArmUrl {
 }
 
 /// An arm's port spec or URL, checked ([`ArmUrl::parse`]). A dry run checks its arms with this.
-pub fn check_spec(spec: &str) -> Result<(), String> {
+pub fn check_spec(spec: &str) -> Result<(), UrlError> {
     ArmUrl::parse(spec).map(|_| ())
 }
 
 /// Opens a real arm's port from its spec or URL ([`ArmUrl`]); a Kortex arm is reached with
 /// `credentials`.
-pub fn open(spec: &str, credentials: &kortex::Credentials) -> Result<ArmPort, String> {
+pub fn open(spec: &str, credentials: &kortex::Credentials) -> Result<ArmPort, OpenError> {
     ArmUrl::parse(spec)?.open(credentials)
 }
 
@@ -197,7 +236,7 @@ mod tests {
             ("tcp://host", "unknown arm URL"),
             ("can0", "expected `slcan:/dev/ttyXXX` or `socketcan:IFACE`"),
         ] {
-            let e = ArmUrl::parse(bad).unwrap_err();
+            let e = ArmUrl::parse(bad).unwrap_err().to_string();
             assert!(e.contains(why), "{bad}: {e}");
         }
     }

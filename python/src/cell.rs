@@ -197,7 +197,7 @@ fn live_options(py: Python<'_>, o: &Options<'_>, kortex: bool) -> PyResult<LiveO
                 o.get("kortex_password", "a str")?,
                 |k| std::env::var(k).ok(),
             )
-            .map_err(|e| field_error(py, "kortex_user", e))?,
+            .map_err(|e| field_error(py, "kortex_user", e.to_string()))?,
         ),
     };
     Ok(LiveOptions {

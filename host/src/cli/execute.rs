@@ -89,9 +89,9 @@ pub const RATE_RANGE: std::ops::RangeInclusive<f64> = 100.0..=1000.0;
 fn parse_arm(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
         // The spec is checked here, so that a dry run accepts only arms a live run could reach.
-        Some((name, spec)) if !name.is_empty() && !spec.is_empty() => {
-            port::check_spec(spec).map(|()| (name.to_string(), spec.to_string()))
-        }
+        Some((name, spec)) if !name.is_empty() && !spec.is_empty() => (port::check_spec(spec)
+            .map(|()| (name.to_string(), spec.to_string())))
+        .map_err(|e| e.to_string()),
         _ => Err(format!(
             "expected NAME=SPEC (e.g. left=slcan:/dev/ttyACM0 or left=kortex:192.168.1.10), \
              got {s:?}"
@@ -173,6 +173,7 @@ impl KortexArgs {
         Credentials::resolve(self.kortex_user.clone(), password, |k| {
             std::env::var(k).ok()
         })
+        .map_err(|e| e.to_string())
     }
 }
 

@@ -76,7 +76,7 @@ impl ArmOrMockUrl {
         let allowed: &[&str] = match kind {
             "mock-kortex" => &MOCK_KORTEX_FLAGS,
             "mock-can" => &MOCK_CAN_FLAGS,
-            _ => return ArmUrl::parse(url).map(ArmOrMockUrl::Arm),
+            _ => return (ArmUrl::parse(url).map(ArmOrMockUrl::Arm)).map_err(|e| e.to_string()),
         };
         let mut flags = Vec::new();
         for pair in query.split('&').filter(|p| !p.is_empty()) {

@@ -104,7 +104,8 @@ impl MockGen3 {
 
     /// Opens a connection to it (with the mocks' [`credentials`]).
     pub fn connect(&self) -> Result<Connection, String> {
-        Connection::open(&KortexSpec::parse(&self.spec())?, &credentials())
+        let spec = KortexSpec::parse(&self.spec()).map_err(|e| e.to_string())?;
+        Connection::open(&spec, &credentials()).map_err(|e| e.to_string())
     }
 
     /// Waits for the mock to exit (it does once its client has closed the TCP connection)

@@ -17,6 +17,27 @@ enum Io {
     Udp(UdpSocket),
 }
 
+/// Why a link to an arm could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// The TCP connection (configuration rpcs) could not be made or set up.
+    #[error("cannot connect to {addr} (TCP): {source}")]
+    Tcp {
+        /// The arm's TCP address.
+        addr: SocketAddr,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The UDP socket (cyclic rpcs) could not be opened or connected.
+    #[error("cannot open a UDP socket to {addr}: {source}")]
+    Udp {
+        /// The arm's UDP address.
+        addr: SocketAddr,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
 /// One link to an arm, TCP or UDP, non-blocking.
 pub struct Channel {
     io: Io,
@@ -33,13 +54,13 @@ pub struct Channel {
 
 impl Channel {
     /// Connects to the arm's TCP port (at most 2 s).
-    pub fn tcp(addr: SocketAddr) -> Result<Self, String> {
-        let stream = TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT)
-            .map_err(|e| format!("cannot connect to {addr} (TCP): {e}"))?;
+    pub fn tcp(addr: SocketAddr) -> Result<Self, OpenError> {
+        let fail = |source| OpenError::Tcp { addr, source };
+        let stream = TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT).map_err(fail)?;
         stream
             .set_nodelay(true)
             .and_then(|()| stream.set_nonblocking(true))
-            .map_err(|e| format!("TCP {addr}: {e}"))?;
+            .map_err(fail)?;
         Ok(Self::new(
             Io::Tcp {
                 stream,
@@ -50,7 +71,7 @@ impl Channel {
     }
 
     /// A UDP socket connected to the arm's UDP port.
-    pub fn udp(addr: SocketAddr) -> Result<Self, String> {
+    pub fn udp(addr: SocketAddr) -> Result<Self, OpenError> {
         let local: SocketAddr = if addr.is_ipv4() {
             ([0, 0, 0, 0], 0).into()
         } else {
@@ -59,7 +80,7 @@ impl Channel {
         let socket = UdpSocket::bind(local)
             .and_then(|s| s.connect(addr).map(|()| s))
             .and_then(|s| s.set_nonblocking(true).map(|()| s))
-            .map_err(|e| format!("cannot open a UDP socket to {addr}: {e}"))?;
+            .map_err(|source| OpenError::Udp { addr, source })?;
         Ok(Self::new(Io::Udp(socket), addr))
     }
 

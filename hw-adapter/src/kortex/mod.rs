@@ -28,13 +28,14 @@ pub const PASSWORD_ENV: &str = "OMCBSA_KORTEX_PASSWORD";
 /// `kortex:HOST[:TCP_PORT:UDP_PORT]`, checked.
 ///
 /// ```
-/// use omcbsa_hw::kortex::KortexSpec;
+/// use omcbsa_hw::kortex::{KortexSpec, SpecProblem};
 ///
 /// let s = KortexSpec::parse("kortex:192.168.1.10")?;
 /// assert_eq!((s.host.as_str(), s.tcp_port, s.udp_port), ("192.168.1.10", 10000, 10001));
 /// let e = KortexSpec::parse("kortex:host:4000").unwrap_err();
-/// assert!(e.contains("give both ports or neither"));
-/// # Ok::<(), String>(())
+/// assert_eq!(e.problem, SpecProblem::OnePort);
+/// assert!(e.to_string().contains("give both ports or neither"));
+/// # Ok::<(), omcbsa_hw::kortex::SpecError>(())
 /// ```
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct KortexSpec {
@@ -46,19 +47,79 @@ pub struct KortexSpec {
     pub udp_port: u16,
 }
 
+/// A Kortex spec that cannot be read: the spec, and what is wrong with it.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "cannot reach arm {spec}: {problem} (expected kortex:HOST or kortex:HOST:TCP_PORT:UDP_PORT)"
+)]
+pub struct SpecError {
+    /// The spec as given.
+    pub spec: String,
+    /// What is wrong with it.
+    pub problem: SpecProblem,
+}
+
+/// What is wrong with a Kortex spec.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SpecProblem {
+    /// It does not start with `kortex:`.
+    #[error("not a kortex spec")]
+    NotKortex,
+    /// An IPv6 address opened with `[` and never closed.
+    #[error("a '[' without ']'")]
+    UnclosedBracket,
+    /// No host, or one with white space or a NUL in it.
+    #[error("the host is empty or contains spaces")]
+    BadHost,
+    /// A port that is not a number from 1 to 65535.
+    #[error("the {which} port {text:?} is not a number from 1 to 65535")]
+    BadPort {
+        /// `TCP` or `UDP`.
+        which: &'static str,
+        /// The port as written.
+        text: String,
+    },
+    /// One port given: both or neither.
+    #[error("give both ports or neither")]
+    OnePort,
+}
+
+/// Why an arm whose spec was read could not be reached.
+#[derive(Debug, thiserror::Error)]
+pub enum ReachError {
+    /// Its host name did not resolve.
+    #[error("cannot reach arm {spec}: cannot resolve {}: {source}", spec.host)]
+    Resolve {
+        /// The arm.
+        spec: KortexSpec,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A link to it could not be opened.
+    #[error("cannot reach arm {spec}: {source}")]
+    Link {
+        /// The arm.
+        spec: KortexSpec,
+        /// Which link and why.
+        source: channel::OpenError,
+    },
+}
+
 impl KortexSpec {
     /// Parses a spec; the error names the spec and what is wrong with it.
-    pub fn parse(spec: &str) -> Result<Self, String> {
-        let bad = |why: &str| {
-            format!("cannot reach arm {spec}: {why} (expected kortex:HOST or kortex:HOST:TCP_PORT:UDP_PORT)")
+    pub fn parse(spec: &str) -> Result<Self, SpecError> {
+        let bad = |problem: SpecProblem| SpecError {
+            spec: spec.to_string(),
+            problem,
         };
         let rest = spec
             .strip_prefix("kortex:")
-            .ok_or_else(|| bad("not a kortex spec"))?;
+            .ok_or_else(|| bad(SpecProblem::NotKortex))?;
         // An IPv6 address is written in brackets: kortex:[fe80::1]:10000:10001.
         let (host, ports) = match rest.strip_prefix('[') {
             Some(r) => {
-                let (h, p) = r.split_once(']').ok_or_else(|| bad("a '[' without ']'"))?;
+                let (h, p) =
+                    (r.split_once(']')).ok_or_else(|| bad(SpecProblem::UnclosedBracket))?;
                 (h, p.strip_prefix(':'))
             }
             None => match rest.split_once(':') {
@@ -67,24 +128,25 @@ impl KortexSpec {
             },
         };
         if host.is_empty() || host.chars().any(|c| c.is_whitespace() || c == '\0') {
-            return Err(bad("the host is empty or contains spaces"));
+            return Err(bad(SpecProblem::BadHost));
         }
         let (tcp_port, udp_port) = match ports {
             None | Some("") if !rest.ends_with(':') => (DEFAULT_TCP_PORT, DEFAULT_UDP_PORT),
             Some(p) => {
-                let port = |s: &str, which: &str| {
+                let port = |s: &str, which: &'static str| {
                     s.parse::<u16>().ok().filter(|&p| p != 0).ok_or_else(|| {
-                        bad(&format!(
-                            "{which} port {s:?} is not a number from 1 to 65535"
-                        ))
+                        bad(SpecProblem::BadPort {
+                            which,
+                            text: s.to_string(),
+                        })
                     })
                 };
                 match p.split_once(':') {
-                    Some((t, u)) => (port(t, "the TCP")?, port(u, "the UDP")?),
-                    None => return Err(bad("give both ports or neither")),
+                    Some((t, u)) => (port(t, "TCP")?, port(u, "UDP")?),
+                    None => return Err(bad(SpecProblem::OnePort)),
                 }
             }
-            None => return Err(bad("give both ports or neither")),
+            None => return Err(bad(SpecProblem::OnePort)),
         };
         Ok(Self {
             host: host.to_string(),
@@ -93,12 +155,16 @@ impl KortexSpec {
         })
     }
 
-    fn resolve(&self, port: u16) -> Result<SocketAddr, String> {
+    fn resolve(&self, port: u16) -> Result<SocketAddr, ReachError> {
+        let fail = |source| ReachError::Resolve {
+            spec: self.clone(),
+            source,
+        };
         (self.host.as_str(), port)
             .to_socket_addrs()
-            .map_err(|e| format!("cannot resolve {}: {e}", self.host))?
+            .map_err(fail)?
             .next()
-            .ok_or_else(|| format!("{} has no address", self.host))
+            .ok_or_else(|| fail(std::io::Error::other("the name has no address")))
     }
 }
 
@@ -138,21 +204,28 @@ impl Credentials {
         username: Option<String>,
         password: Option<String>,
         lookup: impl Fn(&str) -> Option<String>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, CredentialsError> {
         let username = username
             .or_else(|| lookup(USER_ENV))
             .filter(|u| !u.is_empty());
         let password = password.or_else(|| lookup(PASSWORD_ENV));
         match (username, password) {
             (Some(username), Some(password)) => Ok(Self { username, password }),
-            (None, _) => Err(format!(
-                "no Kortex user name: give --kortex-user or set {USER_ENV}"
-            )),
-            (_, None) => Err(format!(
-                "no Kortex password: give --kortex-password-file or set {PASSWORD_ENV}"
-            )),
+            (None, _) => Err(CredentialsError::NoUser),
+            (_, None) => Err(CredentialsError::NoPassword),
         }
     }
+}
+
+/// Credentials that were not given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CredentialsError {
+    /// No user name, by option or environment.
+    #[error("no Kortex user name: give --kortex-user or set {USER_ENV}")]
+    NoUser,
+    /// No password, by option or environment.
+    #[error("no Kortex password: give --kortex-password-file or set {PASSWORD_ENV}")]
+    NoPassword,
 }
 
 /// An arm's two links, open but without sessions yet ([`KortexArm`] creates them at start-up).
@@ -169,12 +242,13 @@ pub struct Connection {
 
 impl Connection {
     /// Connects TCP and opens the UDP socket (no frame is sent); the error names the arm.
-    pub fn open(spec: &KortexSpec, credentials: &Credentials) -> Result<Self, String> {
-        let fail = |e: String| format!("cannot reach arm {spec}: {e}");
-        let tcp =
-            channel::Channel::tcp(spec.resolve(spec.tcp_port).map_err(fail)?).map_err(fail)?;
-        let udp =
-            channel::Channel::udp(spec.resolve(spec.udp_port).map_err(fail)?).map_err(fail)?;
+    pub fn open(spec: &KortexSpec, credentials: &Credentials) -> Result<Self, ReachError> {
+        let link = |source| ReachError::Link {
+            spec: spec.clone(),
+            source,
+        };
+        let tcp = channel::Channel::tcp(spec.resolve(spec.tcp_port)?).map_err(link)?;
+        let udp = channel::Channel::udp(spec.resolve(spec.udp_port)?).map_err(link)?;
         Ok(Self {
             spec: spec.clone(),
             tcp,
@@ -209,7 +283,12 @@ mod tests {
             "kortex:[::1",
         ] {
             let e = KortexSpec::parse(bad).unwrap_err();
-            assert!(e.starts_with(&format!("cannot reach arm {bad}:")), "{e}");
+            assert_eq!(e.spec, bad);
+            assert!(
+                e.to_string()
+                    .starts_with(&format!("cannot reach arm {bad}:")),
+                "{e}"
+            );
         }
     }
 
@@ -230,8 +309,10 @@ mod tests {
         assert!(!format!("{c:?}").contains("pw\""));
         let none = |_: &str| None;
         let e = Credentials::resolve(None, Some("x".into()), none).unwrap_err();
-        assert!(e.contains(USER_ENV), "{e}");
+        assert_eq!(e, CredentialsError::NoUser);
+        assert!(e.to_string().contains(USER_ENV), "{e}");
         let e = Credentials::resolve(Some("a".into()), None, none).unwrap_err();
-        assert!(e.contains(PASSWORD_ENV), "{e}");
+        assert_eq!(e, CredentialsError::NoPassword);
+        assert!(e.to_string().contains(PASSWORD_ENV), "{e}");
     }
 }

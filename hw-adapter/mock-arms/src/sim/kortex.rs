@@ -130,7 +130,7 @@ impl KortexSim {
             threads: vec![tcp_thread, udp_thread],
             arm,
         };
-        let connection = Connection::open(&spec, &credentials())?;
+        let connection = Connection::open(&spec, &credentials()).map_err(|e| e.to_string())?;
         Ok((sim, connection))
     }
 
