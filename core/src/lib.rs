@@ -27,6 +27,8 @@
 //! - [`planner`]: the interface every multi-robot planner implements, and the request.
 //! - [`cbs`]: Ω-CBSA; [`pp`] and [`assign`]: prioritised planning; [`baselines`]: IK
 //!   tracking, PP-Descartes and composite A*.
+//! - [`spline`]: the cubic Hermite spline the executor moves every joint along; [`retime`]:
+//!   its time-optimal parameterisation under velocity and acceleration limits (TOPP-RA).
 //! - [`approach`]: from where the arms stand to where a plan begins; [`embody`]: a planner
 //!   and the approach as one search.
 //!
@@ -51,8 +53,10 @@ pub mod planner;
 pub mod pp;
 pub mod problem;
 pub mod reach;
+pub mod retime;
 pub mod rng;
 pub mod search;
+pub mod spline;
 pub mod tool;
 pub mod tracking;
 pub mod trig;

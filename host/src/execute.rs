@@ -27,6 +27,8 @@ pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> ArmLimits {
         position: (lower[j].is_finite() || upper[j].is_finite()).then_some((lower[j], upper[j])),
         velocity: Fleet::velocity(m)[j].min(speed_cap),
         acceleration: Fleet::acceleration(m)[j],
+        // The models carry no jerk limit yet: none, until they do.
+        jerk: f64::INFINITY,
     })
 }
 

@@ -68,10 +68,11 @@ pub mod link;
 pub mod live;
 pub mod log;
 pub mod plan;
+/// The spline every joint follows, shared with the core's retiming.
+pub use omcbsa_core::spline;
 pub mod port;
 pub mod priority;
 pub mod run;
-pub mod spline;
 pub mod stream;
 pub mod timing;
 pub mod transport;

@@ -2,25 +2,54 @@
 //! waypoints, for a whole plan (offline execution) and for segments pushed while the arms move
 //! (online execution) alike. Memory is the queue only, whatever the run's duration.
 //!
-//! Waypoint `i` of every arm belongs to step `i`; a step lasts `step_time` seconds. Each joint
-//! follows the cubic Hermite spline of `interpolate` (Fritsch–Butland tangents, at rest at
-//! the start). A waypoint's tangent is frozen when the segment ending at it begins, from the
-//! waypoints queued at that moment (zero if it is the last one): what is being executed never
-//! changes, and the spline stays C1 (continuous position and velocity) across any later push.
+//! Waypoint `i` of every arm belongs to step `i`; a step lasts at least `step_time` seconds.
+//! Each joint follows the cubic Hermite spline of [`crate::spline`] (Fritsch–Butland
+//! tangents, at rest at the start). A waypoint's tangent is frozen when the segment ending at
+//! it begins, from the waypoints queued at that moment (zero if it is the last one): what is
+//! being executed never changes, and the spline stays C1 (continuous position and velocity)
+//! across any later push.
+//!
+//! The pace along the spline is a time law, [`omcbsa_core::retime`]'s time-optimal one for all
+//! arms together (one law: the arms stay coordinated as planned), computed at every push from
+//! where the arms are and how fast they go, to rest at the queue's end within the velocity and
+//! acceleration limits and never faster than a step per `step_time`. So a queued tail slows
+//! down over as many waypoints as the limits need, instead of stopping within its last one.
+//! The commands are the law's joint positions averaged over the last few cycles (as many as
+//! `2 · acceleration / (jerk · period)` for the stiffest joint): a moving average turns the
+//! law's steps in acceleration into ramps, so that acceleration changes by at most
+//! jerk · period per cycle, and costs about that many cycles at the end of a stop.
 //!
 //! [`Generator::push`] replaces the queue's tail from a step that is not yet fixed and first
 //! runs a copy of the generator over the whole new tail, checking every command it would send
-//! (position, velocity and acceleration limits, bus range) up to the hold at its end: a tail
-//! that breaks a limit anywhere is refused and the queue is left as it was. Because every
-//! accepted tail ends at rest within the limits, a queue that runs dry (no further push in
-//! time) brings the arms to a hold within their limits; the generator then holds, reports it,
-//! and resumes smoothly when a later push extends the queue.
+//! (position, velocity, acceleration and jerk limits, bus range) up to the hold at its end: a
+//! tail that breaks a limit anywhere, or too short to stop in from the current speed, is
+//! refused and the queue is left as it was. Because every accepted tail ends at rest within
+//! the limits, a queue that runs dry (no further push in time) brings the arms to a hold
+//! within their limits; the generator then holds, reports it, and resumes smoothly when a
+//! later push extends the queue.
 
-use crate::cia402::rad_to_counts;
+use crate::cia402::{rad_to_counts, COUNTS_PER_RAD};
 use crate::plan::{check_command, ArmLimits};
 use crate::run::{Command, JOINTS};
 use crate::spline::{fritsch_butland, Segment};
+use omcbsa_core::retime::{retime, GridPoint, JointPath, Limits, Options, TimeLaw};
 use std::collections::VecDeque;
+
+/// Grid intervals per segment of the time law: its limits hold between grid points within
+/// about 1 % (the core's retiming tests), which the command check at the control rate sees.
+const PER_SEGMENT: usize = 20;
+
+/// The share of a velocity or acceleration limit the time law plans with: the law's limits
+/// hold between its grid points within about 1 %, and the commands check them at the control
+/// rate after rounding to whole counts (see [`law_acceleration`]).
+const LAW_SHARE: f64 = 0.98;
+
+/// The acceleration the time law plans with for a limit of `limit`: [`LAW_SHARE`] of it, less
+/// what rounding two commands to whole counts can add to a second difference at `period`
+/// (but at least half the limit: at very short periods the check's rounding is the bound).
+fn law_acceleration(limit: f64, period: f64) -> f64 {
+    (LAW_SHARE * limit - 2.0 / COUNTS_PER_RAD / (period * period)).max(0.5 * limit)
+}
 
 /// One arm's queue and its frozen part.
 #[derive(Clone, Debug)]
@@ -29,8 +58,10 @@ struct Track {
     queue: VecDeque<[f64; JOINTS]>,
     /// Tangents (rad per step) at waypoints `fixed - 1` and `fixed`.
     tangents: [[f64; JOINTS]; 2],
-    /// The two commands sent before the next one.
-    prev: [Command; 2],
+    /// The three commands sent before the next one.
+    prev: [Command; 3],
+    /// The law's last positions, averaged into the command (the jerk filter).
+    recent: VecDeque<[f64; JOINTS]>,
     /// This arm's limits.
     limits: ArmLimits,
 }
@@ -117,6 +148,9 @@ pub enum PushError {
     /// The stream has stopped (a fault, or its end): nothing more is taken.
     #[error("the stream has stopped: {0}")]
     Stopped(String),
+    /// The new tail is too short to stop in from the current speed.
+    #[error("the arms cannot stop within the new tail: {0}")]
+    CannotStop(String),
     /// A command the new tail leads to breaks a limit.
     #[error("arm {arm}, step {step} (cycle {cycle}): {error}")]
     Limits {
@@ -150,8 +184,9 @@ pub enum PushError {
 /// while !g.next(&mut out)?.holding {
 ///     cycles += 1;
 /// }
-/// // Two steps of 0.5 s at 2 ms, and the arm holds at the last waypoint.
-/// assert_eq!(cycles, 500);
+/// // Two steps of 0.5 s at 2 ms (the law starts and stops as fast as the limits allow),
+/// // and the arm holds at the last waypoint.
+/// assert!((500..510).contains(&cycles), "{cycles}");
 /// assert!((counts_to_rad(out[0][0]) - 0.1).abs() < 1e-7);
 /// // Step 2 is where the arms hold: a push may start at step 3 at the earliest.
 /// assert!(g.push(2, &[&[[0.0; JOINTS]]]).is_err());
@@ -160,8 +195,8 @@ pub enum PushError {
 #[derive(Clone, Debug)]
 pub struct Generator {
     period: f64,
-    /// Steps per control cycle.
-    rate: f64,
+    /// The fastest pace, steps per second.
+    max_speed: f64,
     tracks: Vec<Track>,
     /// Step of every track's `queue[0]`.
     base: usize,
@@ -171,11 +206,14 @@ pub struct Generator {
     holding: bool,
     /// The hold began this cycle, at the end of a motion.
     ran_dry: bool,
-    /// Step position of the current motion's start and cycles since it.
-    origin: f64,
-    since: u64,
-    /// Position on the timeline, in steps.
+    /// The time law of the queue from the last push: its grid (steps from `law_from`) and
+    /// the time along it.
+    law: Vec<GridPoint>,
+    law_from: usize,
+    law_t: f64,
+    /// Position on the timeline, in steps, and its speed, steps/s.
     x: f64,
+    speed: f64,
     cycle: u64,
     /// Waypoints queued beyond `fixed` that a push may create, at most.
     max_queued: usize,
@@ -200,8 +238,8 @@ impl Generator {
                 "the time per step must be a positive number of seconds, got {step_time}"
             ));
         }
-        let rate = period / step_time;
-        if !(rate.is_finite() && rate > 0.0) {
+        let max_speed = 1.0 / step_time;
+        if !(max_speed.is_finite() && max_speed > 0.0) {
             return Err(format!(
                 "a step of {step_time} s cannot be streamed at a period of {period} s"
             ));
@@ -230,25 +268,30 @@ impl Generator {
                         }
                     }
                 }
+                let window =
+                    filter_window(limits, period).map_err(|e| format!("arm {a} limits: {e}"))?;
                 Ok(Track {
                     queue: VecDeque::from([*q]),
                     tangents: [[0.0; JOINTS]; 2],
-                    prev: [counts; 2],
+                    prev: [counts; 3],
+                    recent: VecDeque::from(vec![*q; window]),
                     limits: *limits,
                 })
             })
             .collect::<Result<_, String>>()?;
         Ok(Self {
             period,
-            rate,
+            max_speed,
             tracks,
             base: 0,
             fixed: 0,
             holding: true,
             ran_dry: false,
-            origin: 0.0,
-            since: 0,
+            law: Vec::new(),
+            law_from: 0,
+            law_t: 0.0,
             x: 0.0,
+            speed: 0.0,
             cycle: 0,
             max_queued: usize::MAX,
         })
@@ -292,7 +335,7 @@ impl Generator {
 
     /// Every arm's last command (before the first cycle: its start).
     pub fn held(&self) -> impl Iterator<Item = Command> + '_ {
-        self.tracks.iter().map(|t| t.prev[1])
+        self.tracks.iter().map(|t| t.prev[2])
     }
 
     /// Cycles produced so far.
@@ -304,10 +347,10 @@ impl Generator {
     /// at step `start + i`), after checking every command the new tail leads to.
     pub fn push(&mut self, start: usize, waypoints: &[&[[f64; JOINTS]]]) -> Result<(), PushError> {
         self.check_shape(start, waypoints)?;
-        let mut trial = self.clone();
-        trial.replace_tail(start, waypoints);
-        trial.run_to_hold()?;
-        self.replace_tail(start, waypoints);
+        let mut next = self.clone();
+        next.replace_tail(start, waypoints)?;
+        next.clone().run_to_hold()?;
+        *self = next;
         Ok(())
     }
 
@@ -362,11 +405,16 @@ impl Generator {
         Ok(())
     }
 
-    fn replace_tail(&mut self, start: usize, waypoints: &[&[[f64; JOINTS]]]) {
+    fn replace_tail(
+        &mut self,
+        start: usize,
+        waypoints: &[&[[f64; JOINTS]]],
+    ) -> Result<(), PushError> {
         for (t, w) in self.tracks.iter_mut().zip(waypoints) {
             t.queue.truncate(start - self.base);
             t.queue.extend(w.iter().copied());
         }
+        self.retime()
     }
 
     /// Runs until the first cycle of the hold at the queue's end, checking every command.
@@ -380,6 +428,58 @@ impl Generator {
         }
     }
 
+    /// Recomputes the time law from where the arms are (step `x` at `speed`) to rest at the
+    /// queue's end: every arm's joints side by side, one law.
+    fn retime(&mut self) -> Result<(), PushError> {
+        // The path starts at the waypoint the arms move from, with the tangents frozen there.
+        let from = if self.holding {
+            self.fixed
+        } else {
+            self.fixed - 1
+        };
+        let arms = self.tracks.len();
+        let dof = arms * JOINTS;
+        let n = self.end() + 1 - from;
+        let mut points = vec![0.0; n * dof];
+        let (mut at0, mut at1) = (vec![0.0; dof], vec![0.0; dof]);
+        let (mut velocity, mut acceleration) = (vec![0.0; dof], vec![0.0; dof]);
+        for (a, t) in self.tracks.iter().enumerate() {
+            for (k, q) in t.queue.iter().skip(from - self.base).enumerate() {
+                points[k * dof + a * JOINTS..][..JOINTS].copy_from_slice(q);
+            }
+            for j in 0..JOINTS {
+                let c = a * JOINTS + j;
+                (at0[c], at1[c]) = (t.tangents[0][j], t.tangents[1][j]);
+                velocity[c] = LAW_SHARE * t.limits[j].velocity;
+                acceleration[c] = law_acceleration(t.limits[j].acceleration, self.period);
+            }
+        }
+        self.law_from = from;
+        self.law_t = 0.0;
+        self.law.clear();
+        if n < 2 {
+            return Ok(());
+        }
+        let cannot = |e: omcbsa_core::retime::RetimeError| PushError::CannotStop(e.to_string());
+        let mut path = JointPath::new(&points, dof).map_err(cannot)?;
+        if !self.holding {
+            path = path.with_frozen_tangents(&at0, &at1).map_err(cannot)?;
+        }
+        let options = Options {
+            per_segment: PER_SEGMENT,
+            max_speed: self.max_speed,
+            start: self.x - from as f64,
+            start_speed: self.speed,
+        };
+        let limits = Limits {
+            velocity: &velocity,
+            acceleration: &acceleration,
+        };
+        self.law = vec![GridPoint::default(); omcbsa_core::retime::grid_len(&path, &options)];
+        retime(&path, &limits, &options, &mut self.law).map_err(cannot)?;
+        Ok(())
+    }
+
     /// The commands of the next cycle (one per arm, into `out`), checked against the limits.
     /// A refused command is an error and leaves the generator where it was (it happens only
     /// if the limits changed since the push; pushed tails are checked in full).
@@ -390,6 +490,7 @@ impl Generator {
             holding: self.holding && self.end() == self.fixed,
             ran_dry: self.ran_dry,
         };
+        let mut recent = Vec::with_capacity(self.tracks.len());
         for (arm, (t, o)) in self.tracks.iter().zip(out.iter_mut()).enumerate() {
             let error = |error: String| PushError::Limits {
                 arm,
@@ -397,12 +498,18 @@ impl Generator {
                 cycle: self.cycle,
                 error,
             };
-            let q = self.position(t);
+            let mut window = t.recent.clone();
+            window.pop_front();
+            window.push_back(self.position(t));
+            let q = average(&window);
             *o = to_counts(&q).map_err(error)?;
-            check_command(&t.limits, &t.prev[0], &t.prev[1], o, self.period).map_err(error)?;
+            check_command(&t.limits, &t.prev[1], &t.prev[2], o, self.period).map_err(error)?;
+            check_jerk(&t.limits, &t.prev, o, self.period).map_err(error)?;
+            recent.push(window);
         }
-        for (t, o) in self.tracks.iter_mut().zip(out.iter()) {
-            t.prev = [t.prev[1], *o];
+        for ((t, o), w) in self.tracks.iter_mut().zip(out.iter()).zip(recent) {
+            t.prev = [t.prev[1], t.prev[2], *o];
+            t.recent = w;
         }
         self.cycle += 1;
         self.advance();
@@ -412,7 +519,7 @@ impl Generator {
     /// Position of a track at the current `x`.
     fn position(&self, t: &Track) -> [f64; JOINTS] {
         let at = |step: usize| t.queue[step - self.base];
-        if self.holding {
+        if self.holding || self.fixed == 0 {
             return at(self.fixed);
         }
         let (p0, p1) = (at(self.fixed - 1), at(self.fixed));
@@ -428,6 +535,15 @@ impl Generator {
         })
     }
 
+    /// Whether the next command is the last waypoint: the filter's window, once the
+    /// oldest position leaves it, holds only that.
+    fn settled(&self) -> bool {
+        self.tracks.iter().all(|t| {
+            let last = t.queue.back();
+            t.recent.iter().skip(1).all(|q| Some(q) == last)
+        })
+    }
+
     /// Moves the timeline one cycle on.
     fn advance(&mut self) {
         let end = self.end();
@@ -437,20 +553,24 @@ impl Generator {
                 return;
             }
             self.holding = false;
-            (self.origin, self.since) = (self.fixed as f64, 0);
-        }
-        self.since += 1;
-        self.x = self.origin + self.since as f64 * self.rate;
-        // The last cycle of a plan lands on its last waypoint up to rounding: snap to it.
-        if self.x >= end as f64 - 1e-9 {
-            while self.fixed < end {
-                self.enter_next();
-            }
-            (self.x, self.holding, self.ran_dry) = (end as f64, true, true);
-            return;
-        }
-        while self.x >= self.fixed as f64 {
             self.enter_next();
+        }
+        self.law_t += self.period;
+        // The last cycle of a law lands on its end up to rounding: snap to it.
+        let done = self.law.last().is_none_or(|p| self.law_t >= p.t - 1e-9);
+        if done {
+            (self.x, self.speed) = (end as f64, 0.0);
+        } else {
+            let state = TimeLaw::from_points(&self.law).sample(self.law_t);
+            self.x = self.law_from as f64 + state.s;
+            self.speed = state.speed;
+        }
+        while self.x >= self.fixed as f64 && self.fixed < end {
+            self.enter_next();
+        }
+        // The law is done and the commands have caught up with the last waypoint: hold.
+        if done && self.fixed == end && self.settled() {
+            (self.x, self.speed, self.holding, self.ran_dry) = (end as f64, 0.0, true, true);
         }
     }
 
@@ -479,6 +599,61 @@ impl Generator {
     }
 }
 
+/// Cycles the jerk filter averages over: enough that a full swing of acceleration spread
+/// over them stays within the jerk limit, `2 · acceleration / (jerk · period)` for the joint
+/// that needs most (1 for limits without jerk).
+fn filter_window(limits: &ArmLimits, period: f64) -> Result<usize, String> {
+    let mut n = 1.0_f64;
+    for (j, l) in limits.iter().enumerate() {
+        if l.jerk.is_nan() || l.jerk <= 0.0 {
+            return Err(format!(
+                "joint {}: jerk limit {} is not a positive number",
+                j + 1,
+                l.jerk
+            ));
+        }
+        // (less a hair, so that an exact ratio is not rounded up to one cycle more)
+        n = n.max((2.0 * l.acceleration / (l.jerk * period) - 1e-9).ceil());
+    }
+    // A bound on the window, so that a tiny jerk limit cannot ask for an unbounded buffer.
+    if n > 10_000.0 {
+        return Err(format!(
+            "the jerk limits need an average over {n} cycles of {period} s: too small"
+        ));
+    }
+    Ok(n as usize)
+}
+
+/// The mean of the filter's window.
+fn average(window: &VecDeque<[f64; JOINTS]>) -> [f64; JOINTS] {
+    let n = window.len() as f64;
+    std::array::from_fn(|j| window.iter().map(|q| q[j]).sum::<f64>() / n)
+}
+
+/// Checks the jerk `cmd` implies after the three previous commands, one period apart, with
+/// room for the commands' rounding to whole counts (up to 4 counts in a third difference).
+fn check_jerk(
+    limits: &ArmLimits,
+    prev: &[Command; 3],
+    cmd: &Command,
+    period: f64,
+) -> Result<(), String> {
+    let rounding = 4.0 / COUNTS_PER_RAD / period.powi(3);
+    for (j, l) in limits.iter().enumerate() {
+        let [p3, p2, p1] = prev.map(|p| i64::from(p[j]));
+        let d = i64::from(cmd[j]) - 3 * p1 + 3 * p2 - p3;
+        let jerk = d as f64 / COUNTS_PER_RAD / period.powi(3);
+        if jerk.abs() > l.jerk + rounding {
+            return Err(format!(
+                "joint {}: jerk {jerk:.1} rad/s³ exceeds the limit {}",
+                j + 1,
+                l.jerk
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn to_counts(q: &[f64; JOINTS]) -> Result<Command, String> {
     let mut c = [0; JOINTS];
     for (j, (&v, c)) in q.iter().zip(c.iter_mut()).enumerate() {
@@ -492,6 +667,7 @@ fn to_counts(q: &[f64; JOINTS]) -> Result<Command, String> {
 mod tests {
     use super::*;
     use crate::cia402::counts_to_rad;
+    use crate::plan::JointLimits;
 
     const PERIOD: f64 = 0.002;
 
@@ -598,12 +774,14 @@ mod tests {
         let e = g.push(5, &[&far[4..]]).unwrap_err();
         assert!(matches!(e, PushError::Limits { arm: 0, .. }), "{e}");
         assert!(e.to_string().contains("joint 2: position 2.24"), "{e}");
-        // a jump too fast for joint 1's velocity and acceleration
+        assert_eq!(format!("{g:?}"), format!("{queued:?}"));
+        // A jump too fast for joint 1's velocity at the plan's pace is no longer refused:
+        // the time law slows down to follow it within the limits.
         let mut jump = ramp(0.0, 0.02, 10);
         jump[6][0] += 1.0;
-        let e = g.push(5, &[&jump[4..]]).unwrap_err();
-        assert!(e.to_string().contains("joint 1: "), "{e}");
-        assert_eq!(format!("{g:?}"), format!("{queued:?}"));
+        g.push(5, &[&jump[4..]]).unwrap();
+        let cycles = run(&mut g, 1_000_000).len();
+        assert!(cycles as f64 * PERIOD > 10.0 * 0.5, "{cycles}");
     }
 
     #[test]
@@ -629,5 +807,87 @@ mod tests {
         let end = resumed[resumed.len() - 1];
         assert!(end.0.holding && end.0.step == 6);
         assert!((counts_to_rad(end.1[0]) - 0.12).abs() < 1e-7);
+    }
+
+    /// Gen3-like limits with a jerk limit: 1.2 rad/s, 5 rad/s², 2500 rad/s³ (the filter
+    /// averages 2·5/(2500·0.002) = 2 cycles).
+    fn jerk_limits() -> ArmLimits {
+        [JointLimits {
+            position: None,
+            velocity: 1.2,
+            acceleration: 5.0,
+            jerk: 2500.0,
+        }; JOINTS]
+    }
+
+    /// A straight line for every joint, `n` waypoints of `step` rad from 0.
+    fn line(n: usize, step: f64) -> Vec<[f64; JOINTS]> {
+        (1..=n).map(|i| [step * i as f64; JOINTS]).collect()
+    }
+
+    /// Velocity, acceleration and jerk of joint 1 at the control rate, from commands.
+    fn derivatives(cmds: &[Command]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let q: Vec<f64> = cmds.iter().map(|c| counts_to_rad(c[0])).collect();
+        let d = |v: &[f64]| -> Vec<f64> { v.windows(2).map(|w| (w[1] - w[0]) / PERIOD).collect() };
+        let v = d(&q);
+        let a = d(&v);
+        let j = d(&a);
+        (v, a, j)
+    }
+
+    #[test]
+    fn a_short_tail_at_speed_decelerates_over_several_waypoints_within_every_limit() {
+        // Steps of 20 ms at 0.024 rad: 1.2 rad/s, the velocity limit, when on time.
+        let mut g = Generator::new(&[[0.0; JOINTS]], &[jerk_limits()], PERIOD, 0.02).unwrap();
+        g.push(1, &[&line(200, 0.024)]).unwrap();
+        let cruise = run(&mut g, 500); // 1 s: up to speed
+        let fixed = g.fixed();
+        // Stop: 8 more waypoints (0.19 rad); a stop from 1.2 rad/s at 5 rad/s² needs 0.144 rad.
+        let tail = line(fixed + 8, 0.024)[fixed..].to_vec();
+        g.push(fixed + 1, &[&tail]).unwrap();
+        let stop = run(&mut g, 100_000);
+        let cmds: Vec<Command> = cruise.iter().chain(&stop).map(|s| s.1).collect();
+        let (v, a, j) = derivatives(&cmds);
+        // at full speed (the law plans with 98 % of the limits) before the push
+        assert!(v[499].abs() > 1.17, "{}", v[499]);
+        // within the limits (up to rounding to counts) at every cycle
+        assert!(v.iter().all(|v| v.abs() <= 1.2 + 1e-4));
+        assert!(a.iter().all(|a| a.abs() <= 5.0 + 0.1));
+        assert!(
+            j.iter().all(|j| j.abs() <= 2500.0 + 50.0),
+            "{:?}",
+            j.iter().fold(0.0f64, |m, j| m.max(j.abs()))
+        );
+        // It slows down over several steps (it used to stop within the last one), and lands
+        // on the tail's end.
+        let slowing = v.iter().skip(500).filter(|v| v.abs() < 1.17).count();
+        let steps = slowing as f64 * PERIOD / 0.02;
+        assert!(steps > 5.0, "{steps}");
+        let end = stop[stop.len() - 1];
+        assert!(end.0.holding && end.0.step == fixed + 8, "{:?}", end.0);
+        assert!((counts_to_rad(end.1[0]) - 0.024 * (fixed + 8) as f64).abs() < 1e-7);
+    }
+
+    #[test]
+    fn a_tail_too_short_to_stop_in_is_refused() {
+        let mut g = Generator::new(&[[0.0; JOINTS]], &[jerk_limits()], PERIOD, 0.02).unwrap();
+        g.push(1, &[&line(200, 0.024)]).unwrap();
+        run(&mut g, 500);
+        let before = format!("{g:?}");
+        let fixed = g.fixed();
+        // one more waypoint: 0.024 rad to stop from 1.2 rad/s, 0.144 rad needed
+        let tail = line(fixed + 1, 0.024)[fixed..].to_vec();
+        let e = g.push(fixed + 1, &[&tail]).unwrap_err();
+        assert!(matches!(e, PushError::CannotStop(_)), "{e}");
+        assert!(e.to_string().contains("cannot stop"), "{e}");
+        assert_eq!(format!("{g:?}"), before);
+    }
+
+    #[test]
+    fn limits_without_a_positive_jerk_are_refused() {
+        let mut l = jerk_limits();
+        l[3].jerk = 0.0;
+        let e = Generator::new(&[[0.0; JOINTS]], &[l], PERIOD, 0.02).unwrap_err();
+        assert!(e.contains("joint 4: jerk limit 0"), "{e}");
     }
 }

@@ -213,12 +213,14 @@ fn late_segment_lets_the_arms_hold_within_limits_and_is_reported() {
 #[test]
 fn segment_breaking_a_limit_is_refused_and_none_of_it_is_sent() {
     let (mut online, paths) = start("refuse");
-    // refused before anything moves: joint 1 of arm 1 jumps by 0.5 rad
+    // refused before anything moves: joint 2 of arm 1 beyond its limit (2.24 rad) at one
+    // waypoint (a jump within the position limits is no longer refused: the time law slows
+    // down to follow it within the velocity and acceleration limits)
     let mut bad: Vec<Path> = paths.iter().map(|p| p[1..10].to_vec()).collect();
-    bad[1][3][0] += 0.5;
+    bad[1][3][1] = 2.5;
     let e = online.push(1, bad.clone()).unwrap_err();
     assert!(matches!(e, PushError::Limits { arm: 1, .. }), "{e}");
-    assert!(e.to_string().contains("joint 1: "), "{e}");
+    assert!(e.to_string().contains("joint 2: position"), "{e}");
     online
         .push(1, paths.iter().map(|p| p[1..10].to_vec()).collect())
         .unwrap();

@@ -21,11 +21,13 @@ from ._omcbsa import (
     Problem,
     Report,
     Solution,
+    Stream,
     Violation,
     aloha_episode,
     fk,
     ik,
     plan,
+    retime,
     validate,
 )
 
@@ -39,10 +41,12 @@ __all__ = [
     "Problem",
     "Report",
     "Solution",
+    "Stream",
     "Violation",
     "aloha_episode",
     "fk",
     "ik",
     "plan",
+    "retime",
     "validate",
 ]

@@ -110,6 +110,41 @@ class Report:
     summary: str
     violations: list[Violation]
 
+class Stream:
+    """The executor's frame generator for simulation, without arms: arms at rest at
+    ``starts`` (arms, 7) rad, every joint's ``velocity``, ``acceleration`` and ``jerk`` limits
+    (arms, 7), control cycles of ``period`` s, steps of at least ``step_time`` s."""
+
+    def __init__(
+        self,
+        starts: ArrayLike,
+        velocity: ArrayLike,
+        acceleration: ArrayLike,
+        jerk: ArrayLike,
+        period: float,
+        step_time: float,
+    ) -> None: ...
+    def push(self, start: int, waypoints: ArrayLike) -> None:
+        """Replaces the waypoints from step ``start`` on by ``waypoints`` (arms, n, 7);
+        ``InputError`` if refused (a limit broken, too short to stop in)."""
+    def run(self, max_cycles: int) -> npt.NDArray[np.float64]:
+        """The commands (cycles, arms, 7), rad, until the arms hold or ``max_cycles``."""
+
+def retime(
+    waypoints: ArrayLike,
+    velocity: ArrayLike,
+    acceleration: ArrayLike,
+    per_segment: int = 20,
+    max_speed: float = ...,
+    start: float = 0.0,
+    start_speed: float = 0.0,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The time-optimal law (TOPP-RA) along the executor's spline through ``waypoints``
+    (n, dof) (several arms' joints side by side share one law), within per-coordinate
+    ``velocity`` (rad/s) and ``acceleration`` (rad/s^2) limits and ``max_speed`` waypoints/s,
+    from waypoint ``start`` at ``start_speed`` waypoints/s to rest at the end: the grid's path
+    parameter (waypoints), path speed (waypoints/s) and time (s); ``t[-1]`` is the duration."""
+
 def plan(
     problem: Problem,
     planner: Optional[str] = None,

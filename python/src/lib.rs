@@ -11,6 +11,8 @@ mod episode;
 mod kinematics;
 mod options;
 mod problem;
+mod retime;
+mod stream;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -40,6 +42,7 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<embodier::Embodier>()?;
     m.add_class::<cell::Cell>()?;
     m.add_class::<problem::Problem>()?;
+    m.add_class::<stream::Stream>()?;
     m.add_class::<problem::Solution>()?;
     m.add_class::<problem::Report>()?;
     m.add_class::<problem::Violation>()?;
@@ -48,6 +51,7 @@ fn _omcbsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kinematics::fk, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::ik, m)?)?;
     m.add_function(wrap_pyfunction!(episode::aloha_episode, m)?)?;
+    m.add_function(wrap_pyfunction!(retime::retime, m)?)?;
     // Leaving the interpreter stops every arm of every cell still running.
     let stop_all = wrap_pyfunction!(cell::stop_all_cells, m)?;
     m.py()

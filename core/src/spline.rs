@@ -1,11 +1,14 @@
 //! The cubic Hermite spline every joint follows between waypoints: one segment per pair of
 //! waypoints, tangents from the neighbouring slopes (Fritsch–Butland), so that the spline is C1
 //! and monotone between waypoints (it never leaves their range). Pure arithmetic on `f64`.
+//!
+//! The executor (`omcbsa-hw`'s stream) moves the arms along it and [`crate::retime`] times it:
+//! one spline, so that the time law is computed on the path the arms follow.
 
 /// One cubic Hermite segment on u ∈ [0, 1]; tangents are per segment (rad per segment).
 ///
 /// ```
-/// use omcbsa_hw::spline::{fritsch_butland, Segment};
+/// use omcbsa_core::spline::{fritsch_butland, Segment};
 ///
 /// // From 0 to 1 rad, at rest at the start, the next segment rising more steeply.
 /// let s = Segment { p0: 0.0, p1: 1.0, m0: 0.0, m1: fritsch_butland(1.0, 3.0) };
@@ -35,6 +38,20 @@ impl Segment {
             + (u3 - 2.0 * u2 + u) * self.m0
             + (-2.0 * u3 + 3.0 * u2) * self.p1
             + (u3 - u2) * self.m1
+    }
+
+    /// dp/du at `u`, rad per segment.
+    pub fn velocity(&self, u: f64) -> f64 {
+        let d = self.p1 - self.p0;
+        (6.0 * u - 6.0 * u * u) * d
+            + (3.0 * u * u - 4.0 * u + 1.0) * self.m0
+            + (3.0 * u * u - 2.0 * u) * self.m1
+    }
+
+    /// d²p/du² at `u`, rad per segment².
+    pub fn acceleration(&self, u: f64) -> f64 {
+        let d = self.p1 - self.p0;
+        (6.0 - 12.0 * u) * d + (6.0 * u - 4.0) * self.m0 + (6.0 * u - 2.0) * self.m1
     }
 
     /// Largest |dp/du| on the segment: the derivative is a quadratic, so the maximum is at an
@@ -75,19 +92,26 @@ pub fn fritsch_butland(a: f64, b: f64) -> f64 {
 
 /// Segment `i` (waypoint `i` to `i + 1`) of joint `j` of `path`, at rest at both ends.
 pub fn segment<const N: usize>(path: &[[f64; N]], j: usize, i: usize) -> Segment {
-    let p = |k: usize| path[k][j];
-    let tangent = |k: usize| {
-        if k == 0 || k + 1 == path.len() {
-            0.0
-        } else {
-            fritsch_butland(p(k) - p(k - 1), p(k + 1) - p(k))
-        }
-    };
+    segment_of(path.len(), |k| path[k][j], i)
+}
+
+/// Segment `i` of the spline through `n` waypoints whose positions `p(k)` gives, at rest at
+/// both ends: the one definition of the path every caller shares.
+pub fn segment_of(n: usize, p: impl Fn(usize) -> f64, i: usize) -> Segment {
     Segment {
         p0: p(i),
         p1: p(i + 1),
-        m0: tangent(i),
-        m1: tangent(i + 1),
+        m0: tangent_at(n, &p, i),
+        m1: tangent_at(n, &p, i + 1),
+    }
+}
+
+/// The tangent at waypoint `k` of `n`: zero at the ends, Fritsch–Butland between.
+pub fn tangent_at(n: usize, p: impl Fn(usize) -> f64, k: usize) -> f64 {
+    if k == 0 || k + 1 >= n {
+        0.0
+    } else {
+        fritsch_butland(p(k) - p(k - 1), p(k + 1) - p(k))
     }
 }
 
@@ -97,8 +121,8 @@ mod tests {
 
     #[test]
     fn hermite_passes_through_waypoints_with_continuous_slope() {
-        let path: Vec<[f64; 7]> = [0.0, 1.0, 1.5, 0.5].map(|v| [v; 7]).to_vec();
-        let segs: Vec<Segment> = (0..3).map(|i| segment(&path, 0, i)).collect();
+        let path = [0.0, 1.0, 1.5, 0.5].map(|v| [v; 7]);
+        let segs = [0, 1, 2].map(|i| segment(&path, 0, i));
         for w in segs.windows(2) {
             assert_eq!(w[0].position(1.0), w[1].position(0.0));
             assert_eq!(w[0].m1, w[1].m0);
@@ -111,5 +135,23 @@ mod tests {
             .map(|i| segs[1].position(i as f64 / 100.0))
             .fold(f64::MIN, f64::max);
         assert!(top <= 1.5);
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let s = Segment {
+            p0: 0.2,
+            p1: -0.4,
+            m0: 0.3,
+            m1: -0.9,
+        };
+        let h = 1e-6;
+        for u in [0.0, 0.3, 0.7, 1.0] {
+            let v = (s.position(u + h) - s.position(u - h)) / (2.0 * h);
+            let a = (s.velocity(u + h) - s.velocity(u - h)) / (2.0 * h);
+            assert!((v - s.velocity(u)).abs() < 1e-6, "{u}");
+            assert!((a - s.acceleration(u)).abs() < 1e-6, "{u}");
+        }
+        assert_eq!((s.velocity(0.0), s.velocity(1.0)), (0.3, -0.9));
     }
 }
