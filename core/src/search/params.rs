@@ -64,8 +64,8 @@ pub struct OmegaParams {
     /// reached first with a step that leaves its successors too great a change of motion does
     /// not hide one reached later with a step that lets them on. Infinite: one state per
     /// cell, whatever its last step. Halved where the acceleration budget clamps the
-    /// null-space step (docs/PLANNERS.md, "Acceleration"). 1.0: on a quarter of the suite,
-    /// 0.5 kept more states apart for no plan more, at 1.7 times the mean planning time.
+    /// null-space step (docs/PLANNERS.md, "Acceleration"). 1.0: on the suite, 0.5 kept more
+    /// states apart for no plan more, at 1.4 times the mean planning time.
     pub velocity_merge: f64,
     /// Largest displacement (m) of any point of the arm between two checked configurations
     /// of a motion; the checks inflate the links by half of it, so they are conservative.
