@@ -38,6 +38,7 @@ fn problem(name: &str, h: usize) -> ProblemFile {
         }],
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
+        limits: Default::default(),
     }
 }
 
@@ -478,5 +479,89 @@ fn a_fixed_assignment_is_planned_under_and_checked() {
             .contains("suite.json: fixed: assignment[0]: hand 1 does not exist"),
         "{}",
         rows[0].message
+    );
+}
+
+/// A one-problem suite whose hand follows `path` (robot at the origin) `dt` apart.
+fn write_path_suite(dir: &Path, path: &[[f64; 7]], dt: f64) {
+    let mut p = problem("moving", path.len());
+    p.dt = dt;
+    p.trajectories[0].poses = path
+        .iter()
+        .map(|q| from_frame(&KinovaGen3::fk(q)))
+        .collect();
+    std::fs::write(dir.join("moving.json"), serde_json::to_string(&p).unwrap()).unwrap();
+    let index = SuiteIndex {
+        format: INDEX_FORMAT.to_string(),
+        seed: 0,
+        problems: vec![SuiteEntry {
+            name: "moving".to_string(),
+            file: "moving.json".to_string(),
+            family: "moving".to_string(),
+            layout: "single".to_string(),
+            robots: 1,
+            trajectories: 1,
+            horizon: path.len(),
+            known_solvable: true,
+            seed: 0,
+            redraws: 0,
+            witness: None,
+            witness_method: None,
+            stance: None,
+            straight_bridge_collides: None,
+            assignment: None,
+        }],
+        undrawn: Vec::new(),
+    };
+    std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
+}
+
+#[test]
+fn a_plan_over_the_acceleration_limit_is_no_success() {
+    // HOME with joint_1 at 0, 0, x, x: the hand is tracked exactly and within speed, so the
+    // only rules a plan can break are the acceleration rules.
+    let path = |x: f64| {
+        let mut moved = HOME;
+        moved[0] += x;
+        vec![HOME, HOME, moved, moved]
+    };
+    let follow = |x: f64| {
+        move |planner: &str, file: &ProblemFile, problem: &Problem<7>, timeout: f64| {
+            let mut s = fake("good", file, problem, timeout)?;
+            s.planner = planner.to_string();
+            s.joint_paths = Some(vec![path(x).iter().map(|q| q.to_vec()).collect()]);
+            Ok(s)
+        }
+    };
+    let suite = tempfile::tempdir().unwrap();
+    // 0.1 rad in 0.1 s: 10 rad/s² at step 1, over the Gen3's 5.2.
+    write_path_suite(suite.path(), &path(0.1), 0.1);
+    let out = tempfile::tempdir().unwrap();
+    let report = run_bench_with(suite.path(), &options(&["p"], out.path()), &follow(0.1)).unwrap();
+    let rows = read_rows(&report.results_path);
+    assert_eq!(
+        (rows[0].status.as_str(), rows[0].valid, rows[0].success),
+        ("solved", Some(false), false),
+        "{:?}",
+        rows[0]
+    );
+    assert!(
+        rows[0]
+            .message
+            .contains("rule 6 (acceleration), robot 0, step 1: joint joint_1"),
+        "{}",
+        rows[0].message
+    );
+    // A hundredth of the motion is within every limit: a success.
+    write_path_suite(suite.path(), &path(0.001), 0.1);
+    let out = tempfile::tempdir().unwrap();
+    let report =
+        run_bench_with(suite.path(), &options(&["p"], out.path()), &follow(0.001)).unwrap();
+    let rows = read_rows(&report.results_path);
+    assert_eq!(
+        (rows[0].valid, rows[0].success),
+        (Some(true), true),
+        "{:?}",
+        rows[0]
     );
 }

@@ -37,6 +37,9 @@ pub struct JointLimits {
     pub velocity: f64,
     /// rad/s²
     pub acceleration: f64,
+    /// rad/s³: what the streamed commands' third differences may reach (the host's validator
+    /// checks a plan's stream against it; [`check_command`] bounds velocity and acceleration).
+    pub jerk: f64,
 }
 
 /// Proof that a plan solves its problem (collision-free, constraints met). The host implements
@@ -110,7 +113,12 @@ pub fn check_commands<'a>(
 /// use omcbsa_hw::plan::check_command;
 /// use omcbsa_hw::{JointLimits, JOINTS};
 ///
-/// let limits = [JointLimits { position: Some((-1.0, 1.0)), velocity: 1.0, acceleration: 10.0 }; JOINTS];
+/// let limits = [JointLimits {
+///     position: Some((-1.0, 1.0)),
+///     velocity: 1.0,
+///     acceleration: 10.0,
+///     jerk: 5000.0,
+/// }; JOINTS];
 /// let rest = [0; JOINTS];
 /// let mut cmd = rest;
 /// cmd[2] = 100; // 1e-5 rad in 2 ms: 0.005 rad/s, 2.5 rad/s² from rest
@@ -198,6 +206,7 @@ mod tests {
             position: None,
             velocity: 0.8727,
             acceleration: 1.0,
+            jerk: 500.0,
         }; JOINTS];
         let z = [0; JOINTS];
         let mut c = z;
