@@ -386,26 +386,33 @@ fn write_fixed_suite(dir: &Path, assignment: Vec<Option<usize>>) {
     for r in &mut p.robots {
         r.initial = Some(HOME.to_vec());
     }
-    std::fs::write(dir.join("fixed.json"), serde_json::to_string(&p).unwrap()).unwrap();
+    write_one_problem_suite(dir, &p, Some(assignment));
+}
+
+/// A suite of `p` alone (its family named after it, layout `pair`, known solvable exactly when no
+/// assignment is fixed), under the fixed `assignment` if one.
+fn write_one_problem_suite(dir: &Path, p: &ProblemFile, assignment: Option<Vec<Option<usize>>>) {
+    let file = format!("{}.json", p.name);
+    std::fs::write(dir.join(&file), serde_json::to_string(p).unwrap()).unwrap();
     let index = SuiteIndex {
         format: INDEX_FORMAT.to_string(),
         seed: 0,
         problems: vec![SuiteEntry {
-            name: "fixed".to_string(),
-            file: "fixed.json".to_string(),
-            family: "fixed".to_string(),
+            name: p.name.clone(),
+            file,
+            family: p.name.clone(),
             layout: "pair".to_string(),
-            robots: 2,
-            trajectories: 1,
-            horizon: 2,
-            known_solvable: false,
+            robots: p.robots.len(),
+            trajectories: p.trajectories.len(),
+            horizon: p.trajectories[0].poses.len(),
+            known_solvable: assignment.is_none(),
             seed: 0,
             redraws: 0,
             witness: None,
             witness_method: None,
             stance: None,
             straight_bridge_collides: None,
-            assignment: Some(assignment),
+            assignment,
         }],
         undrawn: Vec::new(),
     };
@@ -490,30 +497,7 @@ fn write_path_suite(dir: &Path, path: &[[f64; 7]], dt: f64) {
         .iter()
         .map(|q| from_frame(&KinovaGen3::fk(q)))
         .collect();
-    std::fs::write(dir.join("moving.json"), serde_json::to_string(&p).unwrap()).unwrap();
-    let index = SuiteIndex {
-        format: INDEX_FORMAT.to_string(),
-        seed: 0,
-        problems: vec![SuiteEntry {
-            name: "moving".to_string(),
-            file: "moving.json".to_string(),
-            family: "moving".to_string(),
-            layout: "single".to_string(),
-            robots: 1,
-            trajectories: 1,
-            horizon: path.len(),
-            known_solvable: true,
-            seed: 0,
-            redraws: 0,
-            witness: None,
-            witness_method: None,
-            stance: None,
-            straight_bridge_collides: None,
-            assignment: None,
-        }],
-        undrawn: Vec::new(),
-    };
-    std::fs::write(dir.join(INDEX_FILE), serde_json::to_string(&index).unwrap()).unwrap();
+    write_one_problem_suite(dir, &p, None);
 }
 
 #[test]
