@@ -290,7 +290,10 @@ pub(crate) fn problem_document(
     let given = (fields.iter().zip(scale)).filter_map(|(k, v)| v.map(|v| (*k, v)));
     let mut limits = Map::new();
     for (key, v) in given {
-        limits.insert(key.into(), number(v, &format!("limits.{key}")).map_err(|e| fe(py, e))?);
+        limits.insert(
+            key.into(),
+            number(v, &format!("limits.{key}")).map_err(|e| fe(py, e))?,
+        );
     }
     if !limits.is_empty() {
         doc.insert("limits".into(), Value::Object(limits));
