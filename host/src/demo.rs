@@ -182,6 +182,7 @@ pub fn box_flip() -> Result<Demo, String> {
         trajectories,
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
+        limits: Default::default(),
     };
     let witness = SolutionFile {
         approach: None,

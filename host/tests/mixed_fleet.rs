@@ -77,6 +77,7 @@ fn mixed(models: &[&str], h: usize) -> ProblemFile {
         trajectories,
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
+        limits: Default::default(),
     }
 }
 

@@ -243,6 +243,7 @@ impl Embodier {
                     vec![hand],
                     obstacles.as_ref(),
                     tolerance,
+                    [None, None],
                 )?;
                 let file = load::parse_problem(&doc.to_string())
                     .and_then(check)

@@ -592,6 +592,7 @@ impl Cell {
             robots,
             obstacles: vec![bimanual::table()],
             tolerance: ToleranceSpec::default(),
+            limits: Default::default(),
             dt,
         }
     }

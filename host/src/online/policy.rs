@@ -73,6 +73,7 @@ impl BoxFlipPolicy {
                 .collect(),
             obstacles: Vec::new(),
             tolerance: ToleranceSpec::default(),
+            limits: Default::default(),
             dt: DT,
         }
     }

@@ -227,6 +227,7 @@ impl Window {
                 .collect(),
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
+            limits: setup.limits,
         };
         let solution = SolutionFile {
             format: SOLUTION_FORMAT.to_string(),
