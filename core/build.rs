@@ -28,10 +28,8 @@ fn main() -> ExitCode {
         match generate_folder(&dir).and_then(|code| Ok((code, Folder::read(&dir)?))) {
             Ok((code, Folder { manifest, .. })) => {
                 source.push_str(&code);
-                (fleets
-                    .entry(manifest.limits.velocity.values.len())
-                    .or_default())
-                .push((manifest.type_name, manifest.name));
+                (fleets.entry(manifest.limits.velocity.len()).or_default())
+                    .push((manifest.type_name, manifest.name));
             }
             Err(e) => {
                 eprintln!("error: model folder `robots/{folder}`: {e}");

@@ -139,63 +139,10 @@ pub enum Error {
     },
     /// A limit list has the wrong length or a value that is not a positive number.
     BadLimit {
-        /// Which quantity's list.
-        what: LimitKind,
+        /// `velocity` or `acceleration`.
+        what: &'static str,
         /// What is wrong with it.
-        problem: LimitProblem,
-    },
-}
-
-/// A quantity the manifest gives one limit per actuated joint of.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LimitKind {
-    /// rad/s (m/s).
-    Velocity,
-    /// rad/s² (m/s²).
-    Acceleration,
-    /// rad/s³ (m/s³).
-    Jerk,
-}
-
-impl fmt::Display for LimitKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            LimitKind::Velocity => "velocity",
-            LimitKind::Acceleration => "acceleration",
-            LimitKind::Jerk => "jerk",
-        })
-    }
-}
-
-impl fmt::Display for LimitProblem {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            LimitProblem::Count { given, joints } => {
-                write!(f, "{given} values for {joints} actuated joints")
-            }
-            LimitProblem::NotPositive { index, value } => {
-                write!(f, "value {index} ({value}) is not a positive number")
-            }
-        }
-    }
-}
-
-/// What is wrong with a limit list.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum LimitProblem {
-    /// It does not have one value per actuated joint.
-    Count {
-        /// Values given.
-        given: usize,
-        /// Actuated joints.
-        joints: usize,
-    },
-    /// A value is not a positive finite number.
-    NotPositive {
-        /// The value's index (chain order).
-        index: usize,
-        /// The value.
-        value: f64,
+        message: String,
     },
 }
 
@@ -340,7 +287,7 @@ impl fmt::Display for Error {
             Manifest { source, message } => {
                 write!(f, "{source}: invalid model manifest: {message}")
             }
-            BadLimit { what, problem } => write!(f, "{what} limits: {problem}"),
+            BadLimit { what, message } => write!(f, "{what} limits: {message}"),
         }
     }
 }

@@ -5,7 +5,7 @@
 use std::fmt::Write;
 
 /// One `Models` function: its name, its parameters after `id: u8` and its return type.
-const QUERIES: [(&str, &str, &str); 20] = [
+const QUERIES: [(&str, &str, &str); 19] = [
     ("name", "", "&'static str"),
     ("link_names", "", "&'static [&'static str]"),
     ("joint_names", "", "&'static [&'static str; D]"),
@@ -13,7 +13,6 @@ const QUERIES: [(&str, &str, &str); 20] = [
     ("upper", "", "&'static [f64; D]"),
     ("velocity", "", "&'static [f64; D]"),
     ("acceleration", "", "&'static [f64; D]"),
-    ("jerk", "", "&'static [f64; D]"),
     ("capsules", "", "&'static [crate::model::LinkCapsule]"),
     ("self_pairs", "", "&'static [(u8, u8)]"),
     ("reach", "", "&'static [f64; D]"),

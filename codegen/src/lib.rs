@@ -20,7 +20,7 @@ mod transform;
 use std::path::Path;
 
 pub use chain::Ends;
-pub use error::{Error, LimitKind, LimitProblem, NotSerial};
+pub use error::{Error, NotSerial};
 pub use fleet::fleet as generate_fleet;
 
 /// Where an input comes from.
@@ -62,8 +62,8 @@ pub struct ModelSpec<'a> {
     /// Where the chain starts and ends; without them the whole URDF must be one serial chain
     /// whose last link is the tool frame.
     pub ends: Option<Ends<'a>>,
-    /// The vendor's limits; without them the URDF's velocity limits and no acceleration or
-    /// jerk limit (`f64::INFINITY`).
+    /// The vendor's limits; without them the URDF's velocity limits and no acceleration limit
+    /// (`f64::INFINITY`).
     pub limits: Option<Limits<'a>>,
 }
 
@@ -74,23 +74,8 @@ pub struct Limits<'a> {
     pub velocity: &'a [f64],
     /// Acceleration limits, rad/s² (m/s²).
     pub acceleration: &'a [f64],
-    /// Jerk limits, rad/s³ (m/s³).
-    pub jerk: &'a [f64],
-    /// Where each quantity comes from (written into the generated type's documentation).
-    pub sources: LimitSources<'a>,
-}
-
-/// Where each of a model's limits comes from, one document (or derivation) per quantity.
-#[derive(Clone, Copy, Debug)]
-pub struct LimitSources<'a> {
-    /// Position limits (they are the URDF's).
-    pub position: &'a str,
-    /// Velocity limits.
-    pub velocity: &'a str,
-    /// Acceleration limits.
-    pub acceleration: &'a str,
-    /// Jerk limits.
-    pub jerk: &'a str,
+    /// Where the numbers come from (written into the generated type's documentation).
+    pub source: &'a str,
 }
 
 /// Rust source for `spec`: a unit struct and its `crate::model::Model<D>` impl. Anything
@@ -131,7 +116,6 @@ pub struct LimitSources<'a> {
 /// // Without the vendor's limits: the URDF's velocities and no acceleration limit.
 /// assert!(source.contains("const VELOCITY: [f64; 2] = [1.5, 2.0];"));
 /// assert!(source.contains("ACCELERATION: [f64; 2] = [f64::INFINITY, f64::INFINITY];"));
-/// assert!(source.contains("JERK: [f64; 2] = [f64::INFINITY, f64::INFINITY];"));
 ///
 /// // A joint type the generator does not support is named, with the joint.
 /// let floating = urdf.replace(r#""elbow" type="revolute""#, r#""elbow" type="floating""#);
@@ -152,15 +136,9 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         message: e.to_string(),
     })?;
     let mut chain = chain::from_urdf(&robot, spec.ends)?;
-    let dynamics = match spec.limits {
+    let acceleration = match spec.limits {
         Some(limits) => apply_limits(&mut chain, &limits)?,
-        None => {
-            let unbounded = vec![f64::INFINITY; chain.actuated().count()];
-            emit::Dynamics {
-                acceleration: unbounded.clone(),
-                jerk: unbounded,
-            }
-        }
+        None => vec![f64::INFINITY; chain.actuated().count()],
     };
     let collision = spec.collision.map(|c| c.read()).transpose()?;
     let file = collision
@@ -175,37 +153,30 @@ pub fn generate_model(spec: &ModelSpec) -> Result<String, Error> {
         spec.name,
         &source,
         &chain,
-        &dynamics,
-        spec.limits.map(|l| l.sources),
+        &acceleration,
+        spec.limits.map(|l| l.source),
         &geometry,
     ))
 }
 
-/// Replaces the chain's velocity limits with `limits.velocity` and returns the acceleration
-/// and jerk limits, after checking each has one positive finite value per actuated joint.
-fn apply_limits(chain: &mut chain::Chain, limits: &Limits) -> Result<emit::Dynamics, Error> {
+/// Replaces the chain's velocity limits with `limits.velocity` and returns the accelerations,
+/// after checking both have one positive finite value per actuated joint.
+fn apply_limits(chain: &mut chain::Chain, limits: &Limits) -> Result<Vec<f64>, Error> {
     let dof = chain.actuated().count();
     for (what, values) in [
-        (LimitKind::Velocity, limits.velocity),
-        (LimitKind::Acceleration, limits.acceleration),
-        (LimitKind::Jerk, limits.jerk),
+        ("velocity", limits.velocity),
+        ("acceleration", limits.acceleration),
     ] {
         if values.len() != dof {
             return Err(Error::BadLimit {
                 what,
-                problem: LimitProblem::Count {
-                    given: values.len(),
-                    joints: dof,
-                },
+                message: format!("{} values for {dof} actuated joints", values.len()),
             });
         }
-        if let Some(index) = values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+        if let Some(i) = values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
             return Err(Error::BadLimit {
                 what,
-                problem: LimitProblem::NotPositive {
-                    index,
-                    value: values[index],
-                },
+                message: format!("value {i} ({}) is not a positive number", values[i]),
             });
         }
     }
@@ -216,10 +187,7 @@ fn apply_limits(chain: &mut chain::Chain, limits: &Limits) -> Result<emit::Dynam
     for (joint, &v) in moving.zip(limits.velocity) {
         joint.velocity = v;
     }
-    Ok(emit::Dynamics {
-        acceleration: limits.acceleration.to_vec(),
-        jerk: limits.jerk.to_vec(),
-    })
+    Ok(limits.acceleration.to_vec())
 }
 
 fn is_type_name(name: &str) -> bool {

@@ -1,12 +1,12 @@
 //! A model's folder: `robots/<model>/model.json` names the URDF, the chain's ends, the limits
-//! with each one's source and the collision file, so that adding a model is adding a folder.
+//! with their source and the collision file, so that adding a model is adding a folder.
 
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
 use crate::chain::Ends;
-use crate::{Error, Input, LimitSources, Limits, ModelSpec};
+use crate::{Error, Input, Limits, ModelSpec};
 
 /// The manifest's name inside a model's folder.
 pub const FILE: &str = "model.json";
@@ -52,35 +52,15 @@ pub struct ViewMeshes {
     pub meshes: std::collections::BTreeMap<String, String>,
 }
 
-/// The model's limits, each quantity with its own source.
+/// Per actuated joint, in chain order.
 #[derive(Deserialize, Debug, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ManifestLimits {
-    /// Position limits: the URDF's; only where they come from is written here.
-    pub position: Sourced,
     /// rad/s (m/s for a prismatic joint).
-    pub velocity: SourcedValues,
+    pub velocity: Vec<f64>,
     /// rad/s² (m/s²).
-    pub acceleration: SourcedValues,
-    /// rad/s³ (m/s³).
-    pub jerk: SourcedValues,
-}
-
-/// Where a quantity's values come from (the values themselves are elsewhere).
-#[derive(Deserialize, Debug, Clone, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Sourced {
-    /// The document (or derivation) the values come from.
-    pub source: String,
-}
-
-/// One value per actuated joint, in chain order, and where they come from.
-#[derive(Deserialize, Debug, Clone, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SourcedValues {
-    /// Per actuated joint.
-    pub values: Vec<f64>,
-    /// The document (or derivation) they come from.
+    pub acceleration: Vec<f64>,
+    /// Where the numbers come from.
     pub source: String,
 }
 
@@ -174,15 +154,9 @@ impl Folder {
             collision: collision.exists().then_some(Input::File(collision)),
             ends: Some(self.ends()),
             limits: Some(Limits {
-                velocity: &m.limits.velocity.values,
-                acceleration: &m.limits.acceleration.values,
-                jerk: &m.limits.jerk.values,
-                sources: LimitSources {
-                    position: &m.limits.position.source,
-                    velocity: &m.limits.velocity.source,
-                    acceleration: &m.limits.acceleration.source,
-                    jerk: &m.limits.jerk.source,
-                },
+                velocity: &m.limits.velocity,
+                acceleration: &m.limits.acceleration,
+                source: &m.limits.source,
             }),
         }
     }
@@ -203,7 +177,6 @@ impl Folder {
 /// assert!(source.contains("impl crate::model::Model<5> for SyntheticChain"));
 /// // The manifest's limits replace the URDF's, and their source is kept in the docs.
 /// assert!(source.contains("const ACCELERATION: [f64; 5] = [5.0, 1.0, 8.0, 6.0, 7.0];"));
-/// assert!(source.contains("const JERK: [f64; 5] = [2500.0, 500.0, 4000.0, 3000.0, 3500.0];"));
 /// assert!(source.contains("made up for the tests"));
 ///
 /// // A folder without a manifest is an error naming the file.

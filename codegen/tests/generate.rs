@@ -3,9 +3,7 @@
 
 use std::path::Path;
 
-use omcbsa_codegen::{
-    generate_model, Ends, Error, Input, LimitKind, LimitProblem, LimitSources, Limits, ModelSpec,
-};
+use omcbsa_codegen::{generate_model, Ends, Error, Input, Limits, ModelSpec};
 
 fn generate(urdf: &str, collision: Option<&str>) -> Result<String, Error> {
     generate_model(&ModelSpec {
@@ -271,70 +269,20 @@ fn ends_that_are_missing_or_out_of_order_are_named() {
 #[test]
 fn manifest_limits_replace_the_urdfs_and_are_checked() {
     let urdf = robot(&two_joint_arm());
-    let sources = LimitSources {
-        position: "the URDF",
-        velocity: "a datasheet",
-        acceleration: "a manual",
-        jerk: "derived from the acceleration",
-    };
-    let limits = |velocity, acceleration, jerk| Limits {
+    let limits = |velocity, acceleration| Limits {
         velocity,
         acceleration,
-        jerk,
-        sources,
+        source: "a datasheet",
     };
-    let code = with(
-        &urdf,
-        Some(ENDS),
-        Some(limits(&[2.0, 0.5], &[9.0, 3.0], &[900.0, 300.0])),
-    )
-    .unwrap();
+    let code = with(&urdf, Some(ENDS), Some(limits(&[2.0, 0.5], &[9.0, 3.0]))).unwrap();
     assert!(
         code.contains("const VELOCITY: [f64; 2] = [2.0, 0.5];"),
         "{code}"
     );
     assert!(code.contains("const ACCELERATION: [f64; 2] = [9.0, 3.0];"));
-    assert!(code.contains("const JERK: [f64; 2] = [900.0, 300.0];"));
-    // Each quantity's source is in the generated type's documentation.
-    for line in [
-        "/// - Position: the URDF",
-        "/// - Velocity: a datasheet",
-        "/// - Acceleration: a manual",
-        "/// - Jerk: derived from the acceleration",
-    ] {
-        assert!(code.contains(line), "{line} missing from {code}");
-    }
-    let e = with(&urdf, None, Some(limits(&[2.0, 0.5], &[9.0], &[1.0, 1.0]))).unwrap_err();
-    let count = LimitProblem::Count {
-        given: 1,
-        joints: 2,
-    };
-    assert!(
-        matches!(e, Error::BadLimit { what: LimitKind::Acceleration, problem } if problem == count),
-        "{e}"
-    );
+    assert!(code.contains("limits: a datasheet"));
+    let e = with(&urdf, None, Some(limits(&[2.0, 0.5], &[9.0]))).unwrap_err();
     assert_mentions(&e.to_string(), &["acceleration", "1 values for 2"]);
-    let e = with(
-        &urdf,
-        None,
-        Some(limits(&[2.0, -1.0], &[9.0, 3.0], &[1.0, 1.0])),
-    )
-    .unwrap_err();
+    let e = with(&urdf, None, Some(limits(&[2.0, -1.0], &[9.0, 3.0]))).unwrap_err();
     assert_mentions(&e.to_string(), &["velocity", "value 1", "-1"]);
-    let e = with(
-        &urdf,
-        None,
-        Some(limits(&[2.0, 0.5], &[9.0, 3.0], &[1.0, f64::NAN])),
-    )
-    .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            Error::BadLimit {
-                what: LimitKind::Jerk,
-                problem: LimitProblem::NotPositive { index: 1, .. }
-            }
-        ),
-        "{e}"
-    );
 }

@@ -49,7 +49,6 @@ pub mod geometry;
 pub mod ik;
 pub mod kinematics;
 pub mod lanes;
-pub mod limits;
 pub mod model;
 pub mod motion;
 pub mod pace;

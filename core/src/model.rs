@@ -326,10 +326,6 @@ pub trait Model<const D: usize>: 'static {
     /// Acceleration limits (rad/s² or m/s²), from the manifest like [`Model::VELOCITY`];
     /// `f64::INFINITY` for a model generated without one.
     const ACCELERATION: [f64; D];
-    /// Jerk limits (rad/s³ or m/s³), from the manifest like [`Model::VELOCITY`] (which says
-    /// whether the vendor documents them or how they were derived); `f64::INFINITY` for a
-    /// model generated without one.
-    const JERK: [f64; D];
     /// Collision primitives of all links.
     const CAPSULES: &'static [LinkCapsule];
     /// Pairs of indices into [`Model::CAPSULES`] that are checked for self-collision: all
@@ -441,8 +437,6 @@ pub trait Models<const D: usize>: 'static {
     fn velocity(id: u8) -> &'static [f64; D];
     /// [`Model::ACCELERATION`] of model `id`.
     fn acceleration(id: u8) -> &'static [f64; D];
-    /// [`Model::JERK`] of model `id`.
-    fn jerk(id: u8) -> &'static [f64; D];
     /// [`Model::CAPSULES`] of model `id`.
     fn capsules(id: u8) -> &'static [LinkCapsule];
     /// [`Model::SELF_PAIRS`] of model `id`.
@@ -504,9 +498,6 @@ impl<M: Model<D>, const D: usize> Models<D> for M {
     }
     fn acceleration(_: u8) -> &'static [f64; D] {
         &M::ACCELERATION
-    }
-    fn jerk(_: u8) -> &'static [f64; D] {
-        &M::JERK
     }
     fn capsules(_: u8) -> &'static [LinkCapsule] {
         M::CAPSULES

@@ -47,8 +47,7 @@
 use heapless::Vec;
 
 use crate::geometry::Obstacle;
-use crate::limits::LimitScale;
-use crate::model::{Frame, Models};
+use crate::model::Frame;
 use crate::tool::Tool;
 
 /// Most robots in one problem.
@@ -97,9 +96,6 @@ pub struct Robot<const D: usize> {
     /// First configurations the planners may not choose: starts from which no approach was
     /// found ([`crate::embody`] fills it; [`StartExclusions::NONE`] otherwise).
     pub excluded: StartExclusions<D>,
-    /// How much of its model's velocity and acceleration limits the robot may use (its
-    /// cell's safety margin; [`LimitScale::FULL`] by default).
-    pub limits: LimitScale,
 }
 
 impl<const D: usize> Robot<D> {
@@ -116,18 +112,7 @@ impl<const D: usize> Robot<D> {
             start: Start::Sampled,
             assigned: Assigned::Free,
             excluded: StartExclusions::NONE,
-            limits: LimitScale::FULL,
         }
-    }
-
-    /// The robot's velocity limits: its model's, under its [`Robot::limits`].
-    pub fn velocity<M: Models<D>>(&self) -> [f64; D] {
-        self.limits.velocity::<M, D>(self.model)
-    }
-
-    /// The robot's acceleration limits: its model's, under its [`Robot::limits`].
-    pub fn acceleration<M: Models<D>>(&self) -> [f64; D] {
-        self.limits.acceleration::<M, D>(self.model)
     }
 
     /// The IK target of a hand pose: the pose of the model's tool frame, in the base frame,

@@ -238,7 +238,6 @@ mod tests {
             start: Start::AtInitial,
             assigned: Assigned::Track(0),
             excluded: StartExclusions::NONE,
-            limits: Default::default(),
         };
         let hand = <KinovaGen3 as Model<7>>::fk(&q0);
         let traj: Trajectory = (0..40).map(|_| hand).collect();

@@ -336,7 +336,6 @@ fn batched_state_checks_equal_single_ones() {
                 start: Start::default(),
                 assigned: Assigned::default(),
                 excluded: StartExclusions::NONE,
-                limits: Default::default(),
             };
             let valid = Validity::<M, D>::new(&robot, &c.obstacles, 0.1, 0.01)
                 .with_others(&others, mode)

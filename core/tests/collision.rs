@@ -538,7 +538,6 @@ impl Model<1> for Full {
     const UPPER: [f64; 1] = [1.0];
     const VELOCITY: [f64; 1] = [1.0];
     const ACCELERATION: [f64; 1] = [f64::INFINITY];
-    const JERK: [f64; 1] = [f64::INFINITY];
     const CAPSULES: &'static [LinkCapsule] = &[LinkCapsule {
         link: 1,
         a: [0.0; 3],

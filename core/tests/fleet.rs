@@ -12,7 +12,6 @@ fn same<A: Model<7>>(id: u8) {
     assert_eq!(Fleet7::upper(id), &A::UPPER);
     assert_eq!(Fleet7::velocity(id), &A::VELOCITY);
     assert_eq!(Fleet7::acceleration(id), &A::ACCELERATION);
-    assert_eq!(Fleet7::jerk(id), &A::JERK);
     assert_eq!(Fleet7::capsules(id), A::CAPSULES);
     assert_eq!(Fleet7::self_pairs(id), A::SELF_PAIRS);
     assert_eq!(Fleet7::reach(id), &A::REACH);

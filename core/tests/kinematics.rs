@@ -218,14 +218,10 @@ fn gen3_constants_come_from_the_urdf() {
         KinovaGen3::VELOCITY,
         [1.3963, 1.3963, 1.3963, 1.3963, 1.2218, 1.2218, 1.2218]
     );
-    // From the manifest: Kinova's user guide; the jerk derived (Kinova documents none).
+    // From the manifest (Kinova's documented actuator limits).
     assert_eq!(
         KinovaGen3::ACCELERATION,
         [5.2, 5.2, 5.2, 5.2, 10.0, 10.0, 10.0]
-    );
-    assert_eq!(
-        KinovaGen3::JERK,
-        [2600.0, 2600.0, 2600.0, 2600.0, 5000.0, 5000.0, 5000.0]
     );
     // Kinova's zero configuration: the arm points straight up, the tool 1.187385 m above the
     // base (0.15643 + 0.12838 + 0.21038 + 0.21038 + 0.20843 + 0.10593 + 0.10593 + 0.061525).
@@ -251,10 +247,6 @@ fn panda_constants_come_from_its_folder() {
     assert_eq!(
         FrankaPanda::ACCELERATION,
         [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]
-    );
-    assert_eq!(
-        FrankaPanda::JERK,
-        [7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0]
     );
     // Capsules on the 8 links and the hand (fingers folded in); none on the TCP.
     let tcp = (FrankaPanda::LINK_NAMES.len() - 1) as u8;

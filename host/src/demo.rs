@@ -182,7 +182,6 @@ pub fn box_flip() -> Result<Demo, String> {
         trajectories,
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
     };
     let witness = SolutionFile {
         approach: None,

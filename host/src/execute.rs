@@ -1,7 +1,6 @@
 //! From a solved problem to the hardware adapter (`omcbsa_hw`): the adapter's [`Plan`] for
 //! the robots that have an arm, and its validation gate backed by the host validator.
 
-use omcbsa_core::limits::LimitScale;
 use omcbsa_core::model::Models;
 use omcbsa_hw::{ArmLimits, ArmPlan, JointLimits, Plan, PlanValidator, JOINTS};
 
@@ -19,26 +18,17 @@ pub const CAUTIOUS_SPEED: f64 = 0.8727;
 // The executor drives arms of the planned models' joint count.
 const _: () = assert!(JOINTS == DOF);
 
-/// The executor's joint limits for `kind`: the model's position, acceleration and jerk limits
-/// and its velocity limits capped at `speed_cap` rad/s.
+/// The executor's joint limits for `kind`: the model's position and acceleration limits and
+/// its velocity limits capped at `speed_cap` rad/s.
 pub fn joint_limits(kind: ModelKind, speed_cap: f64) -> ArmLimits {
-    scaled_joint_limits(kind, LimitScale::FULL, speed_cap)
-}
-
-/// [`joint_limits`] under a cell's `scale` (velocity and acceleration; the cap applies to the
-/// scaled velocity).
-pub fn scaled_joint_limits(kind: ModelKind, scale: LimitScale, speed_cap: f64) -> ArmLimits {
     let m = kind.id();
     let (lower, upper) = (Fleet::lower(m), Fleet::upper(m));
-    let (velocity, acceleration) = (
-        scale.velocity::<Fleet, DOF>(m),
-        scale.acceleration::<Fleet, DOF>(m),
-    );
     std::array::from_fn(|j| JointLimits {
         position: (lower[j].is_finite() || upper[j].is_finite()).then_some((lower[j], upper[j])),
-        velocity: velocity[j].min(speed_cap),
-        acceleration: acceleration[j],
-        jerk: Fleet::jerk(m)[j],
+        velocity: Fleet::velocity(m)[j].min(speed_cap),
+        acceleration: Fleet::acceleration(m)[j],
+        // The models carry no jerk limit yet: none, until they do.
+        jerk: f64::INFINITY,
     })
 }
 
@@ -64,17 +54,15 @@ impl CheckedSolution {
     }
 
     /// The executor's limits for each arm of `plan` (made by [`CheckedSolution::plan`]), in
-    /// its order: each arm's own model's under the problem's scale ([`scaled_joint_limits`]
-    /// at [`CAUTIOUS_SPEED`]).
+    /// its order: each arm's own model's ([`joint_limits`] at [`CAUTIOUS_SPEED`]).
     pub fn joint_limits(&self, plan: &Plan) -> Result<Vec<ArmLimits>, String> {
         let kinds = load::models(&self.problem).map_err(|e| e.to_string())?;
-        let scale = load::limit_scale(&self.problem.limits).map_err(|e| e.to_string())?;
         (plan.arms.iter())
             .map(|a| {
                 let i = (self.problem.robots.iter())
                     .position(|r| r.name == a.name)
                     .ok_or_else(|| format!("arm {} is no robot of the problem", quoted(&a.name)))?;
-                Ok(scaled_joint_limits(kinds[i], scale, CAUTIOUS_SPEED))
+                Ok(joint_limits(kinds[i], CAUTIOUS_SPEED))
             })
             .collect()
     }
@@ -220,7 +208,7 @@ mod tests {
 
     #[test]
     fn the_executor_limits_are_the_models_with_the_speed_capped() {
-        // The Gen3's are exactly the executor's own test table (Kinova's documented limits).
+        // The Gen3's are exactly the table the executor's own tests use.
         let gen3 = joint_limits(ModelKind::default(), CAUTIOUS_SPEED);
         assert_eq!(gen3, omcbsa_mock::testing::arm_limits());
         let panda = ModelKind::parse("franka_panda").unwrap();
@@ -230,11 +218,5 @@ mod tests {
         assert!(panda.iter().all(|l| l.velocity == CAUTIOUS_SPEED));
         let fast = joint_limits(ModelKind::parse("panda").unwrap(), 10.0);
         assert_eq!(fast[6].velocity, 2.61);
-        assert_eq!(fast[6].jerk, 10000.0);
-        // A cell's scale lowers velocity and acceleration, not jerk.
-        let half = LimitScale::new(0.5, 0.25).unwrap();
-        let slow = scaled_joint_limits(ModelKind::parse("panda").unwrap(), half, 10.0);
-        assert_eq!((slow[6].velocity, slow[6].acceleration), (1.305, 5.0));
-        assert_eq!(slow[6].jerk, 10000.0);
     }
 }

@@ -31,11 +31,10 @@
 //!     }],
 //!     obstacles: Vec::new(),
 //!     tolerance: Default::default(),
-//!     limits: Default::default(),
 //! };
 //! // Written and read back, it is the same file; optional fields left out stay out.
 //! let text = serde_json::to_string(&file).unwrap();
-//! assert!(!text.contains("initial") && !text.contains("obstacles") && !text.contains("limits"));
+//! assert!(!text.contains("initial") && !text.contains("obstacles"));
 //! assert_eq!(load::parse_problem(&text).unwrap(), file);
 //!
 //! // A misspelt field is refused, with its path.
@@ -100,43 +99,6 @@ pub struct ProblemFile {
     /// How closely the hands must be followed (optional).
     #[serde(default)]
     pub tolerance: ToleranceSpec,
-    /// How much of the models' documented velocity and acceleration limits the cell allows
-    /// (optional; all of them by default).
-    #[serde(default, skip_serializing_if = "LimitsSpec::is_full")]
-    pub limits: LimitsSpec,
-}
-
-/// A cell's safety margin on the arms' limits: fractions of every model's documented velocity
-/// and acceleration limits, each in (0, 1] (checked by [`crate::load`]), 1 when left out.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LimitsSpec {
-    /// Fraction of the velocity limits.
-    #[serde(default = "full")]
-    pub velocity_scale: f64,
-    /// Fraction of the acceleration limits.
-    #[serde(default = "full")]
-    pub acceleration_scale: f64,
-}
-
-fn full() -> f64 {
-    1.0
-}
-
-impl Default for LimitsSpec {
-    fn default() -> Self {
-        LimitsSpec {
-            velocity_scale: 1.0,
-            acceleration_scale: 1.0,
-        }
-    }
-}
-
-impl LimitsSpec {
-    /// Whether it allows the whole of every limit (what a file that leaves it out means).
-    pub fn is_full(&self) -> bool {
-        *self == LimitsSpec::default()
-    }
 }
 
 /// One robot of a problem file.

@@ -35,7 +35,7 @@
 //! assert_eq!(solution.status, Status::Solved, "{}", solution.message);
 //! assert_eq!(solution.assignment, [Some(0)]);
 //!
-//! // The validator checks the rules of the format on its own.
+//! // The validator checks the five rules of the format on its own.
 //! let problem = load::problem::<Fleet, DOF>(&file).unwrap();
 //! let report = validate::validate::<Fleet, DOF>(&file, &problem, &solution);
 //! assert!(report.is_valid(), "{}", report.summary());

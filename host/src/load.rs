@@ -36,7 +36,6 @@ use std::io::Read;
 use std::path::Path;
 
 use omcbsa_core::geometry::{Obstacle, Shape};
-use omcbsa_core::limits::{LimitScale, ScaleError};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::problem::{
     Problem, Robot, Tolerance, Trajectory, MAX_OBSTACLES, MAX_ROBOTS, MAX_STEPS,
@@ -49,7 +48,7 @@ use serde_json::value::RawValue;
 use crate::error::{quoted, Errors, InputError};
 use crate::format::DT_RANGE;
 use crate::format::{
-    LimitsSpec, ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToolSpec,
+    ObstacleSpec, ProblemFile, RobotSpec, ShapeKind, SolutionFile, Status, ToolSpec,
     MAX_JOINT_VALUE, PROBLEM_FORMAT, SOLUTION_FORMAT,
 };
 use crate::models::ModelKind;
@@ -246,10 +245,6 @@ pub fn problem<M: Models<D>, const D: usize>(file: &ProblemFile) -> Result<Probl
             ),
         );
     }
-    let scale = limit_scale(&file.limits).unwrap_or_else(|e| {
-        e.errors.into_iter().for_each(|e| errors.add(e));
-        LimitScale::FULL
-    });
     for (field, value) in [
         ("tolerance.position_m", file.tolerance.position_m),
         ("tolerance.orientation_rad", file.tolerance.orientation_rad),
@@ -273,7 +268,6 @@ pub fn problem<M: Models<D>, const D: usize>(file: &ProblemFile) -> Result<Probl
     let all_need_initial = n_traj < n_robots;
     let robots: Vec<_> = (file.robots.iter().enumerate())
         .map(|(i, r)| robot::<M, D>(i, r, all_need_initial, &mut errors))
-        .map(|r| r.map(|r| Robot { limits: scale, ..r }))
         .collect();
     check_robot_names(&file.robots, &mut errors);
 
@@ -404,32 +398,6 @@ fn robot<M: Models<D>, const D: usize>(
         start: Default::default(),
         assigned: Default::default(),
         excluded: omcbsa_core::problem::StartExclusions::NONE,
-        limits: LimitScale::FULL,
-    })
-}
-
-/// The cell's scale on the models' limits; each field must be in (0, 1] (errors name it, as
-/// `limits.velocity_scale`).
-///
-/// ```
-/// use omcbsa::format::LimitsSpec;
-/// use omcbsa::load::limit_scale;
-///
-/// let half = limit_scale(&LimitsSpec { velocity_scale: 0.5, acceleration_scale: 1.0 }).unwrap();
-/// assert_eq!(half.velocity_scale(), 0.5);
-/// let err = limit_scale(&LimitsSpec { velocity_scale: 1.0, acceleration_scale: 0.0 }).unwrap_err();
-/// assert!(err.has("limits.acceleration_scale", "must be in (0, 1], got 0"), "{err}");
-/// ```
-pub fn limit_scale(spec: &LimitsSpec) -> Result<LimitScale, InputError> {
-    LimitScale::new(spec.velocity_scale, spec.acceleration_scale).map_err(|e| {
-        let (field, value) = match e {
-            ScaleError::Velocity(v) => ("limits.velocity_scale", v),
-            ScaleError::Acceleration(a) => ("limits.acceleration_scale", a),
-        };
-        InputError::one(
-            field,
-            format!("must be in (0, 1] (a fraction of the models' documented limits), got {value}"),
-        )
     })
 }
 

@@ -34,7 +34,6 @@ impl Model<1> for Stick {
     const UPPER: [f64; 1] = [10.0];
     const VELOCITY: [f64; 1] = [VMAX];
     const ACCELERATION: [f64; 1] = [AMAX];
-    const JERK: [f64; 1] = [f64::INFINITY];
     const CAPSULES: &'static [LinkCapsule] = &[LinkCapsule {
         link: 1,
         a: [0.0; 3],
@@ -99,7 +98,6 @@ fn path_quality_of_a_hand_computed_plan() {
             start: Default::default(),
             assigned: Default::default(),
             excluded: omcbsa_core::problem::StartExclusions::NONE,
-            limits: Default::default(),
             // Tool at (0, 1); the trajectory starts at (1, 0): a start cost of sqrt(2).
             initial: Some([FRAC_PI_2]),
         })
@@ -114,7 +112,6 @@ fn path_quality_of_a_hand_computed_plan() {
             start: Default::default(),
             assigned: Default::default(),
             excluded: omcbsa_core::problem::StartExclusions::NONE,
-            limits: Default::default(),
             initial: Some([PI]),
         })
         .unwrap();
@@ -169,7 +166,6 @@ fn a_single_arm_without_obstacles_has_no_clearance_figures() {
             start: Default::default(),
             assigned: Default::default(),
             excluded: omcbsa_core::problem::StartExclusions::NONE,
-            limits: Default::default(),
             initial: None,
         })
         .unwrap();

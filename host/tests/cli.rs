@@ -239,26 +239,6 @@ fn validate_exit_codes() {
         "{stderr}"
     );
     assert_eq!(run(&["validate", &paths[0]]).0, Some(2), "usage error");
-    // A cell's scale from the command line: the scene's 0.05 rad/s² at its steps is within
-    // the Gen3's 5.2 rad/s², not within 0.005 of it.
-    let (code, stdout, _) = run(&[
-        "validate",
-        &paths[0],
-        &paths[1],
-        "--acceleration-scale",
-        "0.005",
-    ]);
-    assert_eq!(code, Some(1));
-    assert!(
-        stdout.starts_with("invalid: rule 6 (acceleration), robot 0, step 0"),
-        "{stdout}"
-    );
-    let (code, _, stderr) = run(&["validate", &paths[0], &paths[1], "--velocity-scale", "1.5"]);
-    assert_eq!(code, Some(2));
-    assert!(
-        stderr.contains("--velocity-scale") && stderr.contains("must be in (0, 1]"),
-        "{stderr}"
-    );
 }
 
 /// Issue 22: an arm whose `initial` collides (here with the other arm, standing at the same

@@ -77,7 +77,6 @@ fn mixed(models: &[&str], h: usize) -> ProblemFile {
         trajectories,
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
     }
 }
 

@@ -128,7 +128,7 @@ fn with_holder(held: Vec<Q>) -> (ProblemFile, SolutionFile) {
             robot("holder", b1, Some(Q0)),
         ],
         vec![trajectory_of("hand", &b0, &path)],
-        SCENE_DT,
+        0.1,
     );
     (problem, solution(vec![Some(0), None], vec![path, held]))
 }
@@ -149,45 +149,19 @@ fn rule_2_a_holding_robot_stays_at_initial() {
     );
 }
 
-/// Rules 6 to 8: a change of speed, which a step too fast also is.
-fn dynamic(rule: Rule) -> bool {
-    matches!(
-        rule,
-        Rule::Acceleration | Rule::StreamAcceleration | Rule::StreamJerk
-    )
-}
-
 #[test]
 fn rule_3_joint_faster_than_its_limit() {
-    // Steps of 0.05 rad in 0.01 s: joint_1's limit allows 1.3963 * 0.01 = 0.013963. Starting
-    // and stopping that fast also breaks the acceleration rules; only rule 3 is checked here.
+    // Steps of 0.05 rad in 0.01 s: joint_1's limit allows 1.3963 * 0.01 = 0.013963.
     let (p, s) = one_robot(&[near_q0(0.0), near_q0(1.0), near_q0(2.0)], 0.01);
-    let report = check(&p, &s);
-    let (speed, others): (Vec<_>, Vec<_>) =
-        (report.violations.iter()).partition(|v| v.rule == Rule::Velocity);
-    assert!(others.iter().all(|v| dynamic(v.rule)), "{others:#?}");
-    assert!(speed.iter().any(|v| v.robot == Some(0) && v.step == Some(1) && v.detail.contains("joint joint_1 moves 0.05 between steps 1 and 2, more than its velocity limit 1.3963 * dt 0.01 = 0.013963")), "{speed:#?}");
+    only(&check(&p, &s), Rule::Velocity, Some(0), Some(1), "joint joint_1 moves 0.05 between steps 1 and 2, more than its velocity limit 1.3963 * dt 0.01 = 0.013963");
 }
 
 #[test]
 fn rule_3_allows_exactly_the_limit() {
-    // One step at exactly the speed limit, from rest to rest: rule 3 holds. (Starting and
-    // stopping within one step breaks the acceleration rules, which are not this test's.)
     let mut next = Q0;
     next[0] += 1.3963 * 0.1;
     let (p, s) = one_robot(&[Q0, next], 0.1);
-    let report = check(&p, &s);
-    assert!(
-        report.violations.iter().all(|v| dynamic(v.rule)),
-        "{report:#?}"
-    );
-    let mut over = next;
-    over[0] += 1e-6;
-    let (p, s) = one_robot(&[Q0, over], 0.1);
-    assert!(check(&p, &s)
-        .violations
-        .iter()
-        .any(|v| v.rule == Rule::Velocity));
+    assert!(check(&p, &s).is_valid());
 }
 
 #[test]
@@ -228,12 +202,12 @@ fn rule_4_the_base_link_may_touch_what_it_stands_on() {
 
 #[test]
 fn rule_4_collision_only_between_steps() {
-    // Joint 1 turns by 1.2 rad in one 2 s step (within its acceleration and jerk limits); a
-    // small ball sits where the tool passes half way, far from where it is at either step.
+    // Joint 1 turns by 1.2 rad in one 1 s step; a small ball sits where the tool passes half
+    // way, far from where it is at either step.
     let (a, mut b, mut mid) = (Q0, Q0, Q0);
     b[0] += 1.2;
     mid[0] += 0.6;
-    let (mut p, s) = one_robot(&[a, b, b], 2.0);
+    let (mut p, s) = one_robot(&[a, b, b], 1.0);
     let tool = omcbsa::pose::from_frame(&<KinovaGen3 as omcbsa_core::model::Model<7>>::fk(&mid));
     p.obstacles.push(sphere("midway", tool.position, 0.01));
     only(
@@ -461,9 +435,8 @@ fn rule_4_grippers_passing_through_each_other() {
 #[test]
 fn a_finding_in_the_approach_names_its_approach_step() {
     use omcbsa::validate::Phase;
-    let (mut problem, mut solution) = common::two_robots();
-    // Robot 0 jumps from `initial` (Q0) to its first approach configuration, too fast at 0.1 s.
-    problem.dt = 0.1;
+    let (problem, mut solution) = common::two_robots();
+    // Robot 0 jumps from `initial` (Q0) to its first approach configuration.
     solution.approach = Some(vec![
         vec![near_q0(5.0).to_vec(), near_q0(0.0).to_vec()],
         vec![Q0.to_vec(), Q0.to_vec()],
@@ -481,153 +454,4 @@ fn a_finding_in_the_approach_names_its_approach_step() {
     assert!(v.to_string().contains("approach step 0"), "{v}");
     let json = serde_json::to_value(v).unwrap();
     assert_eq!(json["phase"], "approach");
-}
-
-/// `Q0` with joint_1 at `Q0[0] + x` for each `x`.
-fn joint_1_at(xs: &[f64]) -> Vec<Q> {
-    (xs.iter())
-        .map(|x| {
-            let mut q = Q0;
-            q[0] += x;
-            q
-        })
-        .collect()
-}
-
-/// The violations of `rule`, with what they measured.
-fn of(report: &Report, rule: Rule) -> Vec<&omcbsa::validate::Violation> {
-    report
-        .violations
-        .iter()
-        .filter(|v| v.rule == rule)
-        .collect()
-}
-
-#[test]
-fn rule_6_acceleration_at_the_plans_steps() {
-    // joint_1 moves 0.1 rad in the second 0.1 s step and stops: 1 rad/s, within its speed,
-    // but (0.1 - 2 * 0 + 0) / 0.1² = 10 rad/s² at step 1 and -10 at step 2, over Kinova's
-    // documented 5.2 rad/s².
-    let (p, s) = one_robot(&joint_1_at(&[0.0, 0.0, 0.1, 0.1]), 0.1);
-    let report = check(&p, &s);
-    assert!(of(&report, Rule::Velocity).is_empty(), "{report:#?}");
-    let steps: Vec<_> = (of(&report, Rule::Acceleration).iter())
-        .map(|v| (v.robot, v.step, v.measured.unwrap()))
-        .collect();
-    assert_eq!(steps.len(), 2, "{steps:#?}");
-    let (robot, step, m) = steps[0];
-    assert_eq!((robot, step, m.joint, m.limit), (Some(0), Some(1), 0, 5.2));
-    assert!((m.value - 10.0).abs() < 1e-6, "{m:?}");
-    assert_eq!(steps[1].1, Some(2));
-    assert!((steps[1].2.value + 10.0).abs() < 1e-6);
-    let text = of(&report, Rule::Acceleration)[0].to_string();
-    assert!(
-        text.starts_with("rule 6 (acceleration), robot 0, step 1: joint joint_1 reaches"),
-        "{text}"
-    );
-    // The JSON report carries joint, value and limit.
-    let json = serde_json::to_value(of(&report, Rule::Acceleration)[0]).unwrap();
-    assert_eq!(
-        (json["joint"].as_u64(), json["limit"].as_f64()),
-        (Some(0), Some(5.2))
-    );
-    // The executor's stream is paced within the limits (slower than the plan there): rules 7
-    // and 8 hold; the plan itself breaks rule 6.
-    assert!(
-        of(&report, Rule::StreamAcceleration).is_empty(),
-        "{report:#?}"
-    );
-    assert!(of(&report, Rule::StreamJerk).is_empty(), "{report:#?}");
-
-    // A tenth of the move is within every limit.
-    let (p, s) = one_robot(&joint_1_at(&[0.0, 0.0, 0.001, 0.001]), 0.1);
-    let report = check(&p, &s);
-    assert!(report.is_valid(), "{report:#?}");
-}
-
-#[test]
-fn rule_6_takes_the_ends_moving_and_the_executor_starts_and_stops_at_rest() {
-    // Moving at 1 rad/s from the first step to the last: no change of speed at the plan's
-    // steps (a policy's hands are moving when a plan begins and ends), and the executor's
-    // stream starts and ends at rest within the acceleration and jerk limits.
-    let (p, s) = one_robot(&joint_1_at(&[0.0, 0.1, 0.2, 0.3]), 0.1);
-    let report = check(&p, &s);
-    assert!(report.is_valid(), "{report:#?}");
-    // A change of speed inside the path is a violation at that step.
-    let (p, s) = one_robot(&joint_1_at(&[0.0, 0.1, 0.3, 0.5]), 0.1);
-    let report = check(&p, &s);
-    let steps: Vec<_> = of(&report, Rule::Acceleration)
-        .iter()
-        .map(|v| v.step)
-        .collect();
-    assert_eq!(steps, [Some(1)], "{report:#?}");
-}
-
-#[test]
-fn rule_8_the_executors_stream_keeps_the_jerk_limit() {
-    // joint_1 dips and rises: the spline's acceleration jumps at its waypoints, and streamed
-    // at the plan's own pace with no filter its third differences reach about 3700 rad/s³
-    // (steps 100.5 control periods apart), over the Gen3's 2600. The executor's jerk filter
-    // keeps its stream within the limit, and rules 7 and 8 check that stream.
-    let xs = [0.0, -0.006, 0.004, 0.016, 0.016];
-    let (p, s) = one_robot(&joint_1_at(&xs), 0.1005);
-    let report = check(&p, &s);
-    assert!(report.is_valid(), "{report:#?}");
-}
-
-#[test]
-fn a_cells_scale_lowers_the_limits_the_rules_use() {
-    use omcbsa::format::LimitsSpec;
-    // 0.1 rad in 0.1 s on joint_1: 1 rad/s is within 1.3963 rad/s, not within half of it.
-    let (mut p, s) = one_robot(&joint_1_at(&[0.0, 0.0, 0.0, 0.1]), 1.0);
-    p.dt = 0.1;
-    p.limits = LimitsSpec {
-        velocity_scale: 0.5,
-        acceleration_scale: 1.0,
-    };
-    let report = check(&p, &s);
-    let v = of(&report, Rule::Velocity);
-    assert!(v[0].detail.contains("velocity limit 0.69815"), "{v:#?}");
-    // 0.002 rad in one 0.1 s step: 0.2 rad/s² is within 5.2, not within 0.01 of it.
-    let (mut p, s) = one_robot(&joint_1_at(&[0.0, 0.0, 0.002, 0.002, 0.002]), 0.1);
-    assert!(of(&check(&p, &s), Rule::Acceleration).is_empty());
-    p.limits.acceleration_scale = 0.01;
-    let scaled = check(&p, &s);
-    let a = of(&scaled, Rule::Acceleration);
-    assert!(
-        (a[0].measured.unwrap().limit - 0.052).abs() < 1e-12,
-        "{a:#?}"
-    );
-}
-
-#[test]
-fn a_scale_outside_0_to_1_is_refused_naming_the_field_and_value() {
-    for (velocity_scale, acceleration_scale, field, value) in [
-        (0.0, 1.0, "limits.velocity_scale", "got 0"),
-        (1.5, 1.0, "limits.velocity_scale", "got 1.5"),
-        (1.0, -0.5, "limits.acceleration_scale", "got -0.5"),
-        (1.0, f64::NAN, "limits.acceleration_scale", "got NaN"),
-    ] {
-        let (mut p, _) = tiny();
-        p.limits = omcbsa::format::LimitsSpec {
-            velocity_scale,
-            acceleration_scale,
-        };
-        let e = load::problem::<KinovaGen3, 7>(&p).unwrap_err();
-        assert!(e.has(field, "must be in (0, 1]"), "{e}");
-        assert!(e.has(field, value), "{e}");
-    }
-    // In a file: read and named.
-    let (p, _) = tiny();
-    let mut json = serde_json::to_value(&p).unwrap();
-    json["limits"] = serde_json::json!({"velocity_scale": 2});
-    let file = load::parse_problem(&json.to_string()).unwrap();
-    let e = load::problem::<KinovaGen3, 7>(&file).unwrap_err();
-    assert!(e.has("limits.velocity_scale", "got 2"), "{e}");
-    json["limits"] = serde_json::json!({"velocity_scal": 0.5});
-    let e = load::parse_problem(&json.to_string()).unwrap_err();
-    assert!(
-        e.to_string().contains("unknown field `velocity_scal`"),
-        "{e}"
-    );
 }

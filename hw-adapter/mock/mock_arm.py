@@ -56,11 +56,10 @@ import drive_clock
 
 EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "gen3_joint_drive.eds")
 COUNTS_PER_RAD = 1e7
-# Kinova Gen3: URDF position limits (None = continuous), joint_limits.yaml velocity (the
-# executor's CAUTIOUS_SPEED), the user guide's acceleration (robots/kinova_gen3/README.md).
+# Kinova Gen3: URDF position limits (None = continuous), joint_limits.yaml velocity/acceleration.
 POSITION_LIMITS = [None, 2.24, None, 2.57, None, 2.09, None]
 VELOCITY_LIMIT = 0.8727
-ACCELERATION_LIMITS = [5.2, 5.2, 5.2, 5.2, 10.0, 10.0, 10.0]
+ACCELERATION_LIMITS = [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0]
 # Float slack of the mock's own checks (the host's check is exact on the same counts).
 SLACK = 1e-9
 FAULTY_NODE = 3

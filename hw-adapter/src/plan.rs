@@ -37,9 +37,8 @@ pub struct JointLimits {
     pub velocity: f64,
     /// rad/s²
     pub acceleration: f64,
-    /// rad/s³: the executor's commands change acceleration by at most this times the period
-    /// per cycle (the frame generator's filter), and the host's validator checks a plan's
-    /// stream against it.
+    /// rad/s³ (`f64::INFINITY` where none is known): the executor's commands change
+    /// acceleration by at most this times the period per cycle.
     pub jerk: f64,
 }
 
@@ -114,12 +113,7 @@ pub fn check_commands<'a>(
 /// use omcbsa_hw::plan::check_command;
 /// use omcbsa_hw::{JointLimits, JOINTS};
 ///
-/// let limits = [JointLimits {
-///     position: Some((-1.0, 1.0)),
-///     velocity: 1.0,
-///     acceleration: 10.0,
-///     jerk: 5000.0,
-/// }; JOINTS];
+/// let limits = [JointLimits { position: Some((-1.0, 1.0)), velocity: 1.0, acceleration: 10.0, jerk: f64::INFINITY }; JOINTS];
 /// let rest = [0; JOINTS];
 /// let mut cmd = rest;
 /// cmd[2] = 100; // 1e-5 rad in 2 ms: 0.005 rad/s, 2.5 rad/s² from rest
@@ -207,7 +201,7 @@ mod tests {
             position: None,
             velocity: 0.8727,
             acceleration: 1.0,
-            jerk: 500.0,
+            jerk: f64::INFINITY,
         }; JOINTS];
         let z = [0; JOINTS];
         let mut c = z;

@@ -43,15 +43,11 @@ class Problem:
         tolerance: Optional[Tuple[float, float]] = None,
         name: str = "problem",
         model: Optional[Union[str, Sequence[str]]] = None,
-        velocity_scale: Optional[float] = None,
-        acceleration_scale: Optional[float] = None,
     ) -> Problem:
         """``bases`` (robots, 7) and ``hands`` (hands, H, 7): position + quaternion xyzw;
         ``initial`` (robots, 7) joint values; ``tcp`` (robots, 7) or (7,);
         ``tolerance`` (metres, radians); ``name``; ``model``: one model name, or one per
-        robot; ``velocity_scale``, ``acceleration_scale``: the cell's fractions of the models'
-        documented limits, each in (0, 1] (1 when left out; a bad one raises InputError
-        naming ``limits.velocity_scale`` or ``limits.acceleration_scale``)."""
+        robot."""
     def to_dict(self) -> dict[str, Any]: ...
     def to_json(self) -> str: ...
     @property

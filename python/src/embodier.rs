@@ -243,7 +243,6 @@ impl Embodier {
                     vec![hand],
                     obstacles.as_ref(),
                     tolerance,
-                    [None, None],
                 )?;
                 let file = load::parse_problem(&doc.to_string())
                     .and_then(check)

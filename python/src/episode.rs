@@ -55,7 +55,6 @@ pub fn aloha_episode<'py>(
             .collect(),
         obstacles: setup.obstacles.clone(),
         tolerance: setup.tolerance,
-        limits: setup.limits,
     };
     let file = check(file).map_err(|e| crate::convert::input_error(py, &e))?;
     let (h, t) = (

@@ -23,16 +23,7 @@ use crate::guard;
 use crate::options::Options;
 
 /// The keyword options of `Problem.from_arrays`.
-const FROM_ARRAYS: &[&str] = &[
-    "initial",
-    "tcp",
-    "obstacles",
-    "tolerance",
-    "name",
-    "model",
-    "velocity_scale",
-    "acceleration_scale",
-];
+const FROM_ARRAYS: &[&str] = &["initial", "tcp", "obstacles", "tolerance", "name", "model"];
 
 pub use omcbsa::models::DOF;
 use omcbsa::models::{Fleet, ModelKind};
@@ -150,9 +141,7 @@ impl Problem {
     /// `initial`: (robots, 7) joint values; `tcp`: (robots, 7) or (7,) tool centre point in
     /// the tool frame; `obstacles`: dicts in the file's layout; `tolerance`: (metres,
     /// radians); `model`: one model name for all robots or a list of one per robot (robots
-    /// of different models mix), the default model (`kinova_gen3`) when left out;
-    /// `velocity_scale`, `acceleration_scale`: the cell's fractions of the models' documented
-    /// limits, each in (0, 1] (1 when left out).
+    /// of different models mix), the default model (`kinova_gen3`) when left out.
     #[staticmethod]
     #[pyo3(signature = (bases, hands, dt, **options))]
     fn from_arrays(
@@ -170,11 +159,6 @@ impl Problem {
         let tolerance = o.get::<(f64, f64)>("tolerance", "(metres, radians)")?;
         let name = o.or("name", "a str", "problem".to_string())?;
         let model = o.get::<ModelArg>("model", "a model name or a list of them")?;
-        let fraction = "a number in (0, 1]";
-        let scale = [
-            o.get::<f64>("velocity_scale", fraction)?,
-            o.get::<f64>("acceleration_scale", fraction)?,
-        ];
         let robots = robots_value(py, &bases, initial.as_ref(), tcp.as_ref(), model.as_ref())?;
         let hands = hands.as_array();
         let h = hands.shape().get(1).copied().unwrap_or(0);
@@ -199,7 +183,6 @@ impl Problem {
             trajectories,
             obstacles.as_ref(),
             tolerance,
-            scale,
         )?;
         Problem::from_text(py, &doc.to_string())
     }
@@ -254,9 +237,7 @@ impl Problem {
 }
 
 /// A problem document of robots and trajectories (`robots_value`, ...), `dt`, `obstacles` (a
-/// list of dicts as in the file), `tolerance` (position m, orientation rad) and the cell's
-/// `scale` (velocity, acceleration; each left out when `None`).
-#[allow(clippy::too_many_arguments)]
+/// list of dicts as in the file) and `tolerance` (position m, orientation rad).
 pub(crate) fn problem_document(
     py: Python<'_>,
     name: &str,
@@ -265,7 +246,6 @@ pub(crate) fn problem_document(
     trajectories: Vec<Value>,
     obstacles: Option<&Bound<'_, PyAny>>,
     tolerance: Option<(f64, f64)>,
-    scale: [Option<f64>; 2],
 ) -> PyResult<Value> {
     let mut doc = Map::new();
     doc.insert("format".into(), Value::from(PROBLEM_FORMAT));
@@ -285,18 +265,6 @@ pub(crate) fn problem_document(
             t.insert(key.into(), number(v, path).map_err(|e| fe(py, e))?);
         }
         doc.insert("tolerance".into(), Value::Object(t));
-    }
-    let fields = ["velocity_scale", "acceleration_scale"];
-    let given = (fields.iter().zip(scale)).filter_map(|(k, v)| v.map(|v| (*k, v)));
-    let mut limits = Map::new();
-    for (key, v) in given {
-        limits.insert(
-            key.into(),
-            number(v, &format!("limits.{key}")).map_err(|e| fe(py, e))?,
-        );
-    }
-    if !limits.is_empty() {
-        doc.insert("limits".into(), Value::Object(limits));
     }
     Ok(Value::Object(doc))
 }
@@ -658,7 +626,7 @@ impl Report {
     }
 }
 
-/// Checks `solution` against `problem` (the rules of docs/FORMATS.md, acceleration and jerk included), as
+/// Checks `solution` against `problem` (the five rules of docs/FORMATS.md), as
 /// `omcbsa validate` does, with the GIL released.
 #[pyfunction]
 pub fn validate(py: Python<'_>, problem: &Problem, solution: &Solution) -> PyResult<Report> {

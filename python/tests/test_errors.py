@@ -31,9 +31,6 @@ CASES = [
      "`initial`, `tcp`, `tool`"),
     ("obstacle size", lambda p: p["obstacles"][0].pop("half_extents"),
      "obstacles[0].half_extents: missing (shape box needs it)"),
-    ("limit scale", lambda p: p.update(limits={"velocity_scale": 1.5}),
-     "limits.velocity_scale: must be in (0, 1] (a fraction of the models' documented limits), "
-     "got 1.5"),
     ("initial collides", lambda p: p["robots"][0].update(initial=[0.0, 2.2, 0.0, 2.5, 0.0, 2.0, 0.0]),
      'robots[0].initial: robot "arm_0" cannot start here: it collides with itself'),
 ]
@@ -84,19 +81,6 @@ def test_bad_planner_and_timeout(two_hand_problem):
     for t in (0.0, -1.0, math.inf, math.nan):
         with pytest.raises(ValueError, match="timeout: must be a positive number of seconds"):
             omcbsa.plan(p, timeout=t)
-
-
-def test_a_cells_limit_scale_from_arrays():
-    hands = np.zeros((1, 2, 7))
-    hands[..., :3] = [0.5, 0.0, 0.4]
-    hands[..., 3] = 1
-    base = [[0, 0, 0, 0, 0, 0, 1]]
-    p = omcbsa.Problem.from_arrays(base, hands, 0.1, velocity_scale=0.5, acceleration_scale=0.25)
-    assert p.to_dict()["limits"] == {"velocity_scale": 0.5, "acceleration_scale": 0.25}
-    # Left out: the documented limits, and nothing written.
-    assert "limits" not in omcbsa.Problem.from_arrays(base, hands, 0.1).to_dict()
-    with pytest.raises(omcbsa.InputError, match=r"limits\.acceleration_scale: must be in \(0, 1\].*got 0"):
-        omcbsa.Problem.from_arrays(base, hands, 0.1, acceleration_scale=0.0)
 
 
 def test_bad_arrays_name_the_argument():

@@ -231,7 +231,6 @@ pub fn elbow_swing_problem(seed: u64) -> Option<(ProblemFile, Vec<[f64; DOF]>)> 
         start: Default::default(),
         assigned: Default::default(),
         excluded: omcbsa_core::problem::StartExclusions::NONE,
-        limits: Default::default(),
     };
     let mut alt = vec![[0.0; DOF]; p0.len()];
     omcbsa_core::tracking::track::<KinovaGen3, DOF>(

@@ -497,7 +497,6 @@ pub(super) mod tests {
                 start: Start::default(),
                 assigned: Assigned::default(),
                 excluded: StartExclusions::NONE,
-                limits: Default::default(),
             };
             assert!(p.robots.push(robot).is_ok());
         }

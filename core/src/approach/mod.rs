@@ -170,20 +170,7 @@ pub fn plan_approach<M: Models<D>, const D: usize>(
     storage: &mut ApproachStorage<'_, D>,
     out: &mut [[f64; D]],
 ) -> Result<Approach, ApproachError> {
-    let problem = q.problem;
-    // The shares of the limits are of the robots' scaled limits (the smallest scale of the
-    // robots', every robot's when their cell sets one).
-    let (v, a) = (problem.robots.iter()).fold((1.0f64, 1.0f64), |(v, a), r| {
-        (
-            v.min(r.limits.velocity_scale()),
-            a.min(r.limits.acceleration_scale()),
-        )
-    });
-    let params = &ApproachParams {
-        speed: q.params.speed * v,
-        acceleration: q.params.acceleration * a,
-        ..q.params
-    };
+    let (problem, params) = (q.problem, &q.params);
     let ends = Ends::new(problem, q.plan, q.horizon)?;
     let mut composite = Composite::<M, D>::new(problem, params.motion_step);
     let n = composite.n;

@@ -104,7 +104,7 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
     /// [`Validity::with_others`] and [`Validity::with_points`] add them.
     pub fn new(robot: &Robot<D>, obstacles: &'q [Obstacle], dt: f64, motion_step: f64) -> Self {
         let mut step_limit = [0.0; D];
-        for (s, v) in step_limit.iter_mut().zip(robot.velocity::<M>().iter()) {
+        for (s, v) in step_limit.iter_mut().zip(M::velocity(robot.model).iter()) {
             *s = v * dt;
         }
         Validity {

@@ -29,7 +29,7 @@ pub struct PathQuality {
 }
 
 /// The figures of `paths[i][t]` (robot i at step t) on `problem`, where `assignment[i]` is the
-/// trajectory robot i tracks; speed and acceleration limits are each robot's model's under its cell's scale. `paths`
+/// trajectory robot i tracks; speed and acceleration limits are each robot's model's. `paths`
 /// must hold one path of the problem's horizon per robot.
 pub fn path_quality<M: Models<D>, const D: usize>(
     problem: &Problem<D>,
@@ -40,7 +40,7 @@ pub fn path_quality<M: Models<D>, const D: usize>(
     let mut q = PathQuality::default();
     for (i, path) in paths.iter().enumerate() {
         let robot = &problem.robots[i];
-        let (velocity, accel) = (robot.velocity::<M>(), robot.acceleration::<M>());
+        let (velocity, accel) = (M::velocity(robot.model), M::acceleration(robot.model));
         let mut length = 0.0;
         for w in path.windows(2) {
             let step2: f64 = (0..D).map(|j| (w[1][j] - w[0][j]).powi(2)).sum();

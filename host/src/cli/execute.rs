@@ -14,7 +14,7 @@ use omcbsa_hw::Progress;
 use omcbsa_hw::{ExecConfig, ExecError, Executor, Plan, PlanValidator, Report};
 
 use super::watch::WatchArgs;
-use super::{bad_input, negative, note, print, ScaleFlags};
+use super::{bad_input, negative, note, print};
 
 /// Streams a solution to the arms, one CAN bus or Kortex connection per arm, at the control
 /// rate: refuses to start unless the solution validates against the problem. Exit code 0 done,
@@ -50,8 +50,6 @@ pub struct Args {
     rt_priority: RtPriority,
     #[command(flatten)]
     watch: WatchArgs,
-    #[command(flatten)]
-    scale: ScaleFlags,
 }
 
 /// Who Kortex arms are reached as, for the commands that drive arms.
@@ -186,8 +184,7 @@ fn load_plan(args: &Args) -> Result<(CheckedSolution, Plan), String> {
             .and_then(|t| parse(&t))
             .map_err(|e| format!("{}: {e}", path.display()))
     }
-    let mut problem = read(&args.problem, load::parse_problem)?;
-    args.scale.apply(&mut problem);
+    let problem = read(&args.problem, load::parse_problem)?;
     let solution = read(&args.solution, load::parse_solution)?;
     let checked = CheckedSolution::new(problem, solution)
         .map_err(|e| format!("{}: {e}", args.problem.display()))?;

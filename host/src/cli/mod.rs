@@ -27,7 +27,6 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use omcbsa::error::{Errors, InputError};
-use omcbsa::format::ProblemFile;
 use omcbsa::load;
 use omcbsa_core::model::Models;
 
@@ -78,43 +77,6 @@ pub struct InputLimit {
 impl InputLimit {
     pub fn bytes(self) -> u64 {
         self.max_input_mib << 20
-    }
-}
-
-/// `--velocity-scale`, `--acceleration-scale`: the cell's scale on the models' documented
-/// limits, in place of the problem file's `limits` (docs/FORMATS.md).
-#[derive(clap::Args, Clone, Copy, Default)]
-pub struct ScaleFlags {
-    /// Fraction of every model's documented velocity limits the arms may use, in (0, 1]
-    /// (default: the problem file's `limits.velocity_scale`, else 1).
-    #[arg(long, value_name = "FRACTION", value_parser = fraction)]
-    velocity_scale: Option<f64>,
-    /// Fraction of every model's documented acceleration limits the arms may use, in (0, 1]
-    /// (default: the problem file's `limits.acceleration_scale`, else 1).
-    #[arg(long, value_name = "FRACTION", value_parser = fraction)]
-    acceleration_scale: Option<f64>,
-}
-
-impl ScaleFlags {
-    /// Writes the flags given into `file`'s `limits`.
-    pub fn apply(self, file: &mut ProblemFile) {
-        if let Some(v) = self.velocity_scale {
-            file.limits.velocity_scale = v;
-        }
-        if let Some(a) = self.acceleration_scale {
-            file.limits.acceleration_scale = a;
-        }
-    }
-}
-
-/// A `--velocity-scale`-like flag: a number in (0, 1].
-pub fn fraction(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v > 0.0 && v <= 1.0 => Ok(v),
-        Ok(v) => Err(format!(
-            "must be in (0, 1] (a fraction of the documented limits), got {v}"
-        )),
-        Err(e) => Err(format!("not a number: {e}")),
     }
 }
 

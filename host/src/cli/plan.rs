@@ -8,7 +8,7 @@ use omcbsa::load;
 use omcbsa::plan::{plan_file, InputOrPlanError};
 use omcbsa::planners::{self, PlannerKind};
 
-use super::{bad_input, negative, note, positive_seconds, print, InputLimit, ScaleFlags};
+use super::{bad_input, negative, note, positive_seconds, print, InputLimit};
 
 /// Plans a problem: which robot tracks which trajectory and every robot's joint path.
 /// Exit code 0 solved, 1 not solved (no_solution, timeout, out_of_memory), 2 bad input or
@@ -30,8 +30,6 @@ pub struct Args {
     timeout: f64,
     #[command(flatten)]
     limit: InputLimit,
-    #[command(flatten)]
-    scale: ScaleFlags,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -40,10 +38,9 @@ pub fn run(args: &Args) -> ExitCode {
 
 fn plan(args: &Args) -> Result<ExitCode, ExitCode> {
     let path = args.problem.display();
-    let mut file = load::read_text_within(&args.problem, args.limit.bytes())
+    let file = load::read_text_within(&args.problem, args.limit.bytes())
         .and_then(|t| load::parse_problem(&t))
         .map_err(|e| bad_input(format!("{path}: {e}")))?;
-    args.scale.apply(&mut file);
     // A usage error, not a property of the problem: the planner plans one robot.
     if args.planner.single_robot() && file.robots.len() != 1 {
         return Err(bad_input(format!(

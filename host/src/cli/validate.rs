@@ -7,11 +7,10 @@ use omcbsa::load;
 use omcbsa::models::{Fleet, DOF};
 use omcbsa::validate::{validate, Report};
 
-use super::{bad_input, in_file, negative, print, InputLimit, ScaleFlags};
+use super::{bad_input, in_file, negative, print, InputLimit};
 
-/// Checks a solution against its problem: the rules of docs/FORMATS.md (positions, tracking,
-/// velocity, collisions, assignment, acceleration at the steps, acceleration and jerk at the
-/// control rate) with the project's collision model. Prints `valid`, or every violation with its rule, robot and
+/// Checks a solution against its problem: the five rules of docs/FORMATS.md with the
+/// project's collision model. Prints `valid`, or every violation with its rule, robot and
 /// step. Exit code 0 valid, 1 invalid, 2 bad input or an output that cannot be written.
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,8 +24,6 @@ pub struct Args {
     json: bool,
     #[command(flatten)]
     limit: InputLimit,
-    #[command(flatten)]
-    scale: ScaleFlags,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -66,9 +63,7 @@ fn check(args: &Args) -> Result<Report, String> {
     let read = |path: &Path| {
         load::read_text_within(path, args.limit.bytes()).map_err(|e| in_file(path, e))
     };
-    let mut file =
-        load::parse_problem(&read(&args.problem)?).map_err(|e| in_file(&args.problem, e))?;
-    args.scale.apply(&mut file);
+    let file = load::parse_problem(&read(&args.problem)?).map_err(|e| in_file(&args.problem, e))?;
     let solution =
         load::parse_solution(&read(&args.solution)?).map_err(|e| in_file(&args.solution, e))?;
     let problem = load::problem::<Fleet, DOF>(&file).map_err(|e| in_file(&args.problem, e))?;

@@ -592,7 +592,6 @@ impl Cell {
             robots,
             obstacles: vec![bimanual::table()],
             tolerance: ToleranceSpec::default(),
-            limits: Default::default(),
             dt,
         }
     }

@@ -261,7 +261,6 @@ pub fn episode(task: Task, arms: usize, seed: u64, hz: f64) -> Option<Episode> {
             .collect(),
         obstacles: vec![table()],
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
         dt: 1.0 / hz,
     };
     let hands = vec![hand(&first), hand(&second)];
@@ -299,7 +298,6 @@ fn witnessed(setup: &Setup, hands: &[Vec<Pose>], rng: &mut Rng) -> bool {
                 .collect(),
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
-            limits: setup.limits,
         };
         let mut p = crate::load::problem::<Fleet, DOF>(&file).ok()?;
         for (i, r) in p.robots.iter_mut().enumerate() {

@@ -52,9 +52,7 @@ use omcbsa_core::problem::{Problem, Robot, Start, Trajectory, MAX_ROBOTS, MAX_ST
 
 use crate::assignment::{nearest, AssignmentRule};
 use crate::error::Errors;
-use crate::format::{
-    LimitsSpec, ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec,
-};
+use crate::format::{ObstacleSpec, Pose, ProblemFile, RobotSpec, ToleranceSpec, TrajectorySpec};
 use crate::load;
 use crate::models::Fleet;
 use crate::planners::{Capacities, PlannerKind, Storage, DOF};
@@ -69,8 +67,6 @@ pub struct Setup {
     pub obstacles: Vec<ObstacleSpec>,
     /// How closely the hands must be followed.
     pub tolerance: ToleranceSpec,
-    /// How much of the models' velocity and acceleration limits the cell allows.
-    pub limits: LimitsSpec,
     /// Time between consecutive poses and configurations, s.
     pub dt: f64,
 }
@@ -82,7 +78,6 @@ impl Setup {
             robots: file.robots.clone(),
             obstacles: file.obstacles.clone(),
             tolerance: file.tolerance,
-            limits: file.limits,
             dt: file.dt,
         }
     }
@@ -293,7 +288,6 @@ const RANKED_START_S: f64 = 1.0;
 ///     robots: vec![arm],
 ///     obstacles: Vec::new(),
 ///     tolerance: ToleranceSpec::default(),
-///     limits: Default::default(),
 ///     dt: 0.1,
 /// };
 /// let options = OnlineOptions { max_chunk_len: 8, ..OnlineOptions::default() };
@@ -369,7 +363,6 @@ impl Embodier {
     ///     robots: vec![arm],
     ///     obstacles: Vec::new(),
     ///     tolerance: ToleranceSpec::default(),
-    ///     limits: Default::default(),
     ///     dt: 0.1,
     /// };
     /// // IK tracking cannot keep an assignment from chunk to chunk.
@@ -438,7 +431,6 @@ impl Embodier {
             }],
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
-            limits: setup.limits,
         };
         let mut problem = load::problem::<Fleet, DOF>(&file)?;
         crate::approach::check_initial::<Fleet, DOF>(&file, &problem)?;

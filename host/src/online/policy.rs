@@ -73,7 +73,6 @@ impl BoxFlipPolicy {
                 .collect(),
             obstacles: Vec::new(),
             tolerance: ToleranceSpec::default(),
-            limits: Default::default(),
             dt: DT,
         }
     }

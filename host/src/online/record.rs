@@ -227,7 +227,6 @@ impl Window {
                 .collect(),
             obstacles: setup.obstacles.clone(),
             tolerance: setup.tolerance,
-            limits: setup.limits,
         };
         let solution = SolutionFile {
             format: SOLUTION_FORMAT.to_string(),

@@ -24,7 +24,6 @@ pub fn one_gen3(initial: [f64; DOF]) -> Setup {
         robots: vec![arm],
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
         dt: 0.1,
     }
 }

@@ -268,7 +268,6 @@ fn candidate(
         trajectories,
         obstacles: obstacles.iter().map(obstacle_spec).collect(),
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
     };
     let mut core = load_problem(spec, &problem)?;
     let mut straight_bridge_collides = None;

@@ -64,7 +64,6 @@ pub fn problem(robots: Vec<RobotSpec>, trajectories: Vec<TrajectorySpec>, dt: f6
         trajectories,
         obstacles: Vec::new(),
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
     }
 }
 
@@ -94,14 +93,9 @@ pub fn one_robot(path: &[Q], dt: f64) -> (ProblemFile, SolutionFile) {
     (problem, solution(vec![Some(0)], vec![path.to_vec()]))
 }
 
-/// The time step of the default scenes, s: slow enough that their steps near `Q0` start from
-/// and end at rest within the Gen3's acceleration and jerk limits (rules 6 to 8), so that a
-/// scene breaks only the rule a test breaks.
-pub const SCENE_DT: f64 = 1.0;
-
 /// The default one-robot scene: H = 3 steps near `Q0`.
 pub fn tiny() -> (ProblemFile, SolutionFile) {
-    one_robot(&[near_q0(0.0), near_q0(1.0), near_q0(2.0)], SCENE_DT)
+    one_robot(&[near_q0(0.0), near_q0(1.0), near_q0(2.0)], 0.1)
 }
 
 /// World position of the origin of link `link` of a robot at the origin at `q`.
@@ -118,7 +112,7 @@ pub fn two_robots() -> (ProblemFile, SolutionFile) {
     let problem = problem(
         vec![robot("left", a, Some(Q0)), robot("right", b, Some(Q0))],
         vec![trajectory_of("hand", &a, &path)],
-        SCENE_DT,
+        0.1,
     );
     let solution = solution(vec![Some(0), None], vec![path.to_vec(), vec![Q0; 3]]);
     (problem, solution)

@@ -351,7 +351,6 @@ fn problem(name: &str, arms: &Arms, start: &[[f64; 7]], goal: &[[f64; 7]]) -> Pr
         trajectories,
         obstacles,
         tolerance: ToleranceSpec::default(),
-        limits: Default::default(),
     }
 }
 

@@ -1,16 +1,14 @@
-//! Checks a solution against its problem: the rules of docs/FORMATS.md ("What makes a
+//! Checks a solution against its problem: the five rules of docs/FORMATS.md ("What makes a
 //! solution valid"), with the project's collision model, reporting every violation with its
-//! rule, robot, step and what failed. Rules 6 to 8 (acceleration and jerk) are [`dynamics`].
+//! rule, robot, step and what failed.
 
-pub mod dynamics;
-mod report;
-
-pub use report::{Measured, Phase, Report, Rule, Violation, MAX_VIOLATIONS};
+use std::fmt;
 
 use omcbsa_core::collision::{ArmPose, Sweep};
 use omcbsa_core::model::{Frame, Models};
 use omcbsa_core::nalgebra::Vector3;
 use omcbsa_core::problem::Problem;
+use serde::Serialize;
 
 use crate::error::quoted;
 use crate::format::{ProblemFile, SolutionFile, Status};
@@ -25,7 +23,150 @@ pub const VELOCITY_SLACK: f64 = 1e-9;
 /// (metres).
 pub const MOTION_CHECK_SPACING: f64 = 0.002;
 
+/// The rule a violation breaks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rule {
+    /// Not a solved solution of this problem.
+    Solution,
+    /// Rule 1: a joint outside its limits.
+    JointLimits,
+    /// Rule 2: a tool centre point off its pose.
+    Tracking,
+    /// Rule 3: a joint faster than its velocity limit.
+    Velocity,
+    /// Rule 4: a collision, at a step or between two.
+    Collision,
+    /// Rule 5: an assignment that is not one robot per trajectory.
+    Assignment,
+}
+
+impl Rule {
+    /// The rule's number in the spec (none for [`Rule::Solution`]).
+    pub fn number(self) -> Option<u8> {
+        match self {
+            Rule::Solution => None,
+            Rule::JointLimits => Some(1),
+            Rule::Tracking => Some(2),
+            Rule::Velocity => Some(3),
+            Rule::Collision => Some(4),
+            Rule::Assignment => Some(5),
+        }
+    }
+
+    fn title(self) -> &'static str {
+        match self {
+            Rule::Solution => "solution",
+            Rule::JointLimits => "joint limits",
+            Rule::Tracking => "tracking",
+            Rule::Velocity => "velocity",
+            Rule::Collision => "collision",
+            Rule::Assignment => "assignment",
+        }
+    }
+}
+
+/// Which part of a robot's timeline a step number counts in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Phase {
+    /// The joint paths: step `t` is `joint_paths[i][t]`.
+    #[default]
+    Path,
+    /// The approach: step 0 is `initial`, step `k` is `approach[i][k - 1]`, step `A + 1` is
+    /// `joint_paths[i][0]`.
+    Approach,
+}
+
+/// One broken rule.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Violation {
+    /// The rule broken.
+    pub rule: Rule,
+    /// The robot (index into `robots`) the violation is about, if one.
+    pub robot: Option<usize>,
+    /// The step (0-based) in `phase`, or for a motion the step it starts from.
+    pub step: Option<usize>,
+    /// What `step` counts.
+    pub phase: Phase,
+    /// What failed, naming joints, links, obstacles and trajectories.
+    pub detail: String,
+    /// For a collision, the links in contact as `(robot, link)` with `link` an index into
+    /// `Model::LINK_NAMES` (so a viewer can mark them); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<(usize, usize)>,
+}
+
+impl fmt::Display for Violation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.rule.number() {
+            Some(n) => write!(f, "rule {n} ({})", self.rule.title())?,
+            None => f.write_str(self.rule.title())?,
+        }
+        if let Some(r) = self.robot {
+            write!(f, ", robot {r}")?;
+        }
+        match (self.step, self.phase) {
+            (Some(t), Phase::Path) => write!(f, ", step {t}")?,
+            (Some(t), Phase::Approach) => write!(f, ", approach step {t}")?,
+            (None, Phase::Approach) => write!(f, ", approach")?,
+            (None, Phase::Path) => {}
+        }
+        write!(f, ": {}", self.detail)
+    }
+}
+
+/// Violations kept in a report; beyond, they are only counted, so that a report stays small
+/// however large the solution (22 million malformed configurations are one line each
+/// otherwise).
+pub const MAX_VIOLATIONS: usize = 1000;
+
+/// The outcome of a validation: valid when there are no violations.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Report {
+    /// The first [`MAX_VIOLATIONS`] violations.
+    pub violations: Vec<Violation>,
+    /// How many more there are.
+    pub omitted: usize,
+}
+
 impl Report {
+    /// Whether no rule is broken.
+    pub fn is_valid(&self) -> bool {
+        self.violations.is_empty()
+    }
+
+    /// A one-line human answer: `valid`, or the first violation and how many there are.
+    pub fn summary(&self) -> String {
+        match self.violations.as_slice() {
+            [] => "valid".to_string(),
+            [only] => format!("invalid: {only}"),
+            [first, rest @ ..] => {
+                format!("invalid: {first} (and {} more)", rest.len() + self.omitted)
+            }
+        }
+    }
+
+    /// Violations found so far, listed or not.
+    pub fn count(&self) -> usize {
+        self.violations.len() + self.omitted
+    }
+
+    fn add(&mut self, rule: Rule, robot: Option<usize>, step: Option<usize>, detail: String) {
+        if self.violations.len() == MAX_VIOLATIONS {
+            self.omitted += 1;
+            return;
+        }
+        self.violations.push(Violation {
+            rule,
+            robot,
+            step,
+            phase: Phase::Path,
+            detail,
+            links: Vec::new(),
+        });
+    }
+
     fn add_contact<M: Models<D>, const D: usize>(
         &mut self,
         problem: &Problem<D>,
@@ -40,7 +181,6 @@ impl Report {
             phase: Phase::Path,
             detail,
             links: contact.links::<M, D>(problem),
-            measured: None,
         });
     }
 }
@@ -75,7 +215,6 @@ impl Report {
 ///     trajectories: vec![TrajectorySpec { name: "hand".to_string(), poses: vec![hand; 3] }],
 ///     obstacles: Vec::new(),
 ///     tolerance: Default::default(),
-///     limits: Default::default(),
 /// };
 /// let problem = load::problem::<Fleet, DOF>(&file).unwrap();
 /// let mut solution = SolutionFile {
@@ -138,7 +277,6 @@ pub fn validate<M: Models<D>, const D: usize>(
     check_velocity::<M, D>(problem, &paths, &mut report);
     check_collisions::<M, D>(file, problem, &paths, &mut report);
     check_approach::<M, D>(file, problem, solution, &paths, &mut report);
-    dynamics::check::<M, D>(problem, solution, &paths, &mut report);
     report
 }
 
@@ -487,7 +625,7 @@ fn check_velocity<M: Models<D>, const D: usize>(
 ) {
     let dt = problem.dt;
     for (i, (path, robot)) in paths.iter().zip(&problem.robots).enumerate() {
-        let (names, velocity) = (M::joint_names(robot.model), robot.velocity::<M>());
+        let (names, velocity) = (M::joint_names(robot.model), M::velocity(robot.model));
         for (t, pair) in path.windows(2).enumerate() {
             for (j, (a, b)) in pair[0].iter().zip(&pair[1]).enumerate() {
                 let dq = (b - a).abs();
