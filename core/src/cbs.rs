@@ -20,7 +20,6 @@
 use crate::collision::ArmPose;
 use crate::model::Models;
 use crate::motion::{motions_conflict_posed, motions_contact, ArmMotion};
-use crate::pace::TooFast;
 use crate::planner::{
     Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
 };
@@ -677,7 +676,6 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             &mut s,
         );
         self.stats.expansions += s.expansions as u64;
-        TooFast::note(&mut self.stats.too_fast, s.too_fast, i);
         match r {
             Ok(found) => {
                 let met = (0..others.len())

@@ -21,8 +21,6 @@
 //! - [`collision`]: arm-level checks on link capsules, at a configuration and along a motion.
 //! - [`motion`]: the motion checks every planner shares.
 //! - [`problem`]: the fixed-capacity problem: robots, hand trajectories, obstacles.
-//! - [`pace`]: the joints' acceleration at the hands' timing, and the time scaling a too
-//!   fast step needs.
 //! - [`reach`]: proofs, before searching, that a trajectory is out of every robot's reach.
 //! - [`tracking`]: following a trajectory by IK.
 //! - [`search`]: Ω-A*, one robot's search on its pose manifolds, and the validity checker.
@@ -51,7 +49,6 @@ pub mod kinematics;
 pub mod lanes;
 pub mod model;
 pub mod motion;
-pub mod pace;
 pub mod planner;
 pub mod pp;
 pub mod problem;

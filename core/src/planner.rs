@@ -25,7 +25,6 @@
 //! ```
 
 use crate::model::Models;
-use crate::pace::{plan_too_fast, TooFast};
 use crate::problem::{Assigned, Problem, Start, MAX_ROBOTS};
 use crate::reach::{unreachable_trajectory, UNREACHABLE};
 use crate::search::Deadline;
@@ -103,13 +102,11 @@ impl Deadline for Until<'_> {
 /// How planning ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Status {
-    /// A plan was written to the request's [`Solution`]: every robot within its joint limits,
-    /// speeds and accelerations (at the plan's steps, [`crate::pace`]), tracking its
-    /// trajectory within the tolerance, and collision-free.
+    /// A plan was written to the request's [`Solution`]: every robot within its joint limits
+    /// and speeds, tracking its trajectory within the tolerance, and collision-free.
     Solved,
-    /// The search space was exhausted (or a trajectory is out of every robot's reach, or the
-    /// planner's plan broke an acceleration limit): [`Stats::reason`] says which, and
-    /// [`Stats::too_fast`] where the joints' limits cut the search.
+    /// The search space was exhausted (or a trajectory is out of every robot's reach):
+    /// [`Stats::reason`] says which.
     NoSolution,
     /// The request's [`Until`] passed first.
     Timeout,
@@ -120,7 +117,7 @@ pub enum Status {
 }
 
 /// Counters a planner reports.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Stats {
     /// Ω-A* (or roadmap / composite) node expansions.
     pub expansions: u64,
@@ -148,15 +145,7 @@ pub struct Stats {
     /// Ω-CBSA: constraint-tree nodes with counted conflicts and no conflict to branch on,
     /// left unexpanded (reported here, never reported as solved).
     pub unbranched_nodes: u32,
-    /// With `NoSolution`: where the joints' speed or acceleration limits cut the searches
-    /// furthest (robot, trajectory, step, joint) and the time scaling that step needs, or
-    /// where the plan a planner that does not search under acceleration (the baselines) broke
-    /// the limit, with the scaling its plan needs. `None` otherwise.
-    pub too_fast: Option<TooFast>,
 }
-
-/// Why a plan that broke an acceleration limit was not reported solved.
-pub const PLAN_TOO_FAST: &str = "the plan breaks a joint's acceleration limit at the hands' timing";
 
 /// Where a planner writes its answer. `paths` holds robot `i`'s configuration at step `t` at
 /// index `i * H + t`, so it must hold `robots * H` configurations.
@@ -351,14 +340,10 @@ pub trait Planner<M: Models<D>, const D: usize> {
     /// `req.until`.
     fn plan(&mut self, req: &mut Request<'_, D>, h: Horizon) -> Status;
 
-    /// Checks `req` as every planner must ([`open`]), plans it, and checks that a plan keeps
-    /// every joint's acceleration ([`close`]).
+    /// Checks `req` as every planner must ([`open`]), then plans it.
     fn solve(&mut self, req: &mut Request<'_, D>) -> Status {
         match open::<M, D>(req, Self::TAKES) {
-            Ok(h) => {
-                let status = self.plan(req, h);
-                close::<M, D>(req, h, status)
-            }
+            Ok(h) => self.plan(req, h),
             Err(status) => status,
         }
     }
@@ -420,40 +405,6 @@ pub fn open<M: Models<D>, const D: usize>(
         return Err(Status::NoSolution);
     }
     Ok(Horizon(h))
-}
-
-/// The closing of every planner's `solve`: a plan that breaks a joint's acceleration limit at
-/// the plan's steps ([`crate::pace`]) is never reported solved (`NoSolution` with
-/// [`PLAN_TOO_FAST`] and where, in [`Stats::too_fast`]); `too_fast` is kept only with
-/// `NoSolution`. Ω-CBSA and the prioritised planners search under the rule, so for them this
-/// is a last check; the baselines do not.
-pub fn close<M: Models<D>, const D: usize>(
-    req: &mut Request<'_, D>,
-    h: Horizon,
-    status: Status,
-) -> Status {
-    match status {
-        Status::Solved => {
-            let p = req.problem;
-            let mut models = [0u8; MAX_ROBOTS];
-            for (m, r) in models.iter_mut().zip(&p.robots) {
-                *m = r.model;
-            }
-            let models = &models[..p.robots.len()];
-            req.stats.too_fast =
-                plan_too_fast::<M, D>(models, &req.out.assignment, req.out.paths, h.get(), p.dt);
-            if req.stats.too_fast.is_some() {
-                req.stats.reason = Some(PLAN_TOO_FAST);
-                return Status::NoSolution;
-            }
-            Status::Solved
-        }
-        Status::NoSolution => Status::NoSolution,
-        other => {
-            req.stats.too_fast = None;
-            other
-        }
-    }
 }
 
 /// Checks that `problem` fits the planners' assumptions and `out` can hold the answer.
@@ -543,44 +494,6 @@ fn check_free<const D: usize>(problem: &Problem<D>) -> Result<(), Status> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_plan_over_an_acceleration_limit_is_never_reported_solved() {
-        use crate::model::{Frame, KinovaGen3, Model};
-        use crate::problem::{Robot, Trajectory};
-
-        let hand = <KinovaGen3 as Model<7>>::fk(&[0.0; 7]);
-        let mut problem = Problem::<7>::new(0.1);
-        problem.robots.push(Robot::at(0, Frame::IDENTITY)).unwrap();
-        let traj = Trajectory::from_slice(&[hand; 4]).unwrap();
-        problem.trajectories.push(traj).unwrap();
-        // Joint 2 (index 1) at rest, then 0.06 rad in a step: 6 rad/s^2 at step 1, over the
-        // Gen3's 5.2; joint 5 (index 4) 0.09 rad of change, within its 10.
-        let mut paths = [[0.0; 7]; 4];
-        paths[2][1] = 0.06;
-        paths[3][1] = 0.12;
-        paths[2][4] = 0.09;
-        paths[3][4] = 0.18;
-        let mut req = Request::new(&problem, Until::never(&NoClock), Solution::new(&mut paths));
-        req.out.assignment[0] = Some(0);
-        let status = close::<KinovaGen3, 7>(&mut req, Horizon(4), Status::Solved);
-        assert_eq!(status, Status::NoSolution);
-        assert_eq!(req.stats.reason, Some(PLAN_TOO_FAST));
-        let f = req.stats.too_fast.unwrap();
-        assert_eq!((f.robot, f.trajectory, f.step, f.joint), (0, 0, 1, 1));
-        // sqrt(6 / 5.2): the plan at steps this much longer keeps the limit.
-        assert!((f.time_scale - libm::sqrt(6.0 / 5.2)).abs() < 1e-9, "{f:?}");
-
-        // Within the limit everywhere (5 rad/s^2): solved, and nothing reported.
-        req.out.paths[2][1] = 0.05;
-        req.out.paths[3][1] = 0.10;
-        req.stats = Stats::default();
-        assert_eq!(
-            close::<KinovaGen3, 7>(&mut req, Horizon(4), Status::Solved),
-            Status::Solved
-        );
-        assert_eq!(req.stats.too_fast, None);
-    }
 
     #[test]
     fn planner_names_parse_back_and_are_distinct() {

@@ -14,7 +14,6 @@
 
 use crate::assign::{Choice, Pair, PairTable, HOLD};
 use crate::model::Models;
-use crate::pace::TooFast;
 use crate::planner::{
     Horizon, Planner, PlannerKind, Request, Solution, Stats, Status, Takes, Until,
 };
@@ -474,7 +473,6 @@ impl<M: Models<D>, const D: usize> Run<'_, '_, M, D> {
             &mut s,
         );
         stats.expansions += u64::from(s.expansions);
-        TooFast::note(&mut stats.too_fast, s.too_fast, r);
         match res {
             Ok(found) => Ok(Some(found.trajectory)),
             Err(SearchError::NoSolution) => Ok(None),

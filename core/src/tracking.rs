@@ -63,8 +63,8 @@ pub const NULL_RATE_STEPS: f64 = 8.0;
 /// Tracks `traj` starting from the IK solution of its first pose nearest `seed`, checking every
 /// state and motion with `valid`, each step taken as `steps` says. Writes `out[..H]` and
 /// returns the collision count with the other robots (always 0 when `valid` avoids them), or
-/// `None` when tracking breaks down (IK fails, a step breaks a joint's speed or acceleration
-/// limit, or a state or motion is invalid). `out` must hold H configurations; a shorter one panics.
+/// `None` when tracking breaks down (IK fails, a step breaks a joint's speed limit, or a
+/// state or motion is invalid). `out` must hold H configurations; a shorter one panics.
 pub fn track<M: Models<D>, const D: usize>(
     robot: &Robot<D>,
     traj: &Trajectory,
@@ -80,16 +80,11 @@ pub fn track<M: Models<D>, const D: usize>(
     // Steered: the null-space rate (rad a step) and direction of the last step.
     let rate = Cell::new(0.0);
     let last_dir = Cell::new([0.0; D]);
-    // `motion`: the hand's twist at the step taken (see `step_cost`); `before`: the
-    // configuration before `q` (none at the first step), for the joints' acceleration.
-    let next = |target: &Frame, motion: &Vector6<f64>, q: &[f64; D], before: Option<&[f64; D]>| {
-        let within = |m: &[f64; D]| {
-            valid.step_within_limits(q, m)
-                && before.is_none_or(|b| valid.accel_within_limits(b, q, m))
-        };
+    // `motion`: the hand's twist at the step taken (see `step_cost`).
+    let next = |target: &Frame, motion: &Vector6<f64>, q: &[f64; D]| {
         let proj = ik::<M, D>(robot.model, target, q, ik_params).ok()?;
         let Steps::Steered(p) = steps else {
-            return Some(proj).filter(within);
+            return Some(proj).filter(|next| valid.step_within_limits(q, next));
         };
         let (_, jac) = M::jacobian(robot.model, &proj);
         let mut dir = [0.0; D];
@@ -116,13 +111,13 @@ pub fn track<M: Models<D>, const D: usize>(
             .into_iter()
             .map(|alpha| alpha.clamp(-p.epsilon, p.epsilon))
             .filter_map(|alpha| Some((alpha, moved(alpha)?)))
-            .filter(|(_, m)| within(m))
+            .filter(|(_, m)| valid.step_within_limits(q, m))
             .map(|(alpha, m)| (cost(&m), alpha, m))
             .min_by(|x, y| x.0.total_cmp(&y.0));
         // None within the limits: the projection, if it is, from rest.
         let (alpha, next) = match best {
             Some((_, alpha, m)) => (alpha, m),
-            None => (0.0, Some(proj).filter(within)?),
+            None => (0.0, Some(proj).filter(|m| valid.step_within_limits(q, m))?),
         };
         rate.set(alpha);
         Some(next)
@@ -147,8 +142,7 @@ pub fn track<M: Models<D>, const D: usize>(
             // The last step's motion goes on past the end.
             (true, None) => twist(&target(&traj[t - 1]), &target(&traj[t]), dt),
         };
-        let before = t.checked_sub(2).map(|b| out[b]);
-        let next = next(&target(&traj[t]), &motion, &q, before.as_ref())?;
+        let next = next(&target(&traj[t]), &motion, &q)?;
         let [here, there] = &mut poses;
         c += valid.state_in(&next, t, there)? as u32;
         c += valid.motion_posed(&q, &next, [here, there], t - 1)? as u32;

@@ -218,10 +218,10 @@ fn gen3_constants_come_from_the_urdf() {
         KinovaGen3::VELOCITY,
         [1.3963, 1.3963, 1.3963, 1.3963, 1.2218, 1.2218, 1.2218]
     );
-    // From the manifest (Kinova's documented actuator limits).
+    // From the manifest (Kinova's joint_limits.yaml).
     assert_eq!(
         KinovaGen3::ACCELERATION,
-        [5.2, 5.2, 5.2, 5.2, 10.0, 10.0, 10.0]
+        [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0]
     );
     // Kinova's zero configuration: the arm points straight up, the tool 1.187385 m above the
     // base (0.15643 + 0.12838 + 0.21038 + 0.21038 + 0.20843 + 0.10593 + 0.10593 + 0.061525).

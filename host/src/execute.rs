@@ -208,7 +208,7 @@ mod tests {
 
     #[test]
     fn the_executor_limits_are_the_models_with_the_speed_capped() {
-        // The Gen3's are exactly the table the executor's own tests use.
+        // The Gen3's are exactly the table the executor had (Kinova's joint_limits.yaml).
         let gen3 = joint_limits(ModelKind::default(), CAUTIOUS_SPEED);
         assert_eq!(gen3, omcbsa_mock::testing::arm_limits());
         let panda = ModelKind::parse("franka_panda").unwrap();

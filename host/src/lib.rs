@@ -58,6 +58,5 @@ pub mod plan;
 pub mod planners;
 pub mod pose;
 pub mod suite;
-pub mod time_scale;
 pub mod validate;
 pub mod view;

@@ -39,7 +39,6 @@
 //! }
 //! ```
 
-use omcbsa_core::pace::TooFast;
 use omcbsa_core::problem::Problem;
 
 use crate::approach::check_initial;
@@ -49,9 +48,7 @@ use crate::format::{ProblemFile, SolutionFile, Status as FileStatus};
 use crate::load;
 use crate::models::{Fleet, DOF};
 use crate::planners::{Capacities, PlannerKind, Storage};
-use crate::time_scale::least_scale;
 use crate::validate::validate;
-use omcbsa_core::model::Models;
 
 /// Plans a problem file with planner `kind` and returns its solution file. A plan the planner
 /// calls solved is validated first; if it fails validation it is reported as not solved, with
@@ -93,72 +90,7 @@ pub fn plan_file(
 ) -> Result<SolutionFile, InputOrPlanError> {
     let problem = load_problem(file)?;
     let mut storage = Storage::new(Capacities::default(), problem.horizon());
-    let (mut solution, too_fast) = plan_outcome(
-        &mut storage,
-        file,
-        &problem,
-        kind,
-        timeout_s,
-        &AssignmentRule::Free,
-    )?;
-    if let (FileStatus::NoSolution, Some(f)) = (solution.status, too_fast) {
-        offer_scaling(
-            &mut storage,
-            (file, &mut solution),
-            &problem,
-            kind,
-            &f,
-            timeout_s,
-        )?;
-    }
-    Ok(solution)
-}
-
-/// Adds to a `no_solution` whose search the joints' limits cut where, and the least time
-/// scaling found to plan it ([`least_scale`]): `stats.time_scale` (absent when none of the
-/// scalings tried planned it), `stats.time_scale_refused_below`, and a sentence in
-/// `message`.
-fn offer_scaling(
-    storage: &mut Storage,
-    (file, solution): (&ProblemFile, &mut SolutionFile),
-    problem: &Problem<DOF>,
-    kind: PlannerKind,
-    f: &TooFast,
-    timeout_s: f64,
-) -> Result<(), InputOrPlanError> {
-    let s = least_scale(storage, kind, problem, f, timeout_s).map_err(InputOrPlanError::Plan)?;
-    let index = usize::from(f.robot);
-    let robot = file.robots.get(index).map_or("?", |r| r.name.as_str());
-    let joint = (problem.robots.get(index))
-        .and_then(|r| Fleet::joint_names(r.model).get(usize::from(f.joint)))
-        .map_or_else(|| f.joint.to_string(), |n| n.to_string());
-    let hand = if f.trajectory == u8::MAX {
-        String::new()
-    } else {
-        format!(" following trajectory {}", f.trajectory)
-    };
-    let scaled = match s.time_scale {
-        Some(k) => {
-            solution.stats.insert("time_scale".into(), k.into());
-            format!(
-                "planned with steps {k:.3} times as long (dt {:.4} s)",
-                problem.dt * k
-            )
-        }
-        None => format!(
-            "not planned at up to {:.3} times as long steps",
-            s.refused_below
-        ),
-    };
-    solution
-        .stats
-        .insert("time_scale_refused_below".into(), s.refused_below.into());
-    solution.message = format!(
-        "{}; the hands move too fast for robot {robot}{hand}: joint {joint} at step {}; \
-         {scaled} ({} plans)",
-        solution.message, f.step, s.attempts
-    );
-    Ok(())
+    plan_loaded(&mut storage, file, &problem, kind, timeout_s)
 }
 
 /// The checked core problem of a problem file.
@@ -196,19 +128,6 @@ pub fn plan_assigned(
     timeout_s: f64,
     rule: &AssignmentRule,
 ) -> Result<SolutionFile, InputOrPlanError> {
-    plan_outcome(storage, file, problem, kind, timeout_s, rule).map(|(s, _)| s)
-}
-
-/// [`plan_assigned`], with where the joints' limits cut the search when it ended
-/// `no_solution` ([`omcbsa_core::planner::Stats::too_fast`]).
-fn plan_outcome(
-    storage: &mut Storage,
-    file: &ProblemFile,
-    problem: &Problem<DOF>,
-    kind: PlannerKind,
-    timeout_s: f64,
-    rule: &AssignmentRule,
-) -> Result<(SolutionFile, Option<TooFast>), InputOrPlanError> {
     rule.check(
         "assignment",
         problem.robots.len(),
@@ -238,11 +157,7 @@ fn plan_outcome(
             solution.joint_paths = None;
         }
     }
-    let too_fast = outcome
-        .stats
-        .too_fast
-        .filter(|_| solution.status == FileStatus::NoSolution);
-    Ok((solution, too_fast))
+    Ok(solution)
 }
 
 /// Why [`plan_file`] gave no solution file.

@@ -18,7 +18,6 @@ use crate::kinematics::{axis_separation, null_space_basis, twist, SpeedMap};
 use nalgebra::Vector6;
 
 use crate::model::{Frame, Models};
-use crate::pace::{step_scale, TooFast};
 use crate::problem::{Robot, Start, Trajectory};
 use crate::rng::Rng;
 
@@ -109,16 +108,12 @@ pub struct Query<'a, const D: usize> {
 }
 
 /// Counters of one search.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SearchStats {
     /// States expanded.
     pub expansions: u32,
     /// States generated (stored in the workspace).
     pub generated: u32,
-    /// Where the joints' speed or acceleration limits cut a move, at the furthest step any
-    /// was cut, and the time scaling the least cut move there needs (`robot` is 0: the
-    /// caller knows which robot it asked for). Kept by searches that end without a path.
-    pub too_fast: Option<TooFast>,
 }
 
 /// A path was found and written to the caller's buffer.
@@ -282,19 +277,13 @@ pub fn plan<M: Models<D>, const D: usize>(
     let params = &params.at_step(query.dt);
     let ctx = Ctx::<M, D>::new(query, params, h);
     ws.reset();
-    stats.too_fast = None;
     let mask = if query.trajectories.len() == 32 {
         u32::MAX
     } else {
         (1u32 << query.trajectories.len()) - 1
     };
     if query.allowed & mask != 0 {
-        let found = ctx.search(ws, deadline, out, stats);
-        stats.too_fast = match found {
-            Err(SearchError::NoSolution) => ctx.too_fast.get(),
-            _ => None,
-        };
-        match found {
+        match ctx.search(ws, deadline, out, stats) {
             Err(SearchError::NoSolution) if query.hold => {}
             other => return other,
         }
@@ -339,17 +328,11 @@ fn start_node<const D: usize>(q: [f64; D], g: f64, met: Met, j: u8) -> Node<D> {
 
 struct Ctx<'q, 'a, M, const D: usize> {
     q: &'q Query<'a, D>,
-    /// The query's settings, the null-space step no larger than a step's acceleration
-    /// allows.
-    p: OmegaParams,
+    p: &'q OmegaParams,
     h: usize,
     base_inv: Frame,
     tcp_inv: Frame,
     valid: Validity<'q, M, D>,
-    /// [`OmegaParams::velocity_merge`] per joint, rad a step.
-    merge: [f64; D],
-    /// Where the joints' limits cut the search furthest ([`SearchStats::too_fast`]).
-    too_fast: Cell<Option<TooFast>>,
 }
 
 impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
@@ -357,34 +340,13 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         let valid = Validity::new(&q.robot, q.obstacles, q.dt, p.motion_step)
             .with_others(q.others, q.others_mode)
             .with_points(q.points);
-        // A null-space move changes the joints' motion by up to epsilon (a unit direction):
-        // no more than the least joint may change in a step, or at high rates (where epsilon
-        // shrinks with dt but the acceleration budget with dt^2) no move would be admissible.
-        let budget = valid
-            .accel_limit
-            .iter()
-            .fold(f64::INFINITY, |m, a| m.min(*a));
-        // Where that clamps epsilon, a state's null-space moves change its motion by as much
-        // as a band is wide and would be merged into its projection: halve the band, so the
-        // arm can still turn along its null space (at the suite's 0.2 s steps nothing clamps).
-        let share = if budget < p.epsilon {
-            p.velocity_merge / 2.0
-        } else {
-            p.velocity_merge
-        };
-        let merge = valid.accel_limit.map(|a| a * share);
         Ctx {
             q,
-            p: OmegaParams {
-                epsilon: p.epsilon.min(budget),
-                ..*p
-            },
+            p,
             h,
             base_inv: q.robot.base.inverse(),
             tcp_inv: q.robot.tcp.inverse(),
             valid,
-            merge,
-            too_fast: Cell::new(None),
         }
     }
 
@@ -599,28 +561,19 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         stats: &mut SearchStats,
     ) -> Result<(), SearchError> {
         let target = self.target(node.j as usize, node.t as usize + 1);
-        // The state's motion carried on (its configuration alone at a start): the moves are
-        // its IK projection and the null-space moves about it, so each changes the joints'
-        // motion by about the hand's change of motion plus at most epsilon.
-        let parent = (node.parent != u32::MAX).then(|| ws.node(node.parent).q);
-        let base = parent.map_or(node.q, |p| core::array::from_fn(|i| 2.0 * node.q[i] - p[i]));
         let mut moves = [[0.0; D]; MAX_MOVES];
-        let n = manifold_moves::<M, D>(self.q.robot.model, &target, &base, &self.p, &mut moves);
+        let n = manifold_moves::<M, D>(self.q.robot.model, &target, &node.q, self.p, &mut moves);
         let t1 = node.t as usize + 1;
         let motion = self.twist_at(node.j as usize, t1);
-        // The moves within the velocity and acceleration limits, checked as one batch.
+        // The moves within the velocity limits, checked as one batch.
         let mut within = [[0.0; D]; MAX_MOVES];
         let mut m = 0;
-        for q in &moves[..n] {
-            let before = parent.unwrap_or(node.q);
-            if self.valid.step_within_limits(&node.q, q)
-                && (parent.is_none() || self.valid.accel_within_limits(&before, &node.q, q))
-            {
-                within[m] = *q;
-                m += 1;
-            } else {
-                self.cut(node, &before, q);
-            }
+        for q in moves[..n]
+            .iter()
+            .filter(|q| self.valid.step_within_limits(&node.q, q))
+        {
+            within[m] = *q;
+            m += 1;
         }
         let states = self.valid.states_met(&within[..m], t1);
         for (q, state) in within[..m].iter().zip(states) {
@@ -648,28 +601,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
     }
 
     fn step_cost(&self, q: &[f64; D], motion: &Vector6<f64>) -> f64 {
-        step_cost::<M, D>(self.q.robot.model, q, motion, &self.p)
-    }
-
-    /// Notes a move from `node` to `q` that a joint's speed or acceleration limit refused
-    /// (`before`: the configuration before `node`'s, or `node`'s own at a start).
-    fn cut(&self, node: &Node<D>, before: &[f64; D], q: &[f64; D]) {
-        let (scale, joint) = step_scale(
-            before,
-            &node.q,
-            q,
-            &self.valid.step_limit,
-            &self.valid.accel_limit,
-        );
-        let here = TooFast {
-            robot: 0,
-            trajectory: node.j,
-            step: node.t,
-            joint: joint as u8,
-            time_scale: scale,
-        };
-        self.too_fast
-            .set(TooFast::keep(self.too_fast.get(), Some(here)));
+        step_cost::<M, D>(self.q.robot.model, q, motion, self.p)
     }
 
     /// The hand's twist at step `t` of trajectory `j` (towards step `t + 1`; the last step's
@@ -693,7 +625,7 @@ impl<'q, 'a: 'q, M: Models<D>, const D: usize> Ctx<'q, 'a, M, D> {
         stats: &mut SearchStats,
     ) -> Result<(), SearchError> {
         let key = StateKey::new(&node.q, node.t, node.j, self.p.resolution);
-        let index = match ws.find(&key, &ws.last_step(&node), &self.merge) {
+        let index = match ws.find(&key) {
             Ok(existing) => {
                 let old = ws.node_mut(existing);
                 let better = (node.g, node.c) < (old.g, old.c);

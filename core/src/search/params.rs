@@ -57,16 +57,6 @@ pub struct OmegaParams {
     /// 3x against 0.1 rad, whose finer lattice makes the searches that must fail (children
     /// with no path under their constraints) far longer; 0.8 began to lose problems.
     pub resolution: f64,
-    /// How far apart (in each joint, as a share of the acceleration limit's `a dt^2`) the last
-    /// steps of two states in one grid cell may be for them to count as one state. The
-    /// search keeps each joint's acceleration, so which states can follow one depends on the
-    /// step that reached it: a cell keeps one state per such band of last steps, so a state
-    /// reached first with a step that leaves its successors too great a change of motion does
-    /// not hide one reached later with a step that lets them on. Infinite: one state per
-    /// cell, whatever its last step. Halved where the acceleration budget clamps the
-    /// null-space step (docs/PLANNERS.md, "Acceleration"). 1.0: on the suite, 0.5 kept more
-    /// states apart for no plan more, at 1.4 times the mean planning time.
-    pub velocity_merge: f64,
     /// Largest displacement (m) of any point of the arm between two checked configurations
     /// of a motion; the checks inflate the links by half of it, so they are conservative.
     pub motion_step: f64,
@@ -117,7 +107,6 @@ impl Default for OmegaParams {
             start_solutions: 16,
             start_attempts: 96,
             resolution: 0.6,
-            velocity_merge: 1.0,
             motion_step: crate::motion::MOTION_STEP,
             ik: IkParams::default(),
             seed: 0x5eed,

@@ -79,9 +79,6 @@ pub struct Validity<'q, M, const D: usize> {
     pub dt: f64,
     /// Largest joint change between consecutive steps (velocity limit times dt).
     pub step_limit: [f64; D],
-    /// Largest change of a joint's step from one step to the next (acceleration limit times
-    /// dt^2, see [`crate::pace`]).
-    pub accel_limit: [f64; D],
     /// See [`super::OmegaParams::motion_step`].
     pub motion_step: f64,
     /// Configurations refused at step 0 (the robot's [`Robot::excluded`]).
@@ -118,7 +115,6 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
             points: &[],
             dt,
             step_limit,
-            accel_limit: crate::pace::accel_step::<M, D>(robot.model, dt),
             motion_step,
             excluded: robot.excluded,
             others_at: RefCell::new([(usize::MAX, [ArmPose::EMPTY; MAX_ROBOTS]); 2]),
@@ -177,16 +173,6 @@ impl<'q, M: Models<D>, const D: usize> Validity<'q, M, D> {
     /// Whether no joint moves faster than its velocity limit from `a` to `b`.
     pub fn step_within_limits(&self, a: &[f64; D], b: &[f64; D]) -> bool {
         (0..D).all(|i| libm::fabs(b[i] - a[i]) <= self.step_limit[i])
-    }
-
-    /// Whether no joint's motion changes faster than its acceleration limit from the step
-    /// `before -> at` to the step `at -> after` (finite differences at the steps, as
-    /// [`crate::pace`] takes them). A hair inside the limit, so that `validate`, which divides
-    /// by `dt^2` before comparing, never finds a step the search took over it.
-    pub fn accel_within_limits(&self, before: &[f64; D], at: &[f64; D], after: &[f64; D]) -> bool {
-        (0..D).all(|i| {
-            libm::fabs(after[i] - 2.0 * at[i] + before[i]) <= self.accel_limit[i] * (1.0 - 1e-9)
-        })
     }
 
     /// Checks a configuration at step `t`: joint limits, obstacles, self-collision, point

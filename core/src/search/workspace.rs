@@ -170,15 +170,8 @@ impl<'a, const D: usize> Workspace<'a, D> {
     }
 
     /// Looks the discretised state up; returns the node already stored for it, or the free
-    /// slot it would go into. A node in the same cell is the same state only when its last
-    /// step differs from `step` (the new state's) by at most `merge[j]` in every joint j:
-    /// several nodes of one cell, each with its band of last steps, probe on from one slot.
-    pub(crate) fn find(
-        &self,
-        key: &StateKey<D>,
-        step: &[f64; D],
-        merge: &[f64; D],
-    ) -> Result<u32, usize> {
+    /// slot it would go into.
+    pub(crate) fn find(&self, key: &StateKey<D>) -> Result<u32, usize> {
         let mask = self.table.len() - 1;
         let mut i = key.hash() as usize & mask;
         loop {
@@ -188,22 +181,9 @@ impl<'a, const D: usize> Workspace<'a, D> {
             }
             let n = &self.nodes[slot.node as usize];
             if StateKey::new(&n.q, n.t, n.j, key.resolution) == *key {
-                let theirs = self.last_step(n);
-                if (0..D).all(|j| libm::fabs(theirs[j] - step[j]) <= merge[j]) {
-                    return Ok(slot.node);
-                }
+                return Ok(slot.node);
             }
             i = (i + 1) & mask;
-        }
-    }
-
-    /// The step that reached `n` (`n.q` minus its parent's; zero for an initial state). A
-    /// node is replaced only before it is expanded, so a parent's `q` never changes under
-    /// its children.
-    pub(crate) fn last_step(&self, n: &Node<D>) -> [f64; D] {
-        match self.nodes.get(n.parent as usize) {
-            Some(p) => core::array::from_fn(|j| n.q[j] - p.q[j]),
-            None => [0.0; D],
         }
     }
 

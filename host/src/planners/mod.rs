@@ -335,21 +335,7 @@ pub fn stats_map(s: &Stats) -> serde_json::Map<String, serde_json::Value> {
     }
     stats.insert("inexact_branches".into(), s.inexact_branches.into());
     stats.insert("unbranched_nodes".into(), s.unbranched_nodes.into());
-    if let Some(f) = &s.too_fast {
-        stats.insert("too_fast".into(), too_fast_value(f));
-    }
     stats
-}
-
-/// [`Stats::too_fast`] as the solution file's `stats.too_fast` object (docs/FORMATS.md).
-pub fn too_fast_value(f: &omcbsa_core::pace::TooFast) -> serde_json::Value {
-    serde_json::json!({
-        "robot": f.robot,
-        "trajectory": (f.trajectory != u8::MAX).then_some(f.trajectory),
-        "step": f.step,
-        "joint": f.joint,
-        "time_scale": f.time_scale,
-    })
 }
 
 impl Outcome {

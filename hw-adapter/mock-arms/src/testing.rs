@@ -6,10 +6,10 @@
 use omcbsa_hw::plan::{ArmLimits, JointLimits};
 
 /// One arm's limits: joints 2, 4, 6 within ±2.24, ±2.57, ±2.09 rad, the others continuous;
-/// 0.8727 rad/s; 5.2 rad/s² for joints 1-4 and 10.0 rad/s² for joints 5-7 (the model's).
+/// 0.8727 rad/s; 1.0 rad/s² for joints 1-4 and 10.0 rad/s² for joints 5-7.
 pub fn arm_limits() -> ArmLimits {
     let position = [None, Some(2.24), None, Some(2.57), None, Some(2.09), None];
-    let acceleration = [5.2, 5.2, 5.2, 5.2, 10.0, 10.0, 10.0];
+    let acceleration = [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0];
     std::array::from_fn(|j| JointLimits {
         position: position[j].map(|b| (-b, b)),
         velocity: 0.8727,
