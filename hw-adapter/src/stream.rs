@@ -1,6 +1,7 @@
 //! The streaming frame generator: joint commands computed cycle by cycle from a queue of
 //! waypoints, for a whole plan (offline execution) and for segments pushed while the arms move
-//! (online execution) alike. Memory is the queue only, whatever the run's duration.
+//! (online execution) alike. Memory is the queue and its time law (`PER_SEGMENT` grid points
+//! of 32 bytes per queued step), whatever the run's duration.
 //!
 //! Waypoint `i` of every arm belongs to step `i`; a step lasts at least `step_time` seconds.
 //! Each joint follows the cubic Hermite spline of [`crate::spline`] (Fritsch–Butland
