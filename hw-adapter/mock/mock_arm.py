@@ -53,6 +53,7 @@ import canopen
 from canopen.sdo import SdoAbortedError
 
 import drive_clock
+from bus_log import BusLog
 
 EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "gen3_joint_drive.eds")
 COUNTS_PER_RAD = 1e7
@@ -63,7 +64,7 @@ ACCELERATION_LIMITS = [1.0, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0]
 # Float slack of the mock's own checks (the host's check is exact on the same counts).
 SLACK = 1e-9
 FAULTY_NODE = 3
-# Longest the bus log is written for at a time while the host streams, s.
+# Longest the bus log's lines are formatted for at a time while the host streams, s.
 LOG_BUDGET = 0.0005
 
 MODE_CSP = 8
@@ -119,7 +120,8 @@ class SlcanAdapterBus(can.BusABC):
     """The adapter end of SLCAN on a connected socket: host commands in, bus frames out.
 
     Sending is thread-safe (the library's heartbeats come from their own threads). Every frame is
-    written to `log` (a python-can writer) if given, when the mock has caught up with the host;
+    handed to `log` (a bus_log.BusLog) if given, and formatted when the mock has caught up
+    with the host;
     `silent` drops what the drives send and `delay` holds it back that many seconds (fault
     injection)."""
 
@@ -132,7 +134,6 @@ class SlcanAdapterBus(can.BusABC):
         self.delay = 0.0
         self.delayed = []  # (due, message), in order
         self.periodic = []  # MainLoopTask, sent by send_due
-        self.unlogged = []  # (time, id, data, from host?) for the log, written when there is time
         self.lock = threading.Lock()
         super().__init__(channel="slcan-socket", **kwargs)
 
@@ -177,23 +178,7 @@ class SlcanAdapterBus(can.BusABC):
 
     def _log(self, t, ident, data, rx):
         if self.log is not None:
-            with self.lock:
-                self.unlogged.append((t, ident, data, rx))
-
-    def write_log(self, budget=None):
-        """Writes the frames not yet logged; with a `budget` (s), only as many as fit in it, so
-        that a backlog (the set-up's SDO traffic) never keeps the drives from the next SYNC."""
-        if self.log is not None:
-            end = None if budget is None else time.monotonic() + budget
-            with self.lock:
-                done = 0
-                for t, ident, data, rx in self.unlogged:
-                    self.log.on_message_received(can.Message(
-                        timestamp=t, arbitration_id=ident, data=data, is_extended_id=False, is_rx=rx))
-                    done += 1
-                    if end is not None and done % 8 == 0 and time.monotonic() >= end:
-                        break
-                del self.unlogged[:done]
+            self.log.add(t, ident, data, rx)
 
     def _recv_internal(self, timeout):
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -206,8 +191,9 @@ class SlcanAdapterBus(can.BusABC):
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
             ready, _, _ = select.select([self.fd], [], [], 0)
             if not ready:
-                # caught up with the host: time to log, a little at a time
-                self.write_log(LOG_BUDGET)
+                if self.log is not None:
+                    # caught up with the host: time to log, a little at a time
+                    self.log.write_some(LOG_BUDGET)
                 ready, _, _ = select.select([self.fd], [], [], left)
             if not ready:
                 return None, False
@@ -237,7 +223,7 @@ class SlcanAdapterBus(can.BusABC):
         # The caller holds the lock.
         data = bytes(msg.data)
         if self.log is not None:
-            self.unlogged.append((time.time(), msg.arbitration_id, data, False))
+            self.log.add(time.time(), msg.arbitration_id, data, False)
         self._write(b"t%03X%d%s\r" % (msg.arbitration_id, len(data), data.hex().upper().encode()))
 
     def _send_periodic_internal(self, msgs, period, duration=None, autostart=True,
@@ -732,8 +718,8 @@ def main(argv):
     sched = drive_clock.realtime()
     if not sched.startswith("SCHED_FIFO"):
         print("mock arm: " + sched + ": it may answer late on a busy machine", file=sys.stderr, flush=True)
-    # The record and the unlogged frames hold no cycles; a full collection of a heap that grows
-    # with the run (tens of ms after a minute) would answer late.
+    # The record and the bus log's pending frames hold no cycles; a full collection of a heap
+    # that grows with the run (tens of ms after a minute) would answer late.
     gc.disable()
     # The drives answer from the main thread; the library's heartbeat threads must not keep it
     # waiting for the interpreter lock for the default 5 ms.
@@ -755,7 +741,7 @@ def main(argv):
         listener.close()
         os.unlink(path)
         os.rmdir(folder)
-    log = can.CanutilsLogWriter(args.bus_log, channel="can0") if args.bus_log else None
+    log = BusLog(args.bus_log) if args.bus_log else None
     bus = SlcanAdapterBus(conn.fileno(), log)
     arm = MockArm(args, bus)
     try:
@@ -767,9 +753,8 @@ def main(argv):
         drive_clock.background()
         arm.write_record()
         bus.shutdown()
-        bus.write_log()
         if log is not None:
-            log.stop()
+            log.close()
     return 0
 
 

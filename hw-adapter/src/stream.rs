@@ -115,6 +115,16 @@ pub enum PushError {
         /// The joint, from 1.
         joint: usize,
     },
+    /// The stream passed, again and again, the cycle a push was being prepared for (a push
+    /// is computed on the caller's thread beside the running stream, for a cycle a little
+    /// ahead; the caller's thread got too little time on this machine).
+    #[error(
+        "the stream outran the push {attempts} times: the pushing thread gets too little time"
+    )]
+    Outrun {
+        /// Attempts made.
+        attempts: usize,
+    },
     /// The push starts at a step the arms are already executing toward (or past).
     #[error(
         "start step {start} is already fixed: the arms are executing toward step {fixed}, \

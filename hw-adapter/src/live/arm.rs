@@ -2,7 +2,7 @@
 //! others, then one cycle per period in lockstep with them, the feedback watched in between,
 //! and the stop (normal end, fault, or a stop asked for).
 
-use super::{lock, ArmEnd, ArmNow, Cycle, ProgressFn, RunInfo, Shared, FAULT_POLL};
+use super::{lock, ArmEnd, ArmNow, Cycle, Mutex, ProgressFn, RunInfo, Shared, FAULT_POLL};
 use crate::link::{ArmLink, StartPlan};
 use crate::log::LogSink;
 use crate::priority;
@@ -11,7 +11,7 @@ use crate::stream::Generator;
 use crate::StreamHandle;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Barrier, Mutex};
+use std::sync::{Arc, Barrier};
 use std::time::{Duration, Instant};
 
 /// One arm's whole run, on its own thread: start-up together with the other arms, then one
@@ -162,7 +162,9 @@ impl<'a> Streaming<'a> {
     /// A thread that wakes up [`away_after`] later than it asked was held up by the machine,
     /// not by the arms: the answers owed had that time taken from them too (on one machine,
     /// the mocks and simulators are held up alike), so the schedule slips to now: the cycle
-    /// goes out at once, the next a period later, and every answer owed gets its period.
+    /// goes out at once, the next a period later, and every answer owed gets its period. So
+    /// does a cycle sent that late because another arm kept this one waiting: the cell never
+    /// sends cycles in a burst to catch up.
     fn wait_turn(&mut self) -> Result<Instant, Fault> {
         let (shared, cfg, k) = (self.shared, self.cfg, self.k);
         let mut asleep = Duration::ZERO;
@@ -185,6 +187,12 @@ impl<'a> Streaming<'a> {
                     (shared.clear.iter()).position(|c| c.load(Ordering::SeqCst) <= k as u64)
                 });
             if now >= due && behind.is_none() {
+                // Sent past its turn (another arm kept it waiting, held up in its own cycle):
+                // the schedule slips to now, as for a thread held up while asleep, so that the
+                // next cycle still goes a period after this one and no answer owed loses time.
+                if now > due + away_after(cfg.period) {
+                    shared.slip_to(self.start, k, cfg.period, now);
+                }
                 return Ok(due);
             }
             if now >= give_up {
@@ -343,6 +351,8 @@ pub(crate) fn start(
         fault: Mutex::new(None),
         cycle: Mutex::new(Cycle {
             generator,
+            pending: None,
+            pushes: 0,
             out: vec![[0; JOINTS]; arms],
             end: None,
             was_holding: true,

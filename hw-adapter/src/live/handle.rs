@@ -23,6 +23,7 @@ pub struct StreamHandle {
     config: ExecConfig,
     log: Option<LogSink>,
     info: RunInfo,
+    push_cost: super::push::PushCost,
 }
 
 impl StreamHandle {
@@ -39,19 +40,23 @@ impl StreamHandle {
             config,
             log,
             info,
+            push_cost: Default::default(),
         }
     }
 
     /// Replaces every arm's waypoints from step `start_step` on (arms in the order given at
-    /// the start; waypoint `i` of each at step `start_step + i`). Refused, with nothing
-    /// changed, if `start_step` is already fixed ([`StreamProgress::fixed`]), leaves a gap,
-    /// queues too far ahead, or if any command the new tail leads to (through to the hold at
-    /// its end) would break a limit; or if the stream has stopped. Returns the control cycle
-    /// from which the new tail is streamed (the generator's state when it was applied: a
-    /// [`crate::stream::Generator`] given the same pushes at the same cycles computes the same commands).
+    /// the start; waypoint `i` of each at step `start_step + i`), from a control cycle a little
+    /// ahead of the stream's (see below). Refused, with nothing changed, if `start_step` is
+    /// already fixed by that cycle ([`StreamProgress::fixed`] is where the stream is now),
+    /// leaves a gap, queues too far ahead, or if any command the new tail leads to (through to
+    /// the hold at its end) would break a limit; or if the stream has stopped. Returns the
+    /// control cycle from which the new tail is streamed (a [`crate::stream::Generator`]
+    /// given the same pushes at the same cycles computes the same commands).
     ///
-    /// Cost: one pass of the generator over the whole new tail, while the arm threads wait for
-    /// the next cycle's commands (bounded by [`ExecConfig::online_horizon`]).
+    /// Cost: one pass of the generator over the whole new tail (bounded by
+    /// [`ExecConfig::online_horizon`]), on the caller's thread: the arm threads never wait for
+    /// it. It applies from a cycle twice its own cost ahead of the stream's, so that it is
+    /// ready before the arms get there.
     pub fn push(
         &self,
         start_step: usize,
@@ -66,9 +71,8 @@ impl StreamHandle {
         if self.shared.halt.load(Ordering::SeqCst) || self.threads.iter().all(|t| t.is_finished()) {
             return Err(PushError::Stopped("the stream has ended".into()));
         }
-        let mut c = lock(&self.shared.cycle);
-        c.generator.push(start_step, waypoints)?;
-        Ok(c.generator.cycle())
+        let period = self.config.period;
+        super::push::push(&self.shared, &self.push_cost, period, start_step, waypoints)
     }
 
     /// Where the stream is now.
@@ -78,7 +82,9 @@ impl StreamHandle {
             cycle: c.generator.cycle(),
             step: c.generator.step(),
             fixed: c.generator.fixed(),
-            holding: c.generator.holding() && c.generator.fixed() == c.generator.end(),
+            holding: c.generator.holding()
+                && c.pending.is_none()
+                && c.generator.fixed() == c.generator.end(),
         }
     }
 
@@ -87,8 +93,8 @@ impl StreamHandle {
         let (holding, queue_depth) = {
             let c = lock(&self.shared.cycle);
             let g = &c.generator;
-            let holding = g.holding() && g.fixed() == g.end();
-            (holding, g.end().saturating_sub(g.step() + 1))
+            let holding = g.holding() && c.pending.is_none() && g.fixed() == g.end();
+            (holding, c.latest().end().saturating_sub(g.step() + 1))
         };
         let period = self.config.period;
         (self.shared.names.iter().zip(&self.shared.arms))

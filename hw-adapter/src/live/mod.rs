@@ -6,9 +6,11 @@
 //!
 //! - `arm`: the arms' threads: started together, each one's start-up, cycles and stop.
 //! - `handle`: [`StreamHandle`], what the caller holds while the arms move.
+//! - `push`: a push computed on the caller's thread, for the arms to take over a few cycles on.
 
 mod arm;
 mod handle;
+mod push;
 
 pub(crate) use arm::start;
 pub use handle::StreamHandle;
@@ -17,7 +19,7 @@ use crate::run::{ArmState, ArmStop, Command, Fault, LinkError, Measured, Progres
 use crate::stream::Generator;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Barrier, Mutex, MutexGuard};
+use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
 /// How often a waiting arm thread looks at the shared fault flag and at its own bus.
@@ -65,6 +67,11 @@ pub struct StreamProgress {
 /// The generator and the commands of the cycle being sent.
 struct Cycle {
     generator: Generator,
+    /// The generator with the latest push applied, taken over when `generator` reaches its
+    /// cycle ([`push`]).
+    pending: Option<Pending>,
+    /// Pushes handed over so far.
+    pushes: u64,
     out: Vec<Command>,
     /// The cycle whose hold ends the run, once the run is finishing and the queue done.
     end: Option<u64>,
@@ -73,7 +80,23 @@ struct Cycle {
     holds: usize,
 }
 
+/// A generator with a push applied, for the arm threads to take over at its cycle.
+#[derive(Debug)]
+struct Pending {
+    generator: Generator,
+    /// Which push this is (each handed over counts one), so that two pushes racing from two
+    /// threads cannot both be based on the same state.
+    serial: u64,
+}
+
 impl Cycle {
+    /// The generator with every push handed over applied (the pending one, if any).
+    fn latest(&self) -> &Generator {
+        self.pending
+            .as_ref()
+            .map_or(&self.generator, |p| &p.generator)
+    }
+
     fn event(&mut self, e: Event) {
         if self.events.len() == MAX_EVENTS {
             self.events.pop_front();
@@ -134,7 +157,23 @@ struct FirstFault {
     detected: Instant,
 }
 
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+/// The lock of what the arm threads share with the caller's threads. On Linux it inherits
+/// priority: a caller's thread at normal priority that holds it (to push, or to read the
+/// stream's progress) runs at the arm threads' real-time priority while one of them waits,
+/// instead of waiting itself behind every other real-time thread on the machine (mock arms,
+/// other programs) while the arms miss their cycles.
+#[cfg(target_os = "linux")]
+type Mutex<T> = priority_inheriting_lock::PriorityInheritingLock<T>;
+#[cfg(not(target_os = "linux"))]
+type Mutex<T> = std::sync::Mutex<T>;
+
+#[cfg(target_os = "linux")]
+fn lock<T>(m: &Mutex<T>) -> priority_inheriting_lock::PriorityInheritingLockGuard<'_, T> {
+    m.lock()
+}
+
+#[cfg(not(target_os = "linux"))]
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
@@ -185,12 +224,15 @@ impl Shared {
         let mut c = lock(&self.cycle);
         if c.generator.cycle() == k {
             let c = &mut *c;
+            if let Some(p) = c.pending.take_if(|p| p.generator.cycle() == k) {
+                c.generator = p.generator;
+            }
             let tick = c
                 .generator
                 .next(&mut c.out)
                 .map_err(|e| Fault::CommandRefused(e.to_string()))?;
             let finishing = self.finishing.load(Ordering::SeqCst);
-            if tick.holding && finishing {
+            if tick.holding && finishing && c.pending.is_none() {
                 c.end.get_or_insert(k);
             } else if tick.ran_dry {
                 c.holds += 1;
@@ -198,7 +240,8 @@ impl Shared {
                     cycle: tick.cycle,
                     step: tick.step,
                 });
-            } else if c.was_holding && !tick.holding && k > 0 {
+            } else if c.was_holding && !tick.holding && c.holds > 0 {
+                // (The hold before the first push, at the start, is no dry queue.)
                 c.event(Event::Resumed {
                     cycle: tick.cycle,
                     step: tick.step,
