@@ -82,9 +82,7 @@ impl StreamHandle {
             cycle: c.generator.cycle(),
             step: c.generator.step(),
             fixed: c.generator.fixed(),
-            holding: c.generator.holding()
-                && c.pending.is_none()
-                && c.generator.fixed() == c.generator.end(),
+            holding: c.holding_at_end(),
         }
     }
 
@@ -93,8 +91,10 @@ impl StreamHandle {
         let (holding, queue_depth) = {
             let c = lock(&self.shared.cycle);
             let g = &c.generator;
-            let holding = g.holding() && c.pending.is_none() && g.fixed() == g.end();
-            (holding, c.latest().end().saturating_sub(g.step() + 1))
+            (
+                c.holding_at_end(),
+                c.latest().end().saturating_sub(g.step() + 1),
+            )
         };
         let period = self.config.period;
         (self.shared.names.iter().zip(&self.shared.arms))

@@ -90,6 +90,12 @@ struct Pending {
 }
 
 impl Cycle {
+    /// The arms hold at the end of the queue, with no push waiting to move them on.
+    fn holding_at_end(&self) -> bool {
+        let g = &self.generator;
+        g.holding() && self.pending.is_none() && g.fixed() == g.end()
+    }
+
     /// The generator with every push handed over applied (the pending one, if any).
     fn latest(&self) -> &Generator {
         self.pending
